@@ -1,0 +1,67 @@
+"""Offscreen rendering of a scene from a camera pose with ``mujoco.Renderer``."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from .. import _gl  # noqa: F401
+from ..errors import UserError
+from .camera import CV_TO_MUJOCO, Intrinsics
+from .scene import Scene
+
+import mujoco  # noqa: E402
+
+
+class FrameRenderer:
+    """Renders RGB always, metric z-depth and segmentation ``(H, W, 2) [objid, objtype]`` on request.
+
+    Each extra mode is a full extra render pass, so ask only for what you use.
+    """
+
+    def __init__(self, scene: Scene, width: int = 640, height: int = 480) -> None:
+        max_w, max_h = scene.offscreen
+        if width < 16 or height < 16:
+            raise UserError(f"resolution {width}x{height} is too small: use at least 16x16")
+        if width > max_w or height > max_h:
+            raise UserError(
+                f"resolution {width}x{height} exceeds the offscreen buffer {max_w}x{max_h} of scene "
+                f"{scene.name!r}: lower it or raise <visual><global offwidth offheight> in the MJCF"
+            )
+        self.scene = scene
+        self.K = Intrinsics.from_fovy(width, height, scene.fovy)
+        self._renderer = mujoco.Renderer(scene.model, height, width)
+
+    def place_camera(self, R: np.ndarray, p: np.ndarray) -> None:
+        """Move the scene camera to pose ``(R, p)`` (OpenCV convention, camera-to-world)."""
+        model, data, cid = self.scene.model, self.scene.data, self.scene.camera_id
+        quat = np.empty(4)
+        mujoco.mju_mat2Quat(quat, np.ascontiguousarray(R @ CV_TO_MUJOCO).ravel())
+        model.cam_pos[cid] = p
+        model.cam_quat[cid] = quat
+        mujoco.mj_camlight(model, data)
+
+    def render(self, R: np.ndarray, p: np.ndarray, depth: bool = False,
+               segmentation: bool = False) -> dict[str, np.ndarray]:
+        """Images of one frame: ``rgb`` (H, W, 3) uint8, optional ``depth`` and ``segmentation``."""
+        self.place_camera(R, p)
+        r = self._renderer
+        r.update_scene(self.scene.data, camera=self.scene.camera_id)
+        out = {"rgb": r.render().copy()}
+        if depth:
+            r.enable_depth_rendering()
+            out["depth"] = r.render().copy()
+            r.disable_depth_rendering()
+        if segmentation:
+            r.enable_segmentation_rendering()
+            out["segmentation"] = r.render().copy()
+            r.disable_segmentation_rendering()
+        return out
+
+    def close(self) -> None:
+        self._renderer.close()
+
+    def __enter__(self) -> "FrameRenderer":
+        return self
+
+    def __exit__(self, *exc) -> None:
+        self.close()

@@ -1,0 +1,101 @@
+"""Load a scene: a shipped name (``room``) or any MJCF path that follows the ``lm*`` convention.
+
+A landmark is a ``site`` whose name starts with ``lm``; its z axis is the outward normal of
+the patch it marks. The loader adds its own camera to the world body (so user MJCF needs
+none) and reads the offscreen buffer size, which bounds the rendering resolution.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from dataclasses import dataclass
+from importlib import resources
+from pathlib import Path
+
+import numpy as np
+
+from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
+from ..errors import UserError
+
+import mujoco  # noqa: E402
+
+CAMERA_NAME = "assocbench_eye"
+LANDMARK_PREFIX = "lm"
+
+
+def shipped_scenes() -> dict[str, Path]:
+    """Names and paths of the scenes shipped in the wheel (``assocbench/envs``)."""
+    root = Path(str(resources.files("assocbench.envs")))
+    return {p.stem: p for p in sorted(root.glob("*.xml"))}
+
+
+def resolve_scene_path(scene: str | Path) -> Path:
+    """Path of a shipped scene name or an MJCF file; clear error when neither exists."""
+    shipped = shipped_scenes()
+    if str(scene) in shipped:
+        return shipped[str(scene)]
+    path = Path(scene)
+    if path.suffix.lower() == ".xml" and path.is_file():
+        return path.resolve()
+    raise UserError(
+        f"scene {str(scene)!r} not found: use one of {', '.join(shipped)} or the path of an existing MJCF .xml file"
+    )
+
+
+@dataclass
+class Scene:
+    """A compiled scene with its landmarks and the camera the renderer drives."""
+
+    name: str
+    path: Path
+    model: "mujoco.MjModel"
+    data: "mujoco.MjData"
+    landmark_names: list[str]
+    landmarks: np.ndarray      # (L, 3) world positions of the X-junctions
+    normals: np.ndarray        # (L, 3) outward unit normals
+    camera_id: int
+    fovy: float
+    offscreen: tuple[int, int]  # (width, height) of the MJCF offscreen buffer
+
+    @property
+    def digest(self) -> str:
+        """Hash of the MJCF text and every file next to it (textures): the cache key part."""
+        h = hashlib.sha256(self.path.read_bytes())
+        for extra in sorted(self.path.parent.iterdir()):
+            if extra.suffix.lower() in {".png", ".obj", ".stl"}:
+                h.update(extra.name.encode() + extra.read_bytes())
+        return h.hexdigest()[:16]
+
+
+def load_scene(scene: str | Path) -> Scene:
+    """Compile a scene and extract its ``lm*`` landmark sites."""
+    path = resolve_scene_path(scene)
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+        fovy = float(spec.visual.global_.fovy)
+        spec.worldbody.add_camera(name=CAMERA_NAME, fovy=fovy)
+        model = spec.compile()
+    except (ValueError, RuntimeError) as exc:
+        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
+        raise UserError(f"cannot load MJCF {path}: {first}") from None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    names = [model.site(i).name for i in range(model.nsite)]
+    idx = [i for i, n in enumerate(names) if n.startswith(LANDMARK_PREFIX)]
+    if not idx:
+        raise UserError(
+            f"MJCF {path} has no landmarks: add <site name=\"lm0\" .../> at each X-junction (names start with 'lm')"
+        )
+    xmat = data.site_xmat[idx].reshape(-1, 3, 3)
+    return Scene(
+        name=path.stem if str(scene) != path.stem else str(scene),
+        path=path,
+        model=model,
+        data=data,
+        landmark_names=[names[i] for i in idx],
+        landmarks=data.site_xpos[idx].copy(),
+        normals=xmat[:, :, 2].copy(),
+        camera_id=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA_NAME),
+        fovy=fovy,
+        offscreen=(int(model.vis.global_.offwidth), int(model.vis.global_.offheight)),
+    )

@@ -1,0 +1,1 @@
+"""Shipped YAML configs and suites, installed as ``assocbench.configs``."""
