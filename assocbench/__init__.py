@@ -1,0 +1,19 @@
+"""assocbench: a reproducible benchmark for data association in SLAM and tracking.
+
+Public API::
+
+    from assocbench import Problem, make_associator
+    association = make_associator("jcbb").associate(problem)
+"""
+
+from . import _gl  # noqa: F401  (MUJOCO_GL=egl unless the user chose)
+from .association.compatibility import jointly_compatible, surprisal
+from .association.problem import Problem, validate_association
+from .associators import Associator, available, make_associator
+from .errors import UserError
+
+__all__ = [
+    "Associator", "Problem", "UserError", "available", "jointly_compatible", "make_associator",
+    "surprisal", "validate_association",
+]
+__version__ = "0.1.0"

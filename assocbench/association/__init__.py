@@ -1,0 +1,1 @@
+"""The association half: ``Problem``, ``Association`` validation and the compatibility math."""
