@@ -15,9 +15,8 @@ from pathlib import Path
 
 import numpy as np
 
-PATCH = 0.26          # side of a landmark patch (m)
-PATCH_THICK = 0.002   # half thickness of a quadrant box (m)
-OFFSET = 0.004        # gap between wall surface and patch back (m), avoids z-fighting
+PATCH = 0.70          # side of a landmark patch (m): its outer edge corners lie PATCH/2 away
+OFFSET = 0.004        # gap between wall surface and patch (m), avoids z-fighting
 OFFSCREEN = (1280, 960)
 
 
@@ -63,20 +62,22 @@ class SceneBuilder:
         u /= np.linalg.norm(u)
         r = np.cross(u, n)  # right-handed (r, u, n)
         c = np.asarray(center, float)
-        frame = np.column_stack([r, u, n])
-        quat = _mat_to_quat(frame)
-        q = size / 4
-        back = c - n * PATCH_THICK
-        for sr, su in ((1, 1), (-1, 1), (-1, -1), (1, -1)):
-            black = sr * su > 0
-            pos = back + r * sr * q + u * su * q
-            rgba = "0.02 0.02 0.02 1" if black else "0.98 0.98 0.98 1"
-            self.geoms.append(
-                f'    <geom type="box" pos="{_v(pos)}" quat="{_v(quat)}" '
-                f'size="{q:.4f} {q:.4f} {PATCH_THICK:.4f}" rgba="{rgba}" group="1"/>'
-            )
+        quat = _mat_to_quat(np.column_stack([r, u, n]))
+        # a textured plane facing n: planes map a 2D texture once across their face
         self.geoms.append(
-            f'    <site name="lm{self.n_landmarks:03d}" pos="{_v(c)}" quat="{_v(quat)}" size="0.01"/>'
+            f'    <geom type="plane" pos="{_v(c)}" quat="{_v(quat)}" size="{size / 2:.4f} {size / 2:.4f} 0.01" '
+            f'material="landmark" group="1"/>'
+        )
+        self.add_site(c, n, u)
+
+    def add_site(self, center, normal, up=(0.0, 0.0, 1.0)) -> None:
+        """The landmark site ``lm###`` at an X-junction, its z axis along ``normal``."""
+        n = np.asarray(normal, float) / np.linalg.norm(normal)
+        u = np.asarray(up, float) - np.dot(up, n) * n
+        u /= np.linalg.norm(u)
+        quat = _mat_to_quat(np.column_stack([np.cross(u, n), u, n]))
+        self.geoms.append(
+            f'    <site name="lm{self.n_landmarks:03d}" pos="{_v(center)}" quat="{_v(quat)}" size="0.01"/>'
         )
         self.n_landmarks += 1
 
@@ -94,7 +95,11 @@ class SceneBuilder:
   </visual>
   <asset>
     <texture name="wall" type="2d" file="wall_tile.png"/>
-    <material name="wall" texture="wall" texrepeat="1 1" texuniform="true" specular="0" shininess="0"/>
+    <material name="wall" texture="wall" texrepeat="0.5 0.5" texuniform="true" specular="0" shininess="0"/>
+    <texture name="landmark" type="2d" file="landmark.png"/>
+    <material name="landmark" texture="landmark" texrepeat="1 1" specular="0" shininess="0"/>
+    <texture name="board" type="2d" file="board.png"/>
+    <material name="board" texture="board" texrepeat="1 1" specular="0" shininess="0"/>
     <texture name="floor" type="2d" builtin="flat" rgb1="0.45 0.42 0.40" rgb2="0.45 0.42 0.40" width="8" height="8"/>
     <material name="floor" texture="floor" specular="0"/>
   </asset>
@@ -117,18 +122,44 @@ def _mat_to_quat(mat: np.ndarray) -> np.ndarray:
     return quat
 
 
+WALL_GRAY = 150
+BOARD_CELLS = (14, 7)
+BOARD_CELL = 0.4       # m
+
+
+def board_texture(px_per_cell: int = 64) -> np.ndarray:
+    """Checkerboard of ``BOARD_CELLS`` cells, dark and light around the wall gray."""
+    cols, rows = BOARD_CELLS
+    cells = (np.add.outer(np.arange(rows), np.arange(cols)) % 2).astype(np.uint8)
+    img = np.where(np.kron(cells, np.ones((px_per_cell, px_per_cell), np.uint8)) > 0, 235, 55).astype(np.uint8)
+    return np.dstack([img, img, img])
+
+
+def landmark_patch(size: int = 256) -> np.ndarray:
+    """2x2 checker whose contrast fades to the wall gray at the border: the only corner is
+    the X-junction at the centre, so the patch adds no L-corners around its landmark."""
+    c = (np.arange(size) - (size - 1) / 2) / (size / 2)
+    xx, yy = np.meshgrid(c, c)
+    r = np.hypot(xx, yy)  # round contours: a square fade would have corners of its own
+    window = np.clip((0.98 - r) / 0.4, 0.0, 1.0)
+    window = 0.5 - 0.5 * np.cos(np.pi * window)
+    img = WALL_GRAY + 100.0 * np.sign(xx) * np.sign(yy) * window
+    img = np.clip(np.rint(img), 0, 255).astype(np.uint8)
+    return np.dstack([img, img, img])
+
+
 def wall_tile(size: int = 256) -> np.ndarray:
     """Gray tile with small look-alike X-junctions and blobs (distractor corners)."""
-    img = np.full((size, size), 150, np.uint8)
+    img = np.full((size, size), WALL_GRAY, np.uint8)
     rng = np.random.default_rng(7)
-    for cx, cy, s in ((64, 64, 14), (190, 100, 10), (110, 200, 12)):
+    for cx, cy, s in ((64, 64, 7), (190, 150, 5)):
         img[cy - s:cy, cx - s:cx] = 40
         img[cy:cy + s, cx:cx + s] = 40
         img[cy - s:cy, cx:cx + s] = 235
         img[cy:cy + s, cx - s:cx] = 235
     yy, xx = np.mgrid[:size, :size]
-    for _ in range(5):
-        x, y, r = rng.integers(20, size - 20), rng.integers(20, size - 20), rng.integers(5, 12)
+    for _ in range(3):
+        x, y, r = rng.integers(20, size - 20), rng.integers(20, size - 20), rng.integers(4, 9)
         img[(xx - x) ** 2 + (yy - y) ** 2 < r * r] = 95
     return np.dstack([img, img, img])
 
@@ -142,7 +173,7 @@ def room(sb: SceneBuilder) -> None:
             pos, normal = np.array([0.0, 0.0, height / 2]), np.zeros(3)
             pos[axis], normal[axis] = sign * half, -sign
             sb.wall(pos, normal, half, height / 2)
-    heights = (0.8, 1.4, 2.0, 2.6)
+    heights = (0.75, 1.55, 2.35)
     along = np.linspace(-half + 0.7, half - 0.7, 7)
     for axis in range(2):
         for sign in (-1, 1):
@@ -151,7 +182,7 @@ def room(sb: SceneBuilder) -> None:
             for z in heights:
                 for a in along:
                     c = np.zeros(3)
-                    c[axis] = sign * (half - OFFSET - 2 * PATCH_THICK)
+                    c[axis] = sign * (half - OFFSET)
                     c[1 - axis] = a
                     c[2] = z
                     sb.landmark(c, normal)
@@ -160,15 +191,22 @@ def room(sb: SceneBuilder) -> None:
 
 
 def checkerboard(sb: SceneBuilder) -> None:
-    """One wall carrying a 13x6 lattice of identical patches 0.4 m apart: geometric ambiguity."""
+    """A 14x7 checkerboard of 0.4 m cells on one wall: its 13x6 interior X-junctions are the
+    landmarks, a lattice where only geometry can tell them apart."""
     t = 0.1
     sb.box((0, 0, -t), (4, 4, t), material="floor")
     sb.wall((0, 3.0, 1.5), (0, -1, 0), 4.0, 1.5)
-    normal = (0, -1, 0)
-    y = 3.0 - OFFSET - 2 * PATCH_THICK
-    for z in np.arange(0.5, 2.6, 0.4):
-        for x in np.arange(-2.4, 2.41, 0.4):
-            sb.landmark((x, y, z), normal, size=0.18)
+    cols, rows, cell = BOARD_CELLS[0], BOARD_CELLS[1], BOARD_CELL
+    center = np.array([0.0, 3.0 - OFFSET, 0.25 + rows * cell / 2])
+    sb.geoms.append(
+        f'    <geom type="plane" pos="{_v(center)}" xyaxes="1 0 0 0 0 1" '
+        f'size="{cols * cell / 2:.4f} {rows * cell / 2:.4f} 0.01" material="board"/>'
+    )
+    for r in range(1, rows):
+        for c in range(1, cols):
+            x = center[0] + (c - cols / 2) * cell
+            z = center[2] + (r - rows / 2) * cell
+            sb.add_site((x, center[1], z), (0, -1, 0))
 
 
 def corridor(sb: SceneBuilder) -> None:
@@ -179,10 +217,10 @@ def corridor(sb: SceneBuilder) -> None:
         sb.wall((length / 2, sign * half_w, height / 2), (0, -sign, 0), length / 2 + 1, height / 2)
     sb.wall((length + 1, 0, height / 2), (-1, 0, 0), half_w, height / 2)
     for sign in (-1, 1):
-        y = sign * (half_w - OFFSET - 2 * PATCH_THICK)
-        for z in (0.9, 1.7):
+        y = sign * (half_w - OFFSET)
+        for z in (0.8, 1.8):
             for x in np.arange(1.0, length + 0.01, 1.0):
-                sb.landmark((x + (0.5 if z > 1 else 0.0), y, z), (0, -sign, 0))
+                sb.landmark((x + (0.5 if z > 1 else 0.0), y, z), (0, -sign, 0), size=0.6)
 
 
 SCENES = {"room": room, "checkerboard": checkerboard, "corridor": corridor}
@@ -194,6 +232,8 @@ def generate(out_dir: Path) -> dict[str, int]:
 
     out_dir.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(out_dir / "wall_tile.png"), wall_tile())
+    cv2.imwrite(str(out_dir / "landmark.png"), landmark_patch())
+    cv2.imwrite(str(out_dir / "board.png"), board_texture())
     counts = {}
     for name, build in SCENES.items():
         sb = SceneBuilder(name)

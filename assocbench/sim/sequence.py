@@ -68,6 +68,7 @@ class Sequence:
     scene: str
     K: Intrinsics
     landmarks: np.ndarray          # (L, 3)
+    normals: np.ndarray            # (L, 3) outward unit normals
     landmark_names: list[str]
     rotations: np.ndarray          # (N, 3, 3) camera-to-world, OpenCV axes
     positions: np.ndarray          # (N, 3)
@@ -102,7 +103,7 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
             if spec.keep_images:
                 images.append(frame["rgb"])
         K = renderer.K
-    return Sequence(scene.name, K, scene.landmarks, scene.landmark_names, rots, pos, feats, labels,
+    return Sequence(scene.name, K, scene.landmarks, scene.normals, scene.landmark_names, rots, pos, feats, labels,
                     np.array(vis), np.array(proj), np.array(images) if spec.keep_images else None)
 
 
@@ -110,7 +111,7 @@ def _save(seq: Sequence, path: Path) -> None:
     counts = np.array([len(f) for f in seq.features])
     arrays = dict(
         K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]),
-        landmarks=seq.landmarks, names=np.array(seq.landmark_names), scene=np.array(seq.scene),
+        landmarks=seq.landmarks, normals=seq.normals, names=np.array(seq.landmark_names), scene=np.array(seq.scene),
         rotations=seq.rotations, positions=seq.positions, counts=counts,
         features=np.concatenate(seq.features) if counts.sum() else np.zeros((0, 2)),
         labels=np.concatenate(seq.labels) if counts.sum() else np.zeros(0, np.int64),
@@ -129,7 +130,7 @@ def _load(path: Path) -> Sequence:
         splits = np.cumsum(z["counts"])[:-1]
         return Sequence(
             str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
-            z["landmarks"], [str(n) for n in z["names"]], z["rotations"], z["positions"],
+            z["landmarks"], z["normals"], [str(n) for n in z["names"]], z["rotations"], z["positions"],
             np.split(z["features"], splits), np.split(z["labels"], splits), z["visible"],
             z["projections"], z["images"] if "images" in z.files else None, from_cache=True,
         )

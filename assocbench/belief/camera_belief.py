@@ -1,0 +1,133 @@
+"""Belief of the camera track: estimate = truth + error drawn from the reported covariance Σ.
+
+The filter reports Σ = blockdiag(σ_p² I₃, σ_θ² I₃, Σ_L) over camera position, orientation and
+landmark positions, with ``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₃)`` (optional common-mode error
+shared by all landmarks). The actual error is drawn from ``k² Σ`` (``k = miscalibration``),
+so gating theory holds at ``k = 1`` and difficulty is a knob. The predicted bundle covariance
+is ``P = J Σ Jᵀ`` with the analytic Jacobians of ``pinhole.predict_bundle``.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+
+import numpy as np
+
+from ..association.problem import NO_MATCH, Problem
+from ..errors import UserError
+from ..sim.sequence import Sequence
+from .pinhole import perturb_pose, predict_bundle
+
+
+@dataclass(frozen=True)
+class BeliefConfig:
+    """Difficulty knobs of the belief.
+
+    sigma_position: camera position std (m).    sigma_rotation: camera orientation std (deg).
+    sigma_landmark: independent landmark position std (m).
+    sigma_common: std of an error shared by all landmarks (m): correlated map error.
+    sigma_pixel: reported measurement noise std (px); R_i = σ² I.
+    miscalibration: k; the actual error is drawn from k²Σ while Σ is reported.
+    map_fraction: share of the scene's landmarks that are in the map (others are clutter).
+    clutter: extra features drawn uniformly over the image per frame.
+    max_view_angle: candidates must face the estimated camera within this angle (deg).
+    """
+
+    sigma_position: float = 0.03
+    sigma_rotation: float = 0.5
+    sigma_landmark: float = 0.02
+    sigma_common: float = 0.0
+    sigma_pixel: float = 1.0
+    miscalibration: float = 1.0
+    map_fraction: float = 1.0
+    clutter: int = 0
+    max_view_angle: float = 75.0
+
+    def __post_init__(self) -> None:
+        for name in ("sigma_position", "sigma_rotation", "sigma_landmark", "sigma_common", "clutter"):
+            if getattr(self, name) < 0:
+                raise UserError(f"belief.{name} must be >= 0, got {getattr(self, name)!r}")
+        if self.sigma_pixel <= 0 or self.miscalibration <= 0:
+            raise UserError("belief.sigma_pixel and belief.miscalibration must be > 0")
+        if not 0.0 <= self.map_fraction <= 1.0:
+            raise UserError(f"belief.map_fraction must lie in [0, 1], got {self.map_fraction!r}")
+
+    @property
+    def pose_covariance(self) -> np.ndarray:
+        """Σ of ``[δp, δθ]`` (6, 6), rotation in radians."""
+        return np.diag([self.sigma_position**2] * 3 + [np.deg2rad(self.sigma_rotation) ** 2] * 3)
+
+
+@dataclass(frozen=True)
+class FrameTruth:
+    """Truth of one problem: ``feature_labels`` (m,) map id or -1; ``association`` (n,) the true
+    feature of each candidate or -1; ``visible`` (n,) whether each candidate is really visible."""
+
+    feature_labels: np.ndarray
+    association: np.ndarray
+    visible: np.ndarray
+
+
+def map_mask(n_landmarks: int, cfg: BeliefConfig, seed: int) -> np.ndarray:
+    """Which landmarks are in the map (fixed per seed, not per frame)."""
+    rng = np.random.default_rng([seed, 202])
+    keep = np.zeros(n_landmarks, bool)
+    keep[rng.permutation(n_landmarks)[: int(round(cfg.map_fraction * n_landmarks))]] = True
+    return keep
+
+
+def bundle_covariance(J_pose: np.ndarray, J_l: np.ndarray, cfg: BeliefConfig) -> np.ndarray:
+    """``P = J Σ Jᵀ`` (2n, 2n) exploiting Σ's structure: pose block, independent landmarks and a
+    common-mode landmark term."""
+    n = len(J_l)
+    Jp = J_pose.reshape(2 * n, 6)
+    P = Jp @ cfg.pose_covariance @ Jp.T
+    block = cfg.sigma_landmark**2 * np.einsum("nab,ncb->nac", J_l, J_l)
+    idx = np.arange(n)
+    P.reshape(n, 2, n, 2)[idx, :, idx, :] += block
+    if cfg.sigma_common > 0:
+        G = J_l.reshape(2 * n, 3)
+        P += cfg.sigma_common**2 * G @ G.T
+    return 0.5 * (P + P.T)
+
+
+def sample_estimate(R, p, landmarks, cfg: BeliefConfig, rng: np.random.Generator):
+    """Estimated ``(R̂, p̂, l̂)``: truth perturbed by an error drawn from ``k² Σ``."""
+    k = cfg.miscalibration
+    e_pose = rng.normal(0.0, 1.0, 6) * np.sqrt(np.diag(cfg.pose_covariance)) * k
+    e_lm = rng.normal(0.0, cfg.sigma_landmark * k, landmarks.shape)
+    e_lm += rng.normal(0.0, cfg.sigma_common * k, 3)
+    R_hat, p_hat = perturb_pose(R, p, e_pose[:3], e_pose[3:])
+    return R_hat, p_hat, landmarks + e_lm
+
+
+def make_problem(seq: Sequence, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
+    """The association problem of one frame and its truth."""
+    rng = np.random.default_rng([seed, frame, 101])
+    R_hat, p_hat, l_hat = sample_estimate(seq.rotations[frame], seq.positions[frame], seq.landmarks, cfg, rng)
+    in_map = map_mask(len(seq.landmarks), cfg, seed)
+    h, J_pose, J_l, depth = predict_bundle(R_hat, p_hat, l_hat, seq.K)
+    to_cam = p_hat - l_hat
+    facing = np.einsum("ij,ij->i", seq.normals, to_cam) > np.cos(np.deg2rad(cfg.max_view_angle)) * np.linalg.norm(
+        to_cam, axis=1)
+    cand = np.flatnonzero(in_map & (depth > 1e-3) & facing & seq.K.in_image(np.nan_to_num(h, nan=-1e9)))
+    features, labels = seq.features[frame], seq.labels[frame]
+    clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (cfg.clutter, 2))
+    z = np.vstack([features, clutter]) if cfg.clutter else features
+    feature_labels = np.concatenate([np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH),
+                                     np.full(cfg.clutter, NO_MATCH)]).astype(np.int64)
+    problem = Problem(
+        z=z, R=np.repeat((cfg.sigma_pixel**2 * np.eye(2))[None], len(z), axis=0),
+        zhat=h[cand], P=bundle_covariance(J_pose[cand], J_l[cand], cfg), landmark_ids=cand,
+        volume=seq.K.area, meta={"frame": frame},
+    )
+    return problem, FrameTruth(feature_labels, true_association(feature_labels, cand), seq.visible[frame][cand])
+
+
+def true_association(feature_labels: np.ndarray, candidates: np.ndarray) -> np.ndarray:
+    """(n,) index of the feature labelled with each candidate landmark, or -1."""
+    out = np.full(len(candidates), NO_MATCH, dtype=np.int64)
+    where = {int(lm): i for i, lm in enumerate(feature_labels) if lm >= 0}
+    for c, lm in enumerate(candidates):
+        out[c] = where.get(int(lm), NO_MATCH)
+    return out
