@@ -6,7 +6,7 @@ Public API::
     association = make_associator("jcbb").associate(problem)
 """
 
-from . import _gl  # noqa: F401  (MUJOCO_GL=egl unless the user chose)
+from . import _runtime  # noqa: F401  (MUJOCO_GL=egl, single-thread BLAS, unless the user chose)
 from .association.compatibility import jointly_compatible, surprisal
 from .association.problem import Problem, validate_association
 from .associators import Associator, available, make_associator

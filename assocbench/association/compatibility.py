@@ -59,8 +59,12 @@ def marginal_blocks(problem: Problem) -> np.ndarray:
 def cholesky_whiten(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """For stacked ``S = L Lᵀ`` (..., d, d) and ``y`` (..., d): ``w = L⁻¹ y`` and ``log det S``.
 
-    Forward substitution over the (small) last dimension, vectorised over the rest.
+    Forward substitution over the (small) last dimension, vectorised over the rest; the
+    2 x 2 case (pixels, range-bearing, lines) is written out. Raises ``LinAlgError`` if some
+    ``S`` is not positive definite.
     """
+    if S.shape[-1] == 2:
+        return _whiten_2x2(S, y)
     L = np.linalg.cholesky(S)
     d = S.shape[-1]
     w = np.empty(y.shape)
@@ -69,6 +73,20 @@ def cholesky_whiten(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarra
         w[..., r] = acc / L[..., r, r]
     logdet = 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(axis=-1)
     return w, logdet
+
+
+def _whiten_2x2(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    a, b, c = S[..., 0, 0], S[..., 1, 0], S[..., 1, 1]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        l11 = np.sqrt(a)
+        l21 = b / l11
+        l22 = np.sqrt(c - l21 * l21)
+    if not (np.all(l11 > 0) and np.all(l22 > 0)):
+        raise np.linalg.LinAlgError("matrix is not positive definite")
+    w = np.empty(y.shape)
+    w[..., 0] = y[..., 0] / l11
+    w[..., 1] = (y[..., 1] - l21 * w[..., 0]) / l22
+    return w, 2.0 * (np.log(l11) + np.log(l22))
 
 
 def log_gaussian(nis: np.ndarray | float, logdet: np.ndarray | float, dim: int) -> np.ndarray | float:
@@ -136,22 +154,24 @@ def surprisal(problem: Problem, association: np.ndarray) -> float:
 class JointFactor:
     """Incrementally grown Cholesky factor of a hypothesis' joint innovation covariance.
 
-    Adding landmark ``j`` paired with feature ``i`` to a hypothesis with factor ``L`` (kd×kd)
-    and whitened innovation ``w`` appends the rows
+    For a hypothesis with factor ``S_A = L Lᵀ`` and whitened innovation ``L w = y_A``, the
+    factor keeps ``M = L⁻¹ P[J, :]`` (the whitened cross-covariance with every candidate).
+    Extending by landmark ``j`` paired with feature ``i`` appends
 
-        X = L⁻¹ P[J, j],   L22 L22ᵀ = P_jj + R_i - XᵀX,   w2 = L22⁻¹ (y_ij - Xᵀ w),
+        X = M[:, j],   L22 L22ᵀ = P_jj + R_i - XᵀX,   w2 = L22⁻¹ (y_ij - Xᵀ w),
+        M_new = L22⁻¹ (P[j, :] - Xᵀ M),
 
-    so ``NIS`` grows by ``|w2|²`` and ``log det`` by ``2 Σ log diag L22``: O(k²d²) per
-    extension instead of a fresh O(k³d³) factorisation.
+    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``. Evaluating any
+    extension needs no solve at all; pushing one costs a (d × kd)·(kd × nd) product, instead of
+    refactorising the joint covariance at every node.
     """
 
     def __init__(self, problem: Problem) -> None:
         self.problem = problem
         d, n = problem.d, problem.n
         self.d = d
-        self.L = np.zeros((n * d, n * d))
+        self.M = np.zeros((n * d, n * d))
         self.w = np.zeros(n * d)
-        self.rows: list[np.ndarray] = []   # P row indices of the landmarks in the hypothesis
         self.pairs: list[tuple[int, int]] = []
         self.nis_stack = [0.0]
         self.logdet_stack = [0.0]
@@ -172,30 +192,24 @@ class JointFactor:
     def candidates(self, landmarks: np.ndarray, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple]:
         """Extensions of the hypothesis by each pairing ``(features[q], landmarks[q])``.
 
-        One triangular solve serves all pairings. Returns the NIS increments (q,), the
-        log-det increments (q,) and the factor rows to hand to ``push``. A pairing whose
-        Schur complement is not positive definite gets +inf.
+        Returns the NIS increments (q,), the log-det increments (q,) and what ``push`` needs.
+        A pairing whose Schur complement is not positive definite gets +inf.
         """
         p, d, kd = self.problem, self.d, self.k * self.d
         landmarks, features = np.asarray(landmarks), np.asarray(features)
-        uniq, inv = np.unique(landmarks, return_inverse=True)
         y = wrap_angles(p.z[features] - p.zhat[landmarks], p.angular)
+        D = self._blocks[landmarks]
         if kd:
-            cols = (uniq[:, None] * d + np.arange(d)).ravel()
-            X = solve_triangular(self.L[:kd, :kd], p.P[np.ix_(np.concatenate(self.rows), cols)],
-                                 lower=True, check_finite=False)
-            X = X.reshape(kd, len(uniq), d).transpose(1, 0, 2)          # (u, kd, d)
-            D = self._blocks[uniq] - np.einsum("uka,ukb->uab", X, X)
-            y = y - np.einsum("uka,k->ua", X, self.w[:kd])[inv]
-        else:
-            X, D = np.zeros((len(uniq), 0, d)), self._blocks[uniq]
-        S = D[inv] + p.R[features]
+            X = self.M[:kd].reshape(kd, -1, d)[:, landmarks, :]          # (kd, q, d)
+            D = D - np.einsum("kqa,kqb->qab", X, X)
+            y = y - np.einsum("kqa,k->qa", X, self.w[:kd])
+        S = D + p.R[features]
         try:
             w2, dlogdet = cholesky_whiten(S, y)
             dnis = np.einsum("qk,qk->q", w2, w2)
         except np.linalg.LinAlgError:
             dnis, dlogdet, w2 = self._one_by_one(S, y)
-        return dnis, dlogdet, (X, inv, S, w2)
+        return dnis, dlogdet, (S, w2)
 
     @staticmethod
     def _one_by_one(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -211,19 +225,20 @@ class JointFactor:
 
     def push(self, i: int, j: int, ext: tuple, which: int, dnis: float, dlogdet: float) -> None:
         """Append pairing (feature ``i``, landmark ``j``) from entry ``which`` of ``candidates``."""
-        X, inv, S, w2 = ext
+        S, w2 = ext
         d, kd = self.d, self.k * self.d
-        self.L[kd:kd + d, :kd] = X[inv[which]].T
-        self.L[kd:kd + d, kd:kd + d] = np.linalg.cholesky(S[which])
+        L22 = np.linalg.cholesky(S[which])
+        rows = self.problem.P[j * d:(j + 1) * d]
+        if kd:
+            rows = rows - self.M[:kd, j * d:(j + 1) * d].T @ self.M[:kd]
+        self.M[kd:kd + d] = solve_triangular(L22, rows, lower=True, check_finite=False)
         self.w[kd:kd + d] = w2[which]
-        self.rows.append(np.arange(j * d, (j + 1) * d))
         self.pairs.append((int(i), int(j)))
         self.nis_stack.append(self.nis + float(dnis))
         self.logdet_stack.append(self.logdet + float(dlogdet))
 
     def pop(self) -> None:
         """Remove the most recent pairing."""
-        self.rows.pop()
         self.pairs.pop()
         self.nis_stack.pop()
         self.logdet_stack.pop()

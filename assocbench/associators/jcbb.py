@@ -5,6 +5,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from scipy.sparse import csr_matrix
+from scipy.sparse.csgraph import maximum_bipartite_matching
 
 from ..association.compatibility import JointFactor, chi2_threshold, individually_compatible, pairwise_nis
 from ..association.problem import Problem
@@ -15,29 +17,50 @@ class _BudgetExceeded(Exception):
     pass
 
 
+def _count_bound(rows: np.ndarray, cols: np.ndarray) -> int:
+    """min(#distinct rows, #distinct cols): a cheap upper bound on a matching's size."""
+    if not len(rows):
+        return 0
+    return int(min(np.count_nonzero(np.bincount(rows)), np.count_nonzero(np.bincount(cols))))
+
+
+def _max_matching(rows: np.ndarray, cols: np.ndarray) -> int:
+    """Size of a maximum bipartite matching of the pairs (rows[q], cols[q]) (Hopcroft-Karp)."""
+    if not len(rows):
+        return 0
+    r, ri = np.unique(rows, return_inverse=True)
+    c, ci = np.unique(cols, return_inverse=True)
+    if min(len(r), len(c)) == len(rows) or len(r) == 1 or len(c) == 1:
+        return min(len(r), len(c))
+    graph = csr_matrix((np.ones(len(rows), np.int8), (ri, ci)), shape=(len(r), len(c)))
+    return int((maximum_bipartite_matching(graph, perm_type="column") >= 0).sum())
+
+
 @dataclass
 class JCBB(Associator):
     """Largest jointly compatible hypothesis, ties broken by lower joint NIS.
 
-    Depth-first over candidate landmarks (fewest individually compatible features first),
-    each either paired with a free compatible feature (smallest joint NIS increase first) or
-    left unassociated. Pairs must pass the individual gate ``χ²_d(c)``; landmarks and features
-    with no compatible partner leave the search. The joint factor grows incrementally
-    (``JointFactor``). A branch is cut when
+    Pairs must pass the individual gate ``χ²_d(c)``; landmarks and features without an
+    individually compatible partner leave the search. Depth first, each node takes the
+    remaining landmark with the fewest feasible features and tries them (smallest joint NIS
+    increase first), then leaves it unassociated. The joint factor grows incrementally
+    (``JointFactor``), and every node evaluates all remaining pairings against it at once
+    (forward checking). With ``k`` pairings, NIS ``ν`` and bound ``b`` on further pairings:
 
-    * it cannot pair more than the best hypothesis found (the bound counts the remaining
-      landmarks and free features that still have a compatible partner), or can only tie it
-      while its NIS is already no lower (NIS never decreases as pairings are added); or
-    * its NIS exceeds ``χ²_{d(k+b)}(c)`` for ``k`` pairings and bound ``b``: no completion
-      can be jointly compatible.
+    * a pairing with ``ν + Δν > χ²_{d(k+b)}(c)`` can never complete a jointly compatible
+      hypothesis (NIS never decreases as pairings are added), so it leaves the subtree; ``b``
+      counts the landmarks and free features that keep a feasible pairing, recomputed until
+      stable;
+    * a node is cut when ``k + b`` is below the best count found, or equal to it while ``ν``
+      is already no lower than the best NIS (branches that can tie are explored).
 
-    A hypothesis counts when its own NIS passes ``χ²_{dk}(c)``. This returns exactly the
-    hypothesis of an exhaustive search. With ``prefix_test=True`` every partial hypothesis must
-    pass its own test, as in the original paper (faster, may miss a hypothesis whose prefix
-    fails the tighter gate).
+    A hypothesis counts when its own NIS passes ``χ²_{dk}(c)``, so the result is exactly
+    the hypothesis of an exhaustive search. ``prefix_test=True`` also demands that every
+    partial hypothesis pass its own test, as in the original paper (smaller tree; it can miss
+    a hypothesis whose prefix fails the tighter gate).
 
     confidence: individual and joint gate ``c``.
-    max_nodes: node budget; when spent, the best hypothesis so far is returned and
+    max_nodes: node budget; when spent the best hypothesis so far is returned and
         ``info["timed_out"]`` is True.
     prefix_test: apply the joint test to every partial hypothesis (classic JCBB).
     """
@@ -45,35 +68,26 @@ class JCBB(Associator):
     name = "jcbb"
     summary = "joint compatibility branch and bound: most jointly compatible pairings, then lowest NIS"
     confidence: float = 0.99
-    max_nodes: int = 200_000
+    max_nodes: int = 10_000
     prefix_test: bool = False
 
     def associate(self, problem: Problem) -> np.ndarray:
         self.info = {"timed_out": False, "nodes": 0}
+        out = self.empty(problem)
         if problem.m == 0 or problem.n == 0:
-            return self.empty(problem)
-        ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
-        ic[:, ~ic.any(axis=0)] = False
-        order = np.flatnonzero(ic.any(axis=0))
-        order = order[np.argsort(ic[:, order].sum(axis=0), kind="stable")]
-        self._problem, self._ic, self._order = problem, ic, order
+            return out
+        self._ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
         self._factor = JointFactor(problem)
-        self._used = np.zeros(problem.m, bool)
-        self._gate = np.array([chi2_threshold(problem.d * k, self.confidence) for k in range(len(order) + 1)])
+        self._free = np.ones(problem.m, bool)
+        self._gate = np.array([chi2_threshold(problem.d * k, self.confidence) for k in range(problem.n + 1)])
         self._best = (0, 0.0, [])
         try:
-            self._search(0)
+            self._search(self._ic.any(axis=0))
         except _BudgetExceeded:
             self.info["timed_out"] = True
-        out = self.empty(problem)
         for i, j in self._best[2]:
             out[j] = i
         return out
-
-    def _bound(self, t: int) -> int:
-        """Most pairings still possible among landmarks ``order[t:]`` and the free features."""
-        sub = self._ic[~self._used][:, self._order[t:]]
-        return int(min(sub.any(axis=0).sum(), sub.any(axis=1).sum()))
 
     def _record(self) -> None:
         f = self._factor
@@ -81,32 +95,52 @@ class JCBB(Associator):
         if f.nis <= self._gate[f.k] and (f.k > best_k or (f.k == best_k and f.nis < best_nis)):
             self._best = (f.k, f.nis, list(f.pairs))
 
-    def _search(self, t: int) -> None:
+    def _feasible(self, remaining: np.ndarray):
+        """Pairings of remaining landmarks with free features that can still end jointly
+        compatible, and the bound on further pairings."""
+        f = self._factor
+        feats, cols = np.nonzero(self._ic[:, remaining] & self._free[:, None])
+        lms = np.flatnonzero(remaining)[cols]
+        if not len(feats):
+            return feats, lms, None, 0
+        dnis, dlogdet, ext = f.candidates(lms, feats)
+        keep = np.ones(len(feats), bool)
+        bound = None
+        while True:
+            new_bound = _count_bound(lms[keep], feats[keep])
+            if new_bound == bound:
+                break
+            bound = new_bound
+            keep &= f.nis + dnis <= self._gate[f.k + bound]
+        if bound and f.k + bound >= self._best[0]:  # the exact matching bound only where it may cut
+            bound = _max_matching(lms[keep], feats[keep])
+        return feats[keep], lms[keep], (dnis[keep], dlogdet[keep], ext, np.flatnonzero(keep)), bound
+
+    def _search(self, remaining: np.ndarray) -> None:
         self.info["nodes"] += 1
         if self.info["nodes"] > self.max_nodes:
             raise _BudgetExceeded
         f = self._factor
         self._record()
-        if t == len(self._order):
-            return
-        bound = self._bound(t)
+        feats, lms, cand, bound = self._feasible(remaining)
         best_k, best_nis, _ = self._best
-        if f.k + bound < best_k or (f.k + bound == best_k and f.nis >= best_nis):
+        if bound == 0 or f.k + bound < best_k or (f.k + bound == best_k and f.nis >= best_nis):
             return
-        if f.nis > self._gate[f.k + bound]:
-            return
-        j = self._order[t]
-        feats = np.flatnonzero(self._ic[:, j] & ~self._used)
-        if len(feats):
-            dnis, dlogdet, ext = f.candidates(np.full(len(feats), j), feats)
-            limit = self._gate[f.k + 1] if self.prefix_test else self._gate[f.k + bound]
-            for a in np.argsort(dnis, kind="stable"):
-                if f.nis + dnis[a] > limit:
-                    break
-                f.push(feats[a], j, ext, a, dnis[a], dlogdet[a])
-                self._used[feats[a]] = True
-                self._search(t + 1)
-                self._used[feats[a]] = False
-                f.pop()
-        self._search(t + 1)
-
+        dnis, dlogdet, ext, rows = cand
+        counts = np.bincount(lms, minlength=len(remaining))
+        j = int(np.flatnonzero(counts == counts[counts > 0].min())[0])
+        still = np.zeros_like(remaining)
+        still[np.unique(lms)] = True          # landmarks without a feasible pairing leave for good
+        still[j] = False
+        mine = np.flatnonzero(lms == j)
+        limit = self._gate[f.k + 1] if self.prefix_test else np.inf
+        for a in mine[np.argsort(dnis[mine], kind="stable")]:
+            if f.nis + dnis[a] > limit:
+                break
+            i = feats[a]
+            f.push(i, j, ext, rows[a], dnis[a], dlogdet[a])
+            self._free[i] = False
+            self._search(still)
+            self._free[i] = True
+            f.pop()
+        self._search(still)

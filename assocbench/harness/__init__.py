@@ -1,0 +1,1 @@
+"""The harness: configs, runs, sweeps, leaderboards and the CI accuracy check."""

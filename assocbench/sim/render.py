@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import _gl  # noqa: F401
+from .. import _runtime  # noqa: F401
 from ..errors import UserError
 from .camera import CV_TO_MUJOCO, Intrinsics
 from .scene import Scene

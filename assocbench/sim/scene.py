@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import _gl  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
+from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
 
 import mujoco  # noqa: E402

@@ -165,7 +165,9 @@ def wall_tile(size: int = 256) -> np.ndarray:
 
 
 def room(sb: SceneBuilder) -> None:
-    """8x8 m room, 3 m high, 4x8 patches per wall at 2 heights... with 4 occluding pillars."""
+    """8x8 m room, 3 m high: 7 patches per wall at 3 heights (84), 4 occluding pillars.
+
+    Landmark patches are 0.7 m wide, faded to the wall gray, and 1.1 m apart."""
     half, height, t = 4.0, 3.0, 0.1
     sb.box((0, 0, -t), (half, half, t), material="floor")
     for axis in range(2):
@@ -191,8 +193,10 @@ def room(sb: SceneBuilder) -> None:
 
 
 def checkerboard(sb: SceneBuilder) -> None:
-    """A 14x7 checkerboard of 0.4 m cells on one wall: its 13x6 interior X-junctions are the
-    landmarks, a lattice where only geometry can tell them apart."""
+    """A 14x7 checkerboard of 0.4 m cells; its 78 inner X-junctions are a lattice of landmarks.
+
+    Only geometry can tell them apart: with pose errors near the 0.4 m spacing the problem is
+    ambiguous by construction."""
     t = 0.1
     sb.box((0, 0, -t), (4, 4, t), material="floor")
     sb.wall((0, 3.0, 1.5), (0, -1, 0), 4.0, 1.5)
@@ -210,7 +214,9 @@ def checkerboard(sb: SceneBuilder) -> None:
 
 
 def corridor(sb: SceneBuilder) -> None:
-    """20 m corridor, 2.4 m wide: patches every 1 m on both walls at two heights."""
+    """20 m corridor, 2.4 m wide: patches every 1 m on both walls at two heights (80).
+
+    Made for forward motion (the default trajectory is a line along it)."""
     t, half_w, length, height = 0.1, 1.2, 20.0, 2.6
     sb.box((length / 2, 0, -t), (length / 2 + 1, half_w + 2 * t, t), material="floor")
     for sign in (-1, 1):

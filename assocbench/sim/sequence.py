@@ -25,7 +25,7 @@ from .scene import Scene, load_scene
 from .trajectory import TRAJECTORIES, make_trajectory, rig_for
 from .truth import TruthConfig, label_features, visibility
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2
 DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line"}
 
 
@@ -95,9 +95,9 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
             frame = renderer.render(rots[k], pos[k], depth=need_depth)
             rng = np.random.default_rng([spec.seed, k, 11])
             f = detect(frame["rgb"], spec.detector, rng)
-            uv, visible = visibility(scene, rots[k], pos[k], renderer.K, spec.truth, frame.get("depth"))
+            uv, imaged, visible = visibility(scene, rots[k], pos[k], renderer.K, spec.truth, frame.get("depth"))
             feats.append(f)
-            labels.append(label_features(f, uv, visible, spec.truth.gate_px))
+            labels.append(label_features(f, uv, imaged, spec.truth.gate_px))
             vis.append(visible)
             proj.append(uv)
             if spec.keep_images:

@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import _gl  # noqa: F401
+from .. import _runtime  # noqa: F401
 from .camera import Intrinsics, project
 from .scene import Scene
 
@@ -52,27 +52,30 @@ def occluded_by_depth(depth: np.ndarray, uv: np.ndarray, z: np.ndarray, tol: flo
 
 
 def visibility(scene: Scene, R: np.ndarray, p: np.ndarray, K: Intrinsics, cfg: TruthConfig,
-               depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """True projections (L, 2) and a mask of landmarks in view, in front, facing and unoccluded."""
+               depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """True projections (L, 2) and two masks of landmarks in front, facing and unoccluded:
+    ``imaged`` (projecting anywhere in the image: features may be labelled with them) and
+    ``visible`` (also at least ``margin_px`` inside the border: a detector should find them)."""
     uv, z = project(scene.landmarks, R, p, K)
     to_cam = p - scene.landmarks
     cos_view = np.einsum("ij,ij->i", scene.normals, to_cam) / np.linalg.norm(to_cam, axis=1)
-    visible = (z > 1e-6) & K.in_image(np.nan_to_num(uv, nan=-1e9), cfg.margin_px)
-    visible &= cos_view > np.cos(np.deg2rad(cfg.max_view_angle))
-    idx = np.flatnonzero(visible)
+    uv_safe = np.nan_to_num(uv, nan=-1e9)
+    imaged = (z > 1e-6) & K.in_image(uv_safe) & (cos_view > np.cos(np.deg2rad(cfg.max_view_angle)))
+    idx = np.flatnonzero(imaged)
     if len(idx):
         if cfg.occlusion == "depth" and depth is not None:
             blocked = occluded_by_depth(depth, uv[idx], z[idx])
         else:
             blocked = occluded_by_ray(scene, p, scene.landmarks[idx])
-        visible[idx[blocked]] = False
-    return uv, visible
+        imaged[idx[blocked]] = False
+    return uv, imaged, imaged & K.in_image(uv_safe, cfg.margin_px)
 
 
-def label_features(features: np.ndarray, uv: np.ndarray, visible: np.ndarray, gate_px: float) -> np.ndarray:
-    """Landmark index of each feature (m,) or -1: mutual nearest neighbours within ``gate_px``."""
+def label_features(features: np.ndarray, uv: np.ndarray, imaged: np.ndarray, gate_px: float) -> np.ndarray:
+    """Landmark index of each feature (m,) or -1: mutual nearest neighbours within ``gate_px``
+    among the landmarks ``imaged`` (unoccluded, facing, in the image)."""
     labels = np.full(len(features), -1, dtype=np.int64)
-    idx = np.flatnonzero(visible)
+    idx = np.flatnonzero(imaged)
     if not len(features) or not len(idx):
         return labels
     d = np.linalg.norm(features[:, None, :] - uv[idx][None, :, :], axis=2)

@@ -1,0 +1,45 @@
+"""``assocbench check``: exit 1 when an accuracy metric regressed against the baseline."""
+
+from __future__ import annotations
+
+import argparse
+import tempfile
+from pathlib import Path
+
+from ..harness.check import compare, read_baseline, write_baseline, baseline_table
+from ..harness.config import shipped_config
+from ..harness.suite import load_suite
+from ..harness.sweep import run_suite
+from .common import print_table
+
+NAME = "check"
+HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
+
+
+def add_arguments(p: argparse.ArgumentParser) -> None:
+    p.add_argument("--suite", help="suite YAML (default: the shipped configs/ci.yaml)")
+    p.add_argument("--baseline", default="results/baseline.csv", help="baseline CSV")
+    p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
+    p.add_argument("--update", action="store_true", help="rewrite the baseline from this run")
+    p.add_argument("--jobs", type=int, default=1, help="local worker processes")
+    p.add_argument("--quiet", action="store_true", help="no progress bar")
+
+
+def main(args: argparse.Namespace) -> int:
+    suite = load_suite(args.suite or shipped_config("ci.yaml"))
+    baseline_path = Path(args.baseline)
+    baseline = None if args.update else read_baseline(baseline_path)
+    with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run
+        summaries, _ = run_suite(suite, Path(scratch), args.jobs, progress=not args.quiet)
+    if args.update:
+        write_baseline(summaries, baseline_path)
+        print(f"wrote baseline {baseline_path} ({len(baseline_table(summaries))} rows)")
+        return 0
+    tolerance = suite.tolerance if args.tolerance is None else args.tolerance
+    regressions = compare(baseline_table(summaries), baseline, tolerance)
+    if len(regressions):
+        print(f"accuracy regressed beyond tolerance {tolerance}:")
+        print_table(regressions, "table")
+        return 1
+    print(f"ok: {len(baseline)} scenario × method rows within tolerance {tolerance} of {baseline_path}")
+    return 0

@@ -1,0 +1,1 @@
+"""Pictures for people: frames with truth and associations drawn on them."""
