@@ -17,3 +17,7 @@ __all__ = [
     "surprisal", "validate_association",
 ]
 __version__ = "0.1.0"
+
+from .gymenv import register_envs as _register_envs  # noqa: E402
+
+_register_envs()

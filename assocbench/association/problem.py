@@ -76,6 +76,16 @@ class Problem:
         _check_spd("R", self.R)
         _check_spd("P", self.P, allow_semidefinite=True)
 
+    def __eq__(self, other: object) -> bool:
+        """Equal when every array is equal, element by element (and the scalars match)."""
+        if not isinstance(other, Problem):
+            return NotImplemented
+        arrays = ("z", "R", "zhat", "P", "landmark_ids")
+        return (all(np.array_equal(getattr(self, a), getattr(other, a)) for a in arrays)
+                and self.volume == other.volume and self.angular == other.angular)
+
+    __hash__ = None  # mutable arrays inside: not hashable
+
     @property
     def m(self) -> int:
         return self.z.shape[0]

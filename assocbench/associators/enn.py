@@ -20,7 +20,7 @@ class ENN(Associator):
 
     name = "enn"
     summary = "Euclidean nearest neighbour, distance gate, greedy one-to-one"
-    gate: float = 10.0
+    gate: float = 25.0
 
     def associate(self, problem: Problem) -> np.ndarray:
         if problem.m == 0 or problem.n == 0:

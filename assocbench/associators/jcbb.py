@@ -68,7 +68,7 @@ class JCBB(Associator):
     name = "jcbb"
     summary = "joint compatibility branch and bound: most jointly compatible pairings, then lowest NIS"
     confidence: float = 0.99
-    max_nodes: int = 10_000
+    max_nodes: int = 3_000
     prefix_test: bool = False
 
     def associate(self, problem: Problem) -> np.ndarray:

@@ -33,11 +33,22 @@ def _observe(rng, z_true: np.ndarray, p_detect: float, clutter: np.ndarray) -> t
 
 def lattice_problem(rng: np.random.Generator, n: int = 20, spacing: float = 30.0, sigma_common: float = 10.0,
                     sigma_independent: float = 2.0, sigma_meas: float = 1.0, p_detect: float = 0.9,
-                    n_clutter: int = 5, cols: int = 5) -> tuple[Problem, np.ndarray]:
-    """Landmarks on a ``cols``-wide lattice of pixel ``spacing``; P = σ_c²(11ᵀ⊗I) + σ_i² I."""
+                    n_clutter: int = 5, cols: int = 5, elongation: float = 1.0,
+                    scale_spread: float = 1.0) -> tuple[Problem, np.ndarray]:
+    """Landmarks on a ``cols``-wide lattice of pixel ``spacing``.
+
+    ``P = σ_c² (11ᵀ ⊗ I) + blockdiag(Q_j)``: a common shift plus independent errors whose
+    ellipses ``Q_j`` have a random orientation and axes ``σ_i·elongation`` and ``σ_i`` (depth
+    uncertainty seen by a camera is elongated like this), scaled per landmark by a factor
+    log-uniform in ``[1/scale_spread, scale_spread]`` (near landmarks are less certain in pixels).
+    """
     idx = np.arange(n)
     zhat = np.column_stack([idx % cols, idx // cols]).astype(float) * spacing + 50.0
-    P = sigma_common**2 * np.kron(np.ones((n, n)), np.eye(2)) + sigma_independent**2 * np.eye(2 * n)
+    P = sigma_common**2 * np.kron(np.ones((n, n)), np.eye(2))
+    scales = np.exp(rng.uniform(-1.0, 1.0, n) * np.log(scale_spread)) * sigma_independent
+    for j, theta in enumerate(rng.uniform(0, np.pi, n)):
+        rot = np.array([[np.cos(theta), -np.sin(theta)], [np.sin(theta), np.cos(theta)]])
+        P[2 * j:2 * j + 2, 2 * j:2 * j + 2] += rot @ np.diag([elongation**2, 1.0]) @ rot.T * scales[j] ** 2
     err = np.linalg.cholesky(P) @ rng.normal(size=2 * n)
     z_true = zhat + err.reshape(n, 2) + rng.normal(0.0, sigma_meas, (n, 2))
     lo, hi = zhat.min(axis=0) - spacing, zhat.max(axis=0) + spacing

@@ -6,9 +6,9 @@ import argparse
 import sys
 
 from ..errors import UserError
-from . import check_cmd, frame_cmd, leaderboard_cmd, list_cmd, run_cmd
+from . import check_cmd, frame_cmd, leaderboard_cmd, list_cmd, render_cmd, run_cmd
 
-COMMANDS = (run_cmd, leaderboard_cmd, check_cmd, list_cmd, frame_cmd)
+COMMANDS = (run_cmd, leaderboard_cmd, check_cmd, list_cmd, frame_cmd, render_cmd)
 
 
 class _Parser(argparse.ArgumentParser):

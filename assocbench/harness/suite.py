@@ -92,3 +92,11 @@ def load_suite(path: str | Path) -> Suite:
                 runs.append((str(name), cfg))
             jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
     return Suite(path.stem, tuple(jobs), float(raw.get("tolerance", 0.02)))
+
+
+def shipped_difficulties() -> dict[str, dict]:
+    """The difficulty levels of the shipped leaderboard (``easy``, ``medium``, ``hard``):
+    run-config overrides, defined once in ``configs/leaderboard.yaml``."""
+    from .config import shipped_config
+
+    return dict(read_yaml(shipped_config("leaderboard.yaml"))["difficulties"])

@@ -78,11 +78,11 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
     if executor == "dask":
         from dask.distributed import as_completed as dask_completed
 
-        client = _dask_client(address)
-        futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
-        for fut in dask_completed(futures):
-            _store(out, futures[fut], fut.result())
-            bar.update()
+        with _dask_client(address) as client:
+            futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
+            for fut in dask_completed(futures):
+                _store(out, futures[fut], fut.result())
+                bar.update()
     elif jobs == 1:
         for j in todo:
             _store(out, j, run_job(j, cache_dir))
@@ -94,7 +94,7 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
                 _store(out, futures[fut], fut.result())
                 bar.update()
     bar.close()
-    parts = [tuple(pd.read_csv(p, keep_default_na=False, na_values=[""]) for p in _paths(out, j)) for j in suite.jobs]
+    parts = [tuple(pd.read_csv(p, dtype={"error": str}) for p in _paths(out, j)) for j in suite.jobs]
     summaries = pd.concat([s for s, _ in parts], ignore_index=True)
     summaries["error"] = summaries["error"].fillna("")
     return summaries, pd.concat([f for _, f in parts], ignore_index=True)

@@ -47,7 +47,7 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     grouped = summaries.groupby(["scenario", "method"], sort=True)
     mean = grouped[metrics].mean()
     std = grouped[metrics].std(ddof=0).fillna(0.0)
-    table = mean.join(std, lsuffix="", rsuffix="_std")
+    table = mean.join(std.add_suffix("_std"))
     table["seeds"] = grouped.size()
     table["failures"] = grouped["failures"].sum()
     table = table.reset_index().sort_values(["scenario", "f1", "precision", "method"],

@@ -42,10 +42,5 @@ def score_frame(problem: Problem, truth: FrameTruth, association: np.ndarray) ->
 
 
 def unscored_frame(problem: Problem, truth: FrameTruth) -> dict[str, float]:
-    """Record of a frame the method failed on: every true pair counts as missed."""
-    n_true = int(np.sum(truth.association >= 0))
-    return {
-        "n": problem.n, "m": problem.m, "n_true": n_true, "tp": 0, "fp": 0, "fn": n_true,
-        "clutter_accepted": 0, "missed_true": n_true, "perfect": False, "surprisal": np.nan,
-        "surprisal_true": surprisal(problem, truth.association), "jointly_compatible": False,
-    }
+    """Record of a frame the method failed on: scored as if it had returned no pairing."""
+    return score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64))

@@ -50,6 +50,19 @@ def _raw_corners(gray: np.ndarray, cfg: DetectorConfig) -> np.ndarray:
     return np.array([k.pt for k in kps], np.float32).reshape(-1, 2)
 
 
+def _drop_duplicates(pts: np.ndarray, radius: float = 1.0) -> np.ndarray:
+    """Keep the first (strongest) of corners that sub-pixel refinement pulled together.
+
+    Two raw corners near one X-junction both converge onto it; left in, one of them would
+    be an unlabelled "clutter" feature sitting exactly on the landmark.
+    """
+    if len(pts) < 2:
+        return pts
+    d = np.linalg.norm(pts[:, None, :] - pts[None, :, :], axis=2)
+    close_to_earlier = np.triu(d < radius, k=1).any(axis=0)
+    return pts[~close_to_earlier]
+
+
 def detect(rgb: np.ndarray, cfg: DetectorConfig, rng: np.random.Generator | None = None) -> np.ndarray:
     """Feature pixel coordinates (m, 2) float64, sorted by row then column for determinism."""
     gray = cv2.cvtColor(rgb, cv2.COLOR_RGB2GRAY)
@@ -58,7 +71,7 @@ def detect(rgb: np.ndarray, cfg: DetectorConfig, rng: np.random.Generator | None
         criteria = (cv2.TERM_CRITERIA_EPS + cv2.TERM_CRITERIA_COUNT, 40, 0.001)
         win = (cfg.subpix_window, cfg.subpix_window)
         pts = cv2.cornerSubPix(gray, np.ascontiguousarray(pts), win, (-1, -1), criteria)
-    pts = pts.astype(np.float64)
+    pts = _drop_duplicates(pts.astype(np.float64))
     if cfg.noise_px > 0 and len(pts):
         rng = rng if rng is not None else np.random.default_rng(0)
         pts = pts + rng.normal(0.0, cfg.noise_px, pts.shape)

@@ -25,7 +25,7 @@ from .scene import Scene, load_scene
 from .trajectory import TRAJECTORIES, make_trajectory, rig_for
 from .truth import TruthConfig, label_features, visibility
 
-FORMAT_VERSION = 2
+FORMAT_VERSION = 3
 DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line"}
 
 

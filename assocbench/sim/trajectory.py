@@ -1,7 +1,7 @@
 """Named, parameterised, seeded camera trajectories.
 
-Each trajectory is placed by a *rig* derived from the scene's landmarks alone, so a user
-MJCF works without configuration: a scene whose landmark normals agree (a wall) is viewed
+Each trajectory is placed and sized (``radius`` defaults to the rig's ``motion``) by a *rig*
+derived from the scene's landmarks alone, so a user MJCF works without configuration: a scene whose landmark normals agree (a wall) is viewed
 from in front along the mean normal; an enclosure (room, corridor) is viewed from inside its
 landmark centroid, along its long axis when it is elongated. Parameters are in metres and
 degrees; ``seed`` sets the start phase and a small per-frame pose jitter.
@@ -29,6 +29,7 @@ class Rig:
     axis: np.ndarray          # long horizontal axis of the landmark cloud
     half_extent: float        # half length of the landmark cloud along ``axis``
     half_width: float         # half extent across ``axis`` (horizontal)
+    motion: float             # default size of a trajectory (circle radius etc.), m
 
 
 def rig_for(landmarks: np.ndarray, normals: np.ndarray, fovy: float, aspect: float) -> Rig:
@@ -47,8 +48,8 @@ def rig_for(landmarks: np.ndarray, normals: np.ndarray, fovy: float, aspect: flo
         spread = max(np.ptp(landmarks @ axis), np.ptp(landmarks[:, 2]), 0.5)
         tan_h = np.tan(np.deg2rad(fovy) / 2) * aspect
         distance = max(0.7 * spread / (2 * tan_h), 0.8)
-        return Rig(centroid + n * distance, -n, axis, half_extent, half_width)
-    return Rig(centroid, None, axis, half_extent, half_width)
+        return Rig(centroid + n * distance, -n, axis, half_extent, half_width, 0.15 * spread)
+    return Rig(centroid, None, axis, half_extent, half_width, min(1.0, 0.3 * half_width))
 
 
 def _frame_poses(pos: np.ndarray, forward: np.ndarray) -> Poses:
@@ -73,9 +74,10 @@ def _heading(rig: Rig, pos: np.ndarray, radial: np.ndarray | None = None) -> np.
     return tangent / np.maximum(np.linalg.norm(tangent, axis=1, keepdims=True), 1e-12)
 
 
-def circle(rig: Rig, t: np.ndarray, radius: float = 1.0, turns: float = 1.0) -> Poses:
+def circle(rig: Rig, t: np.ndarray, radius: float | None = None, turns: float = 1.0) -> Poses:
     """Circle of ``radius`` around the rig centre; an enclosure is viewed looking outward."""
     e1, e2 = _plane(rig)
+    radius = rig.motion if radius is None else radius
     ang = 2 * np.pi * turns * t
     radial = np.cos(ang)[:, None] * e1 + np.sin(ang)[:, None] * e2
     pos = rig.center + radius * radial
@@ -92,17 +94,19 @@ def line(rig: Rig, t: np.ndarray, length: float | None = None) -> Poses:
     return _frame_poses(pos, forward)
 
 
-def figure_eight(rig: Rig, t: np.ndarray, radius: float = 1.0) -> Poses:
+def figure_eight(rig: Rig, t: np.ndarray, radius: float | None = None) -> Poses:
     """Lemniscate of Gerono with lobes ``radius`` wide; heading follows the path indoors."""
     e1, e2 = _plane(rig)
+    radius = rig.motion if radius is None else radius
     ang = 2 * np.pi * t
     pos = rig.center + radius * (np.sin(ang)[:, None] * e1 + (np.sin(ang) * np.cos(ang))[:, None] * e2)
     return _frame_poses(pos, _heading(rig, pos))
 
 
-def loop(rig: Rig, t: np.ndarray, radius: float = 1.0, revisit: float = 0.25) -> Poses:
+def loop(rig: Rig, t: np.ndarray, radius: float | None = None, revisit: float = 0.25) -> Poses:
     """Rounded square loop driven ``1 + revisit`` times round, so its start is seen again."""
     e1, e2 = _plane(rig)
+    radius = rig.motion if radius is None else radius
     ang = 2 * np.pi * (1 + revisit) * t
     c, s = np.cos(ang), np.sin(ang)
     # superellipse |x|^4 + |y|^4 = 1: a square with rounded corners

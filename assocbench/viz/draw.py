@@ -5,6 +5,7 @@ from __future__ import annotations
 import cv2
 import numpy as np
 
+# RGB colours of the lab-8 figure and the truth picture
 GREEN, RED, DARK_RED, BLUE, GRAY, YELLOW = (0, 200, 0), (255, 0, 0), (120, 0, 0), (0, 80, 255), (150, 150, 150), (255, 210, 0)
 
 

@@ -1,0 +1,120 @@
+"""The command line: bad input is one line on stderr, exit code 2, no traceback; files are atomic."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+import pandas as pd
+import pytest
+
+from assocbench.cli.main import main
+
+ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+
+
+def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:
+    return subprocess.run([sys.executable, "-m", "assocbench.cli.main", *args], capture_output=True, text=True,
+                          cwd=cwd, env={**os.environ, "PYTHONPATH": ROOT})
+
+
+def assert_one_line_error(capsys, code: int, *needles: str) -> None:
+    err = capsys.readouterr().err
+    assert code == 2
+    assert err.count("\n") == 1 and err.startswith("assocbench: error:"), err
+    assert "Traceback" not in err
+    for needle in needles:
+        assert needle in err, err
+
+
+@pytest.mark.parametrize("args,needles", [
+    (["frame", "--scene", "missing.xml"], ["missing.xml", "not found"]),
+    (["frame", "--resolution", "4000x3000"], ["exceeds the offscreen buffer", "offwidth"]),
+    (["frame", "--trajectory", "spiral"], ["unknown trajectory 'spiral'", "circle"]),
+    (["frame", "--resolution", "big"], ["WIDTHxHEIGHT"]),
+    (["run", "--method", "jcbbb", "--frames", "2"], ["unknown method 'jcbbb'", "did you mean jcbb"]),
+    (["run", "--set", "belief.sigma_rot=2", "--frames", "2"], ["unknown key 'belief.sigma_rot'", "sigma_rotation"]),
+    (["run", "--set", "frames"], ["key=value"]),
+    (["run", "--frames", "0"], ["frames must be a positive integer"]),
+    (["run", "--set", "belief.map_fraction=2"], ["map_fraction"]),
+    (["run", "--method", "jcbb", "--set", "params.confidance=0.9", "--frames", "2"], ["confidance", "accepted are"]),
+    (["check", "--baseline", "no/such/baseline.csv"], ["baseline", "not found", "--update"]),
+    (["leaderboard", "--suite", "no-suite.yaml"], ["no-suite.yaml", "not found"]),
+])
+def test_bad_input_is_a_one_line_error(capsys, args, needles):
+    assert_one_line_error(capsys, main(args), *needles)
+
+
+def test_mjcf_without_landmarks(capsys, tmp_path):
+    path = tmp_path / "empty.xml"
+    path.write_text("<mujoco><worldbody><geom type='box' size='1 1 1'/></worldbody></mujoco>")
+    assert_one_line_error(capsys, main(["frame", "--scene", str(path)]), "has no landmarks", "lm")
+
+
+def test_malformed_yaml(capsys, tmp_path):
+    path = tmp_path / "bad.yaml"
+    path.write_text("frames: [1, 2\nscene: room\n")
+    assert_one_line_error(capsys, main(["run", "--config", str(path)]), "malformed YAML", "line")
+
+
+def test_unknown_key_in_yaml_config(capsys, tmp_path):
+    path = tmp_path / "cfg.yaml"
+    path.write_text("scene: room\nbelif: {clutter: 2}\n")
+    assert_one_line_error(capsys, main(["run", "--config", str(path)]), "unknown key 'belif'", "belief")
+
+
+def test_unwritable_output_folder(capsys, tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("not a folder")
+    assert_one_line_error(capsys, main(["run", "--frames", "2", "--out", str(blocker / "sub")]), "cannot create output folder")
+
+
+def test_subprocess_exit_code_and_stderr():
+    proc = run_cli("run", "--method", "nonsense")
+    assert proc.returncode == 2
+    assert proc.stderr.strip().count("\n") == 0 and "Traceback" not in proc.stderr
+    assert "unknown method 'nonsense'" in proc.stderr
+
+
+def test_frame_writes_a_png_and_says_what_it_saw(tmp_path, capsys):
+    out = tmp_path / "frame.png"
+    assert main(["frame", "--scene", "room", "--index", "20", "-o", str(out)]) == 0
+    import cv2
+
+    img = cv2.imread(str(out))
+    assert img.shape == (480, 640, 3)
+    said = capsys.readouterr().out
+    assert "landmarks visible" in said and "labelled" in said
+
+
+def test_run_twice_gives_identical_csvs_except_timing(tmp_path, capsys):
+    outs = []
+    for k in range(2):
+        out = tmp_path / f"run{k}"
+        assert main(["run", "--method", "jcbb", "--frames", "6", "--out", str(out)]) == 0
+        outs.append(out)
+    for name in ("frames.csv", "summary.csv"):
+        a, b = (pd.read_csv(o / name) for o in outs)
+        timing = [c for c in a.columns if c.startswith("runtime")]
+        assert timing
+        pd.testing.assert_frame_equal(a.drop(columns=timing), b.drop(columns=timing))
+    assert "precision" in capsys.readouterr().out
+
+
+def test_list_names_methods_scenes_and_trajectories(capsys):
+    assert main(["list"]) == 0
+    out = capsys.readouterr().out
+    for name in ("enn", "mnn", "ml", "snn", "jcbb", "lsa", "room", "checkerboard", "corridor", "figure-eight", "loop"):
+        assert f"  {name} " in out
+
+
+def test_readme_plugin_example_runs_from_the_cli(tmp_path):
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([ROOT, os.path.join(ROOT, "examples")])}
+    proc = subprocess.run([sys.executable, "-m", "assocbench.cli.main", "run", "--method", "my_assoc:GatedNearest",
+                           "--frames", "3", "--set", "params.confidence=0.9", "--out", str(tmp_path), "--format", "csv"],
+                          capture_output=True, text=True, env=env)
+    assert proc.returncode == 0, proc.stderr
+    summary = pd.read_csv(tmp_path / "summary.csv")
+    assert summary.loc[0, "method"] == "my_assoc:GatedNearest" and summary.loc[0, "frames"] == 3
+    assert summary.loc[0, "recall"] > 0.2

@@ -1,0 +1,125 @@
+"""The harness: suites, leaderboard files, failure isolation, resume, check against a baseline."""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from assocbench.cli.main import main
+from assocbench.harness.suite import load_suite
+from assocbench.harness.sweep import run_suite
+
+HARD = "{sigma_position: 0.10, sigma_rotation: 2.0, sigma_landmark: 0.05, sigma_common: 0.05, clutter: 15}"
+
+
+def write_suite(tmp_path, methods: str, scenes="[checkerboard]", frames=6, name="suite.yaml", difficulty=HARD):
+    path = tmp_path / name
+    path.write_text(f"base: {{frames: {frames}}}\nscenes: {scenes}\n"
+                    f"difficulties:\n  hard:\n    belief: {difficulty}\nmethods: {methods}\nseeds: [0]\n")
+    return path
+
+
+PLUGINS = '''
+import numpy as np
+from assocbench import Associator, make_associator
+
+class Raises(Associator):
+    def associate(self, problem):
+        raise RuntimeError("boom")
+
+class Invalid(Associator):
+    def associate(self, problem):
+        return np.zeros(problem.n, dtype=int)   # feature 0 used by every landmark
+
+class Degraded(Associator):
+    """JCBB that forgets every third pairing it makes."""
+    def associate(self, problem):
+        out = make_associator("jcbb").associate(problem)
+        out[::3] = -1
+        return out
+'''
+
+
+@pytest.fixture
+def plugins(tmp_path, monkeypatch):
+    (tmp_path / "bench_plugins.py").write_text(PLUGINS)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return "bench_plugins"
+
+
+def test_leaderboard_discriminates_on_the_hard_scenario(tmp_path, capsys):
+    suite = write_suite(tmp_path, "[enn, mnn, jcbb]")
+    assert main(["leaderboard", "--suite", str(suite), "--out", str(tmp_path / "out"), "--quiet"]) == 0
+    table = pd.read_csv(tmp_path / "out" / "leaderboard.csv").set_index("method")
+    assert table.loc["jcbb", "precision"] >= table.loc["mnn", "precision"]
+    assert table.loc["jcbb", "precision"] >= table.loc["enn", "precision"]
+    assert table.loc["jcbb", "f1"] >= table.loc["mnn", "f1"] >= table.loc["enn", "f1"]
+    for name in ("leaderboard.md", "leaderboard_pr.png", "leaderboard_runtime.png"):
+        assert (tmp_path / "out" / name).stat().st_size > 0
+    assert "## checkerboard/hard" in (tmp_path / "out" / "leaderboard.md").read_text()
+
+
+def test_failing_plugins_do_not_stop_the_sweep(tmp_path, plugins):
+    suite = load_suite(write_suite(tmp_path, f"[mnn, {{name: raises, method: '{plugins}:Raises'}}, "
+                                             f"{{name: invalid, method: '{plugins}:Invalid'}}]", frames=3))
+    summaries, _ = run_suite(suite, tmp_path / "runs", progress=False)
+    rows = summaries.set_index("method")
+    assert rows.loc["raises", "failures"] == 3 and "RuntimeError: boom" in rows.loc["raises", "error"]
+    assert rows.loc["invalid", "failures"] == 3 and "more than once" in rows.loc["invalid", "error"]
+    assert rows.loc["mnn", "failures"] == 0 and rows.loc["mnn", "recall"] > 0
+
+
+def test_interrupted_sweep_resumes_without_rerunning_done_jobs(tmp_path, monkeypatch):
+    import assocbench.harness.sweep as sweep
+
+    suite = load_suite(write_suite(tmp_path, "[enn]", scenes="[checkerboard, room]", frames=2))
+    calls = []
+    real = sweep.run_job
+
+    def flaky(job, cache_dir=None):
+        calls.append(job.scene)
+        if job.scene == "room" and len(calls) == 2:
+            raise KeyboardInterrupt
+        return real(job, cache_dir)
+
+    monkeypatch.setattr(sweep, "run_job", flaky)
+    with pytest.raises(KeyboardInterrupt):
+        run_suite(suite, tmp_path / "runs", progress=False)
+    summaries, _ = run_suite(suite, tmp_path / "runs", progress=False)
+    assert calls == ["checkerboard", "room", "room"]
+    assert sorted(summaries["scene"]) == ["checkerboard", "room"]
+
+
+def test_check_passes_against_its_own_baseline_and_catches_a_degraded_plugin(tmp_path, plugins, capsys):
+    good = write_suite(tmp_path, "[{name: mine, method: jcbb}]", scenes="[room]", frames=4, name="good.yaml",
+                       difficulty="{sigma_position: 0.03, sigma_rotation: 0.5}")
+    bad = write_suite(tmp_path, f"[{{name: mine, method: '{plugins}:Degraded'}}]", scenes="[room]", frames=4,
+                      name="bad.yaml", difficulty="{sigma_position: 0.03, sigma_rotation: 0.5}")
+    baseline = tmp_path / "baseline.csv"
+    assert main(["check", "--suite", str(good), "--baseline", str(baseline), "--update", "--quiet"]) == 0
+    assert main(["check", "--suite", str(good), "--baseline", str(baseline), "--quiet"]) == 0
+    capsys.readouterr()
+    assert main(["check", "--suite", str(bad), "--baseline", str(baseline), "--quiet"]) == 1
+    out = capsys.readouterr().out
+    assert "regressed" in out and "recall" in out and "mine" in out
+
+
+def test_dask_executor_on_a_local_cluster(tmp_path):
+    distributed = pytest.importorskip("dask.distributed")
+    suite = load_suite(write_suite(tmp_path, "[enn, mnn]", scenes="[checkerboard]", frames=2))
+    with distributed.LocalCluster(n_workers=1, threads_per_worker=1, processes=True, dashboard_address=None) as cluster:
+        summaries, _ = run_suite(suite, tmp_path / "dask", executor="dask", address=cluster.scheduler_address,
+                                 progress=False)
+    local, _ = run_suite(suite, tmp_path / "local", progress=False)
+    cols = ["method", "precision", "recall", "f1", "perfect"]
+    pd.testing.assert_frame_equal(summaries[cols], local[cols])
+
+
+def test_parallel_jobs_give_the_same_numbers(tmp_path):
+    suite = load_suite(write_suite(tmp_path, "[enn, lsa]", scenes="[checkerboard, room]", frames=2))
+    one, _ = run_suite(suite, tmp_path / "one", progress=False)
+    two, _ = run_suite(suite, tmp_path / "two", jobs=2, progress=False)
+    cols = ["scenario", "method", "precision", "recall", "surprisal_gap"]
+    pd.testing.assert_frame_equal(one[cols], two[cols])
+    assert np.isfinite(one["surprisal_gap"]).all()

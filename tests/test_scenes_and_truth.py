@@ -1,0 +1,129 @@
+"""Simulation half: scenes, rendering, detection and ground truth on real MuJoCo frames."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from assocbench.sim.camera import look_at
+from assocbench.sim.detect import DetectorConfig, detect
+from assocbench.sim.render import FrameRenderer
+from assocbench.sim.scene import load_scene, shipped_scenes
+from assocbench.sim.sequence import SequenceSpec, load_sequence, render_sequence
+from assocbench.sim.truth import TruthConfig, label_features, occluded_by_depth, visibility
+
+
+def label_errors(seq) -> np.ndarray:
+    errs = [np.linalg.norm(f[lab >= 0] - uv[lab[lab >= 0]], axis=1)
+            for f, lab, uv in zip(seq.features, seq.labels, seq.projections)]
+    return np.concatenate(errs)
+
+
+def test_shipped_scenes_have_enough_landmarks():
+    counts = {name: len(load_scene(name).landmarks) for name in shipped_scenes()}
+    assert set(counts) == {"room", "checkerboard", "corridor"}
+    assert counts["room"] >= 60 and min(counts.values()) >= 60
+
+
+@pytest.mark.parametrize("scene", ["room", "checkerboard", "corridor"])
+def test_labelled_features_sit_on_true_projections(scene):
+    """Median distance to the true projection <= 0.3 px at 640x480; typical frames see >= 10."""
+    seq = load_sequence(SequenceSpec(scene=scene, frames=8))
+    errs = label_errors(seq)
+    assert len(errs) >= 8 * 10
+    assert np.median(errs) <= 0.3
+    assert np.median(seq.visible.sum(axis=1)) >= 10
+
+
+def test_room_detects_and_labels_95_percent_of_visible_landmarks(room_sequence):
+    visible = room_sequence.visible.sum()
+    labelled_visible = sum(int(np.sum(vis[lab[lab >= 0]])) for vis, lab in zip(room_sequence.visible, room_sequence.labels))
+    assert labelled_visible >= 0.95 * visible
+
+
+def test_landmark_behind_a_pillar_is_not_visible_nor_labelled():
+    """Camera placed so the pillar at (1.9, 1.9) hides landmark (4, 2.2, 1.55) on the +x wall."""
+    scene = load_scene("room")
+    target = int(np.argmin(np.linalg.norm(scene.landmarks - [4.0, 2.2, 1.55], axis=1)))
+    cam = np.array([0.0, 1.629, 1.55])
+    R = look_at(cam, scene.landmarks[target])
+    with FrameRenderer(scene, 640, 480) as r:
+        frame = r.render(R, cam, depth=True)
+        K = r.K
+    uv, imaged, visible = visibility(scene, R, cam, K, TruthConfig())
+    assert np.allclose(uv[target], [K.cx, K.cy], atol=1.0)     # straight ahead, in view
+    assert not imaged[target] and not visible[target]
+    depth_says = occluded_by_depth(frame["depth"], uv[[target]], np.array([np.linalg.norm(scene.landmarks[target] - cam)]) * 0.999)
+    assert depth_says[0]                                         # the depth image agrees with mj_ray
+    labels = label_features(detect(frame["rgb"], DetectorConfig()), uv, imaged, 2.0)
+    assert target not in labels
+    assert np.sum(labels >= 0) >= 5                              # the unhidden landmarks are labelled
+
+
+def test_two_renders_are_identical():
+    spec = SequenceSpec(scene="checkerboard", frames=3)
+    a, b = render_sequence(spec), render_sequence(spec)
+    for fa, fb, la, lb in zip(a.features, b.features, a.labels, b.labels):
+        assert np.array_equal(fa, fb) and np.array_equal(la, lb)
+    assert np.array_equal(a.visible, b.visible)
+
+
+def test_cache_hit_does_no_rendering(tmp_path, monkeypatch):
+    import assocbench.sim.sequence as sequence
+
+    spec = SequenceSpec(scene="room", frames=2, seed=5)
+    first = load_sequence(spec, tmp_path)
+    assert not first.from_cache
+
+    def no_render(*args, **kwargs):
+        raise AssertionError("rendered on a cache hit")
+
+    monkeypatch.setattr(sequence, "FrameRenderer", no_render)
+    second = load_sequence(spec, tmp_path)
+    assert second.from_cache
+    assert all(np.array_equal(x, y) for x, y in zip(first.features, second.features))
+    with pytest.raises(AssertionError, match="rendered"):   # a changed setting is a new key
+        load_sequence(SequenceSpec(scene="room", frames=2, seed=5, detector=DetectorConfig(quality=0.05)), tmp_path)
+
+
+@pytest.mark.parametrize("method", ["fast", "orb"])
+def test_other_detectors_run_and_refine(method):
+    seq = load_sequence(SequenceSpec(scene="checkerboard", frames=1, detector=DetectorConfig(method=method)))
+    assert len(seq.features[0]) > 0
+
+
+def test_noise_model_moves_features_by_its_sigma():
+    seq = load_sequence(SequenceSpec(scene="checkerboard", frames=1, keep_images=True))
+    img = seq.images[0]
+    base = detect(img, DetectorConfig())
+    noisy = detect(img, DetectorConfig(noise_px=0.5), np.random.default_rng(0))
+    assert len(base) == len(noisy) > 30
+    nearest = np.linalg.norm(noisy[:, None] - base[None], axis=2).argmin(axis=1)
+    assert np.std(noisy - base[nearest]) == pytest.approx(0.5, rel=0.2)
+
+
+USER_MJCF = """<mujoco>
+  <visual><global offwidth="320" offheight="240" fovy="50"/>
+    <headlight ambient="1 1 1" diffuse="0 0 0" specular="0 0 0"/></visual>
+  <worldbody>
+    <geom type="box" pos="0 0.02 0" size="2 0.01 2" rgba="0.6 0.6 0.6 1"/>
+    {patches}
+  </worldbody>
+</mujoco>"""
+
+
+def user_patch(k: int, x: float, z: float) -> str:
+    s = 0.06
+    quads = [(1, 1, "0 0 0 1"), (-1, -1, "0 0 0 1"), (1, -1, "1 1 1 1"), (-1, 1, "1 1 1 1")]
+    geoms = "".join(f'<geom type="box" pos="{x + a * s} 0 {z + b * s}" size="{s} 0.005 {s}" rgba="{c}"/>' for a, b, c in quads)
+    return geoms + f'<site name="lm{k}" pos="{x} -0.005 {z}" zaxis="0 -1 0"/>'
+
+
+def test_user_mjcf_with_lm_sites_works_without_code_change(tmp_path):
+    patches = "".join(user_patch(k, x, z) for k, (x, z) in enumerate([(-0.3, 0.2), (0.0, 0.0), (0.3, 0.2), (-0.3, -0.2), (0.3, -0.2)]))
+    path = tmp_path / "wall.xml"
+    path.write_text(USER_MJCF.format(patches=patches))
+    seq = load_sequence(SequenceSpec(scene=str(path), frames=4, width=320, height=240))
+    assert len(seq.landmarks) == 5
+    assert seq.visible.sum(axis=1).min() == 5
+    assert np.median(label_errors(seq)) <= 0.3
