@@ -38,16 +38,22 @@ class Associator:
 
 
 def greedy_one_to_one(cost: np.ndarray, allowed: np.ndarray) -> np.ndarray:
-    """Greedy matching: repeatedly take the cheapest allowed (feature, landmark) pair whose
-    feature and landmark are both still free. ``cost`` and ``allowed`` are (m, n)."""
+    """Greedy matching: take allowed (feature, landmark) pairs cheapest first, each feature and
+    landmark at most once. ``cost`` and ``allowed`` are (m, n).
+
+    Done in rounds: a pair that is the cheapest of both its row and its column is taken by the
+    greedy whatever else happens (every pair it excludes costs at least as much), so all such
+    mutual-best pairs are taken at once, their rows and columns closed, and the rest redone.
+    """
     m, n = cost.shape
     out = np.full(n, NO_MATCH, dtype=np.int64)
-    fi, lj = np.nonzero(allowed)
-    order = np.lexsort((fi, lj, cost[fi, lj]))  # ties broken by landmark, then feature index
-    used = np.zeros(m, bool)
-    for k in order:
-        i, j = fi[k], lj[k]
-        if out[j] == NO_MATCH and not used[i]:
-            out[j] = i
-            used[i] = True
+    c = np.where(allowed, cost, np.inf)
+    while np.isfinite(c).any():
+        best_feature = c.argmin(axis=0)                         # per landmark
+        best_landmark = c.argmin(axis=1)                        # per feature
+        lms = np.flatnonzero(np.isfinite(c[best_feature, np.arange(n)]))
+        mutual = lms[best_landmark[best_feature[lms]] == lms]
+        out[mutual] = best_feature[mutual]
+        c[best_feature[mutual], :] = np.inf
+        c[:, mutual] = np.inf
     return out

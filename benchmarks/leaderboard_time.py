@@ -1,0 +1,42 @@
+"""Wall time of the full leaderboard (configs/leaderboard.yaml): cold cache (every sequence
+rendered) and warm cache (sequences cached, results recomputed).
+Usage: python benchmarks/leaderboard_time.py [--jobs 2] [--suite configs/leaderboard.yaml]"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import subprocess
+import sys
+import tempfile
+import time
+from pathlib import Path
+
+from _util import print_table
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+def timed_leaderboard(suite: str, jobs: int, cache: Path, out: Path) -> float:
+    env = {**os.environ, "ASSOCBENCH_CACHE": str(cache)}
+    start = time.perf_counter()
+    subprocess.run([sys.executable, "-m", "assocbench.cli.main", "leaderboard", "--suite", suite, "--jobs", str(jobs),
+                    "--out", str(out), "--quiet"], check=True, env=env, stdout=subprocess.DEVNULL)
+    return time.perf_counter() - start
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__)
+    ap.add_argument("--jobs", type=int, default=2)
+    ap.add_argument("--suite", default=str(ROOT / "configs" / "leaderboard.yaml"))
+    args = ap.parse_args()
+    with tempfile.TemporaryDirectory() as tmp:
+        tmp = Path(tmp)
+        cold = timed_leaderboard(args.suite, args.jobs, tmp / "cache", tmp / "cold")
+        warm = timed_leaderboard(args.suite, args.jobs, tmp / "cache", tmp / "warm")  # fresh results, cached frames
+    print(f"leaderboard {Path(args.suite).name} with --jobs {args.jobs}, wall seconds")
+    print_table(["cache", "seconds", "minutes"], [["cold", cold, cold / 60], ["warm", warm, warm / 60]])
+
+
+if __name__ == "__main__":
+    main()
