@@ -4,10 +4,14 @@
 * ``OPENBLAS_NUM_THREADS=1`` (and OMP/MKL): association works on small matrices, where BLAS
   threads cost far more than they save (an 80x80 triangular solve: 0.09 ms on one thread,
   0.8 ms on two), and runtimes are reported per core. Has no effect if numpy was imported first.
+* ``NUMBA_CACHE_DIR``: compiled kernels are cached under the assocbench cache folder.
 """
 
 import os
+from pathlib import Path
 
 os.environ.setdefault("MUJOCO_GL", "egl")
+# compiled kernels are cached where a user can always write (site-packages may be read-only)
+os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(os.environ.get("ASSOCBENCH_CACHE", Path.home() / ".cache" / "assocbench")) / "numba"))
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")

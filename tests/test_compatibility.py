@@ -37,8 +37,7 @@ def test_joint_nis_surprisal_and_incremental_factor_match_direct_formula(rng):
         assert C.surprisal(p, a) == pytest.approx(reference_surprisal(p, a), rel=1e-9, abs=1e-9)
         f = C.JointFactor(p)
         for j in np.flatnonzero(a >= 0):
-            dnis, dld, ext = f.candidates(np.array([j]), np.array([a[j]]))
-            f.push(a[j], j, ext, 0, dnis[0], dld[0])
+            f.push(a[j], j)
         assert f.nis == pytest.approx(ref_nis, rel=1e-9, abs=1e-9)
         nis, logdet, _ = C.joint_terms(p, a)
         assert f.logdet == pytest.approx(logdet, rel=1e-9, abs=1e-9)

@@ -19,6 +19,7 @@ from functools import lru_cache
 
 import numpy as np
 from scipy.linalg import solve_triangular
+from numba import njit
 from scipy.stats import chi2
 
 from .problem import Problem, pairs_of
@@ -151,6 +152,108 @@ def surprisal(problem: Problem, association: np.ndarray) -> float:
     return n_unassociated * float(np.log(problem.volume)) - float(log_gaussian(nis, logdet, problem.d * k))
 
 
+# -- the incremental joint factor, compiled ---------------------------------------------------
+# These kernels are the only implementation of the incremental joint test: ``JointFactor``
+# (SNN) and the JCBB search both call them. ``M`` holds L⁻¹ P[J, :] row block by row block,
+# ``w`` the whitened innovation L⁻¹ y_A; ``kd`` rows of each are in use.
+
+
+@njit(cache=True)
+def _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S_out, y_out):
+    """S = P_jj + R_i - XᵀX and y = wrap(z_i - zhat_j) - Xᵀw with X = M[:kd, j], into the outputs."""
+    d = z.shape[1]
+    for a in range(d):
+        acc = z[i, a] - zhat[j, a]
+        if wrap[a]:
+            acc = (acc + np.pi) % (2.0 * np.pi) - np.pi
+        for r in range(kd):
+            acc -= M[r, j * d + a] * w[r]
+        y_out[a] = acc
+        for b in range(d):
+            s = P[j * d + a, j * d + b] + R[i, a, b]
+            for r in range(kd):
+                s -= M[r, j * d + a] * M[r, j * d + b]
+            S_out[a, b] = s
+
+
+@njit(cache=True)
+def _cholesky_whiten_small(S, y, L_out, w_out):
+    """In-place-free Cholesky ``S = L Lᵀ`` and ``w = L⁻¹ y`` of one small matrix; returns
+    (wᵀw, log det S), or (inf, inf) when ``S`` is not positive definite."""
+    d = S.shape[0]
+    logdet = 0.0
+    for a in range(d):
+        for b in range(a + 1):
+            acc = S[a, b]
+            for c in range(b):
+                acc -= L_out[a, c] * L_out[b, c]
+            if a == b:
+                if acc <= 0.0:
+                    return np.inf, np.inf
+                L_out[a, a] = np.sqrt(acc)
+                logdet += 2.0 * np.log(L_out[a, a])
+            else:
+                L_out[a, b] = acc / L_out[b, b]
+        for b in range(a + 1, d):
+            L_out[a, b] = 0.0
+    nis = 0.0
+    for a in range(d):
+        acc = y[a]
+        for c in range(a):
+            acc -= L_out[a, c] * w_out[c]
+        w_out[a] = acc / L_out[a, a]
+        nis += w_out[a] * w_out[a]
+    return nis, logdet
+
+
+@njit(cache=True)
+def extension_terms(M, w, kd, P, z, zhat, R, wrap, lms, feats):
+    """NIS and log-det increments (q,) of extending the hypothesis by each pair (feats[q], lms[q])."""
+    d = z.shape[1]
+    q = lms.shape[0]
+    dnis = np.empty(q)
+    dlogdet = np.empty(q)
+    S = np.empty((d, d))
+    y = np.empty(d)
+    L = np.empty((d, d))
+    w2 = np.empty(d)
+    for t in range(q):
+        _extension(M, w, kd, P, z, zhat, R, wrap, feats[t], lms[t], S, y)
+        dnis[t], dlogdet[t] = _cholesky_whiten_small(S, y, L, w2)
+    return dnis, dlogdet
+
+
+@njit(cache=True)
+def append_pair(M, w, kd, P, z, zhat, R, wrap, i, j):
+    """Append the rows of pairing (i, j): ``M[kd:kd+d] = L22⁻¹ (P[j, :] - Xᵀ M[:kd])`` and
+    ``w[kd:kd+d] = w2``. Returns (ΔNIS, Δlog det)."""
+    d = z.shape[1]
+    S = np.empty((d, d))
+    y = np.empty(d)
+    L = np.empty((d, d))
+    w2 = np.empty(d)
+    _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S, y)
+    dnis, dlogdet = _cholesky_whiten_small(S, y, L, w2)
+    nd = P.shape[1]
+    for a in range(d):
+        for col in range(nd):
+            acc = P[j * d + a, col]
+            for r in range(kd):
+                acc -= M[r, j * d + a] * M[r, col]
+            for c in range(a):
+                acc -= L[a, c] * M[kd + c, col]
+            M[kd + a, col] = acc / L[a, a]
+        w[kd + a] = w2[a]
+    return dnis, dlogdet
+
+
+def wrap_mask(problem: Problem) -> np.ndarray:
+    """Boolean (d,) mask of the angular dims, as the kernels take it."""
+    mask = np.zeros(problem.d, np.bool_)
+    mask[list(problem.angular)] = True
+    return mask
+
+
 class JointFactor:
     """Incrementally grown Cholesky factor of a hypothesis' joint innovation covariance.
 
@@ -161,9 +264,9 @@ class JointFactor:
         X = M[:, j],   L22 L22ᵀ = P_jj + R_i - XᵀX,   w2 = L22⁻¹ (y_ij - Xᵀ w),
         M_new = L22⁻¹ (P[j, :] - Xᵀ M),
 
-    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``. Evaluating any
-    extension needs no solve at all; pushing one costs a (d × kd)·(kd × nd) product, instead of
-    refactorising the joint covariance at every node.
+    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``. Evaluating an
+    extension costs O(kd·d²) and no solve; pushing one costs O(kd·nd·d), instead of
+    refactorising the joint covariance at every step. (``extension_terms``, ``append_pair``.)
     """
 
     def __init__(self, problem: Problem) -> None:
@@ -175,7 +278,7 @@ class JointFactor:
         self.pairs: list[tuple[int, int]] = []
         self.nis_stack = [0.0]
         self.logdet_stack = [0.0]
-        self._blocks = marginal_blocks(problem)
+        self._wrap = wrap_mask(problem)
 
     @property
     def k(self) -> int:
@@ -189,53 +292,20 @@ class JointFactor:
     def logdet(self) -> float:
         return self.logdet_stack[-1]
 
-    def candidates(self, landmarks: np.ndarray, features: np.ndarray) -> tuple[np.ndarray, np.ndarray, tuple]:
-        """Extensions of the hypothesis by each pairing ``(features[q], landmarks[q])``.
+    def candidates(self, landmarks: np.ndarray, features: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """NIS and log-det increments (q,) of extending the hypothesis by each pairing
+        ``(features[q], landmarks[q])``; +inf where the Schur complement is not positive definite."""
+        p = self.problem
+        return extension_terms(self.M, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap,
+                               np.asarray(landmarks, np.int64), np.asarray(features, np.int64))
 
-        Returns the NIS increments (q,), the log-det increments (q,) and what ``push`` needs.
-        A pairing whose Schur complement is not positive definite gets +inf.
-        """
-        p, d, kd = self.problem, self.d, self.k * self.d
-        landmarks, features = np.asarray(landmarks), np.asarray(features)
-        y = wrap_angles(p.z[features] - p.zhat[landmarks], p.angular)
-        D = self._blocks[landmarks]
-        if kd:
-            X = self.M[:kd].reshape(kd, -1, d)[:, landmarks, :]          # (kd, q, d)
-            D = D - np.einsum("kqa,kqb->qab", X, X)
-            y = y - np.einsum("kqa,k->qa", X, self.w[:kd])
-        S = D + p.R[features]
-        try:
-            w2, dlogdet = cholesky_whiten(S, y)
-            dnis = np.einsum("qk,qk->q", w2, w2)
-        except np.linalg.LinAlgError:
-            dnis, dlogdet, w2 = self._one_by_one(S, y)
-        return dnis, dlogdet, (S, w2)
-
-    @staticmethod
-    def _one_by_one(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-        q = len(S)
-        dnis, dlogdet, w2 = np.full(q, np.inf), np.full(q, np.inf), np.zeros_like(y)
-        for a in range(q):
-            try:
-                w, ld = cholesky_whiten(S[a], y[a])
-            except np.linalg.LinAlgError:
-                continue
-            dnis[a], dlogdet[a], w2[a] = w @ w, ld, w
-        return dnis, dlogdet, w2
-
-    def push(self, i: int, j: int, ext: tuple, which: int, dnis: float, dlogdet: float) -> None:
-        """Append pairing (feature ``i``, landmark ``j``) from entry ``which`` of ``candidates``."""
-        S, w2 = ext
-        d, kd = self.d, self.k * self.d
-        L22 = np.linalg.cholesky(S[which])
-        rows = self.problem.P[j * d:(j + 1) * d]
-        if kd:
-            rows = rows - self.M[:kd, j * d:(j + 1) * d].T @ self.M[:kd]
-        self.M[kd:kd + d] = solve_triangular(L22, rows, lower=True, check_finite=False)
-        self.w[kd:kd + d] = w2[which]
+    def push(self, i: int, j: int) -> None:
+        """Append pairing (feature ``i``, landmark ``j``)."""
+        p = self.problem
+        dnis, dlogdet = append_pair(self.M, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap, int(i), int(j))
         self.pairs.append((int(i), int(j)))
-        self.nis_stack.append(self.nis + float(dnis))
-        self.logdet_stack.append(self.logdet + float(dlogdet))
+        self.nis_stack.append(self.nis + dnis)
+        self.logdet_stack.append(self.logdet + dlogdet)
 
     def pop(self) -> None:
         """Remove the most recent pairing."""

@@ -37,7 +37,7 @@ class SNN(Associator):
             feats, lms = np.nonzero(ic)
             if not len(feats):
                 break
-            dnis, dlogdet, ext = factor.candidates(lms, feats)
+            dnis, dlogdet = factor.candidates(lms, feats)
             gain = -log_volume + 0.5 * (dnis + dlogdet + problem.d * LOG_2PI)
             joint_ok = factor.nis + dnis <= chi2_threshold(problem.d * (factor.k + 1), self.confidence)
             gain = np.where(joint_ok, gain, np.inf)
@@ -45,7 +45,7 @@ class SNN(Associator):
             if not gain[best] < 0:
                 break
             i, j = feats[best], lms[best]
-            factor.push(i, j, ext, best, dnis[best], dlogdet[best])
+            factor.push(i, j)
             out[j] = i
             ic[i, :] = False
             ic[:, j] = False
