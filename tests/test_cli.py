@@ -118,3 +118,25 @@ def test_readme_plugin_example_runs_from_the_cli(tmp_path):
     summary = pd.read_csv(tmp_path / "summary.csv")
     assert summary.loc[0, "method"] == "my_assoc:GatedNearest" and summary.loc[0, "frames"] == 3
     assert summary.loc[0, "recall"] > 0.2
+
+
+@pytest.mark.parametrize("suffix", [".gif", ".mp4"])
+def test_render_writes_a_video_of_the_run(tmp_path, suffix):
+    out = tmp_path / f"run{suffix}"
+    assert main(["render", "--method", "mnn", "--frames", "3", "-o", str(out), "--quiet"]) == 0
+    assert out.stat().st_size > 10_000
+    if suffix == ".gif":
+        from PIL import Image
+
+        with Image.open(out) as im:
+            assert im.n_frames == 3 and im.size == (640, 480)
+    else:
+        import cv2
+
+        cap = cv2.VideoCapture(str(out))
+        assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 3
+        cap.release()
+
+
+def test_render_rejects_an_unknown_video_format(capsys, tmp_path):
+    assert_one_line_error(capsys, main(["render", "-o", str(tmp_path / "run.avi")]), ".mp4 or .gif")

@@ -15,6 +15,7 @@ from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
+from tqdm import tqdm
 
 from ..atomic import atomic_path
 from ..errors import UserError
@@ -91,7 +92,8 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
     feats, labels, vis, proj, images = [], [], [], [], []
     need_depth = spec.truth.occlusion == "depth"
     with FrameRenderer(scene, spec.width, spec.height) as renderer:
-        for k in range(spec.frames):
+        for k in tqdm(range(spec.frames), desc=f"render {scene.name}", unit="frame", leave=False,
+                      disable=None, mininterval=0.5):  # shown on a terminal only
             frame = renderer.render(rots[k], pos[k], depth=need_depth)
             rng = np.random.default_rng([spec.seed, k, 11])
             f = detect(frame["rgb"], spec.detector, rng)
