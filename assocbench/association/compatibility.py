@@ -18,7 +18,6 @@ from __future__ import annotations
 from functools import lru_cache
 
 import numpy as np
-from scipy.linalg import solve_triangular
 from numba import njit
 from scipy.stats import chi2
 
@@ -57,52 +56,24 @@ def marginal_blocks(problem: Problem) -> np.ndarray:
     return blocks[np.arange(n), :, np.arange(n), :]
 
 
-def cholesky_whiten(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """For stacked ``S = L Lᵀ`` (..., d, d) and ``y`` (..., d): ``w = L⁻¹ y`` and ``log det S``.
-
-    Forward substitution over the (small) last dimension, vectorised over the rest; the
-    2 x 2 case (pixels, range-bearing, lines) is written out. Raises ``LinAlgError`` if some
-    ``S`` is not positive definite.
-    """
-    if S.shape[-1] == 2:
-        return _whiten_2x2(S, y)
-    L = np.linalg.cholesky(S)
-    d = S.shape[-1]
-    w = np.empty(y.shape)
-    for r in range(d):
-        acc = y[..., r] - np.einsum("...k,...k->...", L[..., r, :r], w[..., :r]) if r else y[..., r]
-        w[..., r] = acc / L[..., r, r]
-    logdet = 2.0 * np.log(np.diagonal(L, axis1=-2, axis2=-1)).sum(axis=-1)
-    return w, logdet
-
-
-def _whiten_2x2(S: np.ndarray, y: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    a, b, c = S[..., 0, 0], S[..., 1, 0], S[..., 1, 1]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        l11 = np.sqrt(a)
-        l21 = b / l11
-        l22 = np.sqrt(c - l21 * l21)
-    if not (np.all(l11 > 0) and np.all(l22 > 0)):
-        raise np.linalg.LinAlgError("matrix is not positive definite")
-    w = np.empty(y.shape)
-    w[..., 0] = y[..., 0] / l11
-    w[..., 1] = (y[..., 1] - l21 * w[..., 0]) / l22
-    return w, 2.0 * (np.log(l11) + np.log(l22))
-
-
 def log_gaussian(nis: np.ndarray | float, logdet: np.ndarray | float, dim: int) -> np.ndarray | float:
     """``log N = -½ (NIS + log det S + dim·log 2π)``."""
     return -0.5 * (nis + logdet + dim * LOG_2PI)
 
 
 def pairwise_nis(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
-    """Individual NIS ``y_ijᵀ S_ij⁻¹ y_ij`` with ``S_ij = P_jj + R_i`` and ``log det S_ij``; (m, n) each."""
-    m, n = problem.m, problem.n
+    """Individual NIS ``y_ijᵀ S_ij⁻¹ y_ij`` with ``S_ij = P_jj + R_i`` and ``log det S_ij``; (m, n) each.
+
+    The individual test is the joint test of a one-pairing hypothesis: ``extension_terms``
+    from the empty hypothesis over every (feature, landmark) pair.
+    """
+    m, n, d = problem.m, problem.n, problem.d
     if m == 0 or n == 0:
         return np.zeros((m, n)), np.zeros((m, n))
-    S = marginal_blocks(problem)[None, :, :, :] + problem.R[:, None, :, :]
-    w, logdet = cholesky_whiten(S, innovations(problem))
-    return np.einsum("ijk,ijk->ij", w, w), logdet
+    feats, lms = (a.ravel() for a in np.indices((m, n)))
+    nis, logdet = extension_terms(np.zeros((0, n * d)), np.zeros(0), 0, problem.P, problem.z, problem.zhat,
+                                  problem.R, wrap_mask(problem), lms, feats)
+    return nis.reshape(m, n), logdet.reshape(m, n)
 
 
 def pairwise_log_likelihood(problem: Problem) -> np.ndarray:
@@ -119,19 +90,11 @@ def individually_compatible(problem: Problem, confidence: float = 0.99,
 
 
 def joint_terms(problem: Problem, association: np.ndarray) -> tuple[float, float, int]:
-    """``(NIS(A), log det S_A, |A|)`` of a whole hypothesis, by one Cholesky factorisation."""
-    J, I = pairs_of(np.asarray(association))
-    k, d = len(J), problem.d
-    if k == 0:
-        return 0.0, 0.0, 0
-    rows = (J[:, None] * d + np.arange(d)).ravel()
-    S = problem.P[np.ix_(rows, rows)].copy()
-    for a, i in enumerate(I):
-        S[a * d:(a + 1) * d, a * d:(a + 1) * d] += problem.R[i]
-    y = wrap_angles(problem.z[I] - problem.zhat[J], problem.angular).ravel()
-    L = np.linalg.cholesky(S)
-    w = solve_triangular(L, y, lower=True, check_finite=False)
-    return float(w @ w), float(2.0 * np.log(np.diag(L)).sum()), k
+    """``(NIS(A), log det S_A, |A|)`` of a whole hypothesis, grown pairing by pairing."""
+    factor = JointFactor(problem)
+    for j, i in zip(*pairs_of(np.asarray(association))):
+        factor.push(i, j)
+    return factor.nis, factor.logdet, factor.k
 
 
 def joint_nis(problem: Problem, association: np.ndarray) -> float:
@@ -177,8 +140,8 @@ def _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S_out, y_out):
 
 
 @njit(cache=True)
-def _cholesky_whiten_small(S, y, L_out, w_out):
-    """In-place-free Cholesky ``S = L Lᵀ`` and ``w = L⁻¹ y`` of one small matrix; returns
+def _whiten(S, y, L_out, w_out):
+    """Cholesky ``S = L Lᵀ`` (into ``L_out``) and ``w = L⁻¹ y`` (into ``w_out``) of one small matrix; returns
     (wᵀw, log det S), or (inf, inf) when ``S`` is not positive definite."""
     d = S.shape[0]
     logdet = 0.0
@@ -219,7 +182,7 @@ def extension_terms(M, w, kd, P, z, zhat, R, wrap, lms, feats):
     w2 = np.empty(d)
     for t in range(q):
         _extension(M, w, kd, P, z, zhat, R, wrap, feats[t], lms[t], S, y)
-        dnis[t], dlogdet[t] = _cholesky_whiten_small(S, y, L, w2)
+        dnis[t], dlogdet[t] = _whiten(S, y, L, w2)
     return dnis, dlogdet
 
 
@@ -233,7 +196,7 @@ def append_pair(M, w, kd, P, z, zhat, R, wrap, i, j):
     L = np.empty((d, d))
     w2 = np.empty(d)
     _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S, y)
-    dnis, dlogdet = _cholesky_whiten_small(S, y, L, w2)
+    dnis, dlogdet = _whiten(S, y, L, w2)
     nd = P.shape[1]
     for a in range(d):
         for col in range(nd):

@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from pathlib import Path
 
 import pandas as pd
 
@@ -41,7 +40,3 @@ def print_table(df: pd.DataFrame, fmt: str) -> None:
     else:
         with pd.option_context("display.width", 200, "display.max_columns", 50, "display.float_format", "{:.4g}".format):
             print(df.to_string(index=False))
-
-
-def output_dir(path: str | None, default: str) -> Path:
-    return Path(path or default)

@@ -11,7 +11,7 @@ from ..atomic import atomic_path, ensure_dir
 from ..harness.config import load_run_config, run_spec
 from ..harness.runner import execute
 from ..scoring.aggregate import SUMMARY_COLUMNS
-from .common import add_run_options, output_dir, print_table
+from .common import add_run_options, print_table
 
 NAME = "run"
 HELP = "run one associator on one scene and print its scores"
@@ -29,7 +29,7 @@ def main(args: argparse.Namespace) -> int:
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed)
     spec = run_spec(cfg)
     tag = f"{Path(spec.sequence.scene).stem}-{spec.method.replace(':', '.').replace('/', '.')}-seed{spec.seed}"
-    out = ensure_dir(output_dir(args.out, f"results/runs/{tag}"))
+    out = ensure_dir(Path(args.out or f"results/runs/{tag}"))
     frames, summary = execute(spec)
     row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
            "method": spec.method, "seed": spec.seed, **{k: summary[k] for k in SUMMARY_COLUMNS}}

@@ -15,8 +15,6 @@ from ..scoring.metrics import score_frame, unscored_frame
 from ..sim.sequence import Sequence, load_sequence
 from .config import RunSpec
 
-TIMING_COLUMNS = ("runtime_s", "runtime_median_ms", "runtime_p95_ms")
-
 
 def associate_frames(seq: Sequence, belief: BeliefConfig, seed: int, method: str, params: dict,
                      frames: range | None = None) -> pd.DataFrame:
@@ -47,8 +45,3 @@ def execute(spec: RunSpec, cache_dir: Path | None = None) -> tuple[pd.DataFrame,
     seq = load_sequence(spec.sequence, cache_dir)
     frames = associate_frames(seq, spec.belief, spec.seed, spec.method, spec.params)
     return frames, summarize(frames)
-
-
-def drop_timing(df: pd.DataFrame) -> pd.DataFrame:
-    """The frame without its timing columns (the only ones allowed to differ between runs)."""
-    return df.drop(columns=[c for c in TIMING_COLUMNS if c in df.columns])
