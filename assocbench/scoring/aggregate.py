@@ -49,7 +49,9 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     std = grouped[metrics].std(ddof=0).fillna(0.0)
     table = mean.join(std.add_suffix("_std"))
     table["seeds"] = grouped.size()
+    table["frames"] = grouped["frames"].sum()
     table["failures"] = grouped["failures"].sum()
+    table["timed_out"] = grouped["timed_out"].sum()
     table = table.reset_index().sort_values(["scenario", "f1", "precision", "method"],
                                             ascending=[True, False, False, True])
     return table.reset_index(drop=True)
