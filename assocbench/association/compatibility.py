@@ -127,8 +127,8 @@ def _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S_out, y_out):
     d = z.shape[1]
     for a in range(d):
         acc = z[i, a] - zhat[j, a]
-        if wrap[a]:
-            acc = (acc + np.pi) % (2.0 * np.pi) - np.pi
+        if wrap[a] and (acc >= np.pi or acc < -np.pi):
+            acc -= 2.0 * np.pi * np.floor((acc + np.pi) / (2.0 * np.pi))
         for r in range(kd):
             acc -= M[r, j * d + a] * w[r]
         y_out[a] = acc
@@ -144,7 +144,7 @@ def _whiten(S, y, L_out, w_out):
     """Cholesky ``S = L Lᵀ`` (into ``L_out``) and ``w = L⁻¹ y`` (into ``w_out``) of one small matrix; returns
     (wᵀw, log det S), or (inf, inf) when ``S`` is not positive definite."""
     d = S.shape[0]
-    logdet = 0.0
+    det = 1.0
     for a in range(d):
         for b in range(a + 1):
             acc = S[a, b]
@@ -154,7 +154,7 @@ def _whiten(S, y, L_out, w_out):
                 if acc <= 0.0:
                     return np.inf, np.inf
                 L_out[a, a] = np.sqrt(acc)
-                logdet += 2.0 * np.log(L_out[a, a])
+                det *= acc
             else:
                 L_out[a, b] = acc / L_out[b, b]
         for b in range(a + 1, d):
@@ -166,7 +166,7 @@ def _whiten(S, y, L_out, w_out):
             acc -= L_out[a, c] * w_out[c]
         w_out[a] = acc / L_out[a, a]
         nis += w_out[a] * w_out[a]
-    return nis, logdet
+    return nis, np.log(det)  # det S = Π L_aa², one log instead of d
 
 
 @njit(cache=True)
