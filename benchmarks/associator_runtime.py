@@ -10,6 +10,7 @@ Usage: python benchmarks/associator_runtime.py [--problems 20] [--sizes 10 20 40
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 import numpy as np
 from _util import print_table, summary_ms, time_call
@@ -63,7 +64,7 @@ def main() -> None:
     ap.add_argument("--sizes", type=int, nargs="+", default=[10, 20, 40, 80, 160])
     ap.add_argument("--methods", nargs="+", default=list(BUILTINS))
     ap.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))
-    ap.add_argument("--png", default="benchmarks/associator_runtime.png")
+    ap.add_argument("--png", default=str(Path(__file__).with_suffix(".png")))
     args = ap.parse_args()
     all_results = {}
     for model in args.models:
