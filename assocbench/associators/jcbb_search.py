@@ -3,7 +3,7 @@
 Iterative (an explicit stack of levels) so numba compiles it; the joint test is the
 incremental one of ``association.compatibility`` (``extension_terms`` / ``append_pair``).
 Each level holds one node: the landmark it branches on, its candidate features sorted by
-joint NIS increase, and which child comes next (the candidates, then "unassociated").
+joint NIS increase, and which child comes next.
 """
 
 from __future__ import annotations
@@ -123,6 +123,7 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
     lvl_cand = np.zeros((levels, m), np.int64)
     lvl_dnis = np.zeros((levels, m))
     lvl_ncand = np.zeros(levels, np.int64)
+    lvl_njc = np.zeros(levels, np.int64)
     lvl_next = np.zeros(levels, np.int64)
     lvl_done = np.zeros(levels, np.bool_)
     lvl_pushed = np.zeros(levels, np.bool_)
@@ -203,7 +204,11 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
                 order = np.argsort(lvl_dnis[level, :nc], kind="mergesort")
                 lvl_cand[level, :nc] = lvl_cand[level, :nc][order]
                 lvl_dnis[level, :nc] = lvl_dnis[level, :nc][order]
+                n_jc = 0                                     # children that stay jointly compatible
+                while n_jc < nc and nis + lvl_dnis[level, n_jc] <= gate[k + 1]:
+                    n_jc += 1
                 lvl_ncand[level] = nc
+                lvl_njc[level] = n_jc
                 lvl_j[level] = jstar
                 lvl_next[level] = 0
                 lvl_done[level] = False
@@ -218,12 +223,19 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
         if lvl_done[level]:
             level -= 1
             continue
-        a = lvl_next[level]
+        # children in order: the compatible pairings, then "unassociated", then the pairings that
+        # break the joint test for now (needed for exactness, not by the classic prefix test). So
+        # the first dive is the classic JCBB dive and meets a jointly compatible hypothesis early.
+        slot = lvl_next[level]
         lvl_next[level] += 1
-        if a < lvl_ncand[level]:
-            if prefix_test and nis_at[k] + lvl_dnis[level, a] > gate[k + 1]:
-                lvl_next[level] = lvl_ncand[level]       # sorted: no later candidate passes either
-                continue
+        n_jc = lvl_njc[level]
+        last = n_jc if prefix_test else lvl_ncand[level]
+        if slot > last:
+            lvl_done[level] = True
+            level -= 1
+            continue
+        if slot != n_jc:
+            a = slot if slot < n_jc else slot - 1
             i, j = lvl_cand[level, a], lvl_j[level]
             dn, _ = append_pair(M, w, k * d, P, z, zhat, R, wrap, i, j)
             pair_i[k], pair_j[k] = i, j
@@ -231,12 +243,8 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
             k += 1
             free[i] = False
             lvl_pushed[level] = True
-        elif a == lvl_ncand[level]:
-            lvl_pushed[level] = False                    # the "unassociated" child
         else:
-            lvl_done[level] = True
-            level -= 1
-            continue
+            lvl_pushed[level] = False                    # the "unassociated" child
         level += 1
         entering = True
     return best_i[:best_k], best_j[:best_k], nodes, timed_out
