@@ -128,3 +128,13 @@ def test_plugin_by_entry_point(tmp_path, monkeypatch):
     assert "fancy" in available()
     p, _ = easy_problem()
     assert np.all(make_associator("fancy").associate(p) == -1)
+
+
+def test_readme_python_example_runs_and_prints_what_it_says(capsys):
+    import re
+    from pathlib import Path
+
+    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    block = next(b for b in re.findall(r"```python\n(.*?)```", readme, re.S) if "make_associator(\"jcbb\")" in b)
+    exec(compile(block, "README.md", "exec"), {})
+    assert capsys.readouterr().out.strip() == "[2 0]"
