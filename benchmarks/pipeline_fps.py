@@ -12,6 +12,7 @@ from _util import print_table
 
 from assocbench.associators.registry import BUILTINS, make_associator
 from assocbench.belief.camera_belief import BeliefConfig, make_problem
+from assocbench.harness.runner import warm_up
 from assocbench.sim.detect import DetectorConfig, detect
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
@@ -47,6 +48,7 @@ def association(scene_name: str, frames: int) -> list[list[object]]:
     rows = []
     for method in BUILTINS:
         assoc = make_associator(method)
+        warm_up(assoc)
         start = time.perf_counter()
         for k in range(len(seq)):
             assoc.associate(make_problem(seq, k, cfg, 0)[0])

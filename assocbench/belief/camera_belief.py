@@ -101,16 +101,23 @@ def sample_estimate(R, p, landmarks, cfg: BeliefConfig, rng: np.random.Generator
     return R_hat, p_hat, landmarks + e_lm
 
 
+def expected_in_view(seq: Sequence, p_hat: np.ndarray, l_hat: np.ndarray, h: np.ndarray, depth: np.ndarray,
+                     max_view_angle: float) -> np.ndarray:
+    """Landmarks the estimate expects to see: in front, facing the estimated camera within
+    ``max_view_angle`` and predicted inside the image (the estimate knows nothing of occlusion)."""
+    to_cam = p_hat - l_hat
+    cos_view = np.einsum("ij,ij->i", seq.normals, to_cam) / np.linalg.norm(to_cam, axis=1)
+    in_image = seq.K.in_image(np.nan_to_num(h, nan=-1e9))
+    return (depth > 1e-3) & (cos_view > np.cos(np.deg2rad(max_view_angle))) & in_image
+
+
 def make_problem(seq: Sequence, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
     """The association problem of one frame and its truth."""
     rng = np.random.default_rng([seed, frame, 101])
     R_hat, p_hat, l_hat = sample_estimate(seq.rotations[frame], seq.positions[frame], seq.landmarks, cfg, rng)
     in_map = map_mask(len(seq.landmarks), cfg, seed)
     h, J_pose, J_l, depth = predict_bundle(R_hat, p_hat, l_hat, seq.K)
-    to_cam = p_hat - l_hat
-    facing = np.einsum("ij,ij->i", seq.normals, to_cam) > np.cos(np.deg2rad(cfg.max_view_angle)) * np.linalg.norm(
-        to_cam, axis=1)
-    cand = np.flatnonzero(in_map & (depth > 1e-3) & facing & seq.K.in_image(np.nan_to_num(h, nan=-1e9)))
+    cand = np.flatnonzero(in_map & expected_in_view(seq, p_hat, l_hat, h, depth, cfg.max_view_angle))
     features, labels = seq.features[frame], seq.labels[frame]
     clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (cfg.clutter, 2))
     z = np.vstack([features, clutter]) if cfg.clutter else features

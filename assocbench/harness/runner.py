@@ -5,9 +5,10 @@ from __future__ import annotations
 import time
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
-from ..association.problem import validate_association
+from ..association.problem import Problem, validate_association
 from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig, make_problem
 from ..scoring.aggregate import summarize
@@ -16,11 +17,24 @@ from ..sim.sequence import Sequence, load_sequence
 from .config import RunSpec
 
 
+def warm_up(associator) -> None:
+    """Run ``associator`` once on a tiny problem so that loading compiled kernels (numba's
+    cache, a plugin's own JIT) is not timed as the first frame's runtime. Errors are left to
+    the real frames to report."""
+    tiny = Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
+                   np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
+    try:
+        associator.associate(tiny)
+    except Exception:  # noqa: BLE001
+        pass
+
+
 def associate_frames(seq: Sequence, belief: BeliefConfig, seed: int, method: str, params: dict,
                      frames: range | None = None) -> pd.DataFrame:
     """Per-frame records of ``method`` on ``seq``. A method that raises or returns an invalid
     association is recorded as failed on that frame (``error``) and the run goes on."""
     associator = make_associator(method, **params)
+    warm_up(associator)
     rows = []
     for k in frames if frames is not None else range(len(seq)):
         problem, truth = make_problem(seq, k, belief, seed)

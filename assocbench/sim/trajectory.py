@@ -133,11 +133,12 @@ def make_trajectory(name: str, rig: Rig, frames: int, seed: int = 0,
     if int(frames) < 1:
         raise UserError(f"frames must be a positive integer, got {frames!r}")
     rng = np.random.default_rng([int(seed), 7])
-    closed = name != "line"
-    phase = rng.uniform() if closed else 0.0
-    t = (np.arange(frames) / max(frames, 1) if closed else np.linspace(0, 1, frames)) + phase
+    if name == "line":
+        t = np.linspace(0.0, 1.0, frames)
+    else:  # closed paths start at a seeded phase
+        t = np.arange(frames) / frames + rng.uniform()
     try:
-        rots, pos = TRAJECTORIES[name](rig, t if closed else t - phase, **params)
+        rots, pos = TRAJECTORIES[name](rig, t, **params)
     except TypeError as exc:
         raise UserError(f"bad parameter for trajectory {name!r}: {exc}") from None
     pos = pos + rng.normal(0.0, jitter_pos, pos.shape)
