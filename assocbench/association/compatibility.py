@@ -102,17 +102,23 @@ def joint_nis(problem: Problem, association: np.ndarray) -> float:
     return joint_terms(problem, association)[0]
 
 
+def joint_verdict(problem: Problem, association: np.ndarray, confidence: float = 0.99) -> tuple[float, bool]:
+    """Total surprisal and joint compatibility of a hypothesis from one evaluation of its joint
+    terms (see ``surprisal`` and ``jointly_compatible``)."""
+    nis, logdet, k = joint_terms(problem, association)
+    s = (problem.n - k) * float(np.log(problem.volume)) - float(log_gaussian(nis, logdet, problem.d * k))
+    return s, bool(k == 0 or nis <= chi2_threshold(problem.d * k, confidence))
+
+
 def jointly_compatible(problem: Problem, association: np.ndarray, confidence: float = 0.99) -> bool:
     """Whether ``NIS(A) <= χ²_{d|A|}(c)`` (eq. 15); the empty hypothesis is compatible."""
-    nis, _, k = joint_terms(problem, association)
-    return k == 0 or nis <= chi2_threshold(problem.d * k, confidence)
+    return joint_verdict(problem, association, confidence)[1]
 
 
 def surprisal(problem: Problem, association: np.ndarray) -> float:
-    """Total surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` (lab 8, section 2)."""
-    nis, logdet, k = joint_terms(problem, association)
-    n_unassociated = problem.n - k
-    return n_unassociated * float(np.log(problem.volume)) - float(log_gaussian(nis, logdet, problem.d * k))
+    """Total surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` (lab 8, section 2), with
+    ``n_U`` the candidates left unassociated."""
+    return joint_verdict(problem, association)[0]
 
 
 # -- the incremental joint factor, compiled ---------------------------------------------------

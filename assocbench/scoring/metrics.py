@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..association.compatibility import jointly_compatible, surprisal
+from ..association.compatibility import joint_verdict, surprisal
 from ..association.problem import NO_MATCH, Problem
 from ..belief.camera_belief import FrameTruth
 
@@ -31,13 +31,13 @@ def score_frame(problem: Problem, truth: FrameTruth, association: np.ndarray) ->
     fp = int(np.sum(paired & (a != t)))
     fn = int(np.sum((t >= 0) & (a != t)))
     clutter = int(np.sum(paired & (a != t) & (truth.feature_labels[np.maximum(a, 0)] == NO_MATCH)))
+    s, compatible = joint_verdict(problem, a, JC_CONFIDENCE)
     return {
         "n": problem.n, "m": problem.m, "n_true": int(np.sum(t >= 0)),
         "tp": tp, "fp": fp, "fn": fn, "clutter_accepted": clutter,
         "missed_true": int(np.sum((t >= 0) & ~paired)),
         "perfect": bool(np.array_equal(a, t)),
-        "surprisal": surprisal(problem, a), "surprisal_true": surprisal(problem, t),
-        "jointly_compatible": jointly_compatible(problem, a, JC_CONFIDENCE),
+        "surprisal": s, "surprisal_true": surprisal(problem, t), "jointly_compatible": compatible,
     }
 
 
