@@ -18,6 +18,10 @@ import numpy as np
 PATCH = 0.70          # side of a landmark patch (m): its outer edge corners lie PATCH/2 away
 OFFSET = 0.004        # gap between wall surface and patch (m), avoids z-fighting
 OFFSCREEN = (1280, 960)
+# A plane's third size is the spacing of the grid it is drawn with: a fine grid multiplies the
+# triangles (0.01 m made a 0.7 m patch 4900 quads and the room 30x slower to render). Planes
+# here are flat-lit and textured per plane, so one coarse grid cell is enough.
+PLANE_GRID = 5.0
 
 
 @dataclass
@@ -41,7 +45,7 @@ class SceneBuilder:
         up = np.array([0.0, 0.0, 1.0]) if abs(n[2]) < 0.9 else np.array([0.0, 1.0, 0.0])
         axes = f'xyaxes="{_v(np.cross(up, n))} {_v(up)}"'
         self.geoms.append(
-            f'    <geom type="plane" pos="{_v(center)}" {axes} size="{half_w:.4f} {half_h:.4f} 0.1" '
+            f'    <geom type="plane" pos="{_v(center)}" {axes} size="{half_w:.4f} {half_h:.4f} {PLANE_GRID}" '
             f'material="{material}"/>'
         )
         # a thin box behind the plane so the wall is solid from behind as well
@@ -65,7 +69,7 @@ class SceneBuilder:
         quat = _mat_to_quat(np.column_stack([r, u, n]))
         # a textured plane facing n: planes map a 2D texture once across their face
         self.geoms.append(
-            f'    <geom type="plane" pos="{_v(c)}" quat="{_v(quat)}" size="{size / 2:.4f} {size / 2:.4f} 0.01" '
+            f'    <geom type="plane" pos="{_v(c)}" quat="{_v(quat)}" size="{size / 2:.4f} {size / 2:.4f} {PLANE_GRID}" '
             f'material="landmark" group="1"/>'
         )
         self.add_site(c, n, u)
@@ -204,7 +208,7 @@ def checkerboard(sb: SceneBuilder) -> None:
     center = np.array([0.0, 3.0 - OFFSET, 0.25 + rows * cell / 2])
     sb.geoms.append(
         f'    <geom type="plane" pos="{_v(center)}" xyaxes="1 0 0 0 0 1" '
-        f'size="{cols * cell / 2:.4f} {rows * cell / 2:.4f} 0.01" material="board"/>'
+        f'size="{cols * cell / 2:.4f} {rows * cell / 2:.4f} {PLANE_GRID}" material="board"/>'
     )
     for r in range(1, rows):
         for c in range(1, cols):
