@@ -10,8 +10,15 @@
 import os
 from pathlib import Path
 
+
+
+def cache_root() -> Path:
+    """Where assocbench caches things: ``$ASSOCBENCH_CACHE`` or ``~/.cache/assocbench``."""
+    return Path(os.environ.get("ASSOCBENCH_CACHE", Path.home() / ".cache" / "assocbench"))
+
+
 os.environ.setdefault("MUJOCO_GL", "egl")
 # compiled kernels are cached where a user can always write (site-packages may be read-only)
-os.environ.setdefault("NUMBA_CACHE_DIR", str(Path(os.environ.get("ASSOCBENCH_CACHE", Path.home() / ".cache" / "assocbench")) / "numba"))
+os.environ.setdefault("NUMBA_CACHE_DIR", str(cache_root() / "numba"))
 for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
     os.environ.setdefault(_var, "1")

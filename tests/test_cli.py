@@ -46,22 +46,17 @@ def test_bad_input_is_a_one_line_error(capsys, args, needles):
     assert_one_line_error(capsys, main(args), *needles)
 
 
-def test_mjcf_without_landmarks(capsys, tmp_path):
-    path = tmp_path / "empty.xml"
-    path.write_text("<mujoco><worldbody><geom type='box' size='1 1 1'/></worldbody></mujoco>")
-    assert_one_line_error(capsys, main(["frame", "--scene", str(path)]), "has no landmarks", "lm")
-
-
-def test_malformed_yaml(capsys, tmp_path):
-    path = tmp_path / "bad.yaml"
-    path.write_text("frames: [1, 2\nscene: room\n")
-    assert_one_line_error(capsys, main(["run", "--config", str(path)]), "malformed YAML", "line")
-
-
-def test_unknown_key_in_yaml_config(capsys, tmp_path):
-    path = tmp_path / "cfg.yaml"
-    path.write_text("scene: room\nbelif: {clutter: 2}\n")
-    assert_one_line_error(capsys, main(["run", "--config", str(path)]), "unknown key 'belif'", "belief")
+@pytest.mark.parametrize("name,text,command,needles", [
+    ("empty.xml", "<mujoco><worldbody><geom type='box' size='1 1 1'/></worldbody></mujoco>",
+     ["frame", "--scene"], ["has no landmarks", "lm"]),
+    ("bad.yaml", "frames: [1, 2\nscene: room\n", ["run", "--config"], ["malformed YAML", "line"]),
+    ("cfg.yaml", "scene: room\nbelif: {clutter: 2}\n", ["run", "--config"], ["unknown key 'belif'", "belief"]),
+])
+def test_bad_input_files(capsys, tmp_path, name, text, command, needles):
+    """An MJCF without landmarks, malformed YAML, an unknown key in a YAML config."""
+    path = tmp_path / name
+    path.write_text(text)
+    assert_one_line_error(capsys, main([*command, str(path)]), *needles)
 
 
 def test_unwritable_output_folder(capsys, tmp_path):

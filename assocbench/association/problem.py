@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -10,7 +10,7 @@ NO_MATCH = -1
 
 
 def _as_float(name: str, value, shape: tuple) -> np.ndarray:
-    arr = np.asarray(value, dtype=np.float64)
+    arr = np.array(value, dtype=np.float64)  # a copy: the caller's arrays stay writeable
     if arr.shape != shape:
         raise ValueError(f"Problem.{name} has shape {arr.shape}, expected {shape}")
     if not np.all(np.isfinite(arr)):
@@ -40,7 +40,8 @@ class Problem:
 
     The innovation covariance of pairing landmarks J with features I is
     ``P[J, J] + blockdiag(R[I])``. Arrays are validated (shape, finiteness, symmetry,
-    definiteness) on construction; errors are ``ValueError`` naming the field.
+    definiteness) on construction; errors are ``ValueError`` naming the field. The arrays are
+    copies and read-only, so an associator cannot change a problem another method will see.
     """
 
     z: np.ndarray
@@ -50,7 +51,6 @@ class Problem:
     landmark_ids: np.ndarray | None = None
     volume: float = 1.0
     angular: tuple[int, ...] = ()
-    meta: dict = field(default_factory=dict)
 
     def __post_init__(self) -> None:
         set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731  (frozen dataclass)
@@ -63,7 +63,7 @@ class Problem:
         set_("z", _as_float("z", z, (m, d)))
         set_("R", _as_float("R", self.R, (m, d, d)))
         set_("P", _as_float("P", self.P, (n * d, n * d)))
-        ids = np.arange(n) if self.landmark_ids is None else np.asarray(self.landmark_ids)
+        ids = np.arange(n) if self.landmark_ids is None else np.array(self.landmark_ids)
         if ids.shape != (n,):
             raise ValueError(f"Problem.landmark_ids has shape {ids.shape}, expected {(n,)}")
         set_("landmark_ids", ids)
@@ -75,6 +75,9 @@ class Problem:
         set_("angular", ang)
         _check_spd("R", self.R)
         _check_spd("P", self.P, allow_semidefinite=True)
+        for name in ("z", "R", "zhat", "P", "landmark_ids"):
+            # one problem is shared by every method of a sweep: none may change it for the next
+            getattr(self, name).flags.writeable = False
 
     def __eq__(self, other: object) -> bool:
         """Equal when every array is equal, element by element (and the scalars match)."""

@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, fields
+from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
@@ -26,11 +26,6 @@ class Associator:
 
     def associate(self, problem: Problem) -> np.ndarray:  # pragma: no cover - interface
         raise NotImplementedError
-
-    @classmethod
-    def parameters(cls) -> dict[str, object]:
-        """Parameter names and defaults."""
-        return {f.name: f.default for f in fields(cls)}
 
     @staticmethod
     def empty(problem: Problem) -> np.ndarray:

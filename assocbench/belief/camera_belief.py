@@ -126,7 +126,7 @@ def make_problem(seq: Sequence, frame: int, cfg: BeliefConfig, seed: int) -> tup
     problem = Problem(
         z=z, R=np.repeat((cfg.sigma_pixel**2 * np.eye(2))[None], len(z), axis=0),
         zhat=h[cand], P=bundle_covariance(J_pose[cand], J_l[cand], cfg), landmark_ids=cand,
-        volume=seq.K.area, meta={"frame": frame},
+        volume=seq.K.area,
     )
     return problem, FrameTruth(feature_labels, true_association(feature_labels, cand), seq.visible[frame][cand])
 

@@ -10,7 +10,7 @@ import pandas as pd
 
 from ..association.problem import Problem, validate_association
 from ..associators.registry import make_associator
-from ..belief.camera_belief import BeliefConfig, make_problem
+from ..belief.camera_belief import BeliefConfig, FrameTruth, make_problem
 from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, unscored_frame
 from ..sim.sequence import Sequence, load_sequence
@@ -29,15 +29,18 @@ def warm_up(associator) -> None:
         pass
 
 
-def associate_frames(seq: Sequence, belief: BeliefConfig, seed: int, method: str, params: dict,
-                     frames: range | None = None) -> pd.DataFrame:
-    """Per-frame records of ``method`` on ``seq``. A method that raises or returns an invalid
+def frame_problems(seq: Sequence, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
+    """The problem and truth of every frame; built once and shared by every method of a sweep."""
+    return [make_problem(seq, k, belief, seed) for k in range(len(seq))]
+
+
+def associate_frames(problems: list[tuple[Problem, FrameTruth]], method: str, params: dict) -> pd.DataFrame:
+    """Per-frame records of ``method`` on ``problems``. A method that raises or returns an invalid
     association is recorded as failed on that frame (``error``) and the run goes on."""
     associator = make_associator(method, **params)
     warm_up(associator)
     rows = []
-    for k in frames if frames is not None else range(len(seq)):
-        problem, truth = make_problem(seq, k, belief, seed)
+    for k, (problem, truth) in enumerate(problems):
         error, timed_out = "", False
         start = time.perf_counter()
         try:
@@ -57,5 +60,5 @@ def associate_frames(seq: Sequence, belief: BeliefConfig, seed: int, method: str
 def execute(spec: RunSpec, cache_dir: Path | None = None) -> tuple[pd.DataFrame, dict]:
     """Run ``spec``: per-frame records and the summary."""
     seq = load_sequence(spec.sequence, cache_dir)
-    frames = associate_frames(seq, spec.belief, spec.seed, spec.method, spec.params)
+    frames = associate_frames(frame_problems(seq, spec.belief, spec.seed), spec.method, spec.params)
     return frames, summarize(frames)

@@ -15,9 +15,10 @@ from tqdm import tqdm
 
 from ..atomic import atomic_path, ensure_dir
 from ..errors import UserError
+from ..scoring.aggregate import summarize
 from ..sim.sequence import load_sequence
 from .config import run_spec
-from .runner import associate_frames
+from .runner import associate_frames, frame_problems
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
@@ -25,14 +26,13 @@ EXECUTORS = ("local", "dask")
 
 def run_job(job: Job, cache_dir: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Summaries (one row per difficulty × method) and per-frame (n, runtime) of one job."""
-    from ..scoring.aggregate import summarize
-
     summaries, frames = [], []
     for difficulty, cfg in job.runs:
         spec = run_spec(cfg)
         seq = load_sequence(spec.sequence, Path(cache_dir) if cache_dir else None)
+        problems = frame_problems(seq, spec.belief, spec.seed)
         for entry in job.methods:
-            per_frame = associate_frames(seq, spec.belief, spec.seed, entry.method, entry.params)
+            per_frame = associate_frames(problems, entry.method, entry.params)
             errors = sorted(set(per_frame["error"]) - {""})
             label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}

@@ -88,7 +88,7 @@ def load_scene(scene: str | Path) -> Scene:
         )
     xmat = data.site_xmat[idx].reshape(-1, 3, 3)
     return Scene(
-        name=path.stem if str(scene) != path.stem else str(scene),
+        name=path.stem,
         path=path,
         model=model,
         data=data,

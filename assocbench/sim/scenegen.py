@@ -32,11 +32,9 @@ class SceneBuilder:
     geoms: list[str] = field(default_factory=list)
     n_landmarks: int = 0
 
-    def box(self, pos, size, rgba="0.6 0.6 0.6 1", material=None, euler=None) -> None:
+    def box(self, pos, size, rgba="0.6 0.6 0.6 1", material=None) -> None:
         attrs = f'type="box" pos="{_v(pos)}" size="{_v(size)}"'
         attrs += f' material="{material}"' if material else f' rgba="{rgba}"'
-        if euler is not None:
-            attrs += f' euler="{_v(euler)}"'
         self.geoms.append(f"    <geom {attrs}/>")
 
     def wall(self, center, normal, half_w, half_h, material="wall") -> None:

@@ -10,13 +10,13 @@ from __future__ import annotations
 
 import hashlib
 import json
-import os
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import numpy as np
 from tqdm import tqdm
 
+from .._runtime import cache_root
 from ..atomic import atomic_path
 from ..errors import UserError
 from .camera import Intrinsics
@@ -32,7 +32,7 @@ DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "lin
 
 def default_cache_dir() -> Path:
     """``$ASSOCBENCH_CACHE`` or ``~/.cache/assocbench``."""
-    return Path(os.environ.get("ASSOCBENCH_CACHE", Path.home() / ".cache" / "assocbench"))
+    return cache_root()
 
 
 @dataclass(frozen=True)
@@ -84,29 +84,52 @@ class Sequence:
         return len(self.positions)
 
 
+@dataclass
+class RenderedFrame:
+    """One rendered frame, its detections and their truth (what ``render_sequence`` keeps)."""
+
+    rgb: np.ndarray | None   # dropped once a sequence has taken what it keeps
+    features: np.ndarray     # (m, 2)
+    labels: np.ndarray       # (m,) landmark index or -1
+    projections: np.ndarray  # (L, 2)
+    imaged: np.ndarray       # (L,) unoccluded, facing, in the image
+    visible: np.ndarray      # (L,) imaged and clear of the border margin
+
+
+def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Camera rotations (N, 3, 3) and positions (N, 3) of ``spec``'s trajectory in ``scene``."""
+    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height)
+    return make_trajectory(spec.resolved_trajectory(), rig, spec.frames, spec.seed, **spec.trajectory_params)
+
+
+def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: np.ndarray, p: np.ndarray,
+                  k: int) -> RenderedFrame:
+    """Render frame ``k`` at pose ``(R, p)``, detect its features and label them."""
+    frame = renderer.render(R, p, depth=spec.truth.occlusion == "depth")
+    features = detect(frame["rgb"], spec.detector, np.random.default_rng([spec.seed, k, 11]))
+    uv, imaged, visible = visibility(scene, R, p, renderer.K, spec.truth, frame.get("depth"))
+    labels = label_features(features, uv, imaged, spec.truth.gate_px)
+    return RenderedFrame(frame["rgb"], features, labels, uv, imaged, visible)
+
+
 def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
     """Render, detect and label every frame of ``spec`` (no cache)."""
     scene = scene or load_scene(spec.scene)
-    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height)
-    rots, pos = make_trajectory(spec.resolved_trajectory(), rig, spec.frames, spec.seed, **spec.trajectory_params)
-    feats, labels, vis, proj, images = [], [], [], [], []
-    need_depth = spec.truth.occlusion == "depth"
+    rots, pos = trajectory_poses(spec, scene)
+    frames, images = [], []
     with FrameRenderer(scene, spec.width, spec.height) as renderer:
         for k in tqdm(range(spec.frames), desc=f"render {scene.name}", unit="frame", leave=False,
-                      disable=None, mininterval=0.5):  # shown on a terminal only
-            frame = renderer.render(rots[k], pos[k], depth=need_depth)
-            rng = np.random.default_rng([spec.seed, k, 11])
-            f = detect(frame["rgb"], spec.detector, rng)
-            uv, imaged, visible = visibility(scene, rots[k], pos[k], renderer.K, spec.truth, frame.get("depth"))
-            feats.append(f)
-            labels.append(label_features(f, uv, imaged, spec.truth.gate_px))
-            vis.append(visible)
-            proj.append(uv)
+                      disable=None, mininterval=0.5):  # the bar shows on a terminal only
+            f = process_frame(spec, scene, renderer, rots[k], pos[k], k)
             if spec.keep_images:
-                images.append(frame["rgb"])
+                images.append(f.rgb)
+            f.rgb = None  # a long sequence must not hold every image in memory
+            frames.append(f)
         K = renderer.K
-    return Sequence(scene.name, K, scene.landmarks, scene.normals, scene.landmark_names, rots, pos, feats, labels,
-                    np.array(vis), np.array(proj), np.array(images) if spec.keep_images else None)
+    return Sequence(scene.name, K, scene.landmarks, scene.normals, scene.landmark_names, rots, pos,
+                    [f.features for f in frames], [f.labels for f in frames],
+                    np.array([f.visible for f in frames]), np.array([f.projections for f in frames]),
+                    np.array(images) if spec.keep_images else None)
 
 
 def _save(seq: Sequence, path: Path) -> None:

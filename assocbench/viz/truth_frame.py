@@ -6,12 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..sim.detect import detect
+from ..errors import UserError
 from ..sim.render import FrameRenderer
 from ..sim.scene import load_scene
-from ..sim.sequence import SequenceSpec
-from ..sim.trajectory import make_trajectory, rig_for
-from ..sim.truth import label_features, visibility
+from ..sim.sequence import SequenceSpec, process_frame, trajectory_poses
 from . import draw
 
 
@@ -37,19 +35,14 @@ def render_truth_frame(spec: SequenceSpec, index: int) -> TruthFrame:
     """Render frame ``index`` of ``spec``'s trajectory alone, detect and label it."""
     scene = load_scene(spec.scene)
     if not 0 <= index < spec.frames:
-        from ..errors import UserError
-
         raise UserError(f"--index {index} is outside the trajectory's 0..{spec.frames - 1}; raise --frames or lower it")
-    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height)
-    rots, pos = make_trajectory(spec.resolved_trajectory(), rig, spec.frames, spec.seed, **spec.trajectory_params)
+    rots, pos = trajectory_poses(spec, scene)
     with FrameRenderer(scene, spec.width, spec.height) as renderer:
-        frame = renderer.render(rots[index], pos[index], depth=spec.truth.occlusion == "depth")
+        f = process_frame(spec, scene, renderer, rots[index], pos[index], index)
         K = renderer.K
-    features = detect(frame["rgb"], spec.detector, np.random.default_rng([spec.seed, index, 11]))
-    uv, imaged, visible = visibility(scene, rots[index], pos[index], K, spec.truth, frame.get("depth"))
-    in_view = K.in_image(np.nan_to_num(uv, nan=-1e9)) & ((rots[index].T @ (scene.landmarks - pos[index]).T)[2] > 0)
-    labels = label_features(features, uv, imaged, spec.truth.gate_px)
-    return TruthFrame(frame["rgb"], uv, visible, in_view, features, labels)
+    in_front = (scene.landmarks - pos[index]) @ rots[index][:, 2] > 0
+    in_view = K.in_image(np.nan_to_num(f.projections, nan=-1e9)) & in_front
+    return TruthFrame(f.rgb, f.projections, f.visible, in_view, f.features, f.labels)
 
 
 def draw_truth_frame(tf: TruthFrame, title: str = "") -> np.ndarray:
