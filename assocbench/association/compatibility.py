@@ -71,7 +71,7 @@ def pairwise_nis(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
     if m == 0 or n == 0:
         return np.zeros((m, n)), np.zeros((m, n))
     feats, lms = (a.ravel() for a in np.indices((m, n)))
-    nis, logdet = extension_terms(np.zeros((0, n * d)), np.zeros(0), 0, problem.P, problem.z, problem.zhat,
+    nis, logdet = extension_terms(np.zeros((n * d, 0)), np.zeros(0), 0, problem.P, problem.z, problem.zhat,
                                   problem.R, wrap_mask(problem), lms, feats)
     return nis.reshape(m, n), logdet.reshape(m, n)
 
@@ -123,29 +123,58 @@ def surprisal(problem: Problem, association: np.ndarray) -> float:
 
 # -- the incremental joint factor, compiled ---------------------------------------------------
 # These kernels are the only implementation of the incremental joint test: ``JointFactor``
-# (SNN) and the JCBB search both call them. ``M`` holds L⁻¹ P[J, :] row block by row block,
-# ``w`` the whitened innovation L⁻¹ y_A; ``kd`` rows of each are in use.
+# (SNN) and the JCBB search both call them. The factor keeps ``M = L⁻¹ P[J, :]`` stored
+# transposed, ``Mt = Mᵀ`` (row ``l·d + b`` of ``Mt`` is column ``l·d + b`` of ``M``, so what a
+# test reads about one landmark is contiguous), and ``w = L⁻¹ y_A``; ``kd`` entries of each
+# row are in use. What a hypothesis says about landmark ``j`` is summarised by its conditional
+# moments ``c_j = Xᵀw`` and ``G_j = XᵀX`` with ``X = M[:kd, j]`` (the shift of its predicted
+# innovation and the covariance its prediction loses); a pairing's test needs nothing else.
+
+
+@njit(cache=True, inline="always")
+def _dot_rows(A, ra, B, rb, length):
+    """``Σ_r<length A[ra, r] B[rb, r]`` in four interleaved partial sums: independent chains the CPU
+    can overlap, in a fixed order so results do not depend on the machine's vector width."""
+    s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
+    top = length - length % 4
+    for r in range(0, top, 4):
+        s0 += A[ra, r] * B[rb, r]
+        s1 += A[ra, r + 1] * B[rb, r + 1]
+        s2 += A[ra, r + 2] * B[rb, r + 2]
+        s3 += A[ra, r + 3] * B[rb, r + 3]
+    for r in range(top, length):
+        s0 += A[ra, r] * B[rb, r]
+    return (s0 + s1) + (s2 + s3)
 
 
 @njit(cache=True)
-def _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S_out, y_out):
-    """S = P_jj + R_i - XᵀX and y = wrap(z_i - zhat_j) - Xᵀw with X = M[:kd, j], into the outputs."""
+def conditional_moments(Mt, w, kd, j, c_out, G_out):
+    """``c_j = Xᵀw`` (d,) and ``G_j = XᵀX`` (d, d) with ``X = M[:kd, j]``, into the outputs."""
+    d = c_out.shape[0]
+    for a in range(d):
+        acc = 0.0
+        for r in range(kd):
+            acc += Mt[j * d + a, r] * w[r]
+        c_out[a] = acc
+        for b in range(d):
+            G_out[a, b] = _dot_rows(Mt, j * d + a, Mt, j * d + b, kd)
+
+
+@njit(cache=True, inline="always")
+def pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S_out, y_out):
+    """Conditional innovation of pairing (i, j) given a hypothesis whose moments of landmark ``j``
+    are ``C[j] = c_j``, ``G[j] = G_j``: ``S = P_jj + R_i - G_j`` and ``y = wrap(z_i - zhat_j) - c_j``."""
     d = z.shape[1]
     for a in range(d):
         acc = z[i, a] - zhat[j, a]
         if wrap[a] and (acc >= np.pi or acc < -np.pi):
             acc -= 2.0 * np.pi * np.floor((acc + np.pi) / (2.0 * np.pi))
-        for r in range(kd):
-            acc -= M[r, j * d + a] * w[r]
-        y_out[a] = acc
+        y_out[a] = acc - C[j, a]
         for b in range(d):
-            s = P[j * d + a, j * d + b] + R[i, a, b]
-            for r in range(kd):
-                s -= M[r, j * d + a] * M[r, j * d + b]
-            S_out[a, b] = s
+            S_out[a, b] = P[j * d + a, j * d + b] + R[i, a, b] - G[j, a, b]
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _whiten(S, y, L_out, w_out):
     """Cholesky ``S = L Lᵀ`` (into ``L_out``) and ``w = L⁻¹ y`` (into ``w_out``) of one small matrix; returns
     (wᵀw, log det S), or (inf, inf) when ``S`` is not positive definite."""
@@ -175,44 +204,65 @@ def _whiten(S, y, L_out, w_out):
     return nis, np.log(det)  # det S = Π L_aa², one log instead of d
 
 
+@njit(cache=True, inline="always")
+def whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
+    """(ΔNIS, Δlog det) of adding pairing (i, j): the whitened conditional innovation
+    ``|L22⁻¹ y|²`` with ``L22 L22ᵀ = S`` (``pair_innovation``, into the work arrays ``S``, ``y``);
+    ``L22`` and ``L22⁻¹ y`` into the outputs."""
+    pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
+    return _whiten(S, y, L_out, w_out)
+
+
 @njit(cache=True)
-def extension_terms(M, w, kd, P, z, zhat, R, wrap, lms, feats):
+def extension_terms(Mt, w, kd, P, z, zhat, R, wrap, lms, feats):
     """NIS and log-det increments (q,) of extending the hypothesis by each pair (feats[q], lms[q])."""
     d = z.shape[1]
     q = lms.shape[0]
     dnis = np.empty(q)
     dlogdet = np.empty(q)
+    C = np.zeros((zhat.shape[0], d))
+    G = np.zeros((zhat.shape[0], d, d))
     S = np.empty((d, d))
     y = np.empty(d)
     L = np.empty((d, d))
     w2 = np.empty(d)
     for t in range(q):
-        _extension(M, w, kd, P, z, zhat, R, wrap, feats[t], lms[t], S, y)
-        dnis[t], dlogdet[t] = _whiten(S, y, L, w2)
+        if kd > 0:
+            conditional_moments(Mt, w, kd, lms[t], C[lms[t]], G[lms[t]])
+        dnis[t], dlogdet[t] = whitened_pair(P, z, zhat, R, wrap, feats[t], lms[t], C, G, S, y, L, w2)
     return dnis, dlogdet
 
 
 @njit(cache=True)
-def append_pair(M, w, kd, P, z, zhat, R, wrap, i, j):
-    """Append the rows of pairing (i, j): ``M[kd:kd+d] = L22⁻¹ (P[j, :] - Xᵀ M[:kd])`` and
-    ``w[kd:kd+d] = w2``. Returns (ΔNIS, Δlog det)."""
+def append_rows(Mt, w, kd, P, j, L, w2, cols):
+    """Append the rows of a pairing with landmark ``j`` whose ``whitened_pair`` gave ``L``, ``w2``:
+    ``M[kd:kd+d, l] = L⁻¹ (P[j, l] - Xᵀ M[:kd, l])`` for the landmarks ``l`` in ``cols`` (the only
+    columns the caller will read again) and ``w[kd:kd+d] = w2``."""
+    d = L.shape[0]
+    for l in cols:
+        for b in range(d):
+            col = l * d + b
+            for a in range(d):
+                acc = P[j * d + a, col] - _dot_rows(Mt, j * d + a, Mt, col, kd)
+                for c in range(a):
+                    acc -= L[a, c] * Mt[col, kd + c]
+                Mt[col, kd + a] = acc / L[a, a]
+    for a in range(d):
+        w[kd + a] = w2[a]
+
+
+@njit(cache=True)
+def append_pair(Mt, w, kd, P, z, zhat, R, wrap, i, j):
+    """Append pairing (i, j) to the factor, every column kept. Returns (ΔNIS, Δlog det)."""
     d = z.shape[1]
-    S = np.empty((d, d))
-    y = np.empty(d)
+    n = zhat.shape[0]
+    C = np.zeros((n, d))
+    G = np.zeros((n, d, d))
     L = np.empty((d, d))
     w2 = np.empty(d)
-    _extension(M, w, kd, P, z, zhat, R, wrap, i, j, S, y)
-    dnis, dlogdet = _whiten(S, y, L, w2)
-    nd = P.shape[1]
-    for a in range(d):
-        for col in range(nd):
-            acc = P[j * d + a, col]
-            for r in range(kd):
-                acc -= M[r, j * d + a] * M[r, col]
-            for c in range(a):
-                acc -= L[a, c] * M[kd + c, col]
-            M[kd + a, col] = acc / L[a, a]
-        w[kd + a] = w2[a]
+    conditional_moments(Mt, w, kd, j, C[j], G[j])
+    dnis, dlogdet = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, np.empty((d, d)), np.empty(d), L, w2)
+    append_rows(Mt, w, kd, P, j, L, w2, np.arange(n))
     return dnis, dlogdet
 
 
@@ -227,7 +277,8 @@ class JointFactor:
     """Incrementally grown Cholesky factor of a hypothesis' joint innovation covariance.
 
     For a hypothesis with factor ``S_A = L Lᵀ`` and whitened innovation ``L w = y_A``, the
-    factor keeps ``M = L⁻¹ P[J, :]`` (the whitened cross-covariance with every candidate).
+    factor keeps ``M = L⁻¹ P[J, :]`` (the whitened cross-covariance with every candidate; stored
+    transposed as ``Mt``).
     Extending by landmark ``j`` paired with feature ``i`` appends
 
         X = M[:, j],   L22 L22ᵀ = P_jj + R_i - XᵀX,   w2 = L22⁻¹ (y_ij - Xᵀ w),
@@ -242,7 +293,7 @@ class JointFactor:
         self.problem = problem
         d, n = problem.d, problem.n
         self.d = d
-        self.M = np.zeros((n * d, n * d))
+        self.Mt = np.zeros((n * d, n * d))
         self.w = np.zeros(n * d)
         self.pairs: list[tuple[int, int]] = []
         self.nis_stack = [0.0]
@@ -265,13 +316,13 @@ class JointFactor:
         """NIS and log-det increments (q,) of extending the hypothesis by each pairing
         ``(features[q], landmarks[q])``; +inf where the Schur complement is not positive definite."""
         p = self.problem
-        return extension_terms(self.M, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap,
+        return extension_terms(self.Mt, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap,
                                np.asarray(landmarks, np.int64), np.asarray(features, np.int64))
 
     def push(self, i: int, j: int) -> None:
         """Append pairing (feature ``i``, landmark ``j``)."""
         p = self.problem
-        dnis, dlogdet = append_pair(self.M, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap, int(i), int(j))
+        dnis, dlogdet = append_pair(self.Mt, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap, int(i), int(j))
         self.pairs.append((int(i), int(j)))
         self.nis_stack.append(self.nis + dnis)
         self.logdet_stack.append(self.logdet + dlogdet)

@@ -18,11 +18,13 @@ class JCBB(Associator):
 
     Pairs must pass the individual gate ``χ²_d(c)``; landmarks without an individually
     compatible partner leave the search. Depth first (compiled, ``jcbb_search``), each node
-    takes the remaining landmark with the fewest feasible features and tries, in order, the
-    pairings that keep the hypothesis jointly compatible (smallest NIS increase first), leaving
+    takes the remaining landmark with the fewest feasible features (ties: the smallest least
+    NIS increase) and tries, in order, the pairings that keep the hypothesis jointly
+    compatible (smallest NIS increase first), leaving
     it unassociated, and the pairings that break the joint test for now (a later, larger
-    hypothesis may pass its looser gate). The first dive is thus the classic JCBB dive. The joint factor grows
-    incrementally (``compatibility.append_pair``) and every node evaluates all remaining
+    hypothesis may pass its looser gate). The first dive is thus the classic JCBB dive. The
+    joint factor grows incrementally (``compatibility.append_rows``) and keeps every landmark's
+    conditional moments per hypothesis size, so each node evaluates all remaining
     pairings against it (forward checking). With ``k`` pairings, NIS ``ν`` and bound ``b`` on
     further pairings:
 
