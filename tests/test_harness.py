@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pandas as pd
 import pytest
@@ -45,7 +47,9 @@ class Degraded(Associator):
 def plugins(tmp_path, monkeypatch):
     (tmp_path / "bench_plugins.py").write_text(PLUGINS)
     monkeypatch.syspath_prepend(str(tmp_path))
-    return "bench_plugins"
+    monkeypatch.delitem(sys.modules, "bench_plugins", raising=False)   # each test imports its own file
+    yield "bench_plugins"
+    sys.modules.pop("bench_plugins", None)
 
 
 def test_leaderboard_discriminates_on_the_hard_scenario(tmp_path, capsys):
@@ -89,6 +93,18 @@ def test_interrupted_sweep_resumes_without_rerunning_done_jobs(tmp_path, monkeyp
     summaries, _ = run_suite(suite, tmp_path / "runs", progress=False)
     assert calls == ["checkerboard", "room", "room"]
     assert sorted(summaries["scene"]) == ["checkerboard", "room"]
+
+
+def test_editing_a_plugin_invalidates_its_stored_results(tmp_path, plugins):
+    """Stored job results are keyed by the code that made them: after the plugin's file changes,
+    the same suite recomputes instead of reusing the old numbers."""
+    suite_path = write_suite(tmp_path, f"[{{name: mine, method: '{plugins}:Degraded'}}]", frames=2)
+    before, _ = run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
+    (tmp_path / "bench_plugins.py").write_text(PLUGINS.replace("out[::3] = -1", "pass  # no longer degraded"))
+    sys.modules.pop(plugins, None)
+    after, _ = run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
+    assert after.loc[0, "recall"] > before.loc[0, "recall"]
+    assert len(list((tmp_path / "runs" / "jobs").glob("*.summary.csv"))) == 2
 
 
 def test_check_passes_against_its_own_baseline_and_catches_a_degraded_plugin(tmp_path, plugins, capsys):

@@ -13,7 +13,9 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from ..associators.registry import associator_class
 from ..errors import UserError
+from ..fingerprint import class_digest, package_digest
 from .config import DEFAULTS, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "methods", "seeds", "tolerance")
@@ -39,9 +41,21 @@ class Job:
 
     @property
     def key(self) -> str:
-        payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods]],
+        """Hash of the job's settings and of the code that runs it (this package and each method's
+        source file), so results stored by other code are never reused."""
+        code = [package_digest()] + [_method_digest(m.method) for m in self.methods]
+        payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+
+def _method_digest(method: str) -> str:
+    """Digest of the file defining a method's class; the name alone when it does not resolve (the
+    job then records the error)."""
+    try:
+        return class_digest(associator_class(method))
+    except Exception:  # noqa: BLE001 - a broken plugin must not stop the sweep from being planned
+        return method
 
 
 @dataclass(frozen=True)

@@ -2,7 +2,8 @@
 
 ``load_sequence(spec)`` renders, detects and labels each frame once and stores the result
 under a key that hashes everything that affects it (scene files, trajectory, resolution,
-detector and truth settings, this module's format version). A second call with the same
+detector and truth settings, this module's format version, the ``sim`` sources and the
+MuJoCo and OpenCV versions). A second call with the same
 spec reads the cache and renders nothing.
 """
 
@@ -13,12 +14,15 @@ import json
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
+import cv2
+import mujoco
 import numpy as np
 from tqdm import tqdm
 
 from .._runtime import cache_root
 from ..atomic import atomic_path
 from ..errors import UserError
+from ..fingerprint import package_digest
 from .camera import Intrinsics
 from .detect import DetectorConfig, detect
 from .render import FrameRenderer
@@ -58,7 +62,8 @@ class SequenceSpec:
 
     def key(self, scene: Scene) -> str:
         payload = asdict(self) | {"trajectory": self.resolved_trajectory(), "scene": scene.digest,
-                                  "format": FORMAT_VERSION}
+                                  "format": FORMAT_VERSION, "code": package_digest("sim"),
+                                  "mujoco": mujoco.__version__, "opencv": cv2.__version__}
         return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
