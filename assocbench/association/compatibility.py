@@ -123,12 +123,13 @@ def surprisal(problem: Problem, association: np.ndarray) -> float:
 
 # -- the incremental joint factor, compiled ---------------------------------------------------
 # These kernels are the only implementation of the incremental joint test: ``JointFactor``
-# (SNN) and the JCBB search both call them. The factor keeps ``M = L⁻¹ P[J, :]`` stored
-# transposed, ``Mt = Mᵀ`` (row ``l·d + b`` of ``Mt`` is column ``l·d + b`` of ``M``, so what a
-# test reads about one landmark is contiguous), and ``w = L⁻¹ y_A``; ``kd`` entries of each
-# row are in use. What a hypothesis says about landmark ``j`` is summarised by its conditional
-# moments ``c_j = Xᵀw`` and ``G_j = XᵀX`` with ``X = M[:kd, j]`` (the shift of its predicted
-# innovation and the covariance its prediction loses); a pairing's test needs nothing else.
+# (the scorer's joint terms), the SNN greedy and the JCBB search all call them. The factor
+# keeps ``M = L⁻¹ P[J, :]`` stored transposed, ``Mt = Mᵀ`` (row ``l·d + b`` of ``Mt`` is
+# column ``l·d + b`` of ``M``, so what a test reads about one landmark is contiguous), and
+# ``w = L⁻¹ y_A``; ``kd`` entries of each row are in use. What a hypothesis says about landmark
+# ``j`` is summarised by its conditional moments ``c_j = Xᵀw`` and ``G_j = XᵀX`` with
+# ``X = M[:kd, j]`` (the shift of its predicted innovation and the covariance its prediction
+# loses); a pairing's test needs nothing else.
 
 
 @njit(cache=True, inline="always")
@@ -249,6 +250,25 @@ def append_rows(Mt, w, kd, P, j, L, w2, cols):
                 Mt[col, kd + a] = acc / L[a, a]
     for a in range(d):
         w[kd + a] = w2[a]
+
+
+@njit(cache=True)
+def advance_moments(Mt, kd, w2, cols, C, G, C_out, G_out):
+    """Moments after ``append_rows`` wrote rows ``kd:kd+d``: ``c_l + M_newᵀ w2`` and
+    ``G_l + M_newᵀ M_new`` into ``C_out[l]``, ``G_out[l]`` for the landmarks ``l`` in ``cols``
+    (the outputs may be the inputs)."""
+    d = w2.shape[0]
+    for l in cols:
+        for a in range(d):
+            acc = C[l, a]
+            for r in range(d):
+                acc += Mt[l * d + a, kd + r] * w2[r]
+            C_out[l, a] = acc
+            for b in range(d):
+                g = G[l, a, b]
+                for r in range(d):
+                    g += Mt[l * d + a, kd + r] * Mt[l * d + b, kd + r]
+                G_out[l, a, b] = g
 
 
 @njit(cache=True)

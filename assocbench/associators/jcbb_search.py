@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import append_rows, whitened_pair
+from ..association.compatibility import advance_moments, append_rows, whitened_pair
 
 
 @njit(cache=True)
@@ -178,19 +178,7 @@ def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G,
     dn = whitened_pair(P, z, zhat, R, wrap, i, j, C[k], G[k], S, y, L, w2)[0]
     cols = lvl_cols[level, :lvl_ncols[level]]
     append_rows(Mt, w, kd, P, j, L, w2, cols)
-    for l in cols:      # c += M_newᵀ w2, G += M_newᵀ M_new (the rows just appended)
-        for a in range(d):
-            new_a = Mt[l * d + a, kd:kd + d]
-            acc = C[k, l, a]
-            for r in range(d):
-                acc += new_a[r] * w2[r]
-            C[k + 1, l, a] = acc
-            for b in range(d):
-                new_b = Mt[l * d + b, kd:kd + d]
-                g = G[k, l, a, b]
-                for r in range(d):
-                    g += new_a[r] * new_b[r]
-                G[k + 1, l, a, b] = g
+    advance_moments(Mt, kd, w2, cols, C[k], G[k], C[k + 1], G[k + 1])
     return dn
 
 

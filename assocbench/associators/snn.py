@@ -5,8 +5,10 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
-from ..association.compatibility import LOG_2PI, JointFactor, chi2_threshold, individually_compatible, pairwise_nis
+from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, chi2_threshold,
+                                         individually_compatible, pairwise_nis, wrap_mask, whitened_pair)
 from ..association.problem import Problem
 from .base import Associator
 
@@ -18,6 +20,8 @@ class SNN(Associator):
     keeping the hypothesis jointly compatible; stop when no pairing lowers it.
 
     Adding a pairing changes the surprisal by ``Δs = -log|Y| + ½ (ΔNIS + Δlog det + d log 2π)``.
+    The greedy loop is compiled (``snn_greedy``) and tests every pairing against the growing
+    joint factor through the landmarks' conditional moments (``association.compatibility``).
 
     confidence: individual and joint gates ``χ²_{d k}(confidence)``.
     """
@@ -31,22 +35,51 @@ class SNN(Associator):
         if problem.m == 0 or problem.n == 0:
             return out
         ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
-        factor = JointFactor(problem)
-        log_volume = float(np.log(problem.volume))
-        while True:
-            feats, lms = np.nonzero(ic)
-            if not len(feats):
-                break
-            dnis, dlogdet = factor.candidates(lms, feats)
-            gain = -log_volume + 0.5 * (dnis + dlogdet + problem.d * LOG_2PI)
-            joint_ok = factor.nis + dnis <= chi2_threshold(problem.d * (factor.k + 1), self.confidence)
-            gain = np.where(joint_ok, gain, np.inf)
-            best = int(np.argmin(gain))
-            if not gain[best] < 0:
-                break
-            i, j = feats[best], lms[best]
-            factor.push(i, j)
-            out[j] = i
-            ic[i, :] = False
-            ic[:, j] = False
+        gate = np.array([chi2_threshold(problem.d * k, self.confidence) for k in range(problem.n + 1)])
+        new_cost = -float(np.log(problem.volume)) + 0.5 * problem.d * LOG_2PI
+        feats, lms = snn_greedy(ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem), gate, new_cost)
+        out[lms] = feats
         return out
+
+
+@njit(cache=True)
+def snn_greedy(ic, P, z, zhat, R, wrap, gate, new_cost):
+    """Pairings (features, landmarks) of the greedy surprisal descent. Each step scans the open
+    individually compatible pairs in (feature, landmark) order and takes the first with the lowest
+    ``Δs = new_cost + ½ (ΔNIS + Δlog det)`` among those keeping ``NIS ≤ gate[k + 1]``; it stops when
+    no ``Δs`` is negative."""
+    m, n = ic.shape
+    d = z.shape[1]
+    Mt = np.zeros((n * d, n * d))
+    w = np.zeros(n * d)
+    C = np.zeros((n, d))
+    G = np.zeros((n, d, d))
+    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    open_f = np.ones(m, np.bool_)
+    open_l = np.ones(n, np.bool_)
+    pairs_i = np.empty(min(m, n), np.int64)
+    pairs_j = np.empty(min(m, n), np.int64)
+    k, nis = 0, 0.0
+    while True:
+        best, best_i, best_j, best_dn = 0.0, -1, -1, 0.0
+        for i in range(m):
+            if not open_f[i]:
+                continue
+            for j in range(n):
+                if not (open_l[j] and ic[i, j]):
+                    continue
+                dn, dlogdet = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)
+                gain = new_cost + 0.5 * (dn + dlogdet)
+                if nis + dn <= gate[k + 1] and gain < best:
+                    best, best_i, best_j, best_dn = gain, i, j, dn
+        if best_i < 0:
+            break
+        whitened_pair(P, z, zhat, R, wrap, best_i, best_j, C, G, S, y, L, w2)   # L, w2 of the winner
+        open_f[best_i], open_l[best_j] = False, False
+        cols = np.flatnonzero(open_l)
+        append_rows(Mt, w, k * d, P, best_j, L, w2, cols)
+        advance_moments(Mt, k * d, w2, cols, C, G, C, G)
+        pairs_i[k], pairs_j[k] = best_i, best_j
+        k += 1
+        nis += best_dn
+    return pairs_i[:k], pairs_j[:k]
