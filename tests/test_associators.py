@@ -8,7 +8,7 @@ import pytest
 from assocbench import Problem, make_associator, validate_association
 from assocbench.associators.registry import available
 from assocbench.belief.synthetic import lattice_problem, range_bearing_problem
-from problems import random_problem
+from problems import random_problem, reference_joint, reference_surprisal
 
 METHODS = sorted(available())
 
@@ -67,6 +67,42 @@ def test_jcbb_node_budget_sets_timed_out():
     jcbb = make_associator("jcbb", max_nodes=5)
     validate_association(jcbb.associate(p), p)
     assert jcbb.info["timed_out"] is True
+
+
+def reference_snn(problem: Problem, confidence: float = 0.99) -> np.ndarray:
+    """SNN the plain way: at each step evaluate the surprisal of every extended hypothesis with
+    explicit inverses (tests/problems.py) and keep the lowest that stays jointly compatible."""
+    from scipy.stats import chi2
+
+    out = np.full(problem.n, -1)
+    current = reference_surprisal(problem, out)
+    while True:
+        best = (current, None)
+        for i in sorted(set(range(problem.m)) - set(out[out >= 0].tolist())):
+            for j in np.flatnonzero(out < 0):
+                single = np.full(problem.n, -1)
+                single[j] = i
+                if reference_joint(problem, single)[0] > chi2.ppf(confidence, problem.d):
+                    continue
+                trial = out.copy()
+                trial[j] = i
+                k = int(np.sum(trial >= 0))
+                if reference_joint(problem, trial)[0] > chi2.ppf(confidence, problem.d * k):
+                    continue
+                s = reference_surprisal(problem, trial)
+                if s < best[0]:
+                    best = (s, (i, j))
+        if best[1] is None:
+            return out
+        current, (i, j) = best
+        out[j] = i
+
+
+def test_snn_equals_the_plain_surprisal_descent():
+    for seed in range(25):
+        rng = np.random.default_rng(seed)
+        p = random_problem(rng, n=int(rng.integers(2, 8)), m=int(rng.integers(1, 9)), angular=(1,) if seed % 3 == 0 else ())
+        assert make_associator("snn").associate(p).tolist() == reference_snn(p).tolist(), seed
 
 
 def precision(method: str, problems) -> float:
