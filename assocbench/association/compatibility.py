@@ -148,6 +148,40 @@ def _dot_rows(A, ra, B, rb, length):
     return (s0 + s1) + (s2 + s3)
 
 
+@njit(cache=True, inline="always")
+def _cross_block(Mt, j, l, kd, d, out):
+    """``out[a, b] = Σ_r<kd Mt[j·d + a, r] Mt[l·d + b, r]``: the (d, d) block ``X_jᵀ X_l``. For
+    d = 2 (most measurement models) the four sums share their loads and run as eight
+    interleaved chains in a fixed order."""
+    if d != 2:
+        for a in range(d):
+            for b in range(d):
+                out[a, b] = _dot_rows(Mt, j * d + a, Mt, l * d + b, kd)
+        return
+    ja, la = 2 * j, 2 * l
+    s00, s01, s10, s11 = 0.0, 0.0, 0.0, 0.0
+    u00, u01, u10, u11 = 0.0, 0.0, 0.0, 0.0
+    top = kd - kd % 2
+    for r in range(0, top, 2):
+        a0, a1, b0, b1 = Mt[ja, r], Mt[ja + 1, r], Mt[la, r], Mt[la + 1, r]
+        s00 += a0 * b0
+        s01 += a0 * b1
+        s10 += a1 * b0
+        s11 += a1 * b1
+        a0, a1, b0, b1 = Mt[ja, r + 1], Mt[ja + 1, r + 1], Mt[la, r + 1], Mt[la + 1, r + 1]
+        u00 += a0 * b0
+        u01 += a0 * b1
+        u10 += a1 * b0
+        u11 += a1 * b1
+    if top < kd:
+        a0, a1, b0, b1 = Mt[ja, top], Mt[ja + 1, top], Mt[la, top], Mt[la + 1, top]
+        s00 += a0 * b0
+        s01 += a0 * b1
+        s10 += a1 * b0
+        s11 += a1 * b1
+    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = s00 + u00, s01 + u01, s10 + u10, s11 + u11
+
+
 @njit(cache=True)
 def conditional_moments(Mt, w, kd, j, c_out, G_out):
     """``c_j = Xᵀw`` (d,) and ``G_j = XᵀX`` (d, d) with ``X = M[:kd, j]``, into the outputs."""
@@ -240,11 +274,13 @@ def append_rows(Mt, w, kd, P, j, L, w2, cols):
     ``M[kd:kd+d, l] = L⁻¹ (P[j, l] - Xᵀ M[:kd, l])`` for the landmarks ``l`` in ``cols`` (the only
     columns the caller will read again) and ``w[kd:kd+d] = w2``."""
     d = L.shape[0]
+    X = np.empty((d, d))
     for l in cols:
+        _cross_block(Mt, j, l, kd, d, X)
         for b in range(d):
             col = l * d + b
             for a in range(d):
-                acc = P[j * d + a, col] - _dot_rows(Mt, j * d + a, Mt, col, kd)
+                acc = P[j * d + a, col] - X[a, b]
                 for c in range(a):
                     acc -= L[a, c] * Mt[col, kd + c]
                 Mt[col, kd + a] = acc / L[a, a]

@@ -20,86 +20,114 @@ from ..association.compatibility import advance_moments, append_rows, whitened_p
 
 
 @njit(cache=True)
-def _max_matching(lms, feats, n, m):
-    """Size of a maximum bipartite matching of the pairs (lms[q], feats[q]) (augmenting paths,
-    breadth first; visit stamps instead of clearing arrays, so a search costs what it touches)."""
-    q = lms.shape[0]
-    start = np.zeros(n + 1, np.int64)
+def make_work(n, m):
+    """The bound's work arrays, allocated once per search so no node allocates: (tag, seg, lm_min,
+    f_min, f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l, visit_f, queue)
+    for ``n`` landmarks and ``m`` features. Stamps replace clearing: an entry counts as set only
+    where its stamp equals the current tag, and the tag only grows."""
+    i64 = np.int64
+    return (np.zeros(1, i64), np.zeros(n + 1, i64), np.empty(n), np.empty(m), np.empty(m), np.zeros(m, i64),
+            np.empty(m, i64), np.empty(n, i64), np.empty(m, i64), np.zeros(m, i64), np.empty(m, i64),
+            np.zeros(n, i64), np.zeros(m, i64), np.empty(n, i64))
+
+
+@njit(cache=True)
+def _next_tag(work):
+    work[0][0] += 1
+    return work[0][0]
+
+
+@njit(cache=True)
+def _groups(lms, q, seg):
+    """Landmark groups of the pairs (``lms`` is grouped by landmark): group ``u`` is
+    ``seg[u]:seg[u + 1]``; returns their number."""
+    nl = 0
     for t in range(q):
-        start[lms[t] + 1] += 1
-    for a in range(n):
-        start[a + 1] += start[a]
-    adj = feats[np.argsort(lms, kind="mergesort")]
-    match_f = np.full(m, -1, np.int64)   # landmark matched to each feature
-    match_l = np.full(n, -1, np.int64)   # feature matched to each landmark
-    parent = np.empty(m, np.int64)       # landmark that reached a feature in the current search
-    stamp_f = np.zeros(m, np.int64)      # search in which a feature was last reached
-    stamp_l = np.zeros(n, np.int64)
-    queue = np.empty(n, np.int64)
+        if t == 0 or lms[t] != lms[t - 1]:
+            seg[nl] = t
+            nl += 1
+    seg[nl] = q
+    return nl
+
+
+@njit(cache=True)
+def _distinct_features(feats, q, work):
+    tag = _next_tag(work)
+    stamp = work[5]
+    nf = 0
+    for t in range(q):
+        if stamp[feats[t]] != tag:
+            stamp[feats[t]] = tag
+            nf += 1
+    return nf
+
+
+@njit(cache=True)
+def _max_matching(feats, nl, work):
+    """Size of a maximum matching of the landmark groups (``_groups``) with their features
+    (augmenting paths, breadth first)."""
+    seg, match_l, match_f, match_stamp, parent = work[1], work[7], work[8], work[9], work[10]
+    visit_l, visit_f, queue = work[11], work[12], work[13]
+    owner = _next_tag(work)            # match_f[f] is valid only where match_stamp[f] == owner
+    match_l[:nl] = -1
     size = 0
-    for root in range(n):
-        if start[root] == start[root + 1]:
-            continue
-        tag = root + 1
+    for root in range(nl):
+        tag = _next_tag(work)
         head, tail = 0, 1
         queue[0] = root
-        stamp_l[root] = tag
+        visit_l[root] = tag
         found = -1
         while head < tail and found < 0:
-            lm = queue[head]
+            u = queue[head]
             head += 1
-            for e in range(start[lm], start[lm + 1]):
-                f = adj[e]
-                if stamp_f[f] == tag:
+            for e in range(seg[u], seg[u + 1]):
+                f = feats[e]
+                if visit_f[f] == tag:
                     continue
-                stamp_f[f] = tag
-                parent[f] = lm
-                if match_f[f] < 0:
+                visit_f[f] = tag
+                parent[f] = u
+                if match_stamp[f] != owner:
                     found = f
                     break
                 nxt = match_f[f]
-                if stamp_l[nxt] != tag:
-                    stamp_l[nxt] = tag
+                if visit_l[nxt] != tag:
+                    visit_l[nxt] = tag
                     queue[tail] = nxt
                     tail += 1
         f = found
         while f >= 0:           # flip the augmenting path back to the root
-            lm = parent[f]
-            prev = match_l[lm]
-            match_f[f] = lm
-            match_l[lm] = f
+            u = parent[f]
+            prev = match_l[u]
+            match_f[f], match_stamp[f] = u, owner
+            match_l[u] = f
             f = prev
         size += int(found >= 0)
     return size
 
 
 @njit(cache=True)
-def _count_bound(lms, feats, keep, n, m):
-    seen_l = np.zeros(n, np.bool_)
-    seen_f = np.zeros(m, np.bool_)
-    nl, nf = 0, 0
-    for t in range(lms.shape[0]):
-        if keep[t]:
-            if not seen_l[lms[t]]:
-                seen_l[lms[t]] = True
-                nl += 1
-            if not seen_f[feats[t]]:
-                seen_f[feats[t]] = True
-                nf += 1
-    return min(nl, nf)
-
-
-@njit(cache=True)
-def _least_increments(lms, feats, dnis, keep, n, m):
-    """Sorted least NIS increments per landmark and per feature over the kept pairings (only the
-    landmarks and features that have one)."""
-    lm_min = np.full(n, np.inf)
-    f_min = np.full(m, np.inf)
-    for t in range(lms.shape[0]):
-        if keep[t]:
-            lm_min[lms[t]] = min(lm_min[lms[t]], dnis[t])
-            f_min[feats[t]] = min(f_min[feats[t]], dnis[t])
-    return np.sort(lm_min[lm_min < np.inf]), np.sort(f_min[f_min < np.inf])
+def _least_increments(feats, dnis, q, nl, work):
+    """Least NIS increment of each landmark group and of each feature, each list sorted
+    (``work[2][:nl]``, ``work[3][:nf]``); returns nf."""
+    seg, lm_min, f_min, f_val, f_stamp, f_list = work[1], work[2], work[3], work[4], work[5], work[6]
+    for u in range(nl):
+        lm_min[u] = dnis[seg[u]:seg[u + 1]].min()
+    lm_min[:nl].sort()
+    tag = _next_tag(work)
+    nf = 0
+    for t in range(q):
+        f = feats[t]
+        if f_stamp[f] != tag:
+            f_stamp[f] = tag
+            f_val[f] = dnis[t]
+            f_list[nf] = f
+            nf += 1
+        elif dnis[t] < f_val[f]:
+            f_val[f] = dnis[t]
+    for a in range(nf):
+        f_min[a] = f_val[f_list[a]]
+    f_min[:nf].sort()
+    return nf
 
 
 @njit(cache=True)
@@ -121,46 +149,55 @@ def _forward_check(in_play, free, adj_start, adj_feat, P, z, zhat, R, wrap, C, G
 
 
 @njit(cache=True)
-def _bound(lms, feats, dnis, nis, k, gate, best_k, n, m):
-    """(b, floor, keep): at most ``b`` more pairings can join, the final NIS is at least ``floor``,
-    and ``keep`` marks the pairings that can still be part of a jointly compatible completion."""
-    q = lms.shape[0]
-    keep = np.ones(q, np.bool_)
+def _compact(lms, feats, dnis, q, nis, limit):
+    """Keep, in order, the pairings with ``nis + dnis <= limit``; returns how many."""
+    kept = 0
+    for t in range(q):
+        if not nis + dnis[t] > limit:
+            lms[kept], feats[kept], dnis[kept] = lms[t], feats[t], dnis[t]
+            kept += 1
+    return kept
+
+
+@njit(cache=True)
+def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
+    """(q, b, floor): the first ``q`` pairings (compacted in place) can still be part of a jointly
+    compatible completion, at most ``b`` more pairings can join, the final NIS is at least ``floor``."""
+    seg = work[1]
     bound = -1
     while True:     # a pairing that breaks the loosest gate it could still face leaves the subtree
-        nb = _count_bound(lms, feats, keep, n, m)
+        nl = _groups(lms, q, seg)
+        nb = min(nl, _distinct_features(feats, q, work))
         if nb == bound:
             break
         bound = nb
-        for t in range(q):
-            if keep[t] and nis + dnis[t] > gate[k + bound]:
-                keep[t] = False
+        q = _compact(lms, feats, dnis, q, nis, gate[k + bound])
     floor = nis
     if bound > 0 and k + bound >= best_k:
-        sel = np.flatnonzero(keep)
-        bound = _max_matching(lms[sel], feats[sel], n, m)
+        nl = _groups(lms, q, seg)
+        bound = _max_matching(feats, nl, work)
         # b more pairings use b distinct landmarks and b distinct features; the final NIS is at
         # least NIS(H + p) for each of its pairings p, so at least the b-th smallest of the
         # per-landmark (and per-feature) least increments. It must pass gate[k + b].
-        lm_min, f_min = _least_increments(lms, feats, dnis, keep, n, m)
+        _least_increments(feats, dnis, q, nl, work)
+        lm_min, f_min = work[2], work[3]
         while bound > 0 and nis + max(lm_min[bound - 1], f_min[bound - 1]) > gate[k + bound]:
             bound -= 1
         if bound > 0:
             floor = nis + max(lm_min[bound - 1], f_min[bound - 1])
-    return bound, floor, keep
+    return q, bound, floor
 
 
 @njit(cache=True)
-def _branch_landmark(lms, dnis, keep, n, m):
-    """(landmark to branch on, kept pairings per landmark): the fewest kept pairings (fail first,
-    a narrow tree), ties to the smallest least NIS increase (the surest pairing first, so a dive
-    that must stop early has pinned the pose with its most certain pairings)."""
+def _branch_landmark(lms, dnis, n, m):
+    """(landmark to branch on, pairings per landmark): the fewest pairings (fail first, a narrow
+    tree), ties to the smallest least NIS increase (the surest pairing first, so a dive that must
+    stop early has pinned the pose with its most certain pairings)."""
     counts = np.zeros(n, np.int64)
     least = np.full(n, np.inf)
     for t in range(lms.shape[0]):
-        if keep[t]:
-            counts[lms[t]] += 1
-            least[lms[t]] = min(least[lms[t]], dnis[t])
+        counts[lms[t]] += 1
+        least[lms[t]] = min(least[lms[t]], dnis[t])
     jstar, fewest, surest = -1, m + 1, np.inf
     for j in range(n):
         if counts[j] > 0 and (counts[j] < fewest or (counts[j] == fewest and least[j] < surest)):
@@ -169,12 +206,12 @@ def _branch_landmark(lms, dnis, keep, n, m):
 
 
 @njit(cache=True)
-def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G, work):
+def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G, pair_work):
     """Append pairing (i, j) to the hypothesis of size k; moments of size k + 1 for the landmarks in
     play below this level. Returns the NIS increase."""
     d = z.shape[1]
     kd = k * d
-    S, y, L, w2 = work
+    S, y, L, w2 = pair_work
     dn = whitened_pair(P, z, zhat, R, wrap, i, j, C[k], G[k], S, y, L, w2)[0]
     cols = lvl_cols[level, :lvl_ncols[level]]
     append_rows(Mt, w, kd, P, j, L, w2, cols)
@@ -221,7 +258,8 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
     lms_buf = np.empty(adj_start[n], np.int64)
     feats_buf = np.empty(adj_start[n], np.int64)
     dnis_buf = np.empty(adj_start[n])
-    work = (np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d))   # whitened_pair's S, y, L, w2
+    pair_work = (np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d))   # whitened_pair's S, y, L, w2
+    bound_work = make_work(n, m)
     k = 0
     nodes = 0
     timed_out = False
@@ -242,16 +280,16 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
                 best_i[:k] = pair_i[:k]
                 best_j[:k] = pair_j[:k]
             q = _forward_check(remaining[level], free, adj_start, adj_feat, P, z, zhat, R, wrap, C[k], G[k],
-                               lms_buf, feats_buf, dnis_buf, work)
+                               lms_buf, feats_buf, dnis_buf, pair_work)
+            q, bound, floor = _bound(lms_buf, feats_buf, dnis_buf, q, nis, k, gate, best_k, bound_work)
             lms, feats, dnis = lms_buf[:q], feats_buf[:q], dnis_buf[:q]
-            bound, floor, keep = _bound(lms, feats, dnis, nis, k, gate, best_k, n, m)
             if bound == 0 or k + bound < best_k or (k + bound == best_k and floor >= best_nis):
                 lvl_done[level] = True
             else:
-                jstar, counts = _branch_landmark(lms, dnis, keep, n, m)
+                jstar, counts = _branch_landmark(lms, dnis, n, m)
                 nc = 0
                 for t in range(q):
-                    if keep[t] and lms[t] == jstar:
+                    if lms[t] == jstar:
                         lvl_cand[level, nc] = feats[t]
                         lvl_dnis[level, nc] = dnis[t]
                         nc += 1
@@ -294,7 +332,7 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
         if slot != n_jc:
             a = slot if slot < n_jc else slot - 1
             i, j = lvl_cand[level, a], lvl_j[level]
-            dn = _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G, work)
+            dn = _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G, pair_work)
             pair_i[k], pair_j[k] = i, j
             nis_at[k + 1] = nis_at[k] + dn
             k += 1
