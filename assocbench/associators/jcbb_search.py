@@ -189,20 +189,38 @@ def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
 
 
 @njit(cache=True)
-def _branch_landmark(lms, dnis, n, m):
-    """(landmark to branch on, pairings per landmark): the fewest pairings (fail first, a narrow
-    tree), ties to the smallest least NIS increase (the surest pairing first, so a dive that must
-    stop early has pinned the pose with its most certain pairings)."""
-    counts = np.zeros(n, np.int64)
-    least = np.full(n, np.inf)
-    for t in range(lms.shape[0]):
-        counts[lms[t]] += 1
-        least[lms[t]] = min(least[lms[t]], dnis[t])
-    jstar, fewest, surest = -1, m + 1, np.inf
-    for j in range(n):
-        if counts[j] > 0 and (counts[j] < fewest or (counts[j] == fewest and least[j] < surest)):
-            jstar, fewest, surest = j, counts[j], least[j]
-    return jstar, counts
+def _open_node(level, lms, feats, dnis, nis, gate_next, work, remaining, lvl_cand, lvl_dnis, lvl_cols):
+    """Set up a node's children: branch on the landmark with the fewest pairings (fail first, a
+    narrow tree), ties to the smallest least NIS increase (the surest pairing first, so a dive
+    that must stop early has pinned the pose with its most certain pairings); its candidates go to
+    ``lvl_cand[level]`` sorted by NIS increase (stable), the other landmarks stay in play below.
+    Returns (landmark, candidates, candidates keeping NIS ≤ ``gate_next``, landmarks in play)."""
+    seg = work[1]
+    nl = _groups(lms, lms.shape[0], seg)
+    pick, fewest, surest = -1, lms.shape[0] + 1, np.inf
+    for u in range(nl):
+        count, least = seg[u + 1] - seg[u], dnis[seg[u]:seg[u + 1]].min()
+        if count < fewest or (count == fewest and least < surest):
+            pick, fewest, surest = u, count, least
+    nc = 0
+    for t in range(seg[pick], seg[pick + 1]):      # insertion sort: a handful of candidates
+        pos = nc
+        while pos > 0 and lvl_dnis[level, pos - 1] > dnis[t]:
+            lvl_dnis[level, pos], lvl_cand[level, pos] = lvl_dnis[level, pos - 1], lvl_cand[level, pos - 1]
+            pos -= 1
+        lvl_dnis[level, pos], lvl_cand[level, pos] = dnis[t], feats[t]
+        nc += 1
+    n_jc = 0
+    while n_jc < nc and nis + lvl_dnis[level, n_jc] <= gate_next:
+        n_jc += 1
+    remaining[level + 1, :] = False
+    ncols = 0
+    for u in range(nl):
+        if u != pick:
+            remaining[level + 1, lms[seg[u]]] = True
+            lvl_cols[level, ncols] = lms[seg[u]]
+            ncols += 1
+    return lms[seg[pick]], nc, n_jc, ncols
 
 
 @njit(cache=True)
@@ -286,29 +304,14 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
             if bound == 0 or k + bound < best_k or (k + bound == best_k and floor >= best_nis):
                 lvl_done[level] = True
             else:
-                jstar, counts = _branch_landmark(lms, dnis, n, m)
-                nc = 0
-                for t in range(q):
-                    if lms[t] == jstar:
-                        lvl_cand[level, nc] = feats[t]
-                        lvl_dnis[level, nc] = dnis[t]
-                        nc += 1
-                order = np.argsort(lvl_dnis[level, :nc], kind="mergesort")
-                lvl_cand[level, :nc] = lvl_cand[level, :nc][order]
-                lvl_dnis[level, :nc] = lvl_dnis[level, :nc][order]
-                n_jc = 0                                     # children that stay jointly compatible
-                while n_jc < nc and nis + lvl_dnis[level, n_jc] <= gate[k + 1]:
-                    n_jc += 1
+                jstar, nc, n_jc, ncols = _open_node(level, lms, feats, dnis, nis, gate[k + 1], bound_work, remaining,
+                                                    lvl_cand, lvl_dnis, lvl_cols)
                 lvl_ncand[level] = nc
-                lvl_njc[level] = n_jc
+                lvl_njc[level] = n_jc                        # children that stay jointly compatible
+                lvl_ncols[level] = ncols
                 lvl_j[level] = jstar
                 lvl_next[level] = 0
                 lvl_done[level] = False
-                remaining[level + 1, :] = counts > 0
-                remaining[level + 1, jstar] = False
-                cols = np.flatnonzero(remaining[level + 1])
-                lvl_ncols[level] = cols.shape[0]
-                lvl_cols[level, :cols.shape[0]] = cols
             continue
         # back from a child: undo its pairing
         if lvl_pushed[level]:
