@@ -1,6 +1,7 @@
 """Frames per second of the simulation pipeline (render + detect + label, the cheapest truth
-path: RGB and mj_ray) at 320x240 and 640x480, and of association (problem + associate) per
-method, on one core. Usage: python benchmarks/pipeline_fps.py [--frames 60] [--scene room]"""
+path: RGB and mj_ray) at 320x240 and 640x480, with the scene's multisampling and without
+(``msaa: 0``), and of association (problem + associate) per method, on one core.
+Usage: python benchmarks/pipeline_fps.py [--frames 60] [--scene room]"""
 
 from __future__ import annotations
 
@@ -21,12 +22,12 @@ from assocbench.sim.trajectory import make_trajectory, rig_for
 from assocbench.sim.truth import TruthConfig, label_features, visibility
 
 
-def pipeline(scene_name: str, width: int, height: int, frames: int) -> list[float]:
+def pipeline(scene_name: str, width: int, height: int, frames: int, msaa: int | None) -> list[float]:
     scene = load_scene(scene_name)
     rots, pos = make_trajectory("circle", rig_for(scene.landmarks, scene.normals, scene.fovy, width / height), frames)
     det, truth = DetectorConfig(), TruthConfig()
     stages = np.zeros(3)
-    with FrameRenderer(scene, width, height) as r:
+    with FrameRenderer(scene, width, height, msaa) as r:
         r.render(rots[0], pos[0])  # warm-up: GL context and buffers
         for k in range(frames):
             t0 = time.perf_counter()
@@ -61,9 +62,10 @@ def main() -> None:
     ap.add_argument("--frames", type=int, default=60)
     ap.add_argument("--scene", default="room")
     args = ap.parse_args()
-    rows = [[f"{w}x{h}", *pipeline(args.scene, w, h, args.frames)] for w, h in ((320, 240), (640, 480))]
+    rows = [[f"{w}x{h}", "scene's" if msaa is None else msaa, *pipeline(args.scene, w, h, args.frames, msaa)]
+            for w, h in ((320, 240), (640, 480)) for msaa in (None, 0)]
     print(f"pipeline on {args.scene}, {args.frames} frames, ms per frame (one core)")
-    print_table(["resolution", "render", "detect", "label (mj_ray)", "frames/s"], rows)
+    print_table(["resolution", "msaa", "render", "detect", "label (mj_ray)", "frames/s"], rows)
     print(f"association on {args.scene} (default belief), problems/s including building the problem")
     print_table(["method", "frames/s"], association(args.scene, min(args.frames, 40)))
 

@@ -38,12 +38,24 @@ def assert_one_line_error(capsys, code: int, *needles: str) -> None:
     (["run", "--set", "frames"], ["key=value"]),
     (["run", "--frames", "0"], ["frames must be a positive integer"]),
     (["run", "--set", "belief.map_fraction=2"], ["map_fraction"]),
+    (["run", "--set", "msaa=-1"], ["msaa must be null", "0..16"]),
     (["run", "--method", "jcbb", "--set", "params.confidance=0.9", "--frames", "2"], ["confidance", "accepted are"]),
     (["check", "--baseline", "no/such/baseline.csv"], ["baseline", "not found", "--update"]),
     (["leaderboard", "--suite", "no-suite.yaml"], ["no-suite.yaml", "not found"]),
 ])
 def test_bad_input_is_a_one_line_error(capsys, args, needles):
     assert_one_line_error(capsys, main(args), *needles)
+
+
+@pytest.mark.parametrize("args,needles", [
+    (["run", "--bogus"], ["unrecognized arguments: --bogus", "(see assocbench run --help)"]),
+    (["run", "--frames", "x"], ["invalid int value", "(see assocbench run --help)"]),
+    (["bogus"], ["invalid choice", "(see assocbench --help)"]),
+])
+def test_argument_errors_point_at_the_right_help(capsys, args, needles):
+    with pytest.raises(SystemExit) as exc:
+        main(args)
+    assert_one_line_error(capsys, exc.value.code, *needles)
 
 
 @pytest.mark.parametrize("name,text,command,needles", [

@@ -35,6 +35,18 @@ def test_labelled_features_sit_on_true_projections(scene):
     assert np.median(seq.visible.sum(axis=1)) >= 10
 
 
+@pytest.mark.parametrize("width,height", [(320, 240), (640, 480)])
+def test_without_multisampling_labels_stay_accurate(width, height):
+    """msaa=0 (the fast path) renders other pixels but its labels stay within 0.3 px (median)."""
+    fast = render_sequence(SequenceSpec(scene="room", frames=4, width=width, height=height, msaa=0, keep_images=True))
+    smooth = render_sequence(SequenceSpec(scene="room", frames=1, width=width, height=height, keep_images=True))
+    assert not np.array_equal(fast.images[0], smooth.images[0])
+    assert np.median(label_errors(fast)) <= 0.3
+    scene = load_scene("room")
+    with FrameRenderer(scene, 64, 48, msaa=0):
+        assert scene.model.vis.quality.offsamples == 4                    # the scene's own setting is kept
+
+
 def test_room_detects_and_labels_95_percent_of_visible_landmarks(room_sequence):
     visible = room_sequence.visible.sum()
     labelled_visible = sum(int(np.sum(vis[lab[lab >= 0]])) for vis, lab in zip(room_sequence.visible, room_sequence.labels))

@@ -13,21 +13,26 @@ COMMANDS = (run_cmd, leaderboard_cmd, check_cmd, list_cmd, frame_cmd, render_cmd
 
 class _Parser(argparse.ArgumentParser):
     def error(self, message: str) -> None:  # one line, exit 2 (argparse's own convention too)
-        self.exit(2, f"assocbench: error: {message} (see assocbench {self.prog.split()[-1]} --help)\n")
+        self.exit(2, f"assocbench: error: {message} (see {self.prog} --help)\n")
 
 
 def build_parser() -> argparse.ArgumentParser:
     parser = _Parser(prog="assocbench", description="Benchmark for data association in SLAM and tracking.")
     sub = parser.add_subparsers(dest="command", required=True, parser_class=_Parser)
+    parser.commands = {}
     for module in COMMANDS:
         p = sub.add_parser(module.NAME, help=module.HELP, description=module.HELP)
         module.add_arguments(p)
         p.set_defaults(handler=module.main)
+        parser.commands[module.NAME] = p
     return parser
 
 
 def main(argv: list[str] | None = None) -> int:
-    args = build_parser().parse_args(argv)
+    parser = build_parser()
+    args, extra = parser.parse_known_args(argv)
+    if extra:   # reported by the command's own parser, so the hint names the command
+        parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         return int(args.handler(args) or 0)
     except UserError as exc:

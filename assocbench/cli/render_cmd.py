@@ -39,7 +39,8 @@ def main(args: argparse.Namespace) -> int:
     associator = make_associator(spec.method, **spec.params)
 
     def frames():
-        with FrameRenderer(load_scene(spec.sequence.scene), spec.sequence.width, spec.sequence.height) as r:
+        with FrameRenderer(load_scene(spec.sequence.scene), spec.sequence.width, spec.sequence.height,
+                           spec.sequence.msaa) as r:
             for k in tqdm(range(len(seq)), desc=f"render {spec.method}", unit="frame", disable=args.quiet):
                 problem, truth = make_problem(seq, k, spec.belief, spec.seed)
                 association = associator.associate(problem)

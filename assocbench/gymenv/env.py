@@ -165,7 +165,7 @@ class AssociationEnv(gym.Env):
         k, problem, association = self._last or (self._frame, self._problem, np.full(self._problem.n, NO_MATCH))
         if self._renderer is None:
             s = self._spec.sequence
-            self._renderer = FrameRenderer(load_scene(s.scene), s.width, s.height)
+            self._renderer = FrameRenderer(load_scene(s.scene), s.width, s.height, s.msaa)
         rgb = self._renderer.render(self._seq.rotations[k], self._seq.positions[k])["rgb"]
         return draw_association(rgb, problem, association)
 

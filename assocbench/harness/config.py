@@ -17,6 +17,7 @@ import yaml
 from ..belief.camera_belief import BeliefConfig
 from ..errors import UserError
 from ..sim.detect import DetectorConfig
+from ..sim.render import check_msaa
 from ..sim.sequence import SequenceSpec
 from ..sim.truth import TruthConfig
 
@@ -27,6 +28,7 @@ DEFAULTS: dict = {
     "frames": 40,
     "seed": 0,
     "resolution": [640, 480],
+    "msaa": None,
     "detector": asdict(DetectorConfig()),
     "truth": asdict(TruthConfig()),
     "belief": asdict(BeliefConfig()),
@@ -137,9 +139,10 @@ def run_spec(cfg: dict) -> RunSpec:
         if not isinstance(cfg[key], int) or cfg[key] < (1 if key == "frames" else 0):
             raise UserError(f"{key} must be a {'positive' if key == 'frames' else 'non-negative'} integer, "
                             f"got {cfg[key]!r}")
+    check_msaa(cfg["msaa"])
     seq = SequenceSpec(
         scene=str(cfg["scene"]), trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
-        width=res[0], height=res[1], trajectory_params=dict(cfg["trajectory_params"] or {}),
+        width=res[0], height=res[1], msaa=cfg["msaa"], trajectory_params=dict(cfg["trajectory_params"] or {}),
         detector=_typed(DetectorConfig, cfg["detector"], "detector"),
         truth=_typed(TruthConfig, cfg["truth"], "truth"),
     )

@@ -49,6 +49,7 @@ class SequenceSpec:
     seed: int = 0
     width: int = 640
     height: int = 480
+    msaa: int | None = None                  # None: the scene's own multisampling
     trajectory_params: dict = field(default_factory=dict)
     detector: DetectorConfig = field(default_factory=DetectorConfig)
     truth: TruthConfig = field(default_factory=TruthConfig)
@@ -122,7 +123,7 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
     scene = scene or load_scene(spec.scene)
     rots, pos = trajectory_poses(spec, scene)
     frames, images = [], []
-    with FrameRenderer(scene, spec.width, spec.height) as renderer:
+    with FrameRenderer(scene, spec.width, spec.height, spec.msaa) as renderer:
         for k in tqdm(range(spec.frames), desc=f"render {scene.name}", unit="frame", leave=False,
                       disable=None, mininterval=0.5):  # the bar shows on a terminal only
             f = process_frame(spec, scene, renderer, rots[k], pos[k], k)

@@ -37,7 +37,7 @@ def render_truth_frame(spec: SequenceSpec, index: int) -> TruthFrame:
     if not 0 <= index < spec.frames:
         raise UserError(f"--index {index} is outside the trajectory's 0..{spec.frames - 1}; raise --frames or lower it")
     rots, pos = trajectory_poses(spec, scene)
-    with FrameRenderer(scene, spec.width, spec.height) as renderer:
+    with FrameRenderer(scene, spec.width, spec.height, spec.msaa) as renderer:
         f = process_frame(spec, scene, renderer, rots[index], pos[index], index)
         K = renderer.K
     in_front = (scene.landmarks - pos[index]) @ rots[index][:, 2] > 0
