@@ -6,6 +6,7 @@ from dataclasses import dataclass
 from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
 from ..association.problem import NO_MATCH, Problem
 
@@ -38,17 +39,35 @@ def greedy_one_to_one(cost: np.ndarray, allowed: np.ndarray) -> np.ndarray:
 
     Done in rounds: a pair that is the cheapest of both its row and its column is taken by the
     greedy whatever else happens (every pair it excludes costs at least as much), so all such
-    mutual-best pairs are taken at once, their rows and columns closed, and the rest redone.
+    mutual-best pairs are taken at once, their rows and columns closed, and the rest redone
+    (compiled, ``_mutual_best_rounds``; ties go to the lowest index, as ``argmin``).
     """
     m, n = cost.shape
-    out = np.full(n, NO_MATCH, dtype=np.int64)
-    c = np.where(allowed, cost, np.inf)
-    while np.isfinite(c).any():
-        best_feature = c.argmin(axis=0)                         # per landmark
-        best_landmark = c.argmin(axis=1)                        # per feature
-        lms = np.flatnonzero(np.isfinite(c[best_feature, np.arange(n)]))
-        mutual = lms[best_landmark[best_feature[lms]] == lms]
-        out[mutual] = best_feature[mutual]
-        c[best_feature[mutual], :] = np.inf
-        c[:, mutual] = np.inf
-    return out
+    c = np.where(allowed, cost, np.inf).astype(np.float64)
+    return _mutual_best_rounds(c, m, n)
+
+
+@njit(cache=True)
+def _mutual_best_rounds(c, m, n):
+    out = np.full(n, NO_MATCH, np.int64)
+    best_feature = np.empty(n, np.int64)
+    best_landmark = np.empty(m, np.int64)
+    taken = np.empty(n, np.int64)
+    while True:
+        for j in range(n):                      # cheapest feature of each landmark
+            best_feature[j] = np.argmin(c[:, j])
+        for i in range(m):                      # cheapest landmark of each feature
+            best_landmark[i] = np.argmin(c[i])
+        count = 0
+        for j in range(n):
+            i = best_feature[j]
+            if np.isfinite(c[i, j]) and best_landmark[i] == j:
+                taken[count] = j
+                count += 1
+        if count == 0:
+            return out
+        for t in range(count):                  # close the rows and columns taken this round
+            j = taken[t]
+            out[j] = best_feature[j]
+            c[best_feature[j], :] = np.inf
+            c[:, j] = np.inf
