@@ -9,10 +9,9 @@ from assocbench import Problem, make_associator
 from problems import exhaustive_best, random_spd
 
 
-def small_problem(rng) -> Problem:
-    """n <= 6 landmarks, m <= 7 features: correlated P, clutter, missed detections."""
+def small_problem(rng, d: int = 2) -> Problem:
+    """n <= 6 landmarks, m <= 7 features of dimension d: correlated P, clutter, missed detections."""
     n = int(rng.integers(1, 7))
-    d = 2
     P = random_spd(rng, n * d, 6.0) + 4.0 * np.kron(np.ones((n, n)), np.eye(d))  # common-mode part
     zhat = rng.uniform(0, 20, (n, d))
     err = np.linalg.cholesky(P) @ rng.normal(size=n * d)
@@ -35,3 +34,13 @@ def test_jcbb_equals_exhaustive_search(block):
         assert int(np.sum(got >= 0)) == k
         assert got.tolist() == expected.tolist(), (got, expected)
         assert not jcbb.info["timed_out"]
+
+
+@pytest.mark.parametrize("d", [1, 3])
+def test_jcbb_equals_exhaustive_search_in_other_dimensions(d):
+    """The factor update has a d = 2 fast path; other measurement sizes take the general one."""
+    rng = np.random.default_rng(2000 + d)
+    jcbb = make_associator("jcbb", confidence=0.95)
+    for _ in range(40):
+        p = small_problem(rng, d)
+        assert jcbb.associate(p).tolist() == exhaustive_best(p, 0.95)[2].tolist()
