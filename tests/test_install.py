@@ -41,3 +41,13 @@ def test_fresh_venv_pip_install_then_assocbench_run(tmp_path):
     assert "precision" in proc.stdout
     summary = pd.read_csv(work / "results" / "runs" / "room-jcbb-seed0" / "summary.csv")
     assert summary.loc[0, "frames"] == 3 and summary.loc[0, "precision"] > 0.5
+
+
+def test_compiled_kernels_are_cached_per_source_version(tmp_path):
+    """numba re-checks only a kernel's own file, yet a kernel embeds the kernels it calls from other
+    files; the cache folder is keyed by the digest of all sources, so an edit never runs stale code."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_CACHE_DIR"} | {"ASSOCBENCH_CACHE": str(tmp_path)}
+    code = "import os, assocbench; from assocbench.fingerprint import package_digest; " \
+           "print(os.environ['NUMBA_CACHE_DIR']); print(package_digest())"
+    folder, digest = subprocess.check_output([sys.executable, "-c", code], env=env, text=True, cwd=ROOT).split()
+    assert Path(folder) == tmp_path / "numba" / digest
