@@ -26,6 +26,11 @@ from .problem import Problem, pairs_of
 LOG_2PI = float(np.log(2 * np.pi))
 
 
+def joint_gates(d: int, n: int, confidence: float) -> np.ndarray:
+    """``gate[k] = χ²_{dk}(c)`` for hypotheses of k = 0..n pairings (``gate[0] = 0``)."""
+    return np.array([chi2_threshold(d * k, confidence) for k in range(n + 1)])
+
+
 @lru_cache(maxsize=4096)
 def chi2_threshold(dof: int, confidence: float) -> float:
     """Gate ``χ²_dof(c)``: the ``confidence`` quantile of a χ² variable with ``dof`` degrees."""
@@ -64,15 +69,14 @@ def log_gaussian(nis: np.ndarray | float, logdet: np.ndarray | float, dim: int) 
 def pairwise_nis(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
     """Individual NIS ``y_ijᵀ S_ij⁻¹ y_ij`` with ``S_ij = P_jj + R_i`` and ``log det S_ij``; (m, n) each.
 
-    The individual test is the joint test of a one-pairing hypothesis: ``extension_terms``
-    from the empty hypothesis over every (feature, landmark) pair.
+    The individual test is the joint test of a one-pairing hypothesis: ``whitened_pair`` from
+    the empty hypothesis (zero moments) over every (feature, landmark) pair.
     """
-    m, n, d = problem.m, problem.n, problem.d
+    m, n = problem.m, problem.n
     if m == 0 or n == 0:
         return np.zeros((m, n)), np.zeros((m, n))
     feats, lms = (a.ravel() for a in np.indices((m, n)))
-    nis, logdet = extension_terms(np.zeros((n * d, 0)), np.zeros(0), 0, problem.P, problem.z, problem.zhat,
-                                  problem.R, wrap_mask(problem), lms, feats)
+    nis, logdet = _individual_terms(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem), lms, feats)
     return nis.reshape(m, n), logdet.reshape(m, n)
 
 
@@ -249,23 +253,18 @@ def whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
 
 
 @njit(cache=True)
-def extension_terms(Mt, w, kd, P, z, zhat, R, wrap, lms, feats):
-    """NIS and log-det increments (q,) of extending the hypothesis by each pair (feats[q], lms[q])."""
+def _individual_terms(P, z, zhat, R, wrap, lms, feats):
+    """NIS and log det (q,) of each one-pairing hypothesis (feats[q], lms[q])."""
     d = z.shape[1]
     q = lms.shape[0]
-    dnis = np.empty(q)
-    dlogdet = np.empty(q)
-    C = np.zeros((zhat.shape[0], d))
+    nis = np.empty(q)
+    logdet = np.empty(q)
+    C = np.zeros((zhat.shape[0], d))           # the empty hypothesis: zero moments
     G = np.zeros((zhat.shape[0], d, d))
-    S = np.empty((d, d))
-    y = np.empty(d)
-    L = np.empty((d, d))
-    w2 = np.empty(d)
+    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
     for t in range(q):
-        if kd > 0:
-            conditional_moments(Mt, w, kd, lms[t], C[lms[t]], G[lms[t]])
-        dnis[t], dlogdet[t] = whitened_pair(P, z, zhat, R, wrap, feats[t], lms[t], C, G, S, y, L, w2)
-    return dnis, dlogdet
+        nis[t], logdet[t] = whitened_pair(P, z, zhat, R, wrap, feats[t], lms[t], C, G, S, y, L, w2)
+    return nis, logdet
 
 
 @njit(cache=True)
@@ -330,19 +329,18 @@ def wrap_mask(problem: Problem) -> np.ndarray:
 
 
 class JointFactor:
-    """Incrementally grown Cholesky factor of a hypothesis' joint innovation covariance.
+    """Incrementally grown Cholesky factor of a hypothesis' joint innovation covariance (the
+    scorer's ``joint_terms``).
 
     For a hypothesis with factor ``S_A = L Lᵀ`` and whitened innovation ``L w = y_A``, the
     factor keeps ``M = L⁻¹ P[J, :]`` (the whitened cross-covariance with every candidate; stored
-    transposed as ``Mt``).
-    Extending by landmark ``j`` paired with feature ``i`` appends
+    transposed as ``Mt``). Extending by landmark ``j`` paired with feature ``i`` appends
 
         X = M[:, j],   L22 L22ᵀ = P_jj + R_i - XᵀX,   w2 = L22⁻¹ (y_ij - Xᵀ w),
         M_new = L22⁻¹ (P[j, :] - Xᵀ M),
 
-    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``. Evaluating an
-    extension costs O(kd·d²) and no solve; pushing one costs O(kd·nd·d), instead of
-    refactorising the joint covariance at every step. (``extension_terms``, ``append_pair``.)
+    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``; a push costs
+    O(kd·nd·d) instead of refactorising the joint covariance (``append_pair``).
     """
 
     def __init__(self, problem: Problem) -> None:
@@ -351,40 +349,15 @@ class JointFactor:
         self.d = d
         self.Mt = np.zeros((n * d, n * d))
         self.w = np.zeros(n * d)
-        self.pairs: list[tuple[int, int]] = []
-        self.nis_stack = [0.0]
-        self.logdet_stack = [0.0]
+        self.k = 0
+        self.nis = 0.0
+        self.logdet = 0.0
         self._wrap = wrap_mask(problem)
-
-    @property
-    def k(self) -> int:
-        return len(self.pairs)
-
-    @property
-    def nis(self) -> float:
-        return self.nis_stack[-1]
-
-    @property
-    def logdet(self) -> float:
-        return self.logdet_stack[-1]
-
-    def candidates(self, landmarks: np.ndarray, features: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """NIS and log-det increments (q,) of extending the hypothesis by each pairing
-        ``(features[q], landmarks[q])``; +inf where the Schur complement is not positive definite."""
-        p = self.problem
-        return extension_terms(self.Mt, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap,
-                               np.asarray(landmarks, np.int64), np.asarray(features, np.int64))
 
     def push(self, i: int, j: int) -> None:
         """Append pairing (feature ``i``, landmark ``j``)."""
         p = self.problem
         dnis, dlogdet = append_pair(self.Mt, self.w, self.k * self.d, p.P, p.z, p.zhat, p.R, self._wrap, int(i), int(j))
-        self.pairs.append((int(i), int(j)))
-        self.nis_stack.append(self.nis + dnis)
-        self.logdet_stack.append(self.logdet + dlogdet)
-
-    def pop(self) -> None:
-        """Remove the most recent pairing."""
-        self.pairs.pop()
-        self.nis_stack.pop()
-        self.logdet_stack.pop()
+        self.k += 1
+        self.nis += dnis
+        self.logdet += dlogdet

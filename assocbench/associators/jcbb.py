@@ -6,7 +6,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from ..association.compatibility import chi2_threshold, individually_compatible, pairwise_nis, wrap_mask
+from ..association.compatibility import individually_compatible, joint_gates, pairwise_nis, wrap_mask
 from ..association.problem import Problem
 from .base import Associator
 from .jcbb_search import jcbb_search
@@ -60,7 +60,7 @@ class JCBB(Associator):
         if problem.m == 0 or problem.n == 0:
             return out
         ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
-        gate = np.array([chi2_threshold(problem.d * k, self.confidence) for k in range(problem.n + 1)])
+        gate = joint_gates(problem.d, problem.n, self.confidence)
         feats, lms, nodes, timed_out = jcbb_search(ic, problem.P, problem.z, problem.zhat, problem.R,
                                                    wrap_mask(problem), gate, int(self.max_nodes), bool(self.prefix_test))
         out[lms] = feats

@@ -3,7 +3,7 @@
 Iterative (an explicit stack of levels) so numba compiles it. The joint test is the
 incremental one of ``association.compatibility``: the hypothesis keeps ``M = L⁻¹ P[J, :]``
 (transposed, and only for the landmarks still in play) and, for every landmark in play, its
-conditional moments ``c_j = Xᵀw``, ``G_j = XᵀX`` (``conditional_moments``), stored per
+conditional moments ``c_j = Xᵀw``, ``G_j = XᵀX`` (``advance_moments``), stored per
 hypothesis size ``k``. Testing a pairing then costs O(d³) whatever ``k``, and appending one
 O(kd·d·r) for ``r`` landmarks in play; backtracking just lowers ``k``.
 

@@ -7,8 +7,8 @@ from dataclasses import dataclass
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, chi2_threshold,
-                                         individually_compatible, pairwise_nis, wrap_mask, whitened_pair)
+from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, individually_compatible,
+                                         joint_gates, pairwise_nis, whitened_pair, wrap_mask)
 from ..association.problem import Problem
 from .base import Associator
 
@@ -35,7 +35,7 @@ class SNN(Associator):
         if problem.m == 0 or problem.n == 0:
             return out
         ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
-        gate = np.array([chi2_threshold(problem.d * k, self.confidence) for k in range(problem.n + 1)])
+        gate = joint_gates(problem.d, problem.n, self.confidence)
         new_cost = -float(np.log(problem.volume)) + 0.5 * problem.d * LOG_2PI
         feats, lms = snn_greedy(ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem), gate, new_cost)
         out[lms] = feats
