@@ -34,6 +34,7 @@ DEFAULTS: dict = {
     "belief": asdict(BeliefConfig()),
     "method": "jcbb",
     "params": {},
+    "time_limit_s": 30.0,
 }
 FREE_FORM = {"trajectory_params", "params"}  # checked by the trajectory / associator itself
 
@@ -119,6 +120,7 @@ class RunSpec:
     seed: int
     method: str
     params: dict
+    time_limit_s: float = 30.0   # per associate() call; a call past it is a failed frame
 
 
 def _typed(cls, values: dict, section: str):
@@ -148,4 +150,4 @@ def run_spec(cfg: dict) -> RunSpec:
     )
     seq.resolved_trajectory()
     return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], str(cfg["method"]),
-                   dict(cfg["params"] or {}))
+                   dict(cfg["params"] or {}), float(cfg["time_limit_s"]))
