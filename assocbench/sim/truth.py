@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from .. import _runtime  # noqa: F401
+from ..validation import in_range, one_of, validate_fields
 from .camera import Intrinsics, project
 from .scene import Scene
 
@@ -26,10 +27,13 @@ class TruthConfig:
         at the projection; one extra render pass).
     """
 
-    gate_px: float = 2.0
-    margin_px: float = 8.0
-    max_view_angle: float = 75.0
-    occlusion: str = "ray"
+    gate_px: float = field(default=2.0, metadata=in_range(0, 50, lo_open=True))
+    margin_px: float = field(default=8.0, metadata=in_range(0))
+    max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))
+    occlusion: str = field(default="ray", metadata=one_of("ray", "depth"))
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "truth")
 
 
 def occluded_by_ray(scene: Scene, p: np.ndarray, points: np.ndarray, tol: float = 0.02) -> np.ndarray:
