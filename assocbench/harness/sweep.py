@@ -1,7 +1,7 @@
 """Run a suite's jobs: in this process, in local processes (``--jobs N``) or on a dask cluster.
 
-Each job's results are written atomically to ``<out>/jobs/<key>.*.csv``; a job whose files
-exist is skipped, so an interrupted sweep resumes where it stopped.
+Each job's results are stored by ``jobstore`` under ``<out>/jobs/``; a job whose stored files
+are complete and verified is skipped, so an interrupted sweep resumes where it stopped.
 """
 
 from __future__ import annotations
@@ -13,11 +13,12 @@ from pathlib import Path
 import pandas as pd
 from tqdm import tqdm
 
-from ..atomic import atomic_path, ensure_dir
+from ..atomic import ensure_dir
 from ..errors import UserError
 from ..scoring.aggregate import summarize
 from ..sim.sequence import load_sequence
 from .config import run_spec
+from .jobstore import load_job, store_job
 from .runner import associate_frames, frame_problems
 from .suite import Job, Suite
 
@@ -41,16 +42,6 @@ def run_job(job: Job, cache_dir: str | None = None) -> tuple[pd.DataFrame, pd.Da
     return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
 
 
-def _paths(out: Path, job: Job) -> tuple[Path, Path]:
-    return out / "jobs" / f"{job.key}.summary.csv", out / "jobs" / f"{job.key}.frames.csv"
-
-
-def _store(out: Path, job: Job, result: tuple[pd.DataFrame, pd.DataFrame]) -> None:
-    for path, df in zip(_paths(out, job), result):
-        with atomic_path(path) as tmp:
-            df.to_csv(tmp, index=False)
-
-
 def _dask_client(address: str | None):
     try:
         from dask.distributed import Client
@@ -72,7 +63,8 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
     if jobs < 1:
         raise UserError(f"--jobs must be at least 1, got {jobs}")
     ensure_dir(out / "jobs")
-    todo = [j for j in suite.jobs if not all(p.is_file() for p in _paths(out, j))]
+    done = [load_job(out, j) for j in suite.jobs]
+    todo = [j for j, d in zip(suite.jobs, done) if d is None]
     bar = tqdm(total=len(suite.jobs), initial=len(suite.jobs) - len(todo), desc=f"{suite.name}",
                unit="job", disable=not progress)
     if executor == "dask":
@@ -81,20 +73,28 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
         with _dask_client(address) as client:
             futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
             for fut in dask_completed(futures):
-                _store(out, futures[fut], fut.result())
+                store_job(out, futures[fut], fut.result())
                 bar.update()
     elif jobs == 1:
         for j in todo:
-            _store(out, j, run_job(j, cache_dir))
+            store_job(out, j, run_job(j, cache_dir))
             bar.update()
     else:
         with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
             futures = {pool.submit(run_job, j, cache_dir): j for j in todo}
             for fut in as_completed(futures):
-                _store(out, futures[fut], fut.result())
+                store_job(out, futures[fut], fut.result())
                 bar.update()
     bar.close()
-    parts = [tuple(pd.read_csv(p, dtype={"error": str}) for p in _paths(out, j)) for j in suite.jobs]
+    parts = [d or _reloaded(out, j) for j, d in zip(suite.jobs, done)]
     summaries = pd.concat([s for s, _ in parts], ignore_index=True)
-    summaries["error"] = summaries["error"].fillna("")
     return summaries, pd.concat([f for _, f in parts], ignore_index=True)
+
+
+def _reloaded(out: Path, job: Job) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """A job stored by this sweep, read back verified (so every job's frames have CSV dtypes)."""
+    result = load_job(out, job)
+    if result is None:
+        raise UserError(f"job {job.scene} seed {job.seed} was stored under {out / 'jobs'} but cannot be read back; "
+                        "run again to recompute it")
+    return result
