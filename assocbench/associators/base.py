@@ -9,6 +9,9 @@ import numpy as np
 from numba import njit
 
 from ..association.problem import NO_MATCH, Problem
+from ..validation import in_range, validate_fields
+
+CONFIDENCE = in_range(0, 1, lo_open=True, hi_open=True)  # field metadata of a χ² gate's confidence
 
 
 @dataclass
@@ -17,12 +20,19 @@ class Associator:
 
     ``associate(problem)`` returns an (n,) int array: the feature paired with each candidate
     landmark, or -1. It may set ``self.info`` (a dict of diagnostics, e.g. ``timed_out``).
+
+    Parameters are checked when the associator is built (``validate_fields``): the type from
+    each field's annotation (a number must be finite), the range from its metadata, e.g.
+    ``confidence: float = field(default=0.99, metadata=CONFIDENCE)``; a bad value is a one-line
+    ``UserError`` naming ``params.<field>``. A subclass that defines ``__post_init__`` calls
+    ``super().__post_init__()``.
     """
 
     name: ClassVar[str] = "base"
     summary: ClassVar[str] = ""
 
     def __post_init__(self) -> None:
+        validate_fields(self, "params")
         self.info: dict = {}
 
     def associate(self, problem: Problem) -> np.ndarray:  # pragma: no cover - interface

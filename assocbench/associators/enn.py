@@ -2,12 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..association.compatibility import innovations
 from ..association.problem import Problem
+from ..validation import in_range
 from .base import Associator, greedy_one_to_one
 
 
@@ -20,7 +21,7 @@ class ENN(Associator):
 
     name = "enn"
     summary = "Euclidean nearest neighbour, distance gate, greedy one-to-one"
-    gate: float = 25.0
+    gate: float = field(default=25.0, metadata=in_range(0, lo_open=True))
 
     def associate(self, problem: Problem) -> np.ndarray:
         if problem.m == 0 or problem.n == 0:

@@ -2,13 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..association.compatibility import individually_compatible, joint_gates, pairwise_nis, wrap_mask
 from ..association.problem import Problem
-from .base import Associator
+from ..validation import in_range
+from .base import CONFIDENCE, Associator
 from .jcbb_search import jcbb_search
 
 
@@ -50,8 +51,8 @@ class JCBB(Associator):
 
     name = "jcbb"
     summary = "joint compatibility branch and bound: most jointly compatible pairings, then lowest NIS"
-    confidence: float = 0.99
-    max_nodes: int = 10_000
+    confidence: float = field(default=0.99, metadata=CONFIDENCE)
+    max_nodes: int = field(default=10_000, metadata=in_range(1))
     prefix_test: bool = False
 
     def associate(self, problem: Problem) -> np.ndarray:

@@ -2,14 +2,14 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
 from ..association.compatibility import individually_compatible, log_gaussian, pairwise_nis
 from ..association.problem import NO_MATCH, Problem
-from .base import Associator
+from .base import CONFIDENCE, Associator
 
 FORBIDDEN = 1e12  # finite stand-in for +inf so the assignment is always feasible
 
@@ -27,7 +27,7 @@ class LSA(Associator):
     name = "lsa"
     summary = "linear sum assignment on -log-likelihood with dummy unassociated columns"
     threshold: float | None = None
-    confidence: float = 0.99
+    confidence: float = field(default=0.99, metadata=CONFIDENCE)
 
     def associate(self, problem: Problem) -> np.ndarray:
         m, n = problem.m, problem.n

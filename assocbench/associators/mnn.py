@@ -2,13 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..association.compatibility import individually_compatible, pairwise_nis
 from ..association.problem import Problem
-from .base import Associator, greedy_one_to_one
+from .base import CONFIDENCE, Associator, greedy_one_to_one
 
 
 @dataclass
@@ -20,7 +20,7 @@ class MNN(Associator):
 
     name = "mnn"
     summary = "Mahalanobis nearest neighbour, chi-square gate, greedy one-to-one"
-    confidence: float = 0.99
+    confidence: float = field(default=0.99, metadata=CONFIDENCE)
 
     def associate(self, problem: Problem) -> np.ndarray:
         if problem.m == 0 or problem.n == 0:

@@ -4,10 +4,11 @@ from __future__ import annotations
 
 import difflib
 import importlib
-from dataclasses import fields
+from dataclasses import fields, is_dataclass
 from importlib.metadata import entry_points
 
 from ..errors import UserError
+from ..validation import validate_fields
 from .base import Associator
 from .enn import ENN
 from .jcbb import JCBB
@@ -24,8 +25,12 @@ def _load_spec(spec: str) -> type[Associator]:
     module_name, _, attr = spec.partition(":")
     try:
         obj = getattr(importlib.import_module(module_name), attr)
-    except (ImportError, AttributeError) as exc:
-        raise UserError(f"cannot load associator {spec!r}: {exc}") from None
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - a plugin that fails to import (SyntaxError, raises, exits)
+        detail = str(exc).strip().splitlines()[0] if str(exc).strip() else ""
+        raise UserError(f"cannot load associator {spec!r}: {type(exc).__name__}"
+                        f"{': ' + detail if detail else ''}") from None
     if not (isinstance(obj, type) and callable(getattr(obj, "associate", None))):
         raise UserError(f"{spec!r} is not an associator class with an associate(problem) method")
     return obj
@@ -59,13 +64,24 @@ def associator_class(method: str) -> type[Associator]:
 
 
 def make_associator(method: str, **params) -> Associator:
-    """An associator instance: ``make_associator("jcbb", confidence=0.95).associate(problem)``."""
+    """An associator instance: ``make_associator("jcbb", confidence=0.95).associate(problem)``.
+
+    Parameters are checked here, before anything runs: unknown names, and for dataclass
+    associators the type and range of each field (``validation.validate_fields``)."""
     cls = associator_class(method)
+    allowed = [f.name for f in fields(cls)] if is_dataclass(cls) else None
+    unknown = sorted(set(params) - set(allowed)) if allowed is not None else []
+    if unknown:
+        raise UserError(f"unknown parameter {', '.join(unknown)} for method {method!r}: "
+                        f"accepted are {', '.join(allowed) or 'none'}")
     try:
-        return cls(**params)
-    except TypeError:
-        allowed = [f.name for f in fields(cls)] if hasattr(cls, "__dataclass_fields__") else []
-        unknown = sorted(set(params) - set(allowed)) or sorted(params)
-        raise UserError(
-            f"unknown parameter {', '.join(unknown)} for method {method!r}: accepted are {', '.join(allowed) or 'none'}"
-        ) from None
+        associator = cls(**params)
+    except UserError:
+        raise
+    except KeyboardInterrupt:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - a plugin's constructor is user code
+        raise UserError(f"cannot build method {method!r} with parameters {params}: {type(exc).__name__}: {exc}") from None
+    if allowed is not None and not isinstance(associator, Associator):
+        validate_fields(associator, "params")   # Associator subclasses check themselves
+    return associator

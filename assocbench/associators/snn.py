@@ -2,7 +2,7 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 from numba import njit
@@ -10,7 +10,7 @@ from numba import njit
 from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, individually_compatible,
                                          joint_gates, pairwise_nis, whitened_pair, wrap_mask)
 from ..association.problem import Problem
-from .base import Associator
+from .base import CONFIDENCE, Associator
 
 
 @dataclass
@@ -28,7 +28,7 @@ class SNN(Associator):
 
     name = "snn"
     summary = "surprisal nearest neighbour: greedy surprisal descent with IC and JC kept"
-    confidence: float = 0.99
+    confidence: float = field(default=0.99, metadata=CONFIDENCE)
 
     def associate(self, problem: Problem) -> np.ndarray:
         out = self.empty(problem)

@@ -9,12 +9,12 @@ is ``P = J Σ Jᵀ`` with the analytic Jacobians of ``pinhole.predict_bundle``.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from ..association.problem import NO_MATCH, Problem
-from ..errors import UserError
+from ..validation import in_range, validate_fields
 from ..sim.sequence import Sequence
 from .pinhole import perturb_pose, predict_bundle
 
@@ -33,24 +33,18 @@ class BeliefConfig:
     max_view_angle: candidates must face the estimated camera within this angle (deg).
     """
 
-    sigma_position: float = 0.03
-    sigma_rotation: float = 0.5
-    sigma_landmark: float = 0.02
-    sigma_common: float = 0.0
-    sigma_pixel: float = 1.0
-    miscalibration: float = 1.0
-    map_fraction: float = 1.0
-    clutter: int = 0
-    max_view_angle: float = 75.0
+    sigma_position: float = field(default=0.03, metadata=in_range(0))
+    sigma_rotation: float = field(default=0.5, metadata=in_range(0, 90))
+    sigma_landmark: float = field(default=0.02, metadata=in_range(0))
+    sigma_common: float = field(default=0.0, metadata=in_range(0))
+    sigma_pixel: float = field(default=1.0, metadata=in_range(0, lo_open=True))
+    miscalibration: float = field(default=1.0, metadata=in_range(0, lo_open=True))
+    map_fraction: float = field(default=1.0, metadata=in_range(0, 1))
+    clutter: int = field(default=0, metadata=in_range(0))
+    max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))
 
     def __post_init__(self) -> None:
-        for name in ("sigma_position", "sigma_rotation", "sigma_landmark", "sigma_common", "clutter"):
-            if getattr(self, name) < 0:
-                raise UserError(f"belief.{name} must be >= 0, got {getattr(self, name)!r}")
-        if self.sigma_pixel <= 0 or self.miscalibration <= 0:
-            raise UserError("belief.sigma_pixel and belief.miscalibration must be > 0")
-        if not 0.0 <= self.map_fraction <= 1.0:
-            raise UserError(f"belief.map_fraction must lie in [0, 1], got {self.map_fraction!r}")
+        validate_fields(self, "belief")
 
     @property
     def pose_covariance(self) -> np.ndarray:

@@ -14,12 +14,14 @@ from pathlib import Path
 
 import yaml
 
+from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig
 from ..errors import UserError
 from ..sim.detect import DetectorConfig
 from ..sim.render import check_msaa
 from ..sim.sequence import SequenceSpec
 from ..sim.truth import TruthConfig
+from ..validation import check_number
 
 DEFAULTS: dict = {
     "scene": "room",
@@ -35,6 +37,7 @@ DEFAULTS: dict = {
     "method": "jcbb",
     "params": {},
     "time_limit_s": 30.0,
+    "limits": {"frames": 5000, "clutter": 1000},
 }
 FREE_FORM = {"trajectory_params", "params"}  # checked by the trajectory / associator itself
 
@@ -44,13 +47,30 @@ def shipped_config(name: str) -> Path:
     return Path(str(resources.files("assocbench.configs"))) / name
 
 
+class _UniqueKeyLoader(yaml.SafeLoader):
+    """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
+    last silently, so a typo'd override would be lost without a word)."""
+
+    def construct_mapping(self, node, deep=False):
+        seen = set()
+        for key_node, _ in node.value:
+            key = self.construct_object(key_node, deep=deep)
+            if key in seen:
+                raise yaml.constructor.ConstructorError(
+                    None, None, f"duplicate key {key!r}: give each key once", key_node.start_mark)
+            seen.add(key)
+        return super().construct_mapping(node, deep)
+
+
 def read_yaml(path: str | Path) -> dict:
-    """Parse a YAML mapping, or raise a one-line ``UserError``."""
+    """Parse a YAML mapping, or raise a one-line ``UserError`` (duplicate keys included)."""
     path = Path(path)
     if not path.is_file():
         raise UserError(f"config file {path} not found; pass an existing YAML file")
     try:
-        data = yaml.safe_load(path.read_text())
+        data = yaml.load(path.read_text(), Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader
+    except UnicodeDecodeError:
+        raise UserError(f"{path} is not a text YAML file") from None
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         where = f" at line {mark.line + 1}" if mark else ""
@@ -124,6 +144,8 @@ class RunSpec:
 
 
 def _typed(cls, values: dict, section: str):
+    if not isinstance(values, dict):
+        raise UserError(f"{section} must be a mapping of settings, got {values!r}")
     try:
         return cls(**values)
     except (TypeError, ValueError) as exc:
@@ -132,22 +154,63 @@ def _typed(cls, values: dict, section: str):
         raise UserError(f"bad value in {section}: {exc}") from None
 
 
-def run_spec(cfg: dict) -> RunSpec:
-    """Resolve a merged config mapping into typed stage settings (values checked here)."""
+def _mapping(cfg: dict, key: str) -> dict:
+    """A free-form section (``params``, ``trajectory_params``): a mapping whose numbers are finite."""
+    value = cfg[key] if cfg[key] is not None else {}
+    if not isinstance(value, dict):
+        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {value!r}")
+    for name, item in value.items():
+        if isinstance(item, float):
+            check_number(item, f"{key}.{name}")
+    return dict(value)
+
+
+def _check_limits(cfg: dict) -> dict:
+    """The size limits (``limits.frames``, ``limits.clutter``), themselves checked."""
+    limits = cfg["limits"]
+    return {k: check_number(limits[k], f"limits.{k}", integer=True, lo=1) for k in DEFAULTS["limits"]}
+
+
+def _check_sizes(cfg: dict) -> None:
+    """Sizes that would render for hours or allocate GiB are refused before anything runs."""
+    limits = _check_limits(cfg)
+    check_number(cfg["frames"], "frames", integer=True, lo=1)
+    if cfg["frames"] > limits["frames"]:
+        raise UserError(f"frames {cfg['frames']} exceeds limits.frames = {limits['frames']} (about 10 minutes of "
+                        f"rendering); lower it or raise the limit with --set limits.frames=N")
+    clutter = cfg["belief"].get("clutter", 0) if isinstance(cfg["belief"], dict) else 0
+    if isinstance(clutter, int) and not isinstance(clutter, bool) and clutter > limits["clutter"]:
+        raise UserError(f"belief.clutter {clutter} exceeds limits.clutter = {limits['clutter']} features per "
+                        f"frame; lower it or raise the limit with --set limits.clutter=N")
     res = cfg["resolution"]
-    if not (isinstance(res, (list, tuple)) and len(res) == 2 and all(isinstance(v, int) for v in res)):
+    if not (isinstance(res, (list, tuple)) and len(res) == 2):
         raise UserError(f"resolution must be [width, height] in pixels, got {res!r}")
-    for key in ("frames", "seed"):
-        if not isinstance(cfg[key], int) or cfg[key] < (1 if key == "frames" else 0):
-            raise UserError(f"{key} must be a {'positive' if key == 'frames' else 'non-negative'} integer, "
-                            f"got {cfg[key]!r}")
+    for name, value in zip(("width", "height"), res):
+        check_number(value, f"resolution {name}", integer=True, lo=16, hi=8192)
+
+
+def run_spec(cfg: dict) -> RunSpec:
+    """Resolve a merged config mapping into typed stage settings. Every value is checked here,
+    before anything runs: types, finiteness, ranges, sizes against ``limits``, the method and
+    its parameters (built once and thrown away)."""
+    _check_sizes(cfg)
+    check_number(cfg["seed"], "seed", integer=True, lo=0, hi=2**32 - 1)
+    check_number(cfg["time_limit_s"], "time_limit_s", lo=0, hi=86400, lo_open=True)
     check_msaa(cfg["msaa"])
+    for key in ("scene", "method"):
+        if not isinstance(cfg[key], str) or not cfg[key]:
+            raise UserError(f"{key} must be a name or a path, got {cfg[key]!r}")
+    if cfg["trajectory"] is not None and not isinstance(cfg["trajectory"], str):
+        raise UserError(f"trajectory must be a name or null, got {cfg['trajectory']!r}")
+    res = cfg["resolution"]
     seq = SequenceSpec(
-        scene=str(cfg["scene"]), trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
-        width=res[0], height=res[1], msaa=cfg["msaa"], trajectory_params=dict(cfg["trajectory_params"] or {}),
+        scene=cfg["scene"], trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
+        width=res[0], height=res[1], msaa=cfg["msaa"], trajectory_params=_mapping(cfg, "trajectory_params"),
         detector=_typed(DetectorConfig, cfg["detector"], "detector"),
         truth=_typed(TruthConfig, cfg["truth"], "truth"),
     )
     seq.resolved_trajectory()
-    return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], str(cfg["method"]),
-                   dict(cfg["params"] or {}), float(cfg["time_limit_s"]))
+    params = _mapping(cfg, "params")
+    make_associator(cfg["method"], **params)   # unknown method or bad parameters: refused now
+    return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
+                   params, float(cfg["time_limit_s"]))

@@ -2,12 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict, dataclass
+from dataclasses import dataclass, field
 
 import cv2
 import numpy as np
 
-from ..errors import UserError
+from ..validation import in_range, one_of, validate_fields
 
 DETECTORS = ("shi-tomasi", "fast", "orb")
 
@@ -24,18 +24,15 @@ class DetectorConfig:
     noise_px: standard deviation of Gaussian pixel noise added after refinement (px).
     """
 
-    method: str = "shi-tomasi"
-    max_features: int = 400
-    quality: float = 0.02
-    min_distance: float = 6.0
-    subpix_window: int = 4
-    noise_px: float = 0.0
+    method: str = field(default="shi-tomasi", metadata=one_of(*DETECTORS))
+    max_features: int = field(default=400, metadata=in_range(1, 5000))
+    quality: float = field(default=0.02, metadata=in_range(0, 1, lo_open=True))
+    min_distance: float = field(default=6.0, metadata=in_range(0))
+    subpix_window: int = field(default=4, metadata=in_range(0, 32))
+    noise_px: float = field(default=0.0, metadata=in_range(0))
 
     def __post_init__(self) -> None:
-        if self.method not in DETECTORS:
-            raise UserError(f"unknown detector {self.method!r}: choose one of {', '.join(DETECTORS)}")
-        if self.max_features < 1 or self.noise_px < 0 or self.subpix_window < 0:
-            raise UserError(f"detector settings out of range: {asdict(self)}")
+        validate_fields(self, "detector")
 
 
 def _raw_corners(gray: np.ndarray, cfg: DetectorConfig) -> np.ndarray:
