@@ -1,9 +1,15 @@
 """Aggregate per-frame records into a run summary and runs into a leaderboard.
 
 precision = ΣTP / Σ(TP + FP),  recall = ΣTP / Σ(TP + FN),  F1 = 2PR / (P + R)  (micro averages
-over frames); perfect = share of frames whose association equals the truth exactly;
+over frames); perfect = share of the frames with candidates whose association equals the truth
+exactly (a failed frame is not perfect);
 surprisal_gap = mean over frames of s(returned) - s(true); runtime median and p95 of
 ``associate`` in milliseconds.
+
+A ratio with nothing to count is NaN, never 1: precision when no pairing was returned, recall
+when the truth has no pair. ``status`` says in words whether the numbers can be trusted:
+``ok``, or every reason they cannot (frames that failed, no candidates, nothing associated), so
+a broken run can never read as a perfect one; ``check`` fails every row that is not ``ok``.
 """
 
 from __future__ import annotations
@@ -12,12 +18,38 @@ import numpy as np
 import pandas as pd
 
 ACCURACY_METRICS = ("precision", "recall", "f1", "perfect")
-SUMMARY_COLUMNS = ("precision", "recall", "f1", "perfect", "surprisal_gap", "jc_share",
+SUMMARY_COLUMNS = ("status", "precision", "recall", "f1", "perfect", "surprisal_gap", "jc_share",
                    "clutter_accepted", "runtime_median_ms", "runtime_p95_ms", "frames", "failures", "timed_out")
+OK = "ok"
 
 
 def _ratio(num: float, den: float) -> float:
-    return float(num / den) if den > 0 else 1.0
+    return float(num / den) if den > 0 else float("nan")
+
+
+def run_status(frames: pd.DataFrame) -> str:
+    """``ok``, or the reasons a run's numbers cannot be trusted, joined by ``; ``."""
+    reasons = []
+    failures = int((frames["error"] != "").sum()) if "error" in frames else 0
+    if len(frames) == 0:
+        reasons.append("no frames")
+    if failures:
+        reasons.append(f"{failures}/{len(frames)} frames failed")
+    if len(frames) and frames["n"].sum() == 0:
+        reasons.append("no candidates in any frame")
+    elif len(frames) and (frames["tp"] + frames["fp"]).sum() == 0:
+        reasons.append("nothing associated")
+    return "; ".join(reasons) or OK
+
+
+def _perfect_share(frames: pd.DataFrame) -> float:
+    """Share of the frames with candidates whose association is exactly right; a failed frame is
+    never perfect, and a frame with nothing to associate does not count (NaN if none has any)."""
+    posed = frames[frames["n"] > 0]
+    if not len(posed):
+        return float("nan")
+    right = posed["perfect"] & (posed["error"] == "") if "error" in posed else posed["perfect"]
+    return float(right.mean())
 
 
 def summarize(frames: pd.DataFrame) -> dict[str, float]:
@@ -25,12 +57,12 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
     ok = frames[frames["error"] == ""] if "error" in frames else frames
     tp, fp, fn = frames["tp"].sum(), frames["fp"].sum(), frames["fn"].sum()
     precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
-    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else 0.0
+    f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else precision + recall  # 0 or NaN
     runtime_ms = ok["runtime_s"].to_numpy() * 1e3
     gap = (ok["surprisal"] - ok["surprisal_true"]).to_numpy()
     return {
-        "precision": precision, "recall": recall, "f1": f1,
-        "perfect": float(frames["perfect"].mean()) if len(frames) else 1.0,
+        "status": run_status(frames), "precision": precision, "recall": recall, "f1": f1,
+        "perfect": _perfect_share(frames),
         "surprisal_gap": float(np.nanmean(gap)) if np.isfinite(gap).any() else np.nan,
         "jc_share": float(ok["jointly_compatible"].mean()) if len(ok) else np.nan,
         "clutter_accepted": int(frames["clutter_accepted"].sum()),
@@ -42,12 +74,15 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
 
 
 def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
-    """Mean and std over seeds of each method × scenario, sorted by scenario then F1 (best first)."""
+    """Mean and std over seeds of each method × scenario, sorted by scenario then F1 (best first).
+    A NaN in any seed makes the mean NaN (it is not skipped), and ``status`` is ``ok`` only when
+    every seed's run was."""
     metrics = ["precision", "recall", "f1", "perfect", "surprisal_gap", "runtime_median_ms"]
     grouped = summaries.groupby(["scenario", "method"], sort=True)
-    mean = grouped[metrics].mean()
+    mean = grouped[metrics].agg(lambda col: col.mean(skipna=False))
     std = grouped[metrics].std(ddof=0).fillna(0.0)
     table = mean.join(std.add_suffix("_std"))
+    table["status"] = grouped["status"].agg(_combined_status) if "status" in summaries else OK
     table["seeds"] = grouped.size()
     table["frames"] = grouped["frames"].sum()
     table["failures"] = grouped["failures"].sum()
@@ -55,3 +90,8 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     table = table.reset_index().sort_values(["scenario", "f1", "precision", "method"],
                                             ascending=[True, False, False, True])
     return table.reset_index(drop=True)
+
+
+def _combined_status(statuses: pd.Series) -> str:
+    bad = sorted({s for s in statuses if s != OK})
+    return "; ".join(f"seed run: {s}" for s in bad) if bad else OK
