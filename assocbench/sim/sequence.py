@@ -30,7 +30,7 @@ from .scene import Scene, load_scene
 from .trajectory import TRAJECTORIES, make_trajectory, rig_for
 from .truth import TruthConfig, label_features, visibility
 
-FORMAT_VERSION = 3
+FORMAT_VERSION = 4  # 4: truth labels every imaged landmark, however oblique
 DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line"}
 
 
@@ -81,7 +81,7 @@ class Sequence:
     positions: np.ndarray          # (N, 3)
     features: list[np.ndarray]     # N x (m_k, 2) detected pixels
     labels: list[np.ndarray]       # N x (m_k,) landmark index or -1
-    visible: np.ndarray            # (N, L) truly visible
+    visible: np.ndarray            # (N, L) truly visible: imaged, the only landmarks labels name
     projections: np.ndarray        # (N, L, 2) true projections
     images: np.ndarray | None = None
     from_cache: bool = False
@@ -98,8 +98,7 @@ class RenderedFrame:
     features: np.ndarray     # (m, 2)
     labels: np.ndarray       # (m,) landmark index or -1
     projections: np.ndarray  # (L, 2)
-    imaged: np.ndarray       # (L,) unoccluded, facing, in the image
-    visible: np.ndarray      # (L,) imaged and clear of the border margin
+    visible: np.ndarray      # (L,) in front, in the image, front side towards the camera, unoccluded
 
 
 def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -113,9 +112,9 @@ def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: 
     """Render frame ``k`` at pose ``(R, p)``, detect its features and label them."""
     frame = renderer.render(R, p, depth=spec.truth.occlusion == "depth")
     features = detect(frame["rgb"], spec.detector, np.random.default_rng([spec.seed, k, 11]))
-    uv, imaged, visible = visibility(scene, R, p, renderer.K, spec.truth, frame.get("depth"))
-    labels = label_features(features, uv, imaged, spec.truth.gate_px)
-    return RenderedFrame(frame["rgb"], features, labels, uv, imaged, visible)
+    uv, visible = visibility(scene, R, p, renderer.K, spec.truth, frame.get("depth"))
+    labels = label_features(features, uv, visible, spec.truth.gate_px)
+    return RenderedFrame(frame["rgb"], features, labels, uv, visible)
 
 
 def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:

@@ -23,12 +23,19 @@ class TruthFrame:
     labels: np.ndarray
 
     def summary(self) -> str:
+        """One line of counts that nest: labelled ⊆ visible ⊆ in view, labelled ⊆ features.
+
+        ``visible``: in front, in the image, front side towards the camera and unoccluded (the
+        green marks); labels name only visible landmarks, one feature each, so "labelled" counts
+        both the labelled features and the visible landmarks the detector found."""
         lab = self.labels >= 0
         err = np.linalg.norm(self.features[lab] - self.projections[self.labels[lab]], axis=1)
         med = f"{np.median(err):.2f} px" if len(err) else "n/a"
-        return (f"{int(self.visible.sum())} landmarks visible ({int(self.in_view.sum() - self.visible.sum())} in view "
-                f"but hidden or turned away), {len(self.features)} features, {int(lab.sum())} labelled, "
-                f"median label error {med}")
+        n_vis, n_lab = int(self.visible.sum()), int(lab.sum())
+        hidden = int((self.in_view & ~self.visible).sum())
+        return (f"{n_vis} landmarks visible, {n_lab} of them labelled (detected), {n_vis - n_lab} not detected; "
+                f"{hidden} more in view but hidden or turned away; {len(self.features)} features, "
+                f"{len(self.features) - n_lab} unlabelled; median label error {med}")
 
 
 def render_truth_frame(spec: SequenceSpec, index: int) -> TruthFrame:
