@@ -1,4 +1,4 @@
-"""``assocbench check``: exit 1 when an accuracy metric regressed against the baseline."""
+"""``assocbench check``: exit 1 unless every row of the suite was compared and none regressed."""
 
 from __future__ import annotations
 
@@ -6,10 +6,11 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from ..harness.check import compare, read_baseline, write_baseline, baseline_table
+from ..harness.check import baseline_table, check_tolerance, compare, read_baseline, write_baseline
 from ..harness.config import shipped_config
 from ..harness.suite import load_suite
 from ..harness.sweep import run_suite
+from ..scoring.aggregate import leaderboard_table
 from .common import print_table
 
 NAME = "check"
@@ -27,6 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     suite = load_suite(args.suite or shipped_config("ci.yaml"))
+    tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
     baseline_path = Path(args.baseline)
     baseline = None if args.update else read_baseline(baseline_path)
     with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run
@@ -35,11 +37,12 @@ def main(args: argparse.Namespace) -> int:
         write_baseline(summaries, baseline_path)
         print(f"wrote baseline {baseline_path} ({len(baseline_table(summaries))} rows)")
         return 0
-    tolerance = suite.tolerance if args.tolerance is None else args.tolerance
-    regressions = compare(baseline_table(summaries), baseline, tolerance)
-    if len(regressions):
-        print(f"accuracy regressed beyond tolerance {tolerance}:")
-        print_table(regressions, "table")
+    expected = suite.rows()
+    findings = compare(leaderboard_table(summaries), baseline, tolerance, expected)
+    if len(findings):
+        print(f"check failed: {len(findings)} finding(s) against {baseline_path} (tolerance {tolerance}):")
+        print_table(findings, "table")
         return 1
-    print(f"ok: {len(baseline)} scenario × method rows within tolerance {tolerance} of {baseline_path}")
+    print(f"ok: {len(expected)} scenario × method rows compared, all within tolerance {tolerance} of {baseline_path}")
     return 0
+

@@ -3,7 +3,10 @@
 from __future__ import annotations
 
 import argparse
+import hashlib
 import json
+import os
+from pathlib import Path
 
 import pandas as pd
 
@@ -40,3 +43,22 @@ def print_table(df: pd.DataFrame, fmt: str) -> None:
     else:
         with pd.option_context("display.width", 200, "display.max_columns", 50, "display.float_format", "{:.4g}".format):
             print(df.to_string(index=False))
+
+
+def check_output_folder(path: Path, flag: str = "--out") -> Path:
+    """Refuse, before anything runs, an output folder that could not be created or written; create
+    nothing (a run that fails must not leave an empty folder behind)."""
+    probe = path
+    while not probe.exists() and probe != probe.parent:
+        probe = probe.parent
+    if probe.exists() and not probe.is_dir():
+        raise UserError(f"cannot create output folder {path}: {probe} is a file; choose another {flag}")
+    if not os.access(probe, os.W_OK | os.X_OK):
+        raise UserError(f"cannot write output folder {path}: {probe} is not writable; choose another {flag}")
+    return path
+
+
+def config_digest(cfg: dict) -> str:
+    """8 hex digits naming a resolved run config: runs that differ in any setting never share a folder."""
+    text = json.dumps(cfg, sort_keys=True, default=str)
+    return hashlib.sha256(text.encode()).hexdigest()[:8]

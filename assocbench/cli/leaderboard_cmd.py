@@ -3,13 +3,15 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
-from ..atomic import ensure_dir
 from ..harness.config import shipped_config
 from ..harness.leaderboard import write_leaderboard
 from ..harness.suite import load_suite
 from ..harness.sweep import EXECUTORS, run_suite
+from ..scoring.aggregate import OK
+from .common import check_output_folder
 
 NAME = "leaderboard"
 HELP = "run every method of a suite and write the leaderboard (CSV, Markdown, PNG plots)"
@@ -20,19 +22,21 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
     p.add_argument("--executor", choices=EXECUTORS, default="local", help="local processes or a dask cluster")
     p.add_argument("--address", help="dask scheduler address, e.g. tcp://127.0.0.1:8786")
-    p.add_argument("--out", default="results", help="folder for the leaderboard files (default results)")
+    p.add_argument("--out", help="folder for the leaderboard files and its stored jobs (default "
+                   "results/runs/<suite name>; the committed reference in results/ is written with --out results)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
 def main(args: argparse.Namespace) -> int:
     suite = load_suite(args.suite or shipped_config("leaderboard.yaml"))
-    out = ensure_dir(Path(args.out))
-    summaries, frames = run_suite(suite, out / "runs" / suite.name, args.jobs, args.executor, args.address,
-                                  progress=not args.quiet)
+    out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
+    summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
     paths = write_leaderboard(summaries, frames, out)
     print(paths["md"].read_text())
     print("wrote " + ", ".join(str(p) for p in paths.values()))
-    failed = summaries[summaries["error"] != ""]
-    for _, r in failed.iterrows():
-        print(f"note: {r['method']} failed on {int(r['failures'])} frame(s) of {r['scenario']} seed {r['seed']}: {r['error']}")
-    return 0
+    untrusted = summaries[summaries["status"] != OK]
+    for _, r in untrusted.iterrows():
+        error = f": {r['error']}" if r["error"] else ""
+        print(f"assocbench: warning: {r['method']} on {r['scenario']} seed {r['seed']} is not ok, "
+              f"{r['status']}{error}", file=sys.stderr)
+    return 1 if len(untrusted) else 0

@@ -3,15 +3,16 @@
 from __future__ import annotations
 
 import argparse
+import sys
 from pathlib import Path
 
 import pandas as pd
 
-from ..atomic import atomic_path, ensure_dir
+from ..atomic import atomic_path
 from ..harness.config import load_run_config, run_spec
 from ..harness.runner import execute
-from ..scoring.aggregate import SUMMARY_COLUMNS
-from .common import add_run_options, print_table
+from ..scoring.aggregate import OK, SUMMARY_COLUMNS
+from .common import add_run_options, check_output_folder, config_digest, print_table
 
 NAME = "run"
 HELP = "run one associator on one scene and print its scores"
@@ -20,16 +21,23 @@ HELP = "run one associator on one scene and print its scores"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--method", help="associator name (assocbench list) or pkg.module:Class")
     add_run_options(p)
-    p.add_argument("--out", help="output folder (default results/runs/<scene>-<method>-seed<seed>)")
+    p.add_argument("--out", help="output folder (default results/runs/<scene>-<method>-seed<seed>-<config digest>)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table", help="how to print the summary")
+
+
+def default_out(cfg: dict, scene: str, method: str, seed: int) -> Path:
+    """``results/runs/<scene>-<method>-seed<seed>-<digest>``: the digest covers every setting, so a
+    quick experiment (``--frames 3``, ``--set ...``) never overwrites another run's files."""
+    tag = f"{Path(scene).stem}-{method.replace(':', '.').replace('/', '.')}-seed{seed}-{config_digest(cfg)}"
+    return Path("results/runs") / tag
 
 
 def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed)
     spec = run_spec(cfg)
-    tag = f"{Path(spec.sequence.scene).stem}-{spec.method.replace(':', '.').replace('/', '.')}-seed{spec.seed}"
-    out = ensure_dir(Path(args.out or f"results/runs/{tag}"))
+    out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
+                                                                           spec.seed))
     frames, summary = execute(spec)
     row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
            "method": spec.method, "seed": spec.seed, **{k: summary[k] for k in SUMMARY_COLUMNS}}
@@ -43,4 +51,9 @@ def main(args: argparse.Namespace) -> int:
         print(f"wrote {out / 'frames.csv'} and {out / 'summary.csv'}")
     else:
         print_table(summary_df, args.format)
+    if summary["status"] != OK:
+        errors = sorted(set(frames["error"]) - {""})
+        first = f" (first error: {errors[0]})" if errors else ""
+        print(f"assocbench: warning: these numbers cannot be trusted: {summary['status']}{first}", file=sys.stderr)
+        return 1
     return 0

@@ -1,45 +1,94 @@
-"""``assocbench check``: compare a suite's accuracy with a committed baseline."""
+"""``assocbench check``: compare a suite's accuracy with a committed baseline.
+
+``check`` passes only when it compared everything it was asked to: every (scenario, method)
+row of the suite is in the baseline and in the fresh run, every run's ``status`` is ``ok`` (no
+failed frames, candidates present, something associated), and every accuracy value on both
+sides is finite and no more than ``tolerance`` (finite, >= 0) below the baseline.
+"""
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 import pandas as pd
 
 from ..atomic import atomic_path
 from ..errors import UserError
-from ..scoring.aggregate import ACCURACY_METRICS, leaderboard_table
+from ..scoring.aggregate import ACCURACY_METRICS, OK, leaderboard_table
+from ..validation import check_number
 
 KEY = ["scenario", "method"]
+FINDING_COLUMNS = KEY + ["metric", "baseline", "current", "delta", "why"]
+
+
+def check_tolerance(value, where: str = "--tolerance") -> float:
+    """A tolerance is a finite, non-negative number (NaN would make every comparison pass)."""
+    return float(check_number(value, where, lo=0))
 
 
 def read_baseline(path: Path) -> pd.DataFrame:
-    """The baseline CSV (``scenario, method`` and the accuracy metrics), or a one-line error."""
+    """The baseline CSV (``scenario, method`` and the accuracy metrics in [0, 1]), or a one-line
+    error: a missing, empty, truncated or non-numeric baseline cannot vouch for anything."""
     if not path.is_file():
         raise UserError(f"baseline {path} not found: create it with `assocbench check --update`")
     try:
-        base = pd.read_csv(path)
-    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError) as exc:
-        raise UserError(f"baseline {path} is not a readable CSV: {exc}") from None
+        base = pd.read_csv(path, dtype={"scenario": str, "method": str})
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
+        raise UserError(f"baseline {path} is not a readable CSV: {str(exc).strip().splitlines()[0]}") from None
     missing = [c for c in KEY + list(ACCURACY_METRICS) if c not in base.columns]
     if missing:
         raise UserError(f"baseline {path} lacks columns {', '.join(missing)}; regenerate it with --update")
+    if base.empty:
+        raise UserError(f"baseline {path} has no rows, so nothing could be compared; regenerate it with --update")
+    for metric in ACCURACY_METRICS:
+        values = pd.to_numeric(base[metric], errors="coerce")
+        bad = ~values.between(0.0, 1.0)   # NaN (empty, text, a truncated row) is not between
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            raise UserError(f"baseline {path} row {row + 2}: {metric} is {base[metric].iloc[row]!r}, not a number "
+                            f"in [0, 1] (truncated or edited?); regenerate it with --update")
+        base[metric] = values
+    dup = base.duplicated(KEY)
+    if dup.any():
+        r = base[dup].iloc[0]
+        raise UserError(f"baseline {path} lists {r['scenario']} × {r['method']} twice; regenerate it with --update")
     return base
 
 
-def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float) -> pd.DataFrame:
-    """Rows (scenario, method, metric, baseline, current, delta) that regressed by more than
-    ``tolerance`` or are missing from the current results."""
-    merged = baseline[KEY + list(ACCURACY_METRICS)].merge(
-        current[KEY + list(ACCURACY_METRICS)], on=KEY, how="left", suffixes=("_base", ""))
+def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float,
+            expected: list[tuple[str, str]]) -> pd.DataFrame:
+    """Findings (one row each) that make ``check`` fail: an accuracy metric more than
+    ``tolerance`` below the baseline, a non-finite value, a run whose status is not ``ok``, or an
+    ``expected`` row missing from the baseline or from the current results."""
+    cur = current.set_index(KEY)
+    base = baseline.set_index(KEY)
     rows = []
-    for _, r in merged.iterrows():
+
+    def finding(key, why, metric="", b=math.nan, c=math.nan):
+        rows.append({"scenario": key[0], "method": key[1], "metric": metric, "baseline": b, "current": c,
+                     "delta": c - b, "why": why})
+
+    for key in expected:
+        if key not in base.index:
+            finding(key, "not in the baseline (run check --update)")
+            continue
+        if key not in cur.index:
+            finding(key, "not produced by this run")
+            continue
+        status = cur.loc[key, "status"] if "status" in cur else OK
+        if status != OK:
+            finding(key, f"run not ok: {status}")
         for metric in ACCURACY_METRICS:
-            base, now = r[f"{metric}_base"], r[metric]
-            if pd.isna(now) or now < base - tolerance:
-                rows.append({"scenario": r["scenario"], "method": r["method"], "metric": metric,
-                             "baseline": base, "current": now, "delta": now - base})
-    return pd.DataFrame(rows, columns=KEY + ["metric", "baseline", "current", "delta"])
+            b, c = float(base.loc[key, metric]), float(cur.loc[key, metric])
+            if not math.isfinite(c):
+                finding(key, "not a finite number", metric, b, c)
+            elif c < b - tolerance:
+                finding(key, "regressed", metric, b, c)
+    for key in base.index:
+        if key not in set(expected):
+            finding(key, "in the baseline but not in the suite")
+    return pd.DataFrame(rows, columns=FINDING_COLUMNS)
 
 
 def baseline_table(summaries: pd.DataFrame) -> pd.DataFrame:
@@ -48,5 +97,11 @@ def baseline_table(summaries: pd.DataFrame) -> pd.DataFrame:
 
 
 def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
+    """Write the baseline atomically; refuse one from a run that cannot vouch for anything."""
+    table = leaderboard_table(summaries)
+    bad = table[table["status"] != OK]
+    if len(bad):
+        r = bad.iloc[0]
+        raise UserError(f"not writing baseline {path}: {r['scenario']} × {r['method']} is not ok ({r['status']})")
     with atomic_path(path) as tmp:
-        baseline_table(summaries).to_csv(tmp, index=False, float_format="%.6f")
+        table[KEY + list(ACCURACY_METRICS)].to_csv(tmp, index=False, float_format="%.6f")

@@ -13,9 +13,10 @@ import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from ..associators.registry import associator_class
+from ..associators.registry import associator_class, make_associator
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
+from ..validation import check_number
 from .config import DEFAULTS, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "methods", "seeds", "tolerance")
@@ -64,6 +65,15 @@ class Suite:
     jobs: tuple[Job, ...]
     tolerance: float
 
+    def rows(self) -> list[tuple[str, str]]:
+        """The (scenario, method label) rows a run of this suite must produce."""
+        first = {}
+        for job in self.jobs:
+            for difficulty, _ in job.runs:
+                for m in job.methods:
+                    first.setdefault((f"{job.scene}/{difficulty}", m.label), None)
+        return list(first)
+
 
 def _methods(raw, where: str) -> tuple[MethodEntry, ...]:
     if not isinstance(raw, list) or not raw:
@@ -72,11 +82,27 @@ def _methods(raw, where: str) -> tuple[MethodEntry, ...]:
     for item in raw:
         if isinstance(item, str):
             out.append(MethodEntry(item, item))
-        elif isinstance(item, dict) and set(item) <= {"name", "method", "params"} and "method" in item:
+        elif (isinstance(item, dict) and set(item) <= {"name", "method", "params"} and "method" in item
+              and isinstance(item.get("params") or {}, dict)):
             out.append(MethodEntry(str(item.get("name", item["method"])), str(item["method"]), dict(item.get("params") or {})))
         else:
             raise UserError(f"bad method entry {item!r} in {where}: use a name or {{name, method, params}}")
+    _refuse_duplicates([m.label for m in out], "method labels", where, "give each entry its own name")
     return tuple(out)
+
+
+def _refuse_duplicates(items: list, what: str, where: str, fix: str) -> None:
+    """Two rows of a suite with one label would be averaged into one row that claims twice the seeds."""
+    seen = [x for k, x in enumerate(items) if x in items[:k]]
+    if seen:
+        raise UserError(f"duplicate {what} {', '.join(map(repr, dict.fromkeys(seen)))} in {where}: {fix}")
+
+
+def _list(raw, key: str, default, where: str) -> list:
+    value = raw.get(key) if raw.get(key) is not None else default
+    if not isinstance(value, list) or not value:
+        raise UserError(f"'{key}' in {where} must be a non-empty list, got {value!r}")
+    return value
 
 
 def load_suite(path: str | Path) -> Suite:
@@ -86,15 +112,24 @@ def load_suite(path: str | Path) -> Suite:
     for key in raw:
         if key not in SUITE_KEYS:
             raise UserError(f"unknown key {key!r} in {path}; known keys: {', '.join(SUITE_KEYS)}")
+    if not isinstance(raw.get("base") or {}, dict):
+        raise UserError(f"'base' in {path} must be a run-config mapping")
     base = merge(DEFAULTS, raw.get("base") or {}, f"{path} base")
-    scenes = raw.get("scenes") or [base["scene"]]
+    scenes = _list(raw, "scenes", [base["scene"]], str(path))
     difficulties = raw.get("difficulties") or {"default": {}}
-    seeds = raw.get("seeds") or [base["seed"]]
-    if not isinstance(difficulties, dict):
+    seeds = _list(raw, "seeds", [base["seed"]], str(path))
+    if not isinstance(difficulties, dict) or not all(isinstance(v or {}, dict) for v in difficulties.values()):
         raise UserError(f"'difficulties' in {path} must map names to run-config overrides")
-    if not (isinstance(seeds, list) and all(isinstance(s, int) and s >= 0 for s in seeds)):
-        raise UserError(f"'seeds' in {path} must be a list of non-negative integers")
+    for seed in seeds:
+        check_number(seed, f"seeds entry in {path}", integer=True, lo=0, hi=2**32 - 1)
+    if not all(isinstance(sc, str) for sc in scenes):
+        raise UserError(f"'scenes' in {path} must be a list of scene names or MJCF paths")
+    _refuse_duplicates(seeds, "seeds", str(path), "list each seed once")
+    _refuse_duplicates(scenes, "scenes", str(path), "list each scene once")
     methods = _methods(raw.get("methods"), str(path))
+    for m in methods:
+        make_associator(m.method, **m.params)   # unknown methods, broken plugins, bad parameters: now
+    tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)
     jobs = []
     for scene in scenes:
         for seed in seeds:
@@ -105,7 +140,7 @@ def load_suite(path: str | Path) -> Suite:
                 run_spec(cfg)  # validate now
                 runs.append((str(name), cfg))
             jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
-    return Suite(path.stem, tuple(jobs), float(raw.get("tolerance", 0.02)))
+    return Suite(path.stem, tuple(jobs), float(tolerance))
 
 
 def shipped_difficulties() -> dict[str, dict]:
