@@ -36,7 +36,7 @@ def assert_one_line_error(capsys, code: int, *needles: str) -> None:
     (["run", "--method", "jcbbb", "--frames", "2"], ["unknown method 'jcbbb'", "did you mean jcbb"]),
     (["run", "--set", "belief.sigma_rot=2", "--frames", "2"], ["unknown key 'belief.sigma_rot'", "sigma_rotation"]),
     (["run", "--set", "frames"], ["key=value"]),
-    (["run", "--frames", "0"], ["frames must be a positive integer"]),
+    (["run", "--frames", "0"], ["frames must be an integer >= 1"]),
     (["run", "--set", "belief.map_fraction=2"], ["map_fraction"]),
     (["run", "--set", "msaa=-1"], ["msaa must be null", "0..16"]),
     (["run", "--method", "jcbb", "--set", "params.confidance=0.9", "--frames", "2"], ["confidance", "accepted are"]),
