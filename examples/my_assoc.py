@@ -3,12 +3,13 @@
 Run it with:  PYTHONPATH=examples assocbench run --method my_assoc:GatedNearest
 """
 
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 
 import numpy as np
 
 from assocbench import Associator
 from assocbench.association.compatibility import individually_compatible, pairwise_nis
+from assocbench.validation import in_range
 
 
 @dataclass
@@ -20,7 +21,7 @@ class GatedNearest(Associator):
 
     name = "gated-nearest"
     summary = "each landmark takes its nearest free feature inside the chi-square gate"
-    confidence: float = 0.95
+    confidence: float = field(default=0.95, metadata=in_range(0, 1, lo_open=True, hi_open=True))
 
     def associate(self, problem):
         out = np.full(problem.n, -1)
