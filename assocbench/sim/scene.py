@@ -1,8 +1,10 @@
 """Load a scene: a shipped name (``room``) or any MJCF path that follows the ``lm*`` convention.
 
 A landmark is a ``site`` whose name starts with ``lm``; its z axis is the outward normal of
-the patch it marks. The loader adds its own camera to the world body (so user MJCF needs
-none) and reads the offscreen buffer size, which bounds the rendering resolution.
+the patch it marks, or, when the site has no orientation of its own, the normal of the surface
+it sits on (``normals.landmark_normals``). The loader adds its own camera to the world body
+(so user MJCF needs none) and reads the offscreen buffer size, which bounds the rendering
+resolution.
 """
 
 from __future__ import annotations
@@ -16,6 +18,7 @@ import numpy as np
 
 from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
+from .normals import landmark_normals
 
 import mujoco  # noqa: E402
 
@@ -56,6 +59,7 @@ class Scene:
     camera_id: int
     fovy: float
     offscreen: tuple[int, int]  # (width, height) of the MJCF offscreen buffer
+    inferred: np.ndarray | None = None  # (L,) normals taken from the surface (un-oriented sites)
 
     @property
     def digest(self) -> str:
@@ -65,6 +69,18 @@ class Scene:
             if extra.suffix.lower() in {".png", ".obj", ".stl"}:
                 h.update(extra.name.encode() + extra.read_bytes())
         return h.hexdigest()[:16]
+
+    def free_distance(self, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
+        """Distance (k,) from ``origin`` to the first surface along each unit direction (k, 3):
+        ``inf`` where nothing is hit, 0 where the origin lies inside a solid (the first surface
+        is met from within: its outward normal points along the ray)."""
+        dirs = np.ascontiguousarray(directions, dtype=np.float64)
+        k = len(dirs)
+        dist, geom, normal = np.empty(k), np.empty(k, np.int32), np.empty(3 * k)
+        mujoco.mj_multiRay(self.model, self.data, np.asarray(origin, np.float64), dirs.ravel(), None, True, -1,
+                           geom, dist, normal, k, 1e6)
+        inside = np.einsum("ij,ij->i", normal.reshape(k, 3), dirs) > 0
+        return np.where(dist < 0, np.inf, np.where(inside & (dist >= 0), 0.0, dist))
 
 
 def load_scene(scene: str | Path) -> Scene:
@@ -86,7 +102,7 @@ def load_scene(scene: str | Path) -> Scene:
         raise UserError(
             f"MJCF {path} has no landmarks: add <site name=\"lm0\" .../> at each X-junction (names start with 'lm')"
         )
-    xmat = data.site_xmat[idx].reshape(-1, 3, 3)
+    normals, inferred = landmark_normals(spec, model, data, idx, path.stem)
     return Scene(
         name=path.stem,
         path=path,
@@ -94,8 +110,9 @@ def load_scene(scene: str | Path) -> Scene:
         data=data,
         landmark_names=[names[i] for i in idx],
         landmarks=data.site_xpos[idx].copy(),
-        normals=xmat[:, :, 2].copy(),
+        normals=normals,
         camera_id=mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_CAMERA, CAMERA_NAME),
         fovy=fovy,
         offscreen=(int(model.vis.global_.offwidth), int(model.vis.global_.offheight)),
+        inferred=inferred,
     )

@@ -31,6 +31,7 @@ class SceneBuilder:
     name: str
     geoms: list[str] = field(default_factory=list)
     n_landmarks: int = 0
+    normals: list[np.ndarray] = field(default_factory=list)   # intended normal of each landmark
 
     def box(self, pos, size, rgba="0.6 0.6 0.6 1", material=None) -> None:
         attrs = f'type="box" pos="{_v(pos)}" size="{_v(size)}"'
@@ -57,8 +58,9 @@ class SceneBuilder:
             f'    <geom type="cylinder" pos="{_v(pos)}" size="{radius:.4f} {half_height:.4f}" rgba="{rgba}"/>'
         )
 
-    def landmark(self, center, normal, up=(0.0, 0.0, 1.0), size=PATCH) -> None:
-        """Add a 2x2 checker patch whose X-junction sits at ``center`` facing ``normal``."""
+    def landmark(self, center, normal, up=(0.0, 0.0, 1.0), size=PATCH, oriented: bool = True) -> None:
+        """Add a 2x2 checker patch whose X-junction sits at ``center`` facing ``normal``; its site
+        is written without orientation when ``oriented`` is False (as users often write them)."""
         n = np.asarray(normal, float) / np.linalg.norm(normal)
         u = np.asarray(up, float) - np.dot(up, n) * n
         u /= np.linalg.norm(u)
@@ -70,17 +72,18 @@ class SceneBuilder:
             f'    <geom type="plane" pos="{_v(c)}" quat="{_v(quat)}" size="{size / 2:.4f} {size / 2:.4f} {PLANE_GRID}" '
             f'material="landmark" group="1"/>'
         )
-        self.add_site(c, n, u)
+        self.add_site(c, n, u, oriented)
 
-    def add_site(self, center, normal, up=(0.0, 0.0, 1.0)) -> None:
-        """The landmark site ``lm###`` at an X-junction, its z axis along ``normal``."""
+    def add_site(self, center, normal, up=(0.0, 0.0, 1.0), oriented: bool = True) -> None:
+        """The landmark site ``lm###`` at an X-junction, its z axis along ``normal`` (no
+        orientation written when ``oriented`` is False: the loader infers it from the surface)."""
         n = np.asarray(normal, float) / np.linalg.norm(normal)
         u = np.asarray(up, float) - np.dot(up, n) * n
         u /= np.linalg.norm(u)
         quat = _mat_to_quat(np.column_stack([np.cross(u, n), u, n]))
-        self.geoms.append(
-            f'    <site name="lm{self.n_landmarks:03d}" pos="{_v(center)}" quat="{_v(quat)}" size="0.01"/>'
-        )
+        orientation = f' quat="{_v(quat)}"' if oriented else ""
+        self.geoms.append(f'    <site name="lm{self.n_landmarks:03d}" pos="{_v(center)}"{orientation} size="0.01"/>')
+        self.normals.append(n)
         self.n_landmarks += 1
 
     def xml(self, comment: str) -> str:
@@ -231,24 +234,56 @@ def corridor(sb: SceneBuilder) -> None:
                 sb.landmark((x + (0.5 if z > 1 else 0.0), y, z), (0, -sign, 0), size=0.6)
 
 
+HALL_VERTICES = ((4.2, 0.0), (2.1, 3.1), (-1.9, 3.4), (-4.0, 0.4), (-2.3, -3.3), (1.8, -3.2))
+
+
+def polygon_hall(sb: SceneBuilder, vertices=HALL_VERTICES, height: float = 3.0, oriented: bool = False) -> None:
+    """A hall whose walls join the ``vertices`` (x, y) of a convex polygon, counterclockwise: the
+    default hexagon meets at 105-135° corners. Patches 1.1 m apart at two heights on every wall,
+    their sites un-oriented unless ``oriented`` (a user scene's common form; not shipped)."""
+    v = np.asarray(vertices, float)
+    lo, hi = v.min(axis=0) - 0.5, v.max(axis=0) + 0.5
+    sb.box(((lo + hi) / 2).tolist() + [-0.1], ((hi - lo) / 2).tolist() + [0.1], material="floor")
+    for a, b in zip(v, np.roll(v, -1, axis=0)):
+        edge = b - a
+        length = float(np.linalg.norm(edge))
+        inward = np.array([-edge[1], edge[0], 0.0]) / length   # left of a counterclockwise edge
+        mid = np.array([*(a + b) / 2, height / 2])
+        sb.wall(mid, inward, length / 2 + 0.15, height / 2)      # overlap closes the corners
+        k = int((length - 1.2) // 1.1)   # gaps of 1.1 m that fit with 0.6 m clear of the corners
+        for s in (np.arange(k + 1) - k / 2) * 1.1:
+            for z in (0.9, 1.8):
+                c = mid + s * np.array([*edge / length, 0.0])
+                c[2] = z
+                sb.landmark(c + OFFSET * inward, inward, size=0.6, oriented=oriented)
+
+
 SCENES = {"room": room, "checkerboard": checkerboard, "corridor": corridor}
 
 
-def generate(out_dir: Path) -> dict[str, int]:
-    """Write every scene's MJCF and the wall texture into ``out_dir``; return landmark counts."""
+def write_textures(out_dir: Path) -> None:
+    """Write the wall, landmark and board textures the scenes' MJCF refers to."""
     import cv2
 
     out_dir.mkdir(parents=True, exist_ok=True)
     cv2.imwrite(str(out_dir / "wall_tile.png"), wall_tile())
     cv2.imwrite(str(out_dir / "landmark.png"), landmark_patch())
     cv2.imwrite(str(out_dir / "board.png"), board_texture())
-    counts = {}
-    for name, build in SCENES.items():
-        sb = SceneBuilder(name)
-        build(sb)
-        (out_dir / f"{name}.xml").write_text(sb.xml(build.__doc__ or name))
-        counts[name] = sb.n_landmarks
-    return counts
+
+
+def write_scene(out_dir: Path, name: str, build, **kwargs) -> tuple[Path, SceneBuilder]:
+    """Build one scene with ``build(sb, **kwargs)``, write it and its textures into ``out_dir``."""
+    write_textures(out_dir)
+    sb = SceneBuilder(name)
+    build(sb, **kwargs)
+    path = out_dir / f"{name}.xml"
+    path.write_text(sb.xml((build.__doc__ or name).strip()))
+    return path, sb
+
+
+def generate(out_dir: Path) -> dict[str, int]:
+    """Write every scene's MJCF and the wall texture into ``out_dir``; return landmark counts."""
+    return {name: write_scene(out_dir, name, build)[1].n_landmarks for name, build in SCENES.items()}
 
 
 if __name__ == "__main__":

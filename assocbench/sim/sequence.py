@@ -26,9 +26,10 @@ from ..fingerprint import package_digest
 from .camera import Intrinsics
 from .detect import DetectorConfig, detect
 from .render import FrameRenderer
-from .scene import Scene, load_scene
+from .scene import Scene, load_scene, resolve_scene_path
 from .trajectory import TRAJECTORIES, make_trajectory, rig_for
 from .truth import TruthConfig, label_features, visibility
+from .waypoints import file_digest, read_waypoints, user_keyframes, waypoint_path
 
 FORMAT_VERSION = 4  # 4: truth labels every imaged landmark, however oblique
 DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line"}
@@ -56,15 +57,23 @@ class SequenceSpec:
     keep_images: bool = False
 
     def resolved_trajectory(self) -> str:
+        """The trajectory's name (the scene's default when None), checked; a waypoint file is
+        read and checked here too, so a bad one is refused before anything runs."""
         name = self.trajectory or DEFAULT_TRAJECTORY.get(Path(self.scene).stem, "circle")
         if name not in TRAJECTORIES:
             raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
+        if name == "waypoints":
+            read_waypoints(waypoint_path(self.trajectory_params, resolve_scene_path(self.scene).parent))
         return name
 
     def key(self, scene: Scene) -> str:
+        """Cache key: a hash of every setting, the scene's files, a waypoint file's content, the
+        format version, the ``sim`` sources and the MuJoCo and OpenCV versions."""
         payload = asdict(self) | {"trajectory": self.resolved_trajectory(), "scene": scene.digest,
                                   "format": FORMAT_VERSION, "code": package_digest("sim"),
                                   "mujoco": mujoco.__version__, "opencv": cv2.__version__}
+        if payload["trajectory"] == "waypoints":
+            payload["waypoints"] = file_digest(waypoint_path(self.trajectory_params, scene.path.parent))
         return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
@@ -103,8 +112,10 @@ class RenderedFrame:
 
 def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Camera rotations (N, 3, 3) and positions (N, 3) of ``spec``'s trajectory in ``scene``."""
-    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height)
-    return make_trajectory(spec.resolved_trajectory(), rig, spec.frames, spec.seed, **spec.trajectory_params)
+    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height, scene.free_distance)
+    name = spec.resolved_trajectory()
+    params, keys = user_keyframes(name, spec.trajectory_params, scene)
+    return make_trajectory(name, rig, spec.frames, spec.seed, keys=keys, **params)
 
 
 def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: np.ndarray, p: np.ndarray,

@@ -1,10 +1,14 @@
 """Named, parameterised, seeded camera trajectories.
 
 Each trajectory is placed and sized (``radius`` defaults to the rig's ``motion``) by a *rig*
-derived from the scene's landmarks alone, so a user MJCF works without configuration: a scene whose landmark normals agree (a wall) is viewed
-from in front along the mean normal; an enclosure (room, corridor) is viewed from inside its
-landmark centroid, along its long axis when it is elongated. Parameters are in metres and
-degrees; ``seed`` sets the start phase and a small per-frame pose jitter.
+derived from the scene's landmarks, so a user MJCF works without configuration: a scene whose
+landmark normals agree (a wall) is viewed from in front along the mean normal; an enclosure
+(room, corridor, hall) is viewed from inside, from the landmark centroid at the landmarks' mean
+height, along its long axis when it is elongated. Given the scene's free space (rays), the rig
+keeps the camera out of walls, pillars, floor and ceiling. Or the path is the user's own:
+``waypoints`` from a CSV/YAML file, ``mjcf-cameras`` through the MJCF's cameras (``Keyframes``).
+Parameters are in metres and degrees; ``seed`` sets the start phase and a small per-frame pose
+jitter.
 """
 
 from __future__ import annotations
@@ -18,6 +22,9 @@ from ..errors import UserError
 from .camera import look_at
 
 Poses = tuple[np.ndarray, np.ndarray]  # (N, 3, 3) rotations, (N, 3) positions
+FreeSpace = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (origin, unit dirs (k, 3)) -> distances (k,)
+
+CLEARANCE = 0.3   # m the camera keeps from any surface when the rig can see the scene's geometry
 
 
 @dataclass(frozen=True)
@@ -32,8 +39,14 @@ class Rig:
     motion: float             # default size of a trajectory (circle radius etc.), m
 
 
-def rig_for(landmarks: np.ndarray, normals: np.ndarray, fovy: float, aspect: float) -> Rig:
-    """Derive the rig from landmark positions (L, 3) and outward normals (L, 3)."""
+def rig_for(landmarks: np.ndarray, normals: np.ndarray, fovy: float, aspect: float,
+            free: FreeSpace | None = None) -> Rig:
+    """Derive the rig from landmark positions (L, 3) and outward normals (L, 3).
+
+    ``free`` (the scene's ray distances, ``Scene.free_distance``) lets the rig keep clear of
+    the scene's surfaces: a wall is viewed from no farther than the free space in front of it
+    allows, and an enclosure's anchor is moved off a pillar or out of a wall and kept between
+    floor and ceiling. Without it the rig uses the landmarks alone."""
     centroid = landmarks.mean(axis=0)
     flat = landmarks[:, :2] - centroid[:2]
     _, _, vt = np.linalg.svd(flat, full_matrices=False)
@@ -48,8 +61,67 @@ def rig_for(landmarks: np.ndarray, normals: np.ndarray, fovy: float, aspect: flo
         spread = max(np.ptp(landmarks @ axis), np.ptp(landmarks[:, 2]), 0.5)
         tan_h = np.tan(np.deg2rad(fovy) / 2) * aspect
         distance = max(0.7 * spread / (2 * tan_h), 0.8)
+        if free is not None:  # not through the wall opposite; from 5 cm out, clear of the wall itself
+            room = 0.05 + float(free(centroid + 0.05 * n, n[None])[0])
+            distance = min(distance, max(room - CLEARANCE, 0.3))
         return Rig(centroid + n * distance, -n, axis, half_extent, half_width, 0.15 * spread)
-    return Rig(centroid, None, axis, half_extent, half_width, min(1.0, 0.3 * half_width))
+    motion = min(1.0, 0.3 * half_width)
+    center = centroid
+    if free is not None:
+        center, clearance = open_anchor(centroid, landmarks, normals, free, motion + CLEARANCE)
+        motion = min(motion, max(clearance - CLEARANCE, 0.0))
+    return Rig(center, None, axis, half_extent, half_width, motion)
+
+
+def _horizontal_dirs(k: int = 24) -> np.ndarray:
+    ang = 2 * np.pi * np.arange(k) / k
+    return np.column_stack([np.cos(ang), np.sin(ang), np.zeros(k)])
+
+
+def _clearance(free: FreeSpace, point: np.ndarray) -> float:
+    """Smallest horizontal free distance around ``point`` (0 inside a solid)."""
+    return float(free(point, _horizontal_dirs()).min())
+
+
+def _height_between_floor_and_ceiling(free: FreeSpace, point: np.ndarray) -> np.ndarray:
+    """``point`` with its height kept ``CLEARANCE`` above the floor and below the ceiling (the
+    first surfaces straight down and up; an open top is no limit)."""
+    down, up = free(point, np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]))
+    if not (np.isfinite(down) and down > 0):
+        return point
+    lo, hi = point[2] - down + CLEARANCE, point[2] + up - CLEARANCE
+    z = (lo + hi) / 2 if lo > hi else float(np.clip(point[2], lo, hi))
+    return np.array([point[0], point[1], z])
+
+
+def open_anchor(centroid: np.ndarray, landmarks: np.ndarray, normals: np.ndarray, free: FreeSpace, need: float,
+                grid: int = 15) -> tuple[np.ndarray, float]:
+    """The enclosure's anchor and its horizontal clearance: the landmark centroid (at the
+    landmarks' mean height, kept between floor and ceiling) when it has ``need`` metres of free
+    space around it; else, among the points of a grid over the landmarks' footprint that lie in
+    front of as many landmarks as the centroid does (inside the enclosure, not behind a wall),
+    the one with the most clearance (the centre of the largest free circle), nearest the
+    centroid among equals."""
+    def in_front(point: np.ndarray) -> int:
+        return int(np.sum(np.einsum("ij,ij->i", normals, point - landmarks) > 0))
+
+    center = _height_between_floor_and_ceiling(free, centroid)
+    clearance = _clearance(free, center)
+    if clearance >= need:
+        return center, clearance
+    lo, hi = landmarks[:, :2].min(axis=0), landmarks[:, :2].max(axis=0)
+    inside = in_front(center)
+    best, best_score = center, (round(min(clearance, 2 * need), 2), 0.0)
+    for x in np.linspace(lo[0], hi[0], grid):
+        for y in np.linspace(lo[1], hi[1], grid):
+            point = _height_between_floor_and_ceiling(free, np.array([x, y, centroid[2]]))
+            if in_front(point) < inside:
+                continue
+            # clearance beyond twice the need buys nothing: then prefer the point nearest the centroid
+            score = (round(min(_clearance(free, point), 2 * need), 2), -float(np.linalg.norm(point[:2] - centroid[:2])))
+            if score > best_score:
+                best, best_score = point, score
+    return best, _clearance(free, best)
 
 
 def _frame_poses(pos: np.ndarray, forward: np.ndarray) -> Poses:
@@ -116,24 +188,68 @@ def loop(rig: Rig, t: np.ndarray, radius: float | None = None, revisit: float = 
     return _frame_poses(pos, _heading(rig, pos))
 
 
+@dataclass(frozen=True)
+class Keyframes:
+    """Poses a user path goes through: camera-to-world rotations (K, 3, 3) in OpenCV axes,
+    positions (K, 3) and times (K,) rising from 0 to 1 (the share of the sequence)."""
+
+    rotations: np.ndarray
+    positions: np.ndarray
+    times: np.ndarray
+
+
+def through_keyframes(keys: Keyframes, t: np.ndarray) -> Poses:
+    """Poses at times ``t`` in [0, 1]: positions interpolated linearly between keyframes,
+    orientations by spherical linear interpolation (constant angular rate, roll kept)."""
+    from scipy.spatial.transform import Rotation, Slerp
+
+    pos = np.column_stack([np.interp(t, keys.times, keys.positions[:, i]) for i in range(3)])
+    if len(keys.times) == 1:
+        return np.repeat(keys.rotations[:1], len(t), axis=0), pos
+    rots = Slerp(keys.times, Rotation.from_matrix(keys.rotations))(np.clip(t, 0.0, 1.0)).as_matrix()
+    return rots, pos
+
+
+def waypoints(rig: Rig, t: np.ndarray, keys: Keyframes) -> Poses:
+    """Through the waypoints of a CSV or YAML file (``trajectory_params: {file: path}``)."""
+    return through_keyframes(keys, t)
+
+
+def mjcf_cameras(rig: Rig, t: np.ndarray, keys: Keyframes) -> Poses:
+    """Through the MJCF's own cameras in order (``trajectory_params: {cameras: [names]}``)."""
+    return through_keyframes(keys, t)
+
+
 TRAJECTORIES: dict[str, Callable[..., Poses]] = {
     "circle": circle, "line": line, "figure-eight": figure_eight, "loop": loop,
+    "waypoints": waypoints, "mjcf-cameras": mjcf_cameras,
 }
+KEYFRAMED = ("waypoints", "mjcf-cameras")   # paths the user gives; they need ``Keyframes``
+OPEN_PATHS = ("line",) + KEYFRAMED            # run from start to end (no seeded start phase)
 
 
-def make_trajectory(name: str, rig: Rig, frames: int, seed: int = 0,
-                    jitter_pos: float = 0.01, jitter_deg: float = 0.5, **params) -> Poses:
+def make_trajectory(name: str, rig: Rig, frames: int, seed: int = 0, jitter_pos: float = 0.01,
+                    jitter_deg: float = 0.5, keys: Keyframes | None = None, **params) -> Poses:
     """Camera poses ``(R, p)`` of ``frames`` frames of trajectory ``name``.
 
     ``seed`` draws the start phase of closed paths and a small Gaussian jitter of the
-    position (``jitter_pos`` m) and orientation (``jitter_deg``) of every frame.
+    position (``jitter_pos`` m) and orientation (``jitter_deg``) of every frame; open paths
+    (``line``, ``waypoints``, ``mjcf-cameras``, the last two through ``keys``) run from start
+    to end.
     """
     if name not in TRAJECTORIES:
         raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
     if int(frames) < 1:
         raise UserError(f"frames must be a positive integer, got {frames!r}")
+    for key, value in (("jitter_pos", jitter_pos), ("jitter_deg", jitter_deg)):
+        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 1e3:
+            raise UserError(f"trajectory_params.{key} must be a number >= 0, got {value!r}")
+    if name in KEYFRAMED:
+        if keys is None:
+            raise UserError(f"trajectory {name!r} needs its keyframes (the file or the MJCF cameras)")
+        params = {"keys": keys, **params}
     rng = np.random.default_rng([int(seed), 7])
-    if name == "line":
+    if name in OPEN_PATHS:
         t = np.linspace(0.0, 1.0, frames)
     else:  # closed paths start at a seeded phase
         t = np.arange(frames) / frames + rng.uniform()

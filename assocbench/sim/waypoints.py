@@ -1,0 +1,218 @@
+"""User camera paths: waypoints from a CSV or YAML file, or the cameras an MJCF defines.
+
+A waypoint file lists camera positions with where each looks, either a look-at point or a
+heading (``yaw`` degrees counterclockwise from +x about +z, ``pitch`` degrees up, 0 if left
+out); an optional time ``t`` (strictly increasing, any unit) sets when each is reached,
+otherwise consecutive waypoints are equally far apart in time. The sequence's frames are
+spread over the whole path (``trajectory.through_keyframes``).
+
+CSV (a header, ``#`` comments)::
+
+    x, y, z, look_x, look_y, look_z        or        x, y, z, yaw, pitch
+    0, 0, 1.5, 3, 0, 1.5                            0, 0, 1.5, 0, 0
+
+YAML (a list, or a mapping with ``waypoints:``)::
+
+    - {position: [0, 0, 1.5], look_at: [3, 0, 1.5]}
+    - {position: [1, 0, 1.5], yaw: 90, t: 2.0}
+"""
+
+from __future__ import annotations
+
+import csv
+import hashlib
+import io
+import math
+from pathlib import Path
+
+import numpy as np
+import yaml
+
+from ..errors import UserError
+from .camera import CV_TO_MUJOCO, look_at
+from .scene import Scene
+from .trajectory import Keyframes
+
+SUFFIXES = (".csv", ".yaml", ".yml")
+_HOW = "a CSV or YAML file of camera positions with look-at points or headings"
+
+
+def waypoint_path(params: dict, scene_dir: Path | None = None) -> Path:
+    """The file named by ``trajectory_params.file``: as given (relative to the working folder),
+    else next to the scene's MJCF. One-line error when it is missing or not CSV/YAML."""
+    name = params.get("file")
+    if not isinstance(name, str) or not name:
+        raise UserError(f"trajectory waypoints needs trajectory_params.file: {_HOW}; got {name!r}")
+    path = Path(name).expanduser()
+    tried = [path]
+    if not path.is_absolute() and scene_dir is not None:
+        tried.append(scene_dir / path)
+    for candidate in tried:
+        if candidate.is_file():
+            if candidate.suffix.lower() not in SUFFIXES:
+                raise UserError(f"waypoint file {candidate} must be .csv, .yaml or .yml ({_HOW})")
+            return candidate.resolve()
+    where = " or ".join(str(t) for t in tried)
+    raise UserError(f"waypoint file {name!r} not found (looked for {where}); trajectory_params.file names {_HOW}")
+
+
+def file_digest(path: Path) -> str:
+    """Hash of the waypoint file's bytes: it enters the sequence cache key."""
+    return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
+
+
+def read_waypoints(path: Path) -> Keyframes:
+    """Parse and check a waypoint file; one-line ``UserError`` naming the file and line."""
+    try:
+        text = path.read_text()
+    except (OSError, UnicodeDecodeError) as exc:
+        raise UserError(f"cannot read waypoint file {path}: {exc}") from None
+    rows = _csv_rows(path, text) if path.suffix.lower() == ".csv" else _yaml_rows(path, text)
+    if len(rows) < 2:
+        raise UserError(f"waypoint file {path} has {len(rows)} waypoint(s); give at least 2")
+    return _keyframes(path, rows)
+
+
+Row = tuple[str, np.ndarray, np.ndarray | None, tuple[float, float] | None, float | None]  # where, pos, look, yaw/pitch, t
+
+
+def _number(path: Path, where: str, name: str, value) -> float:
+    try:
+        if isinstance(value, bool):
+            raise TypeError
+        x = float(value)
+    except (TypeError, ValueError):
+        raise UserError(f"waypoint file {path} {where}: {name} = {value!r} is not a number") from None
+    if not math.isfinite(x):
+        raise UserError(f"waypoint file {path} {where}: {name} is {x}; every value must be finite")
+    return x
+
+
+def _csv_rows(path: Path, text: str) -> list[Row]:
+    lines = [(k + 1, line) for k, line in enumerate(text.splitlines()) if line.strip() and not line.lstrip().startswith("#")]
+    if not lines:
+        return []
+    header = [h.strip().lower() for h in next(csv.reader(io.StringIO(lines[0][1])))]
+    has_look = {"look_x", "look_y", "look_z"} <= set(header)
+    if not {"x", "y", "z"} <= set(header) or not (has_look or "yaw" in header) or len(set(header)) != len(header):
+        raise UserError(f"waypoint file {path} line {lines[0][0]}: the header must name x, y, z and either look_x, "
+                        f"look_y, look_z or yaw (pitch, t optional), each once; got {', '.join(header)}")
+    rows = []
+    for lineno, line in lines[1:]:
+        cells = [c.strip() for c in next(csv.reader(io.StringIO(line)))]
+        where = f"line {lineno}"
+        if len(cells) != len(header):
+            raise UserError(f"waypoint file {path} {where}: {len(cells)} values for {len(header)} columns")
+        # empty cells are allowed where a row uses the other way of looking (look-at or yaw)
+        v = {h: _number(path, where, h, c) for h, c in zip(header, cells) if c != "" or h in ("x", "y", "z")}
+        pos = np.array([v["x"], v["y"], v["z"]])
+        given = [k in v for k in ("look_x", "look_y", "look_z")]
+        if any(given) and not all(given):
+            raise UserError(f"waypoint file {path} {where}: give look_x, look_y and look_z together")
+        look = np.array([v["look_x"], v["look_y"], v["look_z"]]) if all(given) else None
+        heading = (v["yaw"], v.get("pitch", 0.0)) if look is None and "yaw" in v else None
+        rows.append(_row(path, where, pos, look, heading, v.get("t")))
+    return rows
+
+
+def _yaml_rows(path: Path, text: str) -> list[Row]:
+    try:
+        data = yaml.safe_load(text)
+    except yaml.YAMLError as exc:
+        mark = getattr(exc, "problem_mark", None)
+        at = f" at line {mark.line + 1}" if mark else ""
+        raise UserError(f"malformed YAML in waypoint file {path}{at}: {getattr(exc, 'problem', exc)}") from None
+    if isinstance(data, dict) and set(data) == {"waypoints"}:
+        data = data["waypoints"]
+    if not isinstance(data, list):
+        raise UserError(f"waypoint file {path} must hold a list of waypoints (or waypoints: [...]), "
+                        f"each {{position: [x, y, z], look_at: [x, y, z]}} or {{position: ..., yaw: deg}}")
+    rows = []
+    for k, item in enumerate(data):
+        where = f"waypoint {k + 1}"
+        known = {"position", "look_at", "yaw", "pitch", "t"}
+        if not isinstance(item, dict) or "position" not in item or not set(item) <= known:
+            raise UserError(f"waypoint file {path} {where}: expected a mapping with position and look_at or yaw "
+                            f"(pitch, t optional), got {item!r}")
+        pos = _vector(path, where, "position", item["position"])
+        look = _vector(path, where, "look_at", item["look_at"]) if "look_at" in item else None
+        heading = None
+        if look is None and "yaw" in item:
+            heading = (_number(path, where, "yaw", item["yaw"]), _number(path, where, "pitch", item.get("pitch", 0.0)))
+        t = _number(path, where, "t", item["t"]) if "t" in item else None
+        rows.append(_row(path, where, pos, look, heading, t))
+    return rows
+
+
+def _vector(path: Path, where: str, name: str, value) -> np.ndarray:
+    if not isinstance(value, (list, tuple)) or len(value) != 3:
+        raise UserError(f"waypoint file {path} {where}: {name} must be [x, y, z], got {value!r}")
+    return np.array([_number(path, where, f"{name}[{i}]", c) for i, c in enumerate(value)])
+
+
+def _row(path: Path, where: str, pos, look, heading, t) -> Row:
+    if look is None and heading is None:
+        raise UserError(f"waypoint file {path} {where}: give where the camera looks (look_at point or yaw)")
+    if look is not None and np.linalg.norm(look - pos) < 1e-9:
+        raise UserError(f"waypoint file {path} {where}: the look-at point is the position itself; the camera "
+                        f"needs a direction")
+    return where, pos, look, heading, t
+
+
+def _keyframes(path: Path, rows: list[Row]) -> Keyframes:
+    times = [r[4] for r in rows]
+    if any(t is None for t in times) and any(t is not None for t in times):
+        raise UserError(f"waypoint file {path}: give t for every waypoint or for none")
+    if times[0] is None:
+        t = np.linspace(0.0, 1.0, len(rows))
+    else:
+        t = np.array(times, float)
+        bad = np.flatnonzero(np.diff(t) <= 0)
+        if len(bad):
+            raise UserError(f"waypoint file {path} {rows[bad[0] + 1][0]}: t must increase strictly "
+                            f"({t[bad[0]]:g} then {t[bad[0] + 1]:g})")
+        t = (t - t[0]) / (t[-1] - t[0])
+    rots = []
+    for _, pos, look, heading, _t in rows:
+        if look is None:
+            yaw, pitch = np.deg2rad(heading)
+            look = pos + np.array([np.cos(pitch) * np.cos(yaw), np.cos(pitch) * np.sin(yaw), np.sin(pitch)])
+        rots.append(look_at(pos, look))
+    return Keyframes(np.array(rots), np.array([r[1] for r in rows]), t)
+
+
+def camera_keyframes(scene: Scene, cameras=None) -> Keyframes:
+    """Keyframes at the MJCF's own cameras: ``cameras`` names one or a list of them, in the
+    order to visit (default: all, in the MJCF's order); equally spaced in time."""
+    model, data = scene.model, scene.data
+    own = [i for i in range(model.ncam) if i != scene.camera_id]
+    if not own:
+        raise UserError(f"scene {scene.name} defines no <camera>: add one, or choose another trajectory")
+    named = {model.camera(i).name: i for i in own if model.camera(i).name}
+    if cameras is None:
+        ids = own
+    else:
+        names = [cameras] if isinstance(cameras, str) else cameras
+        if not isinstance(names, list) or not names or not all(isinstance(n, str) for n in names):
+            raise UserError(f"trajectory_params.cameras must be a camera name or a list of them, got {cameras!r}")
+        unknown = [n for n in names if n not in named]
+        if unknown:
+            raise UserError(f"scene {scene.name} has no camera {unknown[0]!r}: its named cameras are "
+                            f"{', '.join(named) or 'none'}")
+        ids = [named[n] for n in names]
+    rots = np.array([data.cam_xmat[i].reshape(3, 3) @ CV_TO_MUJOCO for i in ids])
+    pos = np.array([data.cam_xpos[i] for i in ids])
+    return Keyframes(rots, pos, np.linspace(0.0, 1.0, len(ids)) if len(ids) > 1 else np.zeros(1))
+
+
+def user_keyframes(name: str, params: dict, scene: Scene) -> tuple[dict, Keyframes | None]:
+    """Split ``trajectory_params`` into the keyframes of a user path (``waypoints``:
+    ``file``; ``mjcf-cameras``: ``cameras``) and the parameters left for ``make_trajectory``."""
+    rest = dict(params)
+    if name == "waypoints":
+        path = waypoint_path(params, scene.path.parent)
+        rest.pop("file")
+        return rest, read_waypoints(path)
+    if name == "mjcf-cameras":
+        return rest, camera_keyframes(scene, rest.pop("cameras", None))
+    return rest, None
