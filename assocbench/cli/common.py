@@ -24,13 +24,21 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
                    help="override a config key, e.g. --set belief.sigma_rotation=2 (repeatable)")
 
 
+MIN_SIDE = 16   # the renderer's smallest frame; below it the camera rig divides by nothing useful
+
+
 def resolution(text: str | None) -> list[int] | None:
+    """``WIDTHxHEIGHT`` (e.g. ``640x480``) as ``[width, height]``; None passes through.
+    Both sides must be integers of at least 16 pixels (the upper bound is the scene's buffer)."""
     if text is None:
         return None
     try:
         w, h = (int(v) for v in text.lower().split("x"))
     except ValueError:
         raise UserError(f"--resolution expects WIDTHxHEIGHT such as 640x480, got {text!r}") from None
+    if w < MIN_SIDE or h < MIN_SIDE:
+        raise UserError(f"--resolution {text} is too small: width and height must be at least {MIN_SIDE} pixels, "
+                        f"e.g. 640x480")
     return [w, h]
 
 

@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import os
+import warnings
+
 import numpy as np
 
-from .. import _runtime  # noqa: F401
+from .. import _runtime  # sets MUJOCO_GL before mujoco loads; GL_ERROR says if it could not
 from ..errors import UserError
 from .camera import CV_TO_MUJOCO, Intrinsics
 from .scene import Scene
@@ -19,6 +22,41 @@ def check_msaa(msaa: int | None) -> None:
     """Raise a one-line ``UserError`` unless ``msaa`` is None or an integer in 0..16."""
     if msaa is not None and (isinstance(msaa, bool) or not isinstance(msaa, int) or not 0 <= msaa <= MAX_MSAA):
         raise UserError(f"msaa must be null (the scene's own setting) or an integer 0..{MAX_MSAA}, got {msaa!r}")
+
+
+GL_CHECK = "MUJOCO_GL=egl python -c \"import mujoco; mujoco.Renderer(mujoco.MjModel.from_xml_string('<mujoco/>'))\""
+
+
+def _gl_error(reason: str) -> UserError:
+    """One line saying that offscreen rendering failed, why, and how to get EGL working."""
+    gl = os.environ.get("MUJOCO_GL", "")
+    if gl.strip().lower() == "egl":
+        fix = ("EGL is installed with your GPU driver or with Mesa (Debian/Ubuntu: apt install libegl1 "
+               "libgl1-mesa-dri)")
+    else:
+        fix = "assocbench renders headless with EGL: unset MUJOCO_GL or set MUJOCO_GL=egl"
+    return UserError(f"offscreen rendering does not work with MUJOCO_GL={gl} ({reason}); {fix}; "
+                     f"check it with: {GL_CHECK}")
+
+
+def _gl_renderer(model: "mujoco.MjModel", width: int, height: int) -> "mujoco.Renderer":
+    """``mujoco.Renderer``, or a one-line ``UserError`` when the GL backend cannot give a context
+    (glfw without a display raises ``FatalError`` after Python warnings that say why)."""
+    if _runtime.GL_ERROR:   # the backend did not even load; mujoco was loaded without GL
+        raise _gl_error(_runtime.GL_ERROR)
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        try:
+            renderer = mujoco.Renderer(model, height, width)
+        except Exception as exc:  # noqa: BLE001 - FatalError, ImportError, AttributeError by backend
+            failure = f"{type(exc).__name__}: {exc}".replace("\n", " ").strip()
+        else:
+            failure = ""
+    if failure:
+        raise _gl_error("; ".join([*[str(w.message) for w in caught][:1], failure]))   # glfw's warning says why
+    for w in caught:   # a context was made after all: pass the warnings on
+        warnings.warn_explicit(w.message, w.category, w.filename, w.lineno)
+    return renderer
 
 
 class FrameRenderer:
@@ -45,7 +83,7 @@ class FrameRenderer:
         own = quality.offsamples
         quality.offsamples = own if msaa is None else msaa   # read when the GL context is made
         try:
-            self._renderer = mujoco.Renderer(scene.model, height, width)
+            self._renderer = _gl_renderer(scene.model, width, height)
         finally:
             quality.offsamples = own
 

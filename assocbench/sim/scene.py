@@ -18,7 +18,7 @@ import numpy as np
 
 from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
-from .normals import landmark_normals
+from .normals import RENDERED_GROUPS, landmark_normals
 
 import mujoco  # noqa: E402
 
@@ -33,16 +33,35 @@ def shipped_scenes() -> dict[str, Path]:
 
 
 def resolve_scene_path(scene: str | Path) -> Path:
-    """Path of a shipped scene name or an MJCF file; clear error when neither exists."""
+    """Path of a shipped scene name or an MJCF file; a one-line error saying what is wrong otherwise
+    (not found, a folder, or a file that is not an MJCF ``.xml``)."""
     shipped = shipped_scenes()
     if str(scene) in shipped:
         return shipped[str(scene)]
     path = Path(scene)
-    if path.suffix.lower() == ".xml" and path.is_file():
-        return path.resolve()
-    raise UserError(
-        f"scene {str(scene)!r} not found: use one of {', '.join(shipped)} or the path of an existing MJCF .xml file"
-    )
+    names = ", ".join(shipped)
+    if path.is_dir():
+        raise UserError(f"scene {str(scene)!r} is a folder: give the MJCF .xml file in it, or one of {names}")
+    if path.is_file():
+        if path.suffix.lower() == ".xml":
+            return path.resolve()
+        raise UserError(f"scene {str(scene)!r} is not an MJCF file: a scene is MuJoCo XML with lm* sites, named "
+                        f"*.xml (rename it if it is one), or one of {names}")
+    raise UserError(f"scene {str(scene)!r} not found: use one of {names} or the path of an existing MJCF .xml file")
+
+
+def _mjcf_error(path: Path, exc: Exception) -> UserError:
+    """MuJoCo's whole message on one line (its first line alone is often just "XML parse error
+    6:"; the line number and reason follow), plus Python's parser's reason for malformed XML."""
+    said = " ".join(str(exc).split()) or type(exc).__name__
+    if "XML_ERROR" in said or "parse error" in said.lower():
+        import xml.etree.ElementTree as ET
+
+        try:
+            ET.parse(path)
+        except ET.ParseError as perr:
+            said += f" (Python's XML parser: {perr})"
+    return UserError(f"cannot load MJCF {path}: {said}")
 
 
 @dataclass
@@ -77,8 +96,8 @@ class Scene:
         dirs = np.ascontiguousarray(directions, dtype=np.float64)
         k = len(dirs)
         dist, geom, normal = np.empty(k), np.empty(k, np.int32), np.empty(3 * k)
-        mujoco.mj_multiRay(self.model, self.data, np.asarray(origin, np.float64), dirs.ravel(), None, True, -1,
-                           geom, dist, normal, k, 1e6)
+        mujoco.mj_multiRay(self.model, self.data, np.asarray(origin, np.float64), dirs.ravel(), RENDERED_GROUPS,
+                           True, -1, geom, dist, normal, k, 1e6)
         inside = np.einsum("ij,ij->i", normal.reshape(k, 3), dirs) > 0
         return np.where(dist < 0, np.inf, np.where(inside & (dist >= 0), 0.0, dist))
 
@@ -92,8 +111,7 @@ def load_scene(scene: str | Path) -> Scene:
         spec.worldbody.add_camera(name=CAMERA_NAME, fovy=fovy)
         model = spec.compile()
     except (ValueError, RuntimeError) as exc:
-        first = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
-        raise UserError(f"cannot load MJCF {path}: {first}") from None
+        raise _mjcf_error(path, exc) from None
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     names = [model.site(i).name for i in range(model.nsite)]

@@ -1,7 +1,8 @@
 """The lab-8 picture of one association: what an associator did, at a glance.
 
 Predicted landmarks are ``+`` markers with their 3σ ellipses: blue when associated, bright red
-when not. Features are green ``×`` when associated, dark red dots when not.
+when not. Features are green ``×`` when associated, dark red dots when not. A key in a corner
+says so; a frame on which the method failed says why in a red box under the title.
 """
 
 from __future__ import annotations
@@ -12,21 +13,38 @@ from ..association.compatibility import marginal_blocks
 from ..association.problem import Problem
 from . import draw
 
+OVERLAY_LEGEND = (
+    (lambda img, p: (draw.ellipse(img, p, np.eye(2) * 9, draw.BLUE, 1.5),
+                     draw.plus(img, p, draw.BLUE, size=5, thickness=2, halo=None)), "predicted, associated"),
+    (lambda img, p: draw.plus(img, p, draw.RED, size=5, thickness=2, halo=None), "predicted, unassociated"),
+    (lambda img, p: draw.cross(img, p, draw.GREEN, size=4, thickness=2, halo=None), "feature, associated"),
+    (lambda img, p: draw.dot(img, p, draw.DARK_RED), "feature, unassociated"),
+)
 
-def draw_association(rgb: np.ndarray, problem: Problem, association: np.ndarray, title: str = "") -> np.ndarray:
-    """A copy of ``rgb`` (H, W, 3) uint8 with ``association`` of ``problem`` drawn on it."""
+
+def draw_association(rgb: np.ndarray, problem: Problem, association: np.ndarray, title: str = "",
+                     failure: str = "") -> np.ndarray:
+    """A copy of ``rgb`` (H, W, 3) uint8 with ``association`` of ``problem`` drawn on it.
+
+    ``failure`` (the method raised or answered an invalid association on this frame): pass an
+    all -1 ``association``; the reason is written in a red box. Title, note and key are drawn
+    before the marks, so they never hide one."""
     img = np.ascontiguousarray(rgb, dtype=np.uint8).copy()
+    y = draw.label(img, title) if title else 4
+    if failure:
+        draw.label(img, f"failed: {failure}", (4, y + 2), background=(200, 0, 0))
+    box = draw.legend_box(img, OVERLAY_LEGEND, np.vstack([problem.zhat.reshape(-1, 2), problem.z.reshape(-1, 2)]))
+    draw.legend(img, OVERLAY_LEGEND, box)
     used = np.zeros(problem.m, bool)
     used[association[association >= 0]] = True
     for i in np.flatnonzero(~used):
         draw.dot(img, problem.z[i], draw.DARK_RED, 2)
     blocks = marginal_blocks(problem) if problem.n else np.zeros((0, 2, 2))
+    # + and × stay without an outline: a feature on its prediction would hide the other's centre
     for j in range(problem.n):
         color = draw.BLUE if association[j] >= 0 else draw.RED
         draw.ellipse(img, problem.zhat[j], blocks[j], color, nsigma=3.0)
-        draw.plus(img, problem.zhat[j], color, size=6, thickness=2)
+        draw.plus(img, problem.zhat[j], color, size=6, thickness=2, halo=None)
     for i in np.flatnonzero(used):
-        draw.cross(img, problem.z[i], draw.GREEN, size=5, thickness=2)
-    if title:
-        draw.label(img, title)
+        draw.cross(img, problem.z[i], draw.GREEN, size=5, thickness=2, halo=None)
     return img

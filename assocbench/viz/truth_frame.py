@@ -52,19 +52,32 @@ def render_truth_frame(spec: SequenceSpec, index: int) -> TruthFrame:
     return TruthFrame(f.rgb, f.projections, f.visible, in_view, f.features, f.labels)
 
 
+TRUTH_LEGEND = (
+    (lambda img, p: draw.plus(img, p, draw.GREEN), "landmark, visible"),
+    (lambda img, p: draw.cross(img, p, draw.MAGENTA), "landmark, hidden/turned away"),
+    (lambda img, p: draw.ring(img, p, draw.YELLOW, 6, 2), "feature, labelled"),
+    (lambda img, p: draw.dot(img, p, draw.DARK_RED), "feature, unlabelled"),
+)
+
+
 def draw_truth_frame(tf: TruthFrame, title: str = "") -> np.ndarray:
-    """Green ``+`` true projections of visible landmarks, gray ``x`` for hidden ones in view,
-    yellow rings on labelled features, small dark-red dots on unlabelled (clutter) features."""
+    """Green ``+`` true projections of visible landmarks, magenta ``×`` for landmarks in view but
+    hidden or turned away, yellow rings on labelled features, small dark-red dots on unlabelled
+    (clutter) features; every mark outlined so it shows on grey, black and white alike. The
+    title and a key are drawn first, so they never hide a mark."""
     img = tf.rgb.copy()
-    for j in np.flatnonzero(tf.in_view & ~tf.visible):
-        draw.cross(img, tf.projections[j], draw.GRAY)
+    if title:
+        draw.label(img, title)
+    hidden = np.flatnonzero(tf.in_view & ~tf.visible)
+    shown = tf.projections[np.flatnonzero(tf.in_view)]
+    draw.legend(img, TRUTH_LEGEND, draw.legend_box(img, TRUTH_LEGEND, np.vstack([shown, tf.features])))
+    for j in hidden:
+        draw.cross(img, tf.projections[j], draw.MAGENTA, size=5, thickness=2)
     for i, f in enumerate(tf.features):
         if tf.labels[i] >= 0:
-            draw.ring(img, f, draw.YELLOW, 6)
+            draw.ring(img, f, draw.YELLOW, 9, 2)   # wider than the + inside it
         else:
             draw.dot(img, f, draw.DARK_RED)
     for j in np.flatnonzero(tf.visible):
         draw.plus(img, tf.projections[j], draw.GREEN)
-    if title:
-        draw.label(img, title)
     return img

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 from typing import Iterable
 
@@ -11,11 +12,23 @@ from ..atomic import atomic_path
 from ..errors import UserError
 
 FORMATS = (".mp4", ".gif")
+MAX_FPS = 100.0   # a GIF frame lasts a whole number of centiseconds: 100 fps is its limit
 
 
 def check_video_path(path: Path) -> None:
+    """Refuse a video path that is a folder or names neither an MP4 nor a GIF."""
+    path = Path(path)
     if path.suffix.lower() not in FORMATS:
         raise UserError(f"video output must end in {' or '.join(FORMATS)}, got {path.name!r}")
+    if path.is_dir():
+        raise UserError(f"-o {path} is a folder: give a file name such as {path / ('run' + path.suffix)}")
+
+
+def check_fps(fps: float) -> float:
+    """Refuse a frame rate that is not a finite number in (0, 100] frames per second."""
+    if not (math.isfinite(fps) and 0 < fps <= MAX_FPS):
+        raise UserError(f"--fps must be a number of frames per second in (0, {MAX_FPS:g}], got {fps:g}")
+    return float(fps)
 
 
 def write_video(path: Path, frames: Iterable[np.ndarray], fps: float = 8.0) -> int:
@@ -24,6 +37,7 @@ def write_video(path: Path, frames: Iterable[np.ndarray], fps: float = 8.0) -> i
 
     path = Path(path)
     check_video_path(path)
+    check_fps(fps)
     with atomic_path(path) as tmp:
         if path.suffix.lower() == ".gif":
             from PIL import Image

@@ -1,0 +1,131 @@
+"""The leaderboard's two plots, as matplotlib figures (no pyplot state, so they are safe in workers).
+
+Every method keeps one look in both plots: a colour, a marker shape and a size that grows with
+its rank by name, so that methods on the very same spot show as concentric open marks.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Sequence
+
+import numpy as np
+import pandas as pd
+
+from ..atomic import atomic_path
+
+MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*")
+MIN_SPAN = 0.05   # a zoomed precision or recall axis spans at least this much
+
+
+def method_styles(methods) -> dict[str, dict]:
+    """Matplotlib style of each method (sorted by name): ``color``, ``marker``, ``ms``."""
+    return {m: {"color": f"C{k % 10}", "marker": MARKERS[k % len(MARKERS)], "ms": 5 + 2.5 * k}
+            for k, m in enumerate(sorted(set(methods)))}
+
+
+def zoom(values: np.ndarray, errors: np.ndarray) -> tuple[float, float]:
+    """Axis limits around ``values ± errors`` with a margin, at least ``MIN_SPAN`` wide, within
+    [-0.01, 1.01]; the whole unit interval when nothing is finite."""
+    ends = np.concatenate([values - errors, values + errors])
+    ends = ends[np.isfinite(ends)]
+    if not len(ends):
+        return -0.02, 1.02
+    lo, hi = float(ends.min()), float(ends.max())
+    pad = max(0.08 * (hi - lo), (MIN_SPAN - (hi - lo)) / 2, 0.01)
+    lo, hi = max(lo - pad, -0.01), min(hi + pad, 1.01)
+    if hi - lo < MIN_SPAN:   # against a wall of the unit square: widen the other way
+        lo, hi = (hi - MIN_SPAN, hi) if hi >= 1.0 else (lo, lo + MIN_SPAN)
+    return lo, hi
+
+
+def _name_ties(ax, sub: pd.DataFrame) -> None:
+    """Write ``a = b = c`` next to methods whose precision and recall agree to 3 decimals: the
+    concentric marks show them, the words say they are one point."""
+    sub = sub[np.isfinite(sub["recall"]) & np.isfinite(sub["precision"])]
+    key = list(zip(sub["recall"].round(3), sub["precision"].round(3)))
+    for point in sorted(set(key)):
+        tied = sorted(m for m, k in zip(sub["method"], key) if k == point)
+        if len(tied) > 1:
+            ax.annotate(" = ".join(tied), point, xytext=(10, 8), textcoords="offset points", fontsize=7,
+                        color="0.25")
+
+
+def _pr_panel(ax, sub: pd.DataFrame, styles: dict, title: str) -> None:
+    """One scenario: each method's mean precision and recall, ± std bars, axes zoomed to them."""
+    for method in sorted(sub["method"], key=lambda m: -styles[m]["ms"]):   # big marks behind
+        r, st = sub[sub["method"] == method], styles[method]
+        ax.errorbar(r["recall"], r["precision"], xerr=r["recall_std"], yerr=r["precision_std"],
+                    fmt=st["marker"], ms=st["ms"], color=st["color"], mfc="none", mew=1.5,
+                    elinewidth=0.8, alpha=0.9, clip_on=False, label=method)
+    _name_ties(ax, sub)
+    ax.set(title=title, xlabel="recall", ylabel="precision",
+           xlim=zoom(sub["recall"].to_numpy(float), sub["recall_std"].to_numpy(float)),
+           ylim=zoom(sub["precision"].to_numpy(float), sub["precision_std"].to_numpy(float)))
+    ax.grid(alpha=0.3)
+
+
+def pr_figure(table: pd.DataFrame, scenes: Sequence[str], difficulties: Sequence[str]):
+    """Precision against recall of a leaderboard table (``scenario`` = ``scene/difficulty``,
+    means and ``_std`` columns): a row per scene, a column per difficulty, in the orders given."""
+    from matplotlib.figure import Figure
+    from matplotlib.lines import Line2D
+
+    fig = Figure(figsize=(3.9 * len(difficulties), 3.5 * len(scenes)))
+    axes = fig.subplots(len(scenes), len(difficulties), squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    styles = method_styles(table["method"])
+    for scenario, sub in table.groupby("scenario", sort=False):
+        scene, _, difficulty = scenario.rpartition("/")
+        ax = axes[list(scenes).index(scene), list(difficulties).index(difficulty)]
+        ax.axis("on")
+        _pr_panel(ax, sub, styles, scenario)
+    handles = [Line2D([], [], ls="none", marker=st["marker"], ms=st["ms"], color=st["color"], mfc="none",
+                      mew=1.5, label=m) for m, st in styles.items()]
+    fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False, fontsize=9)
+    fig.text(0.5, 0.005, "mean ± std over seeds; each panel's axes are zoomed to its points (read the ticks); "
+             "methods on the same spot show as concentric marks and are named a = b", ha="center", va="bottom",
+             fontsize=8)
+    fig.tight_layout(rect=(0, 0.02, 1, 1 - 0.35 / (3.5 * len(scenes))))
+    return fig
+
+
+def binned_medians(n: np.ndarray, y: np.ndarray, bins: int = 12, min_count: int = 5) -> tuple[np.ndarray, np.ndarray]:
+    """Median of ``y`` in ``bins`` equal-width bins of ``n``: (median n, median y) per bin, NaN
+    for a bin holding fewer than ``min_count`` values, so that a line drawn through them breaks
+    there rather than joining clusters of n that no frame connects."""
+    edges = np.linspace(n.min(), n.max() + 1e-9, bins + 1)
+    which = np.clip(np.digitize(n, edges) - 1, 0, bins - 1)
+    mid_n, mid_y = (edges[:-1] + edges[1:]) / 2, np.full(bins, np.nan)
+    for b in range(bins):
+        if np.sum(which == b) >= min_count:
+            mid_n[b], mid_y[b] = np.median(n[which == b]), np.median(y[which == b])
+    return mid_n, mid_y
+
+
+def runtime_figure(frames: pd.DataFrame):
+    """``associate`` runtime against the number of candidates n (``method``, ``n``, ``runtime_s``
+    per frame): every frame as a faint dot, and per method the median in bins of n."""
+    from matplotlib.figure import Figure
+
+    fig = Figure(figsize=(6.4, 4.2))
+    ax = fig.subplots()
+    for method, st in method_styles(frames["method"]).items():
+        rows = frames[frames["method"] == method]
+        n, ms = rows["n"].to_numpy(float), rows["runtime_s"].to_numpy(float) * 1e3
+        ax.plot(n, ms, ".", ms=3.5, color=st["color"], alpha=0.3, mew=0)
+        bn, bm = binned_medians(n, ms) if len(n) else (n, ms)
+        ax.plot(bn, bm, "-", marker=st["marker"], ms=5, mfc="none", color=st["color"], lw=1.6, label=method)
+    ax.set(xlabel="candidate landmarks n", ylabel="runtime per frame (ms)", yscale="log")
+    ax.set_title("dots: frames; lines: median per bin of n (bins of 5 frames or more)", fontsize=9)
+    ax.grid(alpha=0.3, which="both")
+    ax.legend(fontsize=7)
+    fig.tight_layout()
+    return fig
+
+
+def save_figure(fig, path: Path) -> None:
+    """Write ``fig`` as a PNG, atomically."""
+    with atomic_path(path) as tmp:
+        fig.savefig(tmp, dpi=110, format="png")
