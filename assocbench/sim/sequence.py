@@ -11,6 +11,10 @@ from __future__ import annotations
 
 import hashlib
 import json
+import struct
+import sys
+import zipfile
+import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -20,7 +24,7 @@ import numpy as np
 from tqdm import tqdm
 
 from .._runtime import cache_root
-from ..atomic import atomic_path
+from ..atomic import CACHE, atomic_path
 from ..errors import UserError
 from ..fingerprint import package_digest
 from .camera import Intrinsics
@@ -148,9 +152,12 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
                     np.array(images) if spec.keep_images else None)
 
 
-def _save(seq: Sequence, path: Path) -> None:
+def _save(seq: Sequence, path: Path, key: str) -> None:
+    """Store ``seq`` at ``path`` atomically, with its cache ``key`` inside so a file that lands
+    under another key (copied, renamed) is recognised."""
     counts = np.array([len(f) for f in seq.features])
     arrays = dict(
+        key=np.array(key),
         K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]),
         landmarks=seq.landmarks, normals=seq.normals, names=np.array(seq.landmark_names), scene=np.array(seq.scene),
         rotations=seq.rotations, positions=seq.positions, counts=counts,
@@ -160,33 +167,91 @@ def _save(seq: Sequence, path: Path) -> None:
     )
     if seq.images is not None:
         arrays["images"] = seq.images
-    with atomic_path(path, suffix=".npz") as tmp:
+    with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
         with open(tmp, "wb") as fh:
             np.savez_compressed(fh, **arrays)
 
 
-def _load(path: Path) -> Sequence:
+class _Unusable(Exception):
+    """A cache entry that reads, but is not the sequence its key names."""
+
+
+# what reading a damaged .npz can raise: a truncated or flipped zip (BadZipFile, EOFError,
+# zlib.error, OSError), a damaged array header (ValueError, SyntaxError, MemoryError for an
+# absurd shape), a missing member (KeyError), or a pickle refusal for garbage (ValueError)
+_DAMAGED = (_Unusable, OSError, EOFError, ValueError, KeyError, IndexError, TypeError, SyntaxError,
+            MemoryError, NotImplementedError, RuntimeError, zipfile.BadZipFile, zlib.error, struct.error)
+
+
+def _load(path: Path, key: str, spec: SequenceSpec) -> Sequence:
+    """Read a cache entry and check it is the sequence of ``key``; raise one of ``_DAMAGED``."""
     with np.load(path) as z:
+        if "key" not in z.files or str(z["key"]) != key:
+            raise _Unusable("it was stored under another key")
         w, h, f, cx, cy = z["K"]
-        splits = np.cumsum(z["counts"])[:-1]
-        return Sequence(
+        counts = z["counts"]
+        splits = np.cumsum(counts)[:-1]
+        seq = Sequence(
             str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
             z["landmarks"], z["normals"], [str(n) for n in z["names"]], z["rotations"], z["positions"],
             np.split(z["features"], splits), np.split(z["labels"], splits), z["visible"],
             z["projections"], z["images"] if "images" in z.files else None, from_cache=True,
         )
+    _check_shapes(seq, counts, spec)
+    return seq
+
+
+def _check_shapes(seq: Sequence, counts: np.ndarray, spec: SequenceSpec) -> None:
+    """Raise ``_Unusable`` unless every array has the shape ``spec`` implies."""
+    n, lms = spec.frames, len(seq.landmark_names)
+    features = np.concatenate(seq.features) if len(seq.features) else np.zeros((0, 2))
+    labels = np.concatenate(seq.labels) if len(seq.labels) else np.zeros(0, np.int64)
+    expected = {"rotations": (seq.rotations.shape, (n, 3, 3)), "positions": (seq.positions.shape, (n, 3)),
+                "counts": (counts.shape, (n,)), "landmarks": (seq.landmarks.shape, (lms, 3)),
+                "normals": (seq.normals.shape, (lms, 3)), "visible": (seq.visible.shape, (n, lms)),
+                "projections": (seq.projections.shape, (n, lms, 2)),
+                "features": (features.shape, (int(counts.sum()), 2)), "labels": (labels.shape, (int(counts.sum()),)),
+                "image size": ((seq.K.width, seq.K.height), (spec.width, spec.height)),
+                "images": (None if seq.images is None else seq.images.shape,
+                           (n, spec.height, spec.width, 3) if spec.keep_images else None)}
+    for name, (got, want) in expected.items():
+        if got != want:
+            raise _Unusable(f"{name} has shape {got}, expected {want}")
+    if labels.size and (labels.min() < -1 or labels.max() >= lms):
+        raise _Unusable("a label names no landmark")
+
+
+def _cached(path: Path, key: str, spec: SequenceSpec) -> Sequence | None:
+    """The cache entry at ``path`` if it is there and sound. An entry that cannot be read or
+    is not the sequence of ``key`` is removed, with one line on stderr, and ``None`` returned."""
+    try:
+        if not path.is_file():
+            return None
+        return _load(path, key, spec)
+    except PermissionError as exc:  # a cache we may not read is a setting to fix, not damage
+        raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
+    except _DAMAGED as exc:
+        reason = str(exc) if isinstance(exc, _Unusable) else f"{type(exc).__name__}: {exc}".splitlines()[0][:120]
+    print(f"assocbench: cached sequence {path} is unusable ({reason}); discarding it and rendering again",
+          file=sys.stderr)
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:
+        pass  # the fresh render is stored over it
+    return None
 
 
 def load_sequence(spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
-    """The sequence of ``spec``: from the cache when present, else rendered and stored."""
+    """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
+    A damaged cache entry, or one that is not this spec's sequence, is rendered again."""
     scene = load_scene(spec.scene)
-    path = Path(cache_dir or default_cache_dir()) / "sequences" / f"{spec.key(scene)}.npz"
-    if use_cache and path.is_file():
-        try:
-            return _load(path)
-        except (OSError, ValueError, KeyError):
-            pass  # a damaged cache entry is rebuilt below
+    key = spec.key(scene)
+    path = Path(cache_dir or default_cache_dir()) / "sequences" / f"{key}.npz"
+    if use_cache:
+        seq = _cached(path, key, spec)
+        if seq is not None:
+            return seq
     seq = render_sequence(spec, scene)
     if use_cache:
-        _save(seq, path)
+        _save(seq, path, key)
     return seq

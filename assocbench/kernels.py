@@ -1,0 +1,140 @@
+"""Compiled kernels: a cache that heals, and one line on stderr while they compile.
+
+numba compiles each ``@njit(cache=True)`` kernel at its first call and keeps the machine code
+under ``NUMBA_CACHE_DIR`` (see ``_runtime``). Both additions sit on numba's cache-loading path,
+which runs once per kernel and signature in a process, never inside the timed calls:
+
+* A damaged cache file (a truncated ``.nbc``, an empty ``.nbi``: anything that fails while
+  loading) makes numba raise on every run until the folder is deleted by hand. ``install``
+  wraps ``numba.core.caching.Cache.load_overload`` so such a file is deleted, one line on
+  stderr says so, and the kernel is compiled again; a cache that cannot be written (disk full)
+  costs the caching, not the run.
+* ``compile_kernels()`` loads or compiles every built-in kernel once per process. When one
+  must be compiled (a cache empty for this version of the sources, ~20 s), it says so on
+  stderr: one line, a dot per compiled kernel, and the time it took. A warm cache prints nothing.
+"""
+
+from __future__ import annotations
+
+import functools
+import glob
+import sys
+import time
+from pathlib import Path
+from typing import Callable, Iterable
+
+_state = {"active": False, "started": None, "noted": False, "what": ""}
+_compiled_all = False
+
+
+def install() -> None:
+    """Make numba's cache heal damaged files and report compilation (idempotent)."""
+    try:
+        from numba.core.caching import Cache
+    except ImportError:  # a numba without this class: keep its own behaviour
+        return
+    if getattr(Cache.load_overload, "_assocbench", False):
+        return
+    load, save = Cache.load_overload, Cache.save_overload
+
+    @functools.wraps(load)
+    def load_overload(self, sig, target_context):
+        try:
+            data = load(self, sig, target_context)
+        except Exception as exc:  # noqa: BLE001 - any failure to load a cache entry means "damaged"
+            _discard(self, exc)
+            data = None
+        if data is None:
+            _compiling(self)
+        return data
+
+    @functools.wraps(save)
+    def save_overload(self, sig, data):
+        try:
+            save(self, sig, data)
+        except Exception as exc:  # noqa: BLE001 - the kernel is compiled; only caching it failed
+            print(f"assocbench: could not cache compiled kernel {_name(self)} in {_folder(self)} "
+                  f"({type(exc).__name__}: {exc}); it will be compiled again next run", file=sys.stderr)
+
+    load_overload._assocbench = True
+    Cache.load_overload, Cache.save_overload = load_overload, save_overload
+
+
+def compile_kernels() -> None:
+    """Load (or, the first time, compile) every built-in associator's kernels now, once per
+    process, so that compiling is announced and never counted as a frame's runtime."""
+    global _compiled_all
+    if _compiled_all:
+        return
+    _compiled_all = True
+    import numpy as np
+
+    from .association.problem import Problem
+    from .associators.registry import BUILTINS
+
+    tiny = Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
+                   np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
+    warm([functools.partial(lambda cls: cls().associate(tiny), cls) for cls in BUILTINS.values()])
+
+
+def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels") -> float | None:
+    """Run ``calls``; if a kernel compiles meanwhile, print ``compiling <what> (...)...`` at
+    the first one, a dot per kernel and ``done in N s`` at the end. Returns the seconds spent
+    compiling, ``None`` when everything came from the cache. A call's error is left to the
+    real call to report."""
+    _state.update(active=True, started=None, what=what)
+    try:
+        for call in calls:
+            try:
+                call()
+            except Exception:  # noqa: BLE001
+                pass
+    finally:
+        _state["active"] = False
+    if _state["started"] is None:
+        return None
+    seconds = time.perf_counter() - _state["started"]
+    print(f" done in {seconds:.0f} s", file=sys.stderr, flush=True)
+    return seconds
+
+
+def _compiling(cache) -> None:
+    """A kernel is about to be compiled (its cache entry is missing or was discarded)."""
+    if _state["active"]:
+        if _state["started"] is None:
+            _state["started"] = time.perf_counter()
+            print(f"assocbench: compiling {_state['what']} (first run in this environment, ~20 s) ",
+                  end="", file=sys.stderr, flush=True)
+        print(".", end="", file=sys.stderr, flush=True)
+    elif not _state["noted"] and _module(cache).startswith("assocbench"):
+        _state["noted"] = True  # compiled outside compile_kernels(): a plain line, once
+        print("assocbench: compiling association kernels (first run in this environment, ~20 s)",
+              file=sys.stderr, flush=True)
+
+
+def _discard(cache, exc: Exception) -> None:
+    """Delete the index and data files of the kernel whose cache entry failed to load."""
+    index = Path(getattr(getattr(cache, "_cache_file", None), "_index_path", "") or "")
+    files = [index, *index.parent.glob(glob.escape(index.stem) + ".*.nbc")] if index.name else []
+    for path in files:
+        try:
+            path.unlink(missing_ok=True)
+        except OSError:
+            pass  # saving the recompiled kernel replaces it
+    _state["noted"] = True  # this line already says a kernel compiles
+    mid_line = _state["active"] and _state["started"] is not None  # after the dots of the compile note
+    print(f"{chr(10) if mid_line else ''}assocbench: numba cache entry of {_name(cache)} in {index.parent} was damaged "
+          f"({type(exc).__name__}); deleted it and compiling again", file=sys.stderr, flush=True)
+
+
+def _name(cache) -> str:
+    func = getattr(cache, "_py_func", None)
+    return f"{_module(cache)}.{getattr(func, '__qualname__', '?')}"
+
+
+def _module(cache) -> str:
+    return str(getattr(getattr(cache, "_py_func", None), "__module__", "") or "")
+
+
+def _folder(cache) -> str:
+    return str(getattr(cache, "_cache_path", "?"))

@@ -1,0 +1,334 @@
+"""Fault injection on stored data: damaged caches and stored jobs heal, a full disk or an unusable
+cache folder is one line, and a plugin's helper modules key its stored results."""
+
+from __future__ import annotations
+
+import errno
+import importlib
+import io
+import os
+import shutil
+import sys
+import textwrap
+
+import numpy as np
+import pandas as pd
+import pytest
+
+import assocbench  # noqa: F401  (installs the numba cache guard)
+from assocbench import kernels
+from assocbench.atomic import CACHE, Role, atomic_path, ensure_dir, write_group
+from assocbench.errors import UserError
+from assocbench.fingerprint import class_digest
+from assocbench.harness.jobstore import load_job, store_job
+from assocbench.harness.suite import Job, MethodEntry
+from assocbench.sim.scene import load_scene
+from assocbench.sim.sequence import SequenceSpec, load_sequence
+
+SMALL = SequenceSpec(scene="checkerboard", frames=2, width=320, height=240)
+OTHER = SequenceSpec(scene="checkerboard", frames=3, width=320, height=240)
+
+
+def _entry(cache, spec):
+    return cache / "sequences" / f"{spec.key(load_scene(spec.scene))}.npz"
+
+
+@pytest.fixture(scope="module")
+def good_cache(tmp_path_factory):
+    """A cache holding SMALL and OTHER, and SMALL as rendered."""
+    cache = tmp_path_factory.mktemp("seqcache")
+    load_sequence(OTHER, cache)
+    return cache, load_sequence(SMALL, cache)
+
+
+def _flip(data: bytes, at: float) -> bytes:
+    b = bytearray(data)
+    b[int(len(b) * at)] ^= 0xFF
+    return bytes(b)
+
+
+DAMAGE = {
+    "truncated at 10%": lambda d, other: d[: len(d) // 10],
+    "truncated at half": lambda d, other: d[: len(d) // 2],
+    "truncated by one byte": lambda d, other: d[:-1],
+    "zero bytes": lambda d, other: b"",
+    "flipped byte at 40%": lambda d, other: _flip(d, 0.4),
+    "flipped byte at 60%": lambda d, other: _flip(d, 0.6),
+    "garbage": lambda d, other: bytes(np.random.default_rng(0).integers(0, 256, 4000, dtype=np.uint8)),
+    "zip-like garbage": lambda d, other: b"PK\x03\x04" + bytes(range(256)) * 8,
+    "a valid file of another key": lambda d, other: other,
+}
+
+
+@pytest.mark.parametrize("damage", list(DAMAGE))
+def test_a_damaged_cached_sequence_is_rebuilt_with_one_line(damage, good_cache, tmp_path, capsys):
+    cache, rendered = good_cache
+    shutil.copytree(cache / "sequences", tmp_path / "sequences")
+    path = _entry(tmp_path, SMALL)
+    path.write_bytes(DAMAGE[damage](path.read_bytes(), _entry(tmp_path, OTHER).read_bytes()))
+    seq = load_sequence(SMALL, tmp_path)
+    assert len(seq) == SMALL.frames and not seq.from_cache
+    np.testing.assert_array_equal(seq.positions, rendered.positions)
+    assert all(np.array_equal(a, b) for a, b in zip(seq.features, rendered.features))
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "cached sequence" in lines[0] and "rendering again" in lines[0]
+    again = load_sequence(SMALL, tmp_path)   # the rebuilt entry is sound and used
+    assert again.from_cache and capsys.readouterr().err == ""
+
+
+def test_a_cached_sequence_of_another_key_is_not_used(good_cache, tmp_path, capsys):
+    """The issue's case: a 3-frame file copied over a 2-frame key must not report 3 frames."""
+    cache, _ = good_cache
+    shutil.copytree(cache / "sequences", tmp_path / "sequences")
+    shutil.copyfile(_entry(tmp_path, OTHER), _entry(tmp_path, SMALL))
+    assert len(load_sequence(SMALL, tmp_path)) == 2
+    assert "another key" in capsys.readouterr().err
+
+
+def _job() -> Job:
+    return Job("checkerboard", 0, (("hard", {"frames": 2}),), (MethodEntry("enn", "enn"),))
+
+
+def _result():
+    summary = pd.DataFrame({"scenario": ["checkerboard/hard"] * 4, "method": list("abcd"), "seed": [0, 1, 0, 1],
+                            "f1": [0.5, 0.25, 1.0, 0.125], "error": ["", "RuntimeError: boom", "", ""]})
+    frames = pd.DataFrame({"method": list("aabbccdd"), "frame": [0, 1] * 4, "n": range(8),
+                           "runtime_s": np.linspace(0.001, 0.002, 8)})
+    return summary, frames
+
+
+def _job_files(out, part):
+    return sorted((out / "jobs").glob(f"*.{part}.csv"))
+
+
+JOB_DAMAGE = {
+    "summary cut to its first lines (head -n 3)":
+        lambda out: _job_files(out, "summary")[0].write_text("".join(
+            _job_files(out, "summary")[0].read_text().splitlines(keepends=True)[:3])),
+    "summary zero bytes": lambda out: _job_files(out, "summary")[0].write_bytes(b""),
+    "frames garbage": lambda out: _job_files(out, "frames")[0].write_bytes(b"\x00\xff garbage \x89\n" * 30),
+    "frames deleted": lambda out: _job_files(out, "frames")[0].unlink(),
+    "manifest zero bytes": lambda out: next((out / "jobs").glob("*.manifest.json")).write_bytes(b""),
+    "manifest garbage": lambda out: next((out / "jobs").glob("*.manifest.json")).write_text("{not json"),
+    "manifest missing (killed before it)": lambda out: next((out / "jobs").glob("*.manifest.json")).unlink(),
+}
+
+
+@pytest.mark.parametrize("damage", list(JOB_DAMAGE))
+def test_a_damaged_stored_job_is_recomputed_never_used(damage, tmp_path, capsys):
+    job, (summary, frames) = _job(), _result()
+    store_job(tmp_path, job, (summary, frames))
+    JOB_DAMAGE[damage](tmp_path)
+    assert load_job(tmp_path, job) is None
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "recomputing" in lines[0] and job.scene in lines[0]
+    store_job(tmp_path, job, (summary, frames))   # what the sweep does next
+    loaded = load_job(tmp_path, job)
+    pd.testing.assert_frame_equal(loaded[0], summary)
+    pd.testing.assert_frame_equal(loaded[1], frames)
+    assert len(_job_files(tmp_path, "summary")) == 1   # the damaged copy is gone
+
+
+def test_a_stored_job_reads_back_with_the_dtypes_a_sweep_returns(tmp_path, capsys):
+    summary, frames = _result()
+    summary["error"] = ""
+    store_job(tmp_path, _job(), (summary, frames))
+    loaded, loaded_frames = load_job(tmp_path, _job())
+    assert loaded["error"].tolist() == [""] * 4
+    # what run_suite returned before stored jobs were verified: the CSVs read back as they are
+    old = pd.read_csv(io.StringIO(summary.to_csv(index=False)), dtype={"error": str}).fillna({"error": ""})
+    assert loaded.dtypes.to_dict() == old.dtypes.to_dict()
+    assert loaded_frames.dtypes.to_dict() == pd.read_csv(io.StringIO(frames.to_csv(index=False))).dtypes.to_dict()
+    assert capsys.readouterr().err == ""
+
+
+def test_a_truncated_job_file_is_recomputed_by_a_resumed_sweep(tmp_path, capsys):
+    """The issue's experiment end to end: ``head -n 2`` of a stored summary, then resume."""
+    from assocbench.harness.suite import load_suite
+    from assocbench.harness.sweep import run_suite
+
+    path = tmp_path / "suite.yaml"
+    path.write_text("base: {frames: 2, resolution: [320, 240]}\nscenes: [checkerboard]\n"
+                    "difficulties: {easy: {}, hard: {belief: {sigma_rotation: 2.0}}}\nmethods: [enn, mnn]\nseeds: [0]\n")
+    suite = load_suite(path)
+    first, _ = run_suite(suite, tmp_path / "runs", progress=False)
+    (stored,) = (tmp_path / "runs" / "jobs").glob("*.summary.csv")
+    stored.write_text("".join(stored.read_text().splitlines(keepends=True)[:2]))
+    capsys.readouterr()
+    again, _ = run_suite(suite, tmp_path / "runs", progress=False)
+    cols = ["scenario", "method", "precision", "recall", "f1"]
+    assert len(again) == 4
+    pd.testing.assert_frame_equal(again[cols], first[cols])
+    assert "recomputing" in capsys.readouterr().err
+
+
+def _kernel_module(tmp_path, monkeypatch, name):
+    (tmp_path / f"{name}.py").write_text("def twice(x):\n    return 2 * x\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    return importlib.import_module(name)
+
+
+@pytest.mark.parametrize("damage", ["truncated .nbc", "empty .nbi", "garbage .nbi"])
+def test_a_damaged_numba_cache_file_is_recompiled(damage, tmp_path, monkeypatch, capsys):
+    """numba loads a kernel's cache at its first call; a damaged file used to raise there on
+    every run (UnpicklingError, EOFError) until the folder was deleted by hand."""
+    import numba
+    from numba.core import config
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "numba"))
+    mod = _kernel_module(tmp_path, monkeypatch, "h4kern_" + damage.replace(" ", "_").replace(".", ""))
+    assert numba.njit(cache=True)(mod.twice)(3) == 6          # compiled and cached
+    (nbc,) = (tmp_path / "numba").rglob("*.nbc")
+    (nbi,) = (tmp_path / "numba").rglob("*.nbi")
+    {"truncated .nbc": lambda: nbc.write_bytes(nbc.read_bytes()[:40]),
+     "empty .nbi": lambda: nbi.write_bytes(b""),
+     "garbage .nbi": lambda: nbi.write_bytes(b"\x80\x05garbage")}[damage]()
+    capsys.readouterr()
+    assert numba.njit(cache=True)(mod.twice)(4) == 8          # a new process would do the same
+    assert "damaged" in capsys.readouterr().err
+    assert numba.njit(cache=True)(mod.twice)(5) == 10         # healed: loads from the cache again
+    assert capsys.readouterr().err == ""
+
+
+def test_compiling_is_announced_only_when_it_happens(tmp_path, monkeypatch, capsys):
+    import numba
+    from numba.core import config
+
+    monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "numba"))
+    mod = _kernel_module(tmp_path, monkeypatch, "h4kern_note")
+    assert kernels.warm([lambda: numba.njit(cache=True)(mod.twice)(1)], "test kernels") is not None
+    err = capsys.readouterr().err
+    assert err.startswith("assocbench: compiling test kernels") and "done in" in err and err.count("\n") == 1
+    assert kernels.warm([lambda: numba.njit(cache=True)(mod.twice)(1)], "test kernels") is None
+    assert capsys.readouterr().err == ""
+
+
+def _full(*args, **kwargs):
+    raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_a_full_disk_is_one_line_and_a_group_lands_whole_or_not_at_all(tmp_path):
+    (tmp_path / "frames.csv").write_text("old frames\n")
+
+    def summary(tmp):
+        tmp.write_text("half a summ")
+        _full()
+
+    with pytest.raises(UserError) as err:
+        write_group({tmp_path / "frames.csv": lambda tmp: tmp.write_text("new frames\n"),
+                     tmp_path / "summary.csv": summary})
+    assert "No space left on device" in str(err.value) and "\n" not in str(err.value)
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["frames.csv"]   # no temporary files either
+    assert (tmp_path / "frames.csv").read_text() == "old frames\n"
+
+
+def test_a_full_disk_while_writing_a_csv_names_the_file(tmp_path, monkeypatch):
+    monkeypatch.setattr(pd.DataFrame, "to_csv", _full)
+    with pytest.raises(UserError, match=r"cannot write .*summary\.csv.*No space left.*--out"):
+        with atomic_path(tmp_path / "summary.csv") as tmp:
+            pd.DataFrame({"a": [1]}).to_csv(tmp)
+    assert list(tmp_path.iterdir()) == []
+
+
+def test_a_job_cut_short_by_a_full_disk_is_not_stored(tmp_path, monkeypatch):
+    job, result = _job(), _result()
+    real = type(tmp_path).write_bytes
+    monkeypatch.setattr(type(tmp_path), "write_bytes",
+                        lambda self, data: _full() if "frames" in self.name else real(self, data))
+    with pytest.raises(UserError, match="No space left"):
+        store_job(tmp_path, job, result)
+    monkeypatch.undo()
+    assert load_job(tmp_path, job) is None
+
+
+def test_an_unusable_cache_folder_names_the_cache_not_out(tmp_path, monkeypatch):
+    blocker = tmp_path / "cache-is-a-file"
+    blocker.write_text("")
+    monkeypatch.setenv("ASSOCBENCH_CACHE", str(blocker))
+    with pytest.raises(UserError) as err:
+        load_sequence(SMALL)
+    message = str(err.value)
+    assert "cache folder" in message and "ASSOCBENCH_CACHE" in message and "--out" not in message
+
+
+def test_an_unreadable_cache_entry_names_the_cache(good_cache, tmp_path, monkeypatch):
+    cache, _ = good_cache
+    monkeypatch.setattr(np, "load", lambda *a, **k: (_ for _ in ()).throw(PermissionError(errno.EACCES, "Permission denied")))
+    with pytest.raises(UserError, match=r"cache folder .*Permission denied.*ASSOCBENCH_CACHE"):
+        load_sequence(SMALL, cache)
+
+
+def test_folder_errors_name_the_setting_to_change(tmp_path):
+    blocker = tmp_path / "file"
+    blocker.write_text("")
+    for role, fix in ((Role("baseline", "--baseline"), "choose a writable --baseline"),
+                      (CACHE, "set ASSOCBENCH_CACHE to a writable folder")):
+        with pytest.raises(UserError, match=fix):
+            ensure_dir(blocker / "sub", role)
+
+
+def test_an_empty_cache_variable_means_unset_and_a_relative_one_is_fixed_once(tmp_path, monkeypatch):
+    from assocbench import _runtime
+
+    monkeypatch.setenv("HOME", str(tmp_path / "home"))
+    monkeypatch.setenv("ASSOCBENCH_CACHE", "")
+    assert _runtime.cache_root() == tmp_path / "home" / ".cache" / "assocbench"   # not the current folder
+    _runtime._resolve_cache_env()
+    assert "ASSOCBENCH_CACHE" not in os.environ and _runtime.cache_root() == tmp_path / "home" / ".cache" / "assocbench"
+    (tmp_path / "elsewhere").mkdir()
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("ASSOCBENCH_CACHE", "rel")
+    _runtime._resolve_cache_env()
+    monkeypatch.chdir(tmp_path / "elsewhere")   # a later chdir (or a worker started elsewhere)
+    assert _runtime.cache_root() == tmp_path / "rel"
+
+
+PLUGIN = '''
+from assocbench import Associator
+from {helper} import pick
+
+class Picky(Associator):
+    def associate(self, problem):
+        return pick(problem)
+'''
+
+
+@pytest.mark.parametrize("layout", ["package", "single module"])
+def test_editing_a_helper_module_of_a_plugin_changes_its_job_key(layout, tmp_path, monkeypatch):
+    """Stored leaderboard jobs are keyed by the plugin's whole source tree, not its class's file."""
+    name = f"h4plug_{layout.replace(' ', '_')}"
+    if layout == "package":
+        (tmp_path / name).mkdir()
+        (tmp_path / name / "__init__.py").write_text("")
+        (tmp_path / name / "method.py").write_text(PLUGIN.format(helper=f"{name}.helper"))
+        helper, spec = tmp_path / name / "helper.py", f"{name}.method:Picky"
+    else:
+        (tmp_path / f"{name}.py").write_text(PLUGIN.format(helper=f"{name}_helper"))
+        helper, spec = tmp_path / f"{name}_helper.py", f"{name}:Picky"
+    helper.write_text("def pick(problem):\n    return [-1] * problem.n\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    job = Job("room", 0, (("easy", {}),), (MethodEntry("mine", spec),))
+    before = job.key
+    helper.write_text(textwrap.dedent("""
+        def pick(problem):
+            return list(range(problem.n))
+    """))
+    assert job.key != before
+    for mod in [m for m in sys.modules if m.startswith(name)]:
+        sys.modules.pop(mod)
+
+
+def test_a_huge_plugin_folder_is_not_hashed_whole(tmp_path, monkeypatch, capsys):
+    import assocbench.fingerprint as fingerprint
+
+    for i in range(4):
+        (tmp_path / f"h4big_{i}.py").write_text(f"X = {i}\n")
+    (tmp_path / "h4big.py").write_text("class C:\n    pass\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setattr(fingerprint, "MAX_FILES", 3)
+    cls = importlib.import_module("h4big").C
+    before = class_digest(cls)
+    assert "more than 3 .py files" in capsys.readouterr().err
+    (tmp_path / "h4big_0.py").write_text("X = 10\n")
+    assert class_digest(cls) == before   # bounded: the module's own file only, as the warning says
+    sys.modules.pop("h4big", None)
