@@ -212,9 +212,24 @@ def test_frame_summary_counts_nest(scene_name, index):
     named = tf.labels[tf.labels >= 0]
     assert len(named) and tf.visible[named].all() and len(set(named)) == len(named)
     assert not (tf.visible & ~tf.in_view).any()
-    said = re.match(r"(\d+) landmarks visible, (\d+) of them labelled \(detected\), (\d+) not detected; (\d+) more in view",
-                    tf.summary())
+    said = re.match(r"(\d+) landmarks visible, (\d+) of them labelled \(detected\), (\d+) not detected; "
+                    r"(\d+) more in view", tf.summary())
     assert said, tf.summary()
     n_vis, n_lab, n_missed, n_hidden = map(int, said.groups())
     assert (n_vis, n_lab, n_missed) == (tf.visible.sum(), len(named), tf.visible.sum() - len(named))
     assert n_vis + n_hidden == tf.in_view.sum()
+
+
+def test_only_rendered_geoms_occlude(tmp_path):
+    """A box in group 3 (a collision geom: the renderer does not draw it) stands before one
+    landmark, a drawn box before another: the first landmark is imaged, so it is visible and
+    labelled; the second is hidden."""
+    spots = [(-0.3, 0.2), (0.0, 0.0), (0.3, 0.2), (-0.3, -0.2), (0.3, -0.2)]
+    boxes = ('<geom type="box" pos="-0.225 -0.2 0.16" size="0.04 0.01 0.04" group="3" rgba="1 0 0 1"/>'
+             '<geom type="box" pos="0.225 -0.2 0.16" size="0.04 0.01 0.04" rgba="1 0 0 1"/>')
+    path = tmp_path / "occluders.xml"
+    path.write_text(USER_MJCF.format(patches=boxes + "".join(user_patch(k, x, z) for k, (x, z) in enumerate(spots))))
+    seq = load_sequence(SequenceSpec(scene=str(path), frames=3, width=320, height=240))
+    behind_collision, behind_drawn = seq.landmark_names.index("lm0"), seq.landmark_names.index("lm2")
+    assert seq.visible[:, behind_collision].all() and not seq.visible[:, behind_drawn].any()
+    assert all(behind_collision in lab and behind_drawn not in lab for lab in seq.labels)

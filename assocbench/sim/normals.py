@@ -17,6 +17,9 @@ from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 
 import mujoco  # noqa: E402
 
+# the geom groups mujoco.Renderer draws (mjvOption's default, 0-2): only these are imaged, so
+# only these carry a landmark, occlude one or stand in the camera's way (every ray uses this mask)
+RENDERED_GROUPS = mujoco.MjvOption().geomgroup.copy()
 PROBE_M = 0.05       # probe distance from the site (m): beyond a patch's offset or embedding
 REACH_M = 0.015      # a surface within this of the site is the one it sits on (m)
 N_PROBES = 96        # probe directions, spread evenly over the sphere
@@ -30,7 +33,10 @@ def unoriented_sites(spec: "mujoco.MjSpec", names: list[str]) -> np.ndarray:
     quat_given = mujoco.mjtOrientation.mjORIENTATION_QUAT
     out = []
     for name in names:
-        s = sites[name]
+        s = sites.get(name)
+        if s is None:  # not in the spec under this name (generated): trust its compiled frame
+            out.append(False)
+            continue
         identity = np.allclose(np.asarray(s.quat, float), [1.0, 0.0, 0.0, 0.0])
         out.append(s.alt.type == quat_given and identity and np.isnan(s.fromto[0]))
     return np.array(out, bool)
@@ -46,9 +52,9 @@ def fibonacci_sphere(n: int) -> np.ndarray:
 
 
 def _ray(model, data, origin: np.ndarray, direction: np.ndarray) -> tuple[float, np.ndarray]:
-    """Distance to the first surface along a ray (-1: none) and its outward normal there."""
+    """Distance to the first rendered surface along a ray (-1: none) and its outward normal."""
     geom, normal = np.zeros(1, np.int32), np.zeros(3)
-    dist = mujoco.mj_ray(model, data, origin, direction, None, 1, -1, geom, normal)
+    dist = mujoco.mj_ray(model, data, origin, direction, RENDERED_GROUPS, 1, -1, geom, normal)
     return float(dist), normal
 
 
@@ -127,7 +133,8 @@ def _fmt(v: np.ndarray) -> str:
     return ", ".join(f"{x:+.2f}" for x in v)
 
 
-def landmark_normals(spec: "mujoco.MjSpec", model, data, site_ids: list[int], scene_name: str) -> tuple[np.ndarray, np.ndarray]:
+def landmark_normals(spec: "mujoco.MjSpec", model, data, site_ids: list[int],
+                     scene_name: str) -> tuple[np.ndarray, np.ndarray]:
     """World unit normals (L, 3) of the landmark sites and which of them were inferred (L,).
 
     Oriented sites keep their z axis; un-oriented ones take the normal of the surface they sit

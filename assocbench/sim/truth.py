@@ -9,6 +9,7 @@ import numpy as np
 from .. import _runtime  # noqa: F401
 from ..validation import in_range, one_of, validate_fields
 from .camera import Intrinsics, project
+from .normals import RENDERED_GROUPS
 from .scene import Scene
 
 import mujoco  # noqa: E402
@@ -32,13 +33,15 @@ class TruthConfig:
 
 
 def occluded_by_ray(scene: Scene, p: np.ndarray, points: np.ndarray, tol: float = 0.02) -> np.ndarray:
-    """True where the first surface hit from ``p`` towards a point lies before it (by > tol m)."""
+    """True where the first rendered surface hit from ``p`` towards a point lies before it (by
+    > tol m); geoms in groups the renderer does not draw (collision geoms, often group 3) are
+    not in the image, so they hide nothing."""
     vec = points - p
     dist = np.linalg.norm(vec, axis=1)
     unit = np.ascontiguousarray((vec / dist[:, None]).ravel())
     hit = np.empty(len(points))
     geom = np.empty(len(points), np.int32)
-    mujoco.mj_multiRay(scene.model, scene.data, p.astype(np.float64), unit, None, True, -1,
+    mujoco.mj_multiRay(scene.model, scene.data, p.astype(np.float64), unit, RENDERED_GROUPS, True, -1,
                        geom, hit, None, len(points), float(dist.max() + 1.0))
     return (hit >= 0) & (hit < dist - tol)
 

@@ -73,7 +73,8 @@ def read_waypoints(path: Path) -> Keyframes:
     return _keyframes(path, rows)
 
 
-Row = tuple[str, np.ndarray, np.ndarray | None, tuple[float, float] | None, float | None]  # where, pos, look, yaw/pitch, t
+# one waypoint: where it is written (for messages), position, look-at point, (yaw, pitch), time
+Row = tuple[str, np.ndarray, np.ndarray | None, tuple[float, float] | None, float | None]
 
 
 def _number(path: Path, where: str, name: str, value) -> float:
@@ -89,7 +90,8 @@ def _number(path: Path, where: str, name: str, value) -> float:
 
 
 def _csv_rows(path: Path, text: str) -> list[Row]:
-    lines = [(k + 1, line) for k, line in enumerate(text.splitlines()) if line.strip() and not line.lstrip().startswith("#")]
+    lines = [(k + 1, line) for k, line in enumerate(text.splitlines())
+             if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
         return []
     header = [h.strip().lower() for h in next(csv.reader(io.StringIO(lines[0][1])))]
