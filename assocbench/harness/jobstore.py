@@ -27,28 +27,28 @@ FORMAT = 1
 PARTS = ("summary", "frames")
 
 
-def manifest_path(out: Path, job: Job) -> Path:
+def manifest_path(out: Path, job: Job, key: str | None = None) -> Path:
     """Where the manifest of ``job`` lives; it exists only once the job is completely stored."""
-    return Path(out) / "jobs" / f"{job.key}.manifest.json"
+    return Path(out) / "jobs" / f"{key or job.key}.manifest.json"
 
 
 def store_job(out: Path, job: Job, result: tuple[pd.DataFrame, pd.DataFrame]) -> None:
     """Store a job's (summaries, frames) under ``out/jobs``: data files first, the manifest last,
     each written atomically, so a job interrupted at any point is simply not stored."""
-    folder = Path(out) / "jobs"
+    folder, key = Path(out) / "jobs", job.key  # a key hashes the sources: computed once
     entries = {}
     for part, df in zip(PARTS, result):
         data = df.to_csv(index=False).encode()
         sha = hashlib.sha256(data).hexdigest()
-        name = f"{job.key}.{sha[:12]}.{part}.csv"
+        name = f"{key}.{sha[:12]}.{part}.csv"
         with atomic_path(folder / name) as tmp:
             tmp.write_bytes(data)
         entries[part] = {"name": name, "sha256": sha, "bytes": len(data), "rows": len(df)}
-    manifest = {"format": FORMAT, "key": job.key, "scene": job.scene, "seed": job.seed, "files": entries}
-    with atomic_path(manifest_path(out, job)) as tmp:
+    manifest = {"format": FORMAT, "key": key, "scene": job.scene, "seed": job.seed, "files": entries}
+    with atomic_path(manifest_path(out, job, key)) as tmp:
         tmp.write_text(json.dumps(manifest, indent=1))
     keep = {e["name"] for e in entries.values()}
-    for stale in _data_files(folder, job):  # an older, replaced copy of this job
+    for stale in _data_files(folder, key):  # an older, replaced copy of this job
         if stale.name not in keep:
             stale.unlink(missing_ok=True)
 
@@ -59,17 +59,17 @@ def load_job(out: Path, job: Job) -> tuple[pd.DataFrame, pd.DataFrame] | None:
     Damaged files are removed and one line on stderr says so; the caller recomputes the job.
     The frames have the dtypes ``run_suite`` always returned (read back from CSV), with the
     summaries' ``error`` column as str, ``""`` for none."""
-    folder = Path(out) / "jobs"
-    manifest = manifest_path(out, job)
+    folder, key = Path(out) / "jobs", job.key
+    manifest = manifest_path(out, job, key)
     if not manifest.is_file():
-        if any(_data_files(folder, job)):
-            _note(job, "incomplete (no manifest: it was interrupted while being stored)")
+        if any(_data_files(folder, key)):
+            _note(job, key, "incomplete (no manifest: it was interrupted while being stored)")
         return None
     try:
-        return _verified(folder, job, manifest)
+        return _verified(folder, key, manifest)
     except _Damaged as exc:
-        _note(job, f"damaged ({exc})")
-        _discard(folder, job, manifest)
+        _note(job, key, f"damaged ({exc})")
+        _discard(folder, key, manifest)
         return None
 
 
@@ -77,11 +77,11 @@ class _Damaged(Exception):
     """A stored job whose files cannot be trusted."""
 
 
-def _verified(folder: Path, job: Job, manifest: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
+def _verified(folder: Path, key: str, manifest: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
     try:
         info = json.loads(manifest.read_bytes())
         files = [info["files"][part] for part in PARTS]
-        if info["format"] != FORMAT or info["key"] != job.key:
+        if info["format"] != FORMAT or info["key"] != key:
             raise _Damaged(f"{manifest.name} belongs to another job or format")
     except (OSError, ValueError, KeyError, TypeError) as exc:  # ValueError covers JSON and UTF-8 errors
         raise _Damaged(f"unreadable {manifest.name}: {type(exc).__name__}") from None
@@ -110,18 +110,18 @@ def _read_part(folder: Path, part: str, entry) -> pd.DataFrame:
     return df
 
 
-def _data_files(folder: Path, job: Job):
-    return (p for part in PARTS for p in folder.glob(f"{job.key}.*{part}.csv"))
+def _data_files(folder: Path, key: str):
+    return (p for part in PARTS for p in folder.glob(f"{key}.*{part}.csv"))
 
 
-def _discard(folder: Path, job: Job, manifest: Path) -> None:
-    for path in [manifest, *_data_files(folder, job)]:
+def _discard(folder: Path, key: str, manifest: Path) -> None:
+    for path in [manifest, *_data_files(folder, key)]:
         try:
             path.unlink(missing_ok=True)
         except OSError:
             pass  # the job is recomputed and stored over it anyway
 
 
-def _note(job: Job, what: str) -> None:
-    print(f"assocbench: stored job {job.scene} seed {job.seed} ({job.key}) is {what}; recomputing it",
+def _note(job: Job, key: str, what: str) -> None:
+    print(f"assocbench: stored job {job.scene} seed {job.seed} ({key}) is {what}; recomputing it",
           file=sys.stderr)
