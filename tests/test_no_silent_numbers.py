@@ -245,3 +245,20 @@ def test_check_refuses_a_damaged_baseline(ci_setup, capsys, tmp_path, damage, ne
     bad = tmp_path / "baseline.csv"
     bad.write_text(damage(baseline.read_text()))
     assert_one_line_error(capsys, main(["check", "--suite", str(suite), "--baseline", str(bad), "--quiet"]), needle)
+
+
+def test_a_full_disk_is_one_line_and_leaves_no_half_written_run(tmp_path, monkeypatch, capsys):
+    """ENOSPC while writing summary.csv: frames.csv must not be left behind as if the run were complete."""
+    import errno
+
+    real = pd.DataFrame.to_csv
+
+    def full_disk(self, path=None, *args, **kwargs):
+        if "status" in self.columns:   # the one-row summary
+            raise OSError(errno.ENOSPC, "No space left on device")
+        return real(self, path, *args, **kwargs)
+
+    monkeypatch.setattr(pd.DataFrame, "to_csv", full_disk)
+    out = tmp_path / "out"
+    assert_one_line_error(capsys, main(["run", "--frames", "2", "--out", str(out)]), "No space left")
+    assert not list(out.glob("*.csv")) and not list(out.glob(".*"))

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import argparse
 import sys
+from functools import partial
 from pathlib import Path
 
 import pandas as pd
 
-from ..atomic import atomic_path
+from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
 from ..harness.runner import execute
 from ..scoring.aggregate import OK, SUMMARY_COLUMNS
@@ -42,9 +43,8 @@ def main(args: argparse.Namespace) -> int:
     row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
            "method": spec.method, "seed": spec.seed, **{k: summary[k] for k in SUMMARY_COLUMNS}}
     summary_df = pd.DataFrame([row])
-    for name, df in (("frames.csv", frames), ("summary.csv", summary_df)):
-        with atomic_path(out / name) as tmp:
-            df.to_csv(tmp, index=False, float_format="%.9g")
+    write_group({out / name: partial(df.to_csv, index=False, float_format="%.9g")   # both files or neither
+                 for name, df in (("frames.csv", frames), ("summary.csv", summary_df))})
     if args.format == "table":
         print(f"{row['method']} on {row['scene']} ({row['trajectory']}, {row['frames']} frames, seed {row['seed']})")
         print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values())}), "table")
