@@ -35,8 +35,8 @@ def pipeline(scene_name: str, width: int, height: int, frames: int, msaa: int | 
             t1 = time.perf_counter()
             f = detect(rgb, det)
             t2 = time.perf_counter()
-            uv, imaged, _ = visibility(scene, rots[k], pos[k], r.K, truth)
-            label_features(f, uv, imaged, truth.gate_px)
+            uv, visible = visibility(scene, rots[k], pos[k], r.K, truth)
+            label_features(f, uv, visible, truth.gate_px)
             t3 = time.perf_counter()
             stages += [t1 - t0, t2 - t1, t3 - t2]
     ms = stages / frames * 1e3
