@@ -161,7 +161,6 @@ def oracle_visible(scene, R, p, K) -> np.ndarray:
     return clear
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("scene_name", ["room", "checkerboard", "corridor"])
 def test_every_imaged_landmark_with_a_feature_on_it_is_labelled(scene_name):
     """Truth follows what is imaged: a landmark that is in view, unoccluded, turned towards the
@@ -188,7 +187,6 @@ def test_every_imaged_landmark_with_a_feature_on_it_is_labelled(scene_name):
     assert not missed, f"unlabelled landmarks with a feature on them (frame, name, px): {missed[:10]}"
 
 
-@pytest.mark.slow
 def test_depth_and_ray_occlusion_give_the_same_truth_on_oblique_walls():
     """The corridor's walls recede at up to ~89°: the rendered-depth test must not take a wall
     for its own occluder (the pixel next to an oblique landmark is already centimetres nearer)."""
