@@ -269,13 +269,14 @@ CAMERAS = """<mujoco>
     <geom type="box" pos="0 3.05 1.5" size="4 0.05 1.5"/>
     <site name="lm0" pos="0 3 1.5"/><site name="lm1" pos="1 3 1.5"/><site name="lm2" pos="0 3 2"/>
     <camera name="door" pos="-2 0 1.5" xyaxes="1 0 0 0 0 1"/>
-    <camera name="corner" pos="2 0.5 1.2" xyaxes="0.8 0.6 0 0 0 1"/>
+    <camera name="corner" pos="2 0.5 1.2" xyaxes="0.8 0.6 0 0 0 1" fovy="60"/>
   </worldbody>
 </mujoco>"""
 
 
-def test_mjcf_cameras_path_and_named_camera(tmp_path):
-    """``mjcf-cameras`` runs from the first MJCF camera to the last; naming one holds its view."""
+def test_mjcf_cameras_path_and_named_camera(tmp_path, capfd):
+    """``mjcf-cameras`` runs from the first MJCF camera to the last; naming one holds its view.
+    A camera whose own fovy differs from the one frames are rendered with is named on stderr."""
     path = tmp_path / "cams.xml"
     path.write_text(CAMERAS)
     scene = load_scene(path)
@@ -287,6 +288,7 @@ def test_mjcf_cameras_path_and_named_camera(tmp_path):
     R, p = trajectory_poses(SequenceSpec(scene=str(path), trajectory="mjcf-cameras", frames=3,
                                          trajectory_params=exact(cameras="corner")), scene)
     assert np.allclose(p, [2, 0.5, 1.2]) and np.allclose(R[:, :, 2], [-0.6, 0.8, 0])
+    assert "camera door has its own fovy" in capfd.readouterr().err       # MuJoCo's default is 45°
     with pytest.raises(UserError, match="has no camera 'attic': its named cameras are door, corner"):
         trajectory_poses(SequenceSpec(scene=str(path), trajectory="mjcf-cameras",
                                       trajectory_params={"cameras": ["door", "attic"]}), scene)

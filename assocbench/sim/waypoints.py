@@ -30,6 +30,7 @@ import yaml
 
 from ..errors import UserError
 from .camera import CV_TO_MUJOCO, look_at
+from .normals import warn_once
 from .scene import Scene
 from .trajectory import Keyframes
 
@@ -202,6 +203,10 @@ def camera_keyframes(scene: Scene, cameras=None) -> Keyframes:
             raise UserError(f"scene {scene.name} has no camera {unknown[0]!r}: its named cameras are "
                             f"{', '.join(named) or 'none'}")
         ids = [named[n] for n in names]
+    other = [model.camera(i).name or f"#{i}" for i in ids if abs(model.cam_fovy[i] - scene.fovy) > 0.5]
+    if other:
+        warn_once(f"scene {scene.name}: camera {other[0]} has its own fovy; frames are rendered with "
+                  f"<visual><global fovy> = {scene.fovy:g}°, so they show a different field of view")
     rots = np.array([data.cam_xmat[i].reshape(3, 3) @ CV_TO_MUJOCO for i in ids])
     pos = np.array([data.cam_xpos[i] for i in ids])
     return Keyframes(rots, pos, np.linspace(0.0, 1.0, len(ids)) if len(ids) > 1 else np.zeros(1))
