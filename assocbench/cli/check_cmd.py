@@ -11,7 +11,7 @@ from ..harness.config import shipped_config
 from ..harness.suite import load_suite
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table
-from .common import print_table
+from .common import check_output_folder, print_table
 
 NAME = "check"
 HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
@@ -31,6 +31,8 @@ def main(args: argparse.Namespace) -> int:
     tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
     baseline_path = Path(args.baseline)
     baseline = None if args.update else read_baseline(baseline_path)
+    if args.update:
+        check_output_folder(baseline_path.parent, "--baseline")   # before the suite runs, not after
     with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run
         summaries, _ = run_suite(suite, Path(scratch), args.jobs, progress=not args.quiet)
     if args.update:

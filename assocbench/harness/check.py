@@ -13,7 +13,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..atomic import atomic_path
+from ..atomic import Role, atomic_path
 from ..errors import UserError
 from ..scoring.aggregate import ACCURACY_METRICS, OK, leaderboard_table
 from ..validation import check_number
@@ -103,5 +103,5 @@ def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
     if len(bad):
         r = bad.iloc[0]
         raise UserError(f"not writing baseline {path}: {r['scenario']} × {r['method']} is not ok ({r['status']})")
-    with atomic_path(path) as tmp:
+    with atomic_path(path, role=Role("baseline", "--baseline")) as tmp:
         table[KEY + list(ACCURACY_METRICS)].to_csv(tmp, index=False, float_format="%.6f")
