@@ -125,7 +125,7 @@ def validate_association(association, problem: Problem) -> np.ndarray:
         raise ValueError(f"association pairs a landmark with feature {bad}, outside -1..{problem.m - 1}")
     used = a[a >= 0]
     if len(np.unique(used)) != len(used):
-        dup = used[np.flatnonzero(np.bincount(used) > 1)[0]] if len(used) else -1
+        dup = int(np.flatnonzero(np.bincount(used) > 1)[0])   # the feature index itself
         raise ValueError(f"association uses feature {dup} more than once")
     return a
 
