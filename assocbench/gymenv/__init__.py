@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import gymnasium as gym
 
+from .actions import action_mask, sample_mask, sample_valid_action
 from .env import AssociationEnv, classical_action
 
 ENV_IDS = {"Room": "room", "Checkerboard": "checkerboard", "Corridor": "corridor"}
@@ -17,4 +18,5 @@ def register_envs() -> None:
             gym.register(id=env_id, entry_point="assocbench.gymenv.env:AssociationEnv", kwargs={"scene": scene})
 
 
-__all__ = ["AssociationEnv", "ENV_IDS", "classical_action", "register_envs"]
+__all__ = ["AssociationEnv", "ENV_IDS", "action_mask", "classical_action", "register_envs", "sample_mask",
+           "sample_valid_action"]

@@ -7,35 +7,73 @@ Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works in
 * ``predictions`` (N, 2), ``prediction_cov`` (N, 2, 2) the marginal blocks of P,
   ``landmark_mask`` (N,). The full joint covariance with cross terms is in ``info["problem"]``.
 
+The observation a terminating step returns is empty (both masks zero): no frame is left.
+
 Action: ``MultiDiscrete`` of N entries in [-1, M-1]: the feature paired with each candidate,
--1 for none; padded candidates must be -1. An invalid action (wrong shape, a padded slot
-used, an index beyond the frame's features, a feature used twice) is never scored silently:
-with ``invalid_action="penalize"`` (default) the step's reward is ``-n`` (as if every
-candidate were paired wrongly), nothing is counted as found, and ``info["invalid_action"]``
-says what was wrong; with ``invalid_action="raise"`` the step raises ``ValueError``.
+-1 for none; padded candidates must be -1. ``info["action_mask"]`` (N, M+1) says which values
+each slot may take (see ``actions.py`` for masked sampling and a valid random action). An
+invalid action (wrong shape, a padded slot used, an index beyond the frame's features, a
+feature used twice) is never scored silently: with ``invalid_action="penalize"`` (default)
+the step's reward is ``-n`` (as if every candidate were paired wrongly), nothing is counted as
+found, and ``info["invalid_action"]`` says what was wrong; with ``invalid_action="raise"`` the
+step raises ``ValueError``.
 
 Reward: TP − FP of the step (a wrong pairing costs as much as a right one earns).
 
-``info``: ``problem`` (the ``Problem``, so classical associators can act), ``truth`` (the true
-association), ``frame``, and after a step the step's metrics (``tp``, ``fp``, ``fn``, ...).
+``info`` holds only fixed-size entries, so a vector env can stack them: ``problem`` (the
+``Problem``, so classical associators can act; absent once the episode is over), ``truth``
+(N,) the true association padded with -1 (itself a valid action), ``action_mask`` (N, M+1),
+``frame`` (the index of the frame observed), and after a step ``scored_frame`` and the step's
+metrics ``step_metrics`` (``tp``, ``fp``, ``fn``, ...).
+
+After the step that returns ``terminated=True``, ``step()`` raises ``gymnasium.error.ResetNeeded``
+until ``reset()``: there is no frame left to score (vector envs reset on the next step
+themselves). A process forked from one that had already rendered cannot render (the GL driver
+does not survive ``fork``): ``reset`` there raises a one-line ``UserError`` instead of hanging.
 """
 
 from __future__ import annotations
 
+import os
+import sys
 from typing import Any
 
 import gymnasium as gym
 import numpy as np
 from gymnasium import spaces
+from gymnasium.error import ResetNeeded
 
 from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..belief.camera_belief import make_problem
 from ..errors import UserError
-from ..harness.config import DEFAULTS, merge, run_spec
-from ..harness.suite import shipped_difficulties
+from ..harness.config import merge, run_spec
 from ..scoring.metrics import score_frame, unscored_frame
 from ..sim.sequence import Sequence, load_sequence
+from .actions import action_mask
+from .arguments import env_config
+
+
+_FORKED_AFTER_EGL = False   # this process was forked from one that had already rendered with EGL
+
+
+def _note_fork() -> None:
+    """Runs in every forked child: remember whether the parent had made an EGL context. The GL
+    driver's threads do not survive ``fork``, and the child's first render would wait for them
+    forever (Mesa's llvmpipe hangs in ``mjr_makeContext``), so such a child must not render."""
+    global _FORKED_AFTER_EGL
+    egl = sys.modules.get("mujoco.egl")
+    _FORKED_AFTER_EGL = _FORKED_AFTER_EGL or getattr(egl, "EGL_DISPLAY", None) is not None
+
+
+os.register_at_fork(after_in_child=_note_fork)
+
+
+def _check_can_render() -> None:
+    if _FORKED_AFTER_EGL:
+        raise UserError("this process was forked from one that had already rendered with EGL, and the GL driver "
+                        "cannot render after fork (it would hang): create async vector envs before rendering, or "
+                        "pass vector_kwargs={'context': 'forkserver'} (or 'spawn') to gymnasium.make_vec")
 
 
 class AssociationEnv(gym.Env):
@@ -52,14 +90,7 @@ class AssociationEnv(gym.Env):
         if invalid_action not in ("penalize", "raise"):
             raise UserError(f"invalid_action must be 'penalize' or 'raise', got {invalid_action!r}")
         self.invalid_action = invalid_action
-        levels = shipped_difficulties()
-        if isinstance(difficulty, str) and difficulty not in levels:
-            raise UserError(f"unknown difficulty {difficulty!r}: choose one of {', '.join(levels)} or pass a mapping")
-        override = levels[difficulty] if isinstance(difficulty, str) else {"belief": dict(difficulty)}
-        cfg = merge(merge(DEFAULTS, override, "difficulty"), config or {}, "config")
-        self._cfg = merge(cfg, {"scene": scene, "trajectory": trajectory, "frames": frames,
-                                "resolution": list(resolution)}, "env arguments")
-        spec = run_spec(self._cfg)
+        self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config)
         from ..sim.scene import load_scene
 
         n_max = len(load_scene(spec.sequence.scene).landmarks)
@@ -85,20 +116,30 @@ class AssociationEnv(gym.Env):
 
     # -- episode -------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
+        """Start the episode of ``seed`` (drawn from the env's generator when None). The env has
+        no reset options; any given are refused rather than silently ignored."""
+        if options:
+            raise UserError(f"AssociationEnv.reset takes no options, got {sorted(options)}; "
+                            "pass settings to the constructor (gymnasium.make kwargs)")
+        _check_can_render()
         super().reset(seed=seed)
-        self._seed = int(seed) if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
-        spec = run_spec(merge(self._cfg, {"seed": self._seed}, "seed"))
-        self._belief = spec.belief
+        self._seq = self._problem = self._truth = None   # a reset that fails leaves no episode to step
+        seed = int(seed) if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
+        spec = run_spec(merge(self._cfg, {"seed": seed}, "seed"))
         self._seq = load_sequence(spec.sequence)
-        self._spec = spec
+        self._seed, self._spec, self._belief = seed, spec, spec.belief
         self._frame = 0
         self._last = None
         self._load_frame()
         return self._observation(), self._info()
 
     def step(self, action):
-        if self._problem is None:
-            raise RuntimeError("call reset() before step()")
+        """Score ``action`` on the current frame and move to the next (see module docstring)."""
+        if self._seq is None:
+            raise ResetNeeded("call reset() before step()")
+        if self._over:
+            raise ResetNeeded(f"the episode is over (all {len(self._seq)} frames were scored and the last step "
+                              "returned terminated=True): call reset() to start a new one")
         try:
             association = self._check_action(action)
         except ValueError as exc:
@@ -113,10 +154,13 @@ class AssociationEnv(gym.Env):
         self._last = (self._frame, self._problem, association)
         info.update(step_metrics=metrics, scored_frame=self._frame)
         self._frame += 1
-        terminated = self._frame >= len(self._seq)
-        if not terminated:
+        if not self._over:
             self._load_frame()
-        return self._observation(), reward, terminated, False, {**self._info(), **info}
+        return self._observation(), reward, self._over, False, {**self._info(), **info}
+
+    @property
+    def _over(self) -> bool:
+        return self._frame >= len(self._seq)
 
     def _load_frame(self) -> None:
         self._problem, self._truth = make_problem(self._seq, self._frame, self._belief, self._seed)
@@ -133,12 +177,16 @@ class AssociationEnv(gym.Env):
 
     # -- observation ---------------------------------------------------------------------
     def _observation(self) -> dict[str, np.ndarray]:
-        p, M, N = self._problem, self.max_features, self.max_landmarks
+        """The current frame padded to the space's sizes; all zeros (empty masks) once over."""
+        M, N = self.max_features, self.max_landmarks
         obs = {
             "features": np.zeros((M, 2)), "feature_cov": np.zeros((M, 2, 2)),
             "feature_mask": np.zeros(M, np.int8), "predictions": np.zeros((N, 2)),
             "prediction_cov": np.zeros((N, 2, 2)), "landmark_mask": np.zeros(N, np.int8),
         }
+        if self._over:
+            return obs
+        p = self._problem
         obs["features"][: p.m] = p.z
         obs["feature_cov"][: p.m] = p.R
         obs["feature_mask"][: p.m] = 1
@@ -148,9 +196,15 @@ class AssociationEnv(gym.Env):
         return obs
 
     def _info(self) -> dict[str, Any]:
-        if self._frame >= len(self._seq):
-            return {"frame": self._frame}
-        return {"problem": self._problem, "truth": self._truth.association, "frame": self._frame}
+        """Fixed-size entries only (a vector env stacks them; see module docstring)."""
+        truth = np.full(self.max_landmarks, NO_MATCH, dtype=np.int64)
+        if self._over:
+            mask = action_mask(0, 0, self.max_landmarks, self.max_features)
+            return {"truth": truth, "action_mask": mask, "frame": self._frame}
+        p = self._problem
+        truth[: p.n] = self._truth.association
+        mask = action_mask(p.n, p.m, self.max_landmarks, self.max_features)
+        return {"problem": p, "truth": truth, "action_mask": mask, "frame": self._frame}
 
     # -- pictures ------------------------------------------------------------------------
     def render(self) -> np.ndarray | None:
@@ -164,6 +218,7 @@ class AssociationEnv(gym.Env):
 
         k, problem, association = self._last or (self._frame, self._problem, np.full(self._problem.n, NO_MATCH))
         if self._renderer is None:
+            _check_can_render()
             s = self._spec.sequence
             self._renderer = FrameRenderer(load_scene(s.scene), s.width, s.height, s.msaa)
         rgb = self._renderer.render(self._seq.rotations[k], self._seq.positions[k])["rgb"]

@@ -1,0 +1,64 @@
+"""The constructor arguments of ``AssociationEnv``, checked up front: a bad one is a one-line
+``UserError`` from the constructor (so ``make_vec`` refuses it in the parent process), never a
+``ZeroDivisionError`` or a broken worker at the first ``reset``."""
+
+from __future__ import annotations
+
+import os
+from collections.abc import Mapping
+from typing import Any
+
+import numpy as np
+
+from ..errors import UserError
+from ..harness.config import DEFAULTS, RunSpec, merge, run_spec
+from ..harness.suite import shipped_difficulties
+from ..validation import check_number
+
+MIN_SIDE, MAX_SIDE = 16, 8192   # the renderer needs 16 px a side; 8192 is what GL contexts reliably offer
+
+
+def _plain(value: Any) -> Any:
+    """NumPy scalars as Python numbers, so ``frames=np.int64(5)`` is accepted like ``5``."""
+    return value.item() if isinstance(value, (np.integer, np.floating)) else value
+
+
+def _resolution(resolution: Any) -> list[int]:
+    if isinstance(resolution, (str, bytes)) or not hasattr(resolution, "__len__") or len(resolution) != 2:
+        raise UserError(f"resolution must be (width, height) in pixels, got {resolution!r}")
+    for name, value in zip(("width", "height"), resolution):
+        check_number(_plain(value), f"resolution {name}", integer=True, lo=MIN_SIDE, hi=MAX_SIDE)
+    return [int(v) for v in resolution]
+
+
+def _difficulty(difficulty: Any) -> dict:
+    """The run-config override a difficulty stands for: a shipped level, or belief settings."""
+    levels = shipped_difficulties()
+    if isinstance(difficulty, str):
+        if difficulty not in levels:
+            raise UserError(f"unknown difficulty {difficulty!r}: choose one of {', '.join(levels)} or pass a mapping")
+        return levels[difficulty]
+    if not isinstance(difficulty, Mapping):
+        raise UserError(f"difficulty must be one of {', '.join(levels)} or a mapping of belief settings, "
+                        f"got {difficulty!r}")
+    belief = {}
+    for key, value in difficulty.items():
+        belief[key] = check_number(_plain(value), f"difficulty.{key}")
+    return {"belief": belief}
+
+
+def env_config(scene: Any, trajectory: Any, frames: Any, difficulty: Any, resolution: Any,
+               config: Any) -> tuple[dict, RunSpec]:
+    """The merged run config of an env and its resolved ``RunSpec`` (every value checked by
+    ``run_spec``); a bad argument raises a one-line ``UserError`` naming it."""
+    if not isinstance(scene, (str, os.PathLike)) or not str(scene):
+        raise UserError(f"scene must be a shipped scene name or the path of an MJCF file, got {scene!r}")
+    if trajectory is not None and not isinstance(trajectory, str):
+        raise UserError(f"trajectory must be a trajectory name or None, got {trajectory!r}")
+    frames = check_number(_plain(frames), "frames", integer=True, lo=1)
+    if config is not None and not isinstance(config, Mapping):
+        raise UserError(f"config must be a mapping of run-config overrides, got {config!r}")
+    cfg = merge(merge(DEFAULTS, _difficulty(difficulty), "difficulty"), dict(config or {}), "config")
+    cfg = merge(cfg, {"scene": os.fspath(scene), "trajectory": trajectory, "frames": frames,
+                      "resolution": _resolution(resolution)}, "env arguments")
+    return cfg, run_spec(cfg)
