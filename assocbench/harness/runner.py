@@ -1,8 +1,17 @@
-"""One run: a cached sequence, a belief per frame, one associator, scored frame by frame."""
+"""One run: a cached sequence, a belief per frame, one associator, scored frame by frame.
+
+The frame loop (``frame_records``) runs inside a worker process (``sandbox.py``), which is what
+lets the parent enforce a time limit and survive a method that dies or exits; ``execute`` runs
+it there. The plugin boundary is ``_call``: anything a method raises, ``SystemExit`` included,
+is that frame's failure, and every call gets its own copy of the problem, so a method that
+edits its problem in place can change neither the scoring nor what later methods see.
+"""
 
 from __future__ import annotations
 
+import copy
 import time
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import numpy as np
@@ -11,21 +20,27 @@ import pandas as pd
 from ..association.problem import Problem, validate_association
 from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig, FrameTruth, make_problem
+from ..errors import UserError
 from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, unscored_frame
-from ..sim.sequence import Sequence, load_sequence
+from ..sim.sequence import Sequence
 from .config import RunSpec
+
+WARM_UP = -1          # the call index of building the associator and its warm-up call
+WARM_UP_FACTOR = 10   # warm-up may compile (numba, a plugin's JIT): it gets 10x the per-call limit
+_ARRAYS = ("z", "R", "zhat", "P", "landmark_ids")
 
 
 def warm_up(associator) -> None:
     """Run ``associator`` once on a tiny problem so that loading compiled kernels (numba's
     cache, a plugin's own JIT) is not timed as the first frame's runtime. Errors are left to
-    the real frames to report."""
+    the real frames to report (an exit or an interrupt raised by the method too: in a worker
+    process a real interrupt is the parent's business)."""
     tiny = Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
                    np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
     try:
         associator.associate(tiny)
-    except Exception:  # noqa: BLE001
+    except BaseException:  # noqa: BLE001
         pass
 
 
@@ -34,31 +49,97 @@ def frame_problems(seq: Sequence, belief: BeliefConfig, seed: int) -> list[tuple
     return [make_problem(seq, k, belief, seed) for k in range(len(seq))]
 
 
-def associate_frames(problems: list[tuple[Problem, FrameTruth]], method: str, params: dict) -> pd.DataFrame:
-    """Per-frame records of ``method`` on ``problems``. A method that raises or returns an invalid
-    association is recorded as failed on that frame (``error``) and the run goes on."""
-    associator = make_associator(method, **params)
-    warm_up(associator)
-    rows = []
-    for k, (problem, truth) in enumerate(problems):
-        error, timed_out = "", False
-        start = time.perf_counter()
-        try:
-            raw = associator.associate(problem)
-            runtime = time.perf_counter() - start
-            association = validate_association(raw, problem)
-            record = score_frame(problem, truth, association)
-            timed_out = bool(getattr(associator, "info", {}).get("timed_out", False))
-        except Exception as exc:  # noqa: BLE001 - a plugin's failure must not stop a sweep
-            runtime = time.perf_counter() - start
-            error = f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
-            record = unscored_frame(problem, truth)
-        rows.append({"frame": k, **record, "timed_out": timed_out, "runtime_s": runtime, "error": error})
-    return pd.DataFrame(rows)
+def private_copy(problem: Problem) -> Problem:
+    """A read-only copy of ``problem`` with arrays of its own: what one ``associate`` call gets."""
+    out = copy.copy(problem)
+    for name in _ARRAYS:
+        arr = getattr(problem, name).copy()
+        arr.flags.writeable = False
+        object.__setattr__(out, name, arr)
+    return out
+
+
+def describe(exc: BaseException) -> str:
+    """One line for the ``error`` column: ``Type: message``."""
+    return f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
+
+
+def _call(associator, problem: Problem) -> tuple[np.ndarray | None, float, bool, str]:
+    """``associate`` on a private copy of ``problem``, timed alone: (association validated against
+    the pristine problem, runtime_s, timed_out, error). Everything the method raises, and any code
+    of its that validation runs (``__array__``, an ``info`` property), is the frame's failure."""
+    start = time.perf_counter()
+    try:
+        raw = associator.associate(private_copy(problem))
+        runtime = time.perf_counter() - start
+    except BaseException as exc:  # noqa: BLE001 - SystemExit too: a plugin must not end the run
+        return None, time.perf_counter() - start, False, describe(exc)
+    try:
+        association = validate_association(raw, problem)
+        timed_out = bool(getattr(associator, "info", {}).get("timed_out", False))
+    except BaseException as exc:  # noqa: BLE001
+        return None, runtime, False, describe(exc)
+    return association, runtime, timed_out, ""
+
+
+def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runtime: float) -> dict:
+    """Record of frame ``k`` that failed: scored as if no pairing was returned, with its error."""
+    return {"frame": k, **unscored_frame(problem, truth), "timed_out": False, "runtime_s": runtime,
+            "error": error}
+
+
+def _build(method: str, params: dict):
+    """The associator, or (None, error) when its own constructor fails; a bad name or parameter
+    is the user's (``UserError`` propagates)."""
+    try:
+        return make_associator(method, **params), ""
+    except UserError:
+        raise
+    except BaseException as exc:  # noqa: BLE001 - the plugin's __init__ is plugin code
+        return None, describe(exc)
+
+
+def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, params: dict,
+                  time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
+                  on_call: Callable[[int, float], None] = lambda k, limit: None) -> Iterator[dict]:
+    """Per-frame records of ``method`` on ``problems[first:]``, one at a time. A method that raises,
+    exits or returns an invalid association is recorded as failed on that frame (``error``).
+
+    ``on_call(k, limit_s)`` is told before each call (``k = WARM_UP`` for building the associator
+    and warming it up, with ``WARM_UP_FACTOR`` times the limit), so that a supervising process can
+    kill a call past its limit. ``faults`` maps frame indices to (error, runtime_s) already known
+    (``WARM_UP``: every frame): those frames are recorded failed without calling the method.
+    """
+    faults = faults or {}
+    if WARM_UP in faults:  # the method could not even start: every frame fails with that error
+        for k in range(first, len(problems)):
+            yield failed_record(k, *problems[k], *faults.get(k, (faults[WARM_UP][0], 0.0)))
+        return
+    on_call(WARM_UP, WARM_UP_FACTOR * time_limit_s)
+    associator, error = _build(method, params)
+    if associator is not None:
+        warm_up(associator)
+    for k in range(first, len(problems)):
+        problem, truth = problems[k]
+        if k in faults or associator is None:
+            yield failed_record(k, problem, truth, *(faults.get(k) or (error, 0.0)))
+            continue
+        on_call(k, time_limit_s)
+        association, runtime, timed_out, error_k = _call(associator, problem)
+        record = failed_record(k, problem, truth, error_k, runtime) if association is None else {
+            "frame": k, **score_frame(problem, truth, association), "timed_out": timed_out,
+            "runtime_s": runtime, "error": ""}
+        yield record
 
 
 def execute(spec: RunSpec, cache_dir: Path | None = None) -> tuple[pd.DataFrame, dict]:
-    """Run ``spec``: per-frame records and the summary."""
-    seq = load_sequence(spec.sequence, cache_dir)
-    frames = associate_frames(frame_problems(seq, spec.belief, spec.seed), spec.method, spec.params)
+    """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
+    records and the summary."""
+    from .sandbox import Supervisor, Task  # here: sandbox imports this module
+
+    name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
+    task = Task(name, ((name, spec),),
+                ((spec.method, spec.method, dict(spec.params)),), str(cache_dir) if cache_dir else None)
+    frames = pd.DataFrame(Supervisor(1).run_one(task)[(0, 0)])
     return frames, summarize(frames)
+

@@ -1,13 +1,15 @@
-"""Run a suite's jobs: in this process, in local processes (``--jobs N``) or on a dask cluster.
+"""Run a suite's jobs: one worker process at a time, several (``--jobs N``), or on a dask cluster.
 
-Each job's results are stored by ``jobstore`` under ``<out>/jobs/``; a job whose stored files
-are complete and verified is skipped, so an interrupted sweep resumes where it stopped.
+Every job runs in a worker process (``sandbox.py``): a method call past its time limit, or a
+method that dies or exits, fails that frame and the job goes on; an interrupt kills the workers
+at once. Each job's results are stored by ``jobstore`` under ``<out>/jobs/`` as it finishes; a
+job whose stored files are complete and verified is skipped, so an interrupted sweep resumes
+where it stopped.
 """
 
 from __future__ import annotations
 
-from concurrent.futures import ProcessPoolExecutor, as_completed
-from multiprocessing import get_context
+import sys
 from pathlib import Path
 
 import pandas as pd
@@ -16,30 +18,50 @@ from tqdm import tqdm
 from ..atomic import ensure_dir
 from ..errors import UserError
 from ..scoring.aggregate import summarize
-from ..sim.sequence import load_sequence
 from .config import run_spec
 from .jobstore import load_job, store_job
-from .runner import associate_frames, frame_problems
+from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
 
 
-def run_job(job: Job, cache_dir: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Summaries (one row per difficulty × method) and per-frame (n, runtime) of one job."""
+def job_task(job: Job, cache_dir: str | None = None) -> Task:
+    """The worker task of ``job``: its runs (difficulty, resolved spec) and its methods."""
+    return Task(f"{job.scene} seed {job.seed}", tuple((f"{job.scene}/{d} seed {job.seed}", run_spec(cfg))
+                                                      for d, cfg in job.runs),
+                tuple((m.label, m.method, dict(m.params)) for m in job.methods), cache_dir)
+
+
+def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Summaries (one row per difficulty × method) and per-frame (n, runtime) of one job, from
+    the worker's records by (difficulty index, method index)."""
     summaries, frames = [], []
-    for difficulty, cfg in job.runs:
-        spec = run_spec(cfg)
-        seq = load_sequence(spec.sequence, Path(cache_dir) if cache_dir else None)
-        problems = frame_problems(seq, spec.belief, spec.seed)
-        for entry in job.methods:
-            per_frame = associate_frames(problems, entry.method, entry.params)
+    for r, (difficulty, _) in enumerate(job.runs):
+        for mi, entry in enumerate(job.methods):
+            per_frame = pd.DataFrame(records[(r, mi)])
             errors = sorted(set(per_frame["error"]) - {""})
             label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}
             summaries.append({**label, **summarize(per_frame), "error": errors[0] if errors else ""})
             frames.append(per_frame.assign(**label)[list(label) + ["frame", "n", "m", "runtime_s"]])
     return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
+
+
+class _Bar(tqdm):
+    """The sweep's progress bar, without tqdm's monitor thread: a process with no other thread
+    can fork its workers (``sandbox._context``), which is much faster than a forkserver."""
+
+    monitor_interval = 0
+
+
+def _report(line: str) -> None:
+    tqdm.write(f"assocbench: {line}", file=sys.stderr)
+
+
+def run_job(job: Job, cache_dir: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
+    """Summaries and per-frame records of one job, run in a worker process (see ``job_result``)."""
+    return job_result(job, Supervisor(1, _report).run_one(job_task(job, cache_dir)))
 
 
 def _dask_client(address: str | None):
@@ -55,6 +77,40 @@ def _dask_client(address: str | None):
         raise UserError(f"cannot reach dask scheduler {address}: {exc}") from None
 
 
+def _run_dask(todo: list[Job], out: Path, address: str | None, cache_dir: str | None, bar: tqdm) -> None:
+    from dask.distributed import as_completed as dask_completed
+
+    with _dask_client(address) as client:
+        futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
+        for fut in dask_completed(futures):
+            store_job(out, futures[fut], fut.result())
+            bar.update()
+
+
+def _run_local(todo: list[Job], out: Path, jobs: int, cache_dir: str | None, bar: tqdm) -> None:
+    """Run ``todo`` in at most ``jobs`` worker processes, storing each job as it finishes; a job
+    that fails outside any method call is named, the others still run, then ``TaskFailed``."""
+    if jobs == 1:
+        failed = []
+        for j in todo:
+            try:
+                store_job(out, j, run_job(j, cache_dir))
+            except TaskFailed as exc:
+                failed.append(exc)
+            bar.update()
+        if failed:
+            raise TaskFailed(f"{len(failed)} of {len(todo)} job(s) failed; first: {failed[0]}")
+        return
+    tasks = [job_task(j, cache_dir) for j in todo]
+    job_of = {id(t): j for t, j in zip(tasks, todo)}
+
+    def finished(task: Task, records: dict) -> None:
+        store_job(out, job_of[id(task)], job_result(job_of[id(task)], records))
+        bar.update()
+
+    Supervisor(jobs, _report).run(tasks, finished)
+
+
 def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", address: str | None = None,
               cache_dir: str | None = None, progress: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Run every job not already stored under ``out``; return all summaries and frame records."""
@@ -65,27 +121,15 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
     ensure_dir(out / "jobs")
     done = [load_job(out, j) for j in suite.jobs]
     todo = [j for j, d in zip(suite.jobs, done) if d is None]
-    bar = tqdm(total=len(suite.jobs), initial=len(suite.jobs) - len(todo), desc=f"{suite.name}",
-               unit="job", disable=not progress)
-    if executor == "dask":
-        from dask.distributed import as_completed as dask_completed
-
-        with _dask_client(address) as client:
-            futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
-            for fut in dask_completed(futures):
-                store_job(out, futures[fut], fut.result())
-                bar.update()
-    elif jobs == 1:
-        for j in todo:
-            store_job(out, j, run_job(j, cache_dir))
-            bar.update()
-    else:
-        with ProcessPoolExecutor(max_workers=jobs, mp_context=get_context("spawn")) as pool:
-            futures = {pool.submit(run_job, j, cache_dir): j for j in todo}
-            for fut in as_completed(futures):
-                store_job(out, futures[fut], fut.result())
-                bar.update()
-    bar.close()
+    bar = _Bar(total=len(suite.jobs), initial=len(suite.jobs) - len(todo), desc=f"{suite.name}",
+               unit="job", disable=not progress or not sys.stderr.isatty())  # no bars in logs
+    try:
+        if executor == "dask":
+            _run_dask(todo, out, address, cache_dir, bar)
+        else:
+            _run_local(todo, out, jobs, cache_dir, bar)
+    finally:
+        bar.close()
     parts = [d or _reloaded(out, j) for j, d in zip(suite.jobs, done)]
     summaries = pd.concat([s for s, _ in parts], ignore_index=True)
     return summaries, pd.concat([f for _, f in parts], ignore_index=True)

@@ -1,0 +1,339 @@
+"""Worker processes for method code: a per-call time limit, and methods that die, exit or hang
+fail their frames instead of the run.
+
+The parent (``Supervisor``) runs each ``Task`` (a leaderboard job: one sequence's runs × the
+methods; or one ``run``) in a worker process forked from a forkserver that has already imported
+assocbench and loaded the built-in associators' compiled kernels, so a worker starts warm in a
+few tens of milliseconds. The worker announces each ``associate`` call (``call``) and sends each
+frame's record after it (``frame``, scored in the worker against the pristine problem); the
+parent waits with the call's time limit. When a call overruns or its worker dies (``os._exit``,
+a segfault), the parent kills the worker, records that frame as failed and resumes the task at
+the next frame in a fresh worker, which rebuilds the problems from the cached sequence (same
+seed, same problems). A method whose construction or warm-up dies or hangs fails every frame.
+
+Workers ignore SIGINT and SIGTERM (the parent decides, and kills them) and exit when the parent
+is gone (a watchdog thread on the parent's sentinel), so a killed sweep leaves no orphans.
+"""
+
+from __future__ import annotations
+
+import math
+import multiprocessing as mp
+import os
+import signal
+import sys
+import threading
+import time
+import traceback
+from collections import deque
+from collections.abc import Callable, Iterable
+from dataclasses import dataclass, field
+from multiprocessing.connection import wait
+from pathlib import Path
+
+from tqdm import tqdm
+
+from ..errors import UserError
+from ..sim.sequence import load_sequence
+from .runner import WARM_UP, describe, frame_problems, frame_records
+
+# modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
+# from re-running the main script, and the preload module loads the built-ins' kernels
+PRELOAD = ["__main__", "assocbench.harness.worker_preload"]
+_GUARD = ("a script that runs assocbench from a process with threads (workers then come from a "
+          "forkserver, which imports the script) must keep its top level under "
+          "if __name__ == '__main__':")
+
+
+@dataclass(frozen=True)
+class Task:
+    """Work for one worker: the runs ``(label, RunSpec)`` on one sequence and the methods
+    ``(label, method, params)`` called on every run's frames. ``name`` and the run labels
+    (e.g. ``room seed 0``, ``room/hard seed 0``) say which in messages."""
+
+    name: str
+    runs: tuple
+    methods: tuple
+    cache_dir: str | None = None
+
+
+class TaskFailed(RuntimeError):
+    """A task failed outside any method call (assocbench's own code, or its worker could not start)."""
+
+
+@dataclass
+class _Progress:
+    """What the parent knows of a task: records by (run, method) and frame, the calls that failed
+    in a worker that was then killed (by (run, method): frame -> (error, runtime_s)), and where a
+    fresh worker resumes."""
+
+    records: dict = field(default_factory=dict)
+    faults: dict = field(default_factory=dict)
+    resume: tuple[int, int, int] = (0, 0, 0)
+
+
+# ---------------------------------------------------------------- worker side
+
+def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, environ: dict) -> None:
+    """Worker process entry: run ``task`` from ``resume``, streaming messages; always ``os._exit``,
+    so threads a method left behind cannot keep the process alive."""
+    _become_worker(environ)
+    try:
+        _run_task(conn.send, task, resume, faults)
+        conn.send(("done",))
+    except UserError as exc:
+        conn.send(("usererror", str(exc)))
+    except BaseException as exc:  # noqa: BLE001 - reported to the parent, which names the task
+        conn.send(("crash", describe(exc), traceback.format_exc()))
+    finally:
+        for stream in (sys.stdout, sys.stderr):
+            try:
+                stream.flush()
+            except Exception:  # noqa: BLE001
+                pass
+        os._exit(0)
+
+
+def _become_worker(environ: dict) -> None:
+    """Interrupts are the parent's to handle; the parent's current environment; exit with it."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)
+    signal.signal(signal.SIGTERM, signal.SIG_IGN)
+    os.environ.clear()
+    os.environ.update(environ)
+    # a progress bar's default lock is a named semaphore, which os._exit would leak
+    tqdm.set_lock(threading.RLock())
+    parent = mp.parent_process()
+    if parent is not None:  # the sentinel turns ready when the parent dies, however it dies
+        threading.Thread(target=_exit_with, args=(parent.sentinel,), daemon=True).start()
+
+
+def _exit_with(sentinel) -> None:
+    wait([sentinel])
+    os._exit(1)
+
+
+def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: dict) -> None:
+    cache = Path(task.cache_dir) if task.cache_dir else None
+    for r in range(resume[0], len(task.runs)):
+        spec = task.runs[r][1]
+        problems = frame_problems(load_sequence(spec.sequence, cache), spec.belief, spec.seed)
+        for mi in range(resume[1] if r == resume[0] else 0, len(task.methods)):
+            _, method, params = task.methods[mi]
+            first = resume[2] if (r, mi) == resume[:2] else 0
+            announce = lambda k, limit, r=r, mi=mi: send(("call", r, mi, k, limit))  # noqa: E731
+            for record in frame_records(problems, method, params, spec.time_limit_s, first,
+                                        faults.get((r, mi)), announce):
+                send(("frame", r, mi, record["frame"], record))
+
+
+# ---------------------------------------------------------------- parent side
+
+def _context(methods: Iterable[str]):
+    """``fork`` when this process has no other thread (Linux: one entry in /proc/self/task): a
+    worker then starts in milliseconds with all this process has loaded, and with no other thread
+    there is no lock that the child could inherit held. Otherwise (a progress monitor, a dask
+    worker, a user's threads) a forkserver: workers fork from a clean server, started once (an
+    import of assocbench, about 1.5 s) with the built-ins warm."""
+    if "fork" in mp.get_all_start_methods() and _single_threaded():
+        warm_builtins(methods)  # here, so that every worker inherits the loaded kernels
+        return mp.get_context("fork")
+    ctx = mp.get_context("forkserver")
+    ctx.set_forkserver_preload(PRELOAD)  # no effect once the server runs: it is started once
+    return ctx
+
+
+def _single_threaded() -> bool:
+    try:
+        return len(os.listdir("/proc/self/task")) == 1
+    except OSError:
+        return False
+
+
+_warm: set[str] = set()
+
+
+def warm_builtins(methods: Iterable[str]) -> None:
+    """Load the compiled kernels of the built-in associators among ``methods`` in this process
+    (numba's cache; a compile if it is cold), once. Only assocbench's own code runs here."""
+    from ..associators.registry import BUILTINS
+    from .runner import warm_up
+
+    for name in {m.lower() for m in methods} & set(BUILTINS) - _warm:
+        warm_up(BUILTINS[name]())
+        _warm.add(name)
+
+
+@dataclass
+class _Running:
+    task: Task
+    progress: _Progress
+    process: mp.Process
+    conn: object
+    call: tuple | None = None   # (run, method, frame, limit_s, started) of the call in flight
+    heard: bool = False          # any message yet (a worker that dies silently never started)
+
+
+def _why(exitcode: int | None) -> str:
+    if exitcode is not None and exitcode < 0:
+        try:
+            return f"was killed by {signal.Signals(-exitcode).name}"
+        except ValueError:
+            return f"was killed by signal {-exitcode}"
+    return f"exited with code {exitcode}"
+
+
+def _stderr(line: str) -> None:
+    print(f"assocbench: {line}", file=sys.stderr, flush=True)
+
+
+class Supervisor:
+    """Runs tasks in at most ``slots`` worker processes at once and enforces each call's limit.
+
+    ``report(line)`` is told, once per method and run, that frames failed because a worker died
+    or overran (the records say it for every frame)."""
+
+    def __init__(self, slots: int = 1, report: Callable[[str], None] = _stderr) -> None:
+        self.slots = max(1, int(slots))
+        self.report = report
+
+    def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict], None]) -> None:
+        """Run ``tasks``; ``on_done(task, records)`` as each finishes, with ``records[(run, method)]``
+        the per-frame records in frame order. Raises ``TaskFailed`` at the end if a task failed
+        outside any method call (the others still run), ``UserError`` at once for bad input."""
+        pending, live, failed = deque(tasks), [], []
+        total = len(pending)
+        try:
+            while pending or live:
+                while pending and len(live) < self.slots:
+                    task = pending.popleft()
+                    live.append(self._launch(task, _Progress()))
+                wait([w.conn for w in live] + [w.process.sentinel for w in live], _timeout(live))
+                for w in list(live):
+                    outcome = self._step(w)
+                    if outcome is None:
+                        continue
+                    live.remove(w)
+                    if outcome == "done":
+                        on_done(w.task, {key: [recs[k] for k in sorted(recs)]
+                                         for key, recs in w.progress.records.items()})
+                    elif outcome == "restart":
+                        live.append(self._launch(w.task, w.progress))
+                    else:
+                        failed.append((w.task, outcome))
+                        self.report(f"{w.task.name} failed: {outcome}")
+        finally:
+            for w in live:
+                _stop(w)
+        if failed:
+            task, why = failed[0]
+            raise TaskFailed(f"{len(failed)} of {total} task(s) failed; first, {task.name}: {why.splitlines()[0]}")
+
+    def run_one(self, task: Task) -> dict:
+        """Records of one task (see ``run``)."""
+        out = {}
+        self.run([task], lambda _, records: out.update(records))
+        return out
+
+    def _launch(self, task: Task, progress: _Progress) -> _Running:
+        if getattr(mp.current_process(), "_inheriting", False):  # a forkserver importing a script
+            raise RuntimeError(f"assocbench was run while a process imported the main script; {_GUARD}")
+        ctx = _context(m[1] for m in task.methods)
+        here, there = ctx.Pipe(duplex=False)
+        process = ctx.Process(target=_worker, name=f"assocbench {task.name}",
+                              args=(there, task, progress.resume, progress.faults, dict(os.environ)))
+        try:
+            with _allow_children():
+                process.start()
+        except (OSError, EOFError) as exc:
+            raise RuntimeError(f"cannot start a worker process ({exc}); {_GUARD}") from exc
+        finally:
+            there.close()  # the worker holds the only writer: its death reads as end of file here
+        return _Running(task, progress, process, here)
+
+    def _step(self, w: _Running):
+        """Read what ``w`` sent; None while it runs, else ``done``, ``restart`` or why it failed."""
+        while True:
+            try:
+                if not w.conn.poll():
+                    break
+                msg = w.conn.recv()
+            except (EOFError, OSError):
+                break
+            w.heard = True
+            if msg[0] == "call":
+                w.call = (*msg[1:], time.monotonic())
+            elif msg[0] == "frame":
+                r, mi, k, record = msg[1:]
+                w.progress.records.setdefault((r, mi), {})[k] = record
+                w.call = None
+            elif msg[0] == "done":
+                _stop(w, grace=5.0)
+                return "done"
+            elif msg[0] == "usererror":
+                raise UserError(msg[1])
+            else:  # crash
+                _stop(w)
+                return f"{msg[1]}\n{msg[2]}"
+        if not w.process.is_alive():
+            if w.call is None:
+                why = _why(w.process.exitcode)
+                _stop(w)
+                return (f"its worker process {why} outside any method call"
+                        + ("" if w.heard else " before it started (see the error above)"))
+            return self._fault(w, f"WorkerDied: the process running the method {_why(w.process.exitcode)}")
+        deadline = _deadline(w)
+        if deadline is not None and time.monotonic() > deadline:
+            what = "associate()" if w.call[2] != WARM_UP else "building and warming up the method"
+            return self._fault(w, f"TimeLimit: {what} exceeded the time limit of {w.call[3]:g} s")
+        return None
+
+    def _fault(self, w: _Running, error: str) -> str:
+        """Record the call in flight as failed, kill the worker, and say where to resume."""
+        r, mi, k, _, started = w.call
+        _stop(w)
+        elapsed = time.monotonic() - started
+        resume_at = w.progress.resume
+        first = resume_at[2] if (r, mi) == resume_at[:2] else 0
+        faults = w.progress.faults.setdefault((r, mi), {})
+        if not faults:  # once per method and run: the records name every frame
+            where = "while starting, so on every frame" if k == WARM_UP else f"on frame {k}"
+            self.report(f"{w.task.methods[mi][0]} failed {where} of {w.task.runs[r][0]} (the run goes on): {error}")
+        faults[k] = (error, elapsed)
+        w.progress.resume = (r, mi, first if k == WARM_UP else k)
+        return "restart"
+
+
+def _deadline(w: _Running) -> float | None:
+    """When the call in flight overruns (monotonic clock); None when none is, or no limit."""
+    if w.call is None or not math.isfinite(w.call[3]):
+        return None
+    return w.call[4] + w.call[3]
+
+
+def _timeout(live: list[_Running]) -> float | None:
+    deadlines = [d for d in map(_deadline, live) if d is not None]
+    return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+
+
+def _stop(w: _Running, grace: float = 0.0) -> None:
+    """End ``w``'s process (killed unless it exits within ``grace`` s) and release its handles."""
+    if grace:
+        w.process.join(grace)
+    if w.process.is_alive():
+        w.process.kill()
+    w.process.join()
+    w.conn.close()
+    w.process.close()
+
+
+class _allow_children:
+    """Start a worker from a daemonic process too (a dask worker is one): the worker is ours to
+    kill, and it exits with its parent by itself."""
+
+    def __enter__(self):
+        self.proc = mp.current_process()
+        self.daemon = self.proc._config.get("daemon", False)
+        self.proc._config["daemon"] = False
+
+    def __exit__(self, *exc):
+        self.proc._config["daemon"] = self.daemon

@@ -1,0 +1,12 @@
+"""Imported once by the forkserver that forks the worker processes (``sandbox.py``), never by
+a user: it imports what a worker runs and loads the built-in associators' compiled kernels
+(compiling them if numba's cache is cold), so every worker forked from it starts warm instead
+of paying a second or more per process."""
+
+from ..associators.registry import BUILTINS
+from .sandbox import warm_builtins
+
+try:
+    warm_builtins(BUILTINS)
+except Exception:  # noqa: BLE001 - never stop the forkserver: a worker then warms up by itself
+    pass
