@@ -24,7 +24,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
                    help="override a config key, e.g. --set belief.sigma_rotation=2 (repeatable)")
 
 
-MIN_SIDE = 16   # the renderer's smallest frame; below it the camera rig divides by nothing useful
+MIN_SIDE = 16   # the renderer's smallest frame (a zero side made the camera rig divide by zero)
 
 
 def resolution(text: str | None) -> list[int] | None:

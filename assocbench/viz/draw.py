@@ -16,7 +16,7 @@ import numpy as np
 from ..errors import UserError
 
 # RGB colours of the lab-8 figure and the truth picture
-GREEN, RED, DARK_RED, BLUE, GRAY, YELLOW = (0, 200, 0), (255, 0, 0), (120, 0, 0), (0, 80, 255), (150, 150, 150), (255, 210, 0)
+GREEN, RED, DARK_RED, BLUE, YELLOW = (0, 200, 0), (255, 0, 0), (120, 0, 0), (0, 80, 255), (255, 210, 0)
 MAGENTA, BLACK, WHITE = (255, 0, 255), (0, 0, 0), (255, 255, 255)
 FONT = cv2.FONT_HERSHEY_SIMPLEX
 # what cv2.imwrite can write from an 8-bit RGB frame without losing colour, by extension
