@@ -10,6 +10,7 @@ edits its problem in place can change neither the scoring nor what later methods
 from __future__ import annotations
 
 import copy
+import signal
 import time
 from collections.abc import Callable, Iterator
 from pathlib import Path
@@ -34,14 +35,14 @@ _ARRAYS = ("z", "R", "zhat", "P", "landmark_ids")
 def warm_up(associator) -> None:
     """Run ``associator`` once on a tiny problem so that loading compiled kernels (numba's
     cache, a plugin's own JIT) is not timed as the first frame's runtime. Errors are left to
-    the real frames to report (an exit or an interrupt raised by the method too: in a worker
-    process a real interrupt is the parent's business)."""
+    the real frames to report, ``SystemExit`` included; a user's interrupt is not swallowed."""
     tiny = Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
                    np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
     try:
         associator.associate(tiny)
-    except BaseException:  # noqa: BLE001
-        pass
+    except BaseException as exc:  # noqa: BLE001
+        if user_interrupt(exc):
+            raise
 
 
 def frame_problems(seq: Sequence, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
@@ -59,6 +60,13 @@ def private_copy(problem: Problem) -> Problem:
     return out
 
 
+def user_interrupt(exc: BaseException) -> bool:
+    """Whether ``exc`` is a real Ctrl-C, to be let through the plugin boundary: a
+    ``KeyboardInterrupt`` where SIGINT is not ignored. A worker ignores SIGINT (its parent handles
+    interrupts), so there a ``KeyboardInterrupt`` can only come from the method: a failure."""
+    return isinstance(exc, KeyboardInterrupt) and signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
+
+
 def describe(exc: BaseException) -> str:
     """One line for the ``error`` column: ``Type: message``."""
     return f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
@@ -73,11 +81,15 @@ def _call(associator, problem: Problem) -> tuple[np.ndarray | None, float, bool,
         raw = associator.associate(private_copy(problem))
         runtime = time.perf_counter() - start
     except BaseException as exc:  # noqa: BLE001 - SystemExit too: a plugin must not end the run
+        if user_interrupt(exc):
+            raise
         return None, time.perf_counter() - start, False, describe(exc)
     try:
         association = validate_association(raw, problem)
         timed_out = bool(getattr(associator, "info", {}).get("timed_out", False))
     except BaseException as exc:  # noqa: BLE001
+        if user_interrupt(exc):
+            raise
         return None, runtime, False, describe(exc)
     return association, runtime, timed_out, ""
 
@@ -96,6 +108,8 @@ def _build(method: str, params: dict):
     except UserError:
         raise
     except BaseException as exc:  # noqa: BLE001 - the plugin's __init__ is plugin code
+        if user_interrupt(exc):
+            raise
         return None, describe(exc)
 
 
