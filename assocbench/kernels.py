@@ -9,9 +9,10 @@ which runs once per kernel and signature in a process, never inside the timed ca
   wraps ``numba.core.caching.Cache.load_overload`` so such a file is deleted, one line on
   stderr says so, and the kernel is compiled again; a cache that cannot be written (disk full)
   costs the caching, not the run.
-* ``compile_kernels()`` loads or compiles every built-in kernel once per process. When one
-  must be compiled (a cache empty for this version of the sources, ~20 s), it says so on
-  stderr: one line, a dot per compiled kernel, and the time it took. A warm cache prints nothing.
+* ``warm(calls)`` runs calls that load or compile kernels (the harness warms the built-ins and
+  the scoring once per process, ``sandbox.warm_builtins``). When one must be compiled (a cache
+  empty for this version of the sources, ~20 s), it says so on stderr: one line, a dot per
+  compiled kernel, and the time it took. A warm cache prints nothing.
 """
 
 from __future__ import annotations
@@ -24,7 +25,6 @@ from pathlib import Path
 from typing import Callable, Iterable
 
 _state = {"active": False, "started": None, "noted": False, "what": ""}
-_compiled_all = False
 
 
 def install() -> None:
@@ -60,23 +60,6 @@ def install() -> None:
     Cache.load_overload, Cache.save_overload = load_overload, save_overload
 
 
-def compile_kernels() -> None:
-    """Load (or, the first time, compile) every built-in associator's kernels now, once per
-    process, so that compiling is announced and never counted as a frame's runtime."""
-    global _compiled_all
-    if _compiled_all:
-        return
-    _compiled_all = True
-    import numpy as np
-
-    from .association.problem import Problem
-    from .associators.registry import BUILTINS
-
-    tiny = Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
-                   np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
-    warm([functools.partial(lambda cls: cls().associate(tiny), cls) for cls in BUILTINS.values()])
-
-
 def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels") -> float | None:
     """Run ``calls``; if a kernel compiles meanwhile, print ``compiling <what> (...)...`` at
     the first one, a dot per kernel and ``done in N s`` at the end. Returns the seconds spent
@@ -107,7 +90,7 @@ def _compiling(cache) -> None:
                   end="", file=sys.stderr, flush=True)
         print(".", end="", file=sys.stderr, flush=True)
     elif not _state["noted"] and _module(cache).startswith("assocbench"):
-        _state["noted"] = True  # compiled outside compile_kernels(): a plain line, once
+        _state["noted"] = True  # compiled outside warm(): a plain line, once
         print("assocbench: compiling association kernels (first run in this environment, ~20 s)",
               file=sys.stderr, flush=True)
 

@@ -9,6 +9,7 @@ import threading
 from contextlib import contextmanager
 
 from ..errors import UserError
+from ..harness.sandbox import TaskFailed
 from . import check_cmd, frame_cmd, leaderboard_cmd, list_cmd, render_cmd, run_cmd
 
 COMMANDS = (run_cmd, leaderboard_cmd, check_cmd, list_cmd, frame_cmd, render_cmd)
@@ -64,6 +65,9 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"assocbench: error: {exc}", file=sys.stderr)
         return 2
+    except TaskFailed as exc:   # our own code failed outside any method call; the other jobs are kept
+        print(f"assocbench: error: {exc}; finished jobs are kept and a rerun resumes", file=sys.stderr)
+        return 1
     except KeyboardInterrupt as exc:
         what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
         print(f"assocbench: {what}; finished results are kept and a rerun resumes", file=sys.stderr)

@@ -9,10 +9,10 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..association.problem import Problem, validate_association
 from ..associators.registry import make_associator
 from ..belief.camera_belief import make_problem
 from ..harness.config import load_run_config, run_spec
+from ..harness.runner import call_method
 from ..sim.render import FrameRenderer
 from ..sim.scene import load_scene
 from ..sim.sequence import load_sequence
@@ -32,19 +32,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-def checked_association(associator, problem: Problem) -> tuple[np.ndarray, str]:
-    """What ``associator`` answers on ``problem``, validated as ``run`` validates it (range, no
-    feature used twice); on failure (it raised, exited or answered nonsense) all -1 and why."""
-    try:
-        return validate_association(associator.associate(problem), problem), ""
-    except (KeyboardInterrupt, GeneratorExit):
-        raise
-    except BaseException as exc:  # noqa: BLE001 - a plugin's failure (sys.exit too) is a failed frame
-        return np.full(problem.n, -1, dtype=np.int64), f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
-
-
 def main(args: argparse.Namespace) -> int:
-    """Render the run; exit 1 (after writing the video) when the method failed on any frame."""
+    """Render the run; exit 1 (after writing the video) when the method failed on any frame.
+    Each answer goes through ``run``'s plugin boundary (``call_method``: a private copy of the
+    problem, anything raised or an invalid association is that frame's failure); the method runs
+    in this process, so ``time_limit_s`` is not enforced here."""
     output = Path(args.output)
     check_video_path(output)
     fps = check_fps(args.fps)
@@ -62,7 +54,9 @@ def main(args: argparse.Namespace) -> int:
                        disable=args.quiet or not sys.stderr.isatty())
             for k in bar:
                 problem, truth = make_problem(seq, k, spec.belief, spec.seed)
-                association, error = checked_association(associator, problem)
+                association, _, _, error = call_method(associator, problem)   # run's boundary and checks
+                if association is None:
+                    association = np.full(problem.n, -1, dtype=np.int64)
                 rgb = r.render(seq.rotations[k], seq.positions[k])["rgb"]
                 if error:
                     failures.append(f"frame {k}: {error}")

@@ -2,7 +2,7 @@
 
 The frame loop (``frame_records``) runs inside a worker process (``sandbox.py``), which is what
 lets the parent enforce a time limit and survive a method that dies or exits; ``execute`` runs
-it there. The plugin boundary is ``_call``: anything a method raises, ``SystemExit`` included,
+it there. The plugin boundary is ``call_method``: anything a method raises, ``SystemExit`` included,
 is that frame's failure, and every call gets its own copy of the problem, so a method that
 edits its problem in place can change neither the scoring nor what later methods see.
 """
@@ -32,14 +32,24 @@ WARM_UP_FACTOR = 10   # warm-up may compile (numba, a plugin's JIT): it gets 10x
 _ARRAYS = ("z", "R", "zhat", "P", "landmark_ids")
 
 
+def tiny_problem() -> Problem:
+    """Two landmarks, two features: enough to load every compiled kernel a method or the scoring uses."""
+    return Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
+                   np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
+
+
+def warm_scoring() -> None:
+    """Load the scoring's compiled kernels (the joint test and surprisal of ``score_frame``)."""
+    tiny = tiny_problem()
+    score_frame(tiny, FrameTruth(np.array([0, -1]), np.array([0, -1]), np.array([True, False])), np.array([0, 1]))
+
+
 def warm_up(associator) -> None:
     """Run ``associator`` once on a tiny problem so that loading compiled kernels (numba's
     cache, a plugin's own JIT) is not timed as the first frame's runtime. Errors are left to
     the real frames to report, ``SystemExit`` included; a user's interrupt is not swallowed."""
-    tiny = Problem(np.array([[0.0, 0.0], [5.0, 0.0]]), np.repeat(np.eye(2)[None], 2, axis=0),
-                   np.array([[0.2, 0.1], [5.1, 0.2]]), np.eye(4), volume=100.0)
     try:
-        associator.associate(tiny)
+        associator.associate(tiny_problem())
     except BaseException as exc:  # noqa: BLE001
         if user_interrupt(exc):
             raise
@@ -72,7 +82,7 @@ def describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
 
 
-def _call(associator, problem: Problem) -> tuple[np.ndarray | None, float, bool, str]:
+def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float, bool, str]:
     """``associate`` on a private copy of ``problem``, timed alone: (association validated against
     the pristine problem, runtime_s, timed_out, error). Everything the method raises, and any code
     of its that validation runs (``__array__``, an ``info`` property), is the frame's failure."""
@@ -139,7 +149,7 @@ def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, param
             yield failed_record(k, problem, truth, *(faults.get(k) or (error, 0.0)))
             continue
         on_call(k, time_limit_s)
-        association, runtime, timed_out, error_k = _call(associator, problem)
+        association, runtime, timed_out, error_k = call_method(associator, problem)
         record = failed_record(k, problem, truth, error_k, runtime) if association is None else {
             "frame": k, **score_frame(problem, truth, association), "timed_out": timed_out,
             "runtime_s": runtime, "error": ""}

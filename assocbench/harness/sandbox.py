@@ -28,6 +28,7 @@ import traceback
 from collections import deque
 from collections.abc import Callable, Iterable
 from dataclasses import dataclass, field
+from functools import partial
 from multiprocessing.connection import wait
 from pathlib import Path
 
@@ -154,13 +155,16 @@ _warm: set[str] = set()
 
 def warm_builtins(methods: Iterable[str]) -> None:
     """Load the compiled kernels of the built-in associators among ``methods`` in this process
-    (numba's cache; a compile if it is cold), once. Only assocbench's own code runs here."""
+    (numba's cache; a compile if it is cold, announced on stderr by ``kernels.warm``), once.
+    Only assocbench's own code runs here."""
     from ..associators.registry import BUILTINS
-    from .runner import warm_up
+    from ..kernels import warm
+    from .runner import warm_scoring, warm_up
 
-    for name in {m.lower() for m in methods} & set(BUILTINS) - _warm:
-        warm_up(BUILTINS[name]())
-        _warm.add(name)
+    names = sorted({m.lower() for m in methods} & set(BUILTINS) - _warm)
+    scoring = [] if "scoring" in _warm else [warm_scoring]   # every worker scores its frames
+    warm([partial(warm_up, BUILTINS[name]()) for name in names] + scoring)
+    _warm.update(names + ["scoring"])
 
 
 @dataclass

@@ -94,4 +94,4 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
 
 def _combined_status(statuses: pd.Series) -> str:
     bad = sorted({s for s in statuses if s != OK})
-    return "; ".join(f"seed run: {s}" for s in bad) if bad else OK
+    return "; ".join(bad) if bad else OK
