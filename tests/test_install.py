@@ -39,7 +39,9 @@ def test_fresh_venv_pip_install_then_assocbench_run(tmp_path):
                           capture_output=True, text=True, cwd=work, env=env)
     assert proc.returncode == 0, proc.stderr
     assert "precision" in proc.stdout
-    summary = pd.read_csv(work / "results" / "runs" / "room-jcbb-seed0" / "summary.csv")
+    (run_dir,) = (work / "results" / "runs").glob("room-jcbb-seed0-*")   # named by a digest of its settings
+    assert f"{run_dir.relative_to(work)}/summary.csv" in proc.stdout
+    summary = pd.read_csv(run_dir / "summary.csv")
     assert summary.loc[0, "frames"] == 3 and summary.loc[0, "precision"] > 0.5
 
 
