@@ -38,10 +38,11 @@ class Role:
 
 OUTPUT = Role("output folder", "--out")
 CACHE = Role("cache folder", "$ASSOCBENCH_CACHE")
+OUTPUT_FILE = Role("output file", "-o")
 
 # errors that mean "this place cannot take the file"; anything else is a bug and propagates
 _PLACE_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EPERM, errno.EFBIG,
-                 errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG, errno.EIO}
+                 errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG, errno.EIO, errno.ENOENT}
 
 
 def ensure_dir(path: Path, role: Role = OUTPUT) -> Path:

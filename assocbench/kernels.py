@@ -105,9 +105,13 @@ def _discard(cache, exc: Exception) -> None:
         except OSError:
             pass  # saving the recompiled kernel replaces it
     _state["noted"] = True  # this line already says a kernel compiles
+    if _state.get("discarded"):
+        return   # one line per process: a cache damaged as a whole would otherwise print a line per kernel
+    _state["discarded"] = True
     mid_line = _state["active"] and _state["started"] is not None  # after the dots of the compile note
-    print(f"{chr(10) if mid_line else ''}assocbench: numba cache entry of {_name(cache)} in {index.parent} was damaged "
-          f"({type(exc).__name__}); deleted it and compiling again", file=sys.stderr, flush=True)
+    print(f"{chr(10) if mid_line else ''}assocbench: damaged numba cache entry ({_name(cache)}: {type(exc).__name__}) "
+          f"in {index.parent}; deleting it, and any other damaged entry, and compiling again",
+          file=sys.stderr, flush=True)
 
 
 def _name(cache) -> str:

@@ -176,6 +176,7 @@ def test_a_damaged_numba_cache_file_is_recompiled(damage, tmp_path, monkeypatch,
     from numba.core import config
 
     monkeypatch.setattr(config, "CACHE_DIR", str(tmp_path / "numba"))
+    monkeypatch.setitem(kernels._state, "discarded", False)   # the note is printed once per process
     mod = _kernel_module(tmp_path, monkeypatch, "h4kern_" + damage.replace(" ", "_").replace(".", ""))
     assert numba.njit(cache=True)(mod.twice)(3) == 6          # compiled and cached
     (nbc,) = (tmp_path / "numba").rglob("*.nbc")

@@ -32,6 +32,9 @@ from test_cli import assert_one_line_error
     ("truth.occlusion=xray", ["truth.occlusion", "ray, depth", "'xray'"]),
     ("trajectory_params.radius=.nan", ["trajectory_params.radius"]),
     ("trajectory_params=5", ["trajectory_params must be a mapping"]),
+    ("trajectory_params.radius=-1", ["trajectory_params.radius", "(0, 100]"]),
+    ("trajectory_params.turns=0", ["trajectory_params.turns"]),
+    ("trajectory_params.bogus=1", ["takes no parameter 'bogus'", "radius"]),
     ("trajectory_params=abc", ["trajectory_params must be a mapping"]),
     ("params=[1, 2]", ["params must be a mapping"]),
     ("params.confidence=1.5", ["params.confidence", "(0, 1)"]),
@@ -262,3 +265,15 @@ def test_a_full_disk_is_one_line_and_leaves_no_half_written_run(tmp_path, monkey
     out = tmp_path / "out"
     assert_one_line_error(capsys, main(["run", "--frames", "2", "--out", str(out)]), "No space left")
     assert not list(out.glob("*.csv")) and not list(out.glob(".*"))
+
+
+def test_a_leaderboard_row_counts_failed_frames_over_all_seeds():
+    """A method failing in two seeds' runs: the status counts both, as the failures column does."""
+    from assocbench.scoring.aggregate import leaderboard_table
+
+    runs = [dict(scenario="room/easy", method="m", status="6/6 frames failed; nothing associated", precision=np.nan,
+                 recall=0.0, f1=np.nan, perfect=0.0, surprisal_gap=0.0, runtime_median_ms=1.0, frames=6, failures=6,
+                 timed_out=0) for _ in range(2)]
+    row = leaderboard_table(pd.DataFrame(runs)).iloc[0]
+    assert row["status"] == "12/12 frames failed; nothing associated in 2 of 2 seeds"
+    assert np.isnan(row["precision"])   # NaN is kept, not averaged away

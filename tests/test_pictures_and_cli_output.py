@@ -317,3 +317,48 @@ def test_runtime_plot_shows_frames_and_breaks_between_clusters_of_n():
     joined = [(x[a], x[b]) for a, b in zip(finite, finite[1:]) if b == a + 1]
     assert not any(lo < 20 and hi > 45 for lo, hi in joined)   # no segment spans n = 20..45
     assert np.isfinite(y[x < 20]).any() and np.isfinite(y[x > 45]).any()
+
+
+PLUGINS_THAT_DIE = '''
+import ctypes, time
+from dataclasses import dataclass
+from assocbench import Associator
+
+@dataclass
+class Segv(Associator):
+    def associate(self, problem):
+        if problem.n > 3:
+            ctypes.string_at(0)
+        return self.empty(problem)
+
+@dataclass
+class Sleeper(Associator):
+    def associate(self, problem):
+        if problem.n > 3:
+            time.sleep(60)
+        return self.empty(problem)
+'''
+
+
+@pytest.mark.slow
+@pytest.mark.parametrize("method,why", [("Segv", "WorkerDied"), ("Sleeper", "TimeLimit")])
+def test_render_isolates_a_method_that_dies_or_hangs(tmp_path, method, why):
+    """render runs the method as run does: a segfault or a hang fails frames, the video is written."""
+    (tmp_path / "dieplug.py").write_text(PLUGINS_THAT_DIE)
+    out = tmp_path / "r.gif"
+    env = {**os.environ, "PYTHONPATH": os.pathsep.join([str(tmp_path), os.environ.get("PYTHONPATH", "")])}
+    proc = subprocess.run([sys.executable, "-m", "assocbench.cli.main", "render", "--method", f"dieplug:{method}",
+                           "--frames", "2", "--set", "time_limit_s=1", "--set", "resolution=[320, 240]", "-o", str(out),
+                           "--quiet"], capture_output=True, text=True, env=env, timeout=120)
+    assert proc.returncode == 1 and why in proc.stderr and "Traceback" not in proc.stderr
+    assert out.stat().st_size > 0 and not [p for p in tmp_path.iterdir() if p.name.startswith(".r")]
+
+
+@pytest.mark.parametrize("command", [["frame", "--resolution", "320x240"], ["render", "--frames", "2"]])
+def test_an_unwritable_output_file_names_the_o_option(capsys, tmp_path, command):
+    blocker = tmp_path / "f.jpg"
+    blocker.write_text("a file, not a folder")
+    name = "x.png" if command[0] == "frame" else "x.gif"
+    code = main([*command, "-o", str(blocker / name)])
+    err = capsys.readouterr().err
+    assert code == 2 and "-o" in err and "--out" not in err and "Traceback" not in err

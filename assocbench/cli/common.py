@@ -7,6 +7,7 @@ import hashlib
 import json
 import os
 from pathlib import Path
+from typing import Callable
 
 import pandas as pd
 
@@ -63,6 +64,13 @@ def check_output_folder(path: Path, flag: str = "--out") -> Path:
         raise UserError(f"cannot create output folder {path}: {probe} is a file; choose another {flag}")
     if not os.access(probe, os.W_OK | os.X_OK):
         raise UserError(f"cannot write output folder {path}: {probe} is not writable; choose another {flag}")
+    return path
+
+
+def check_output_file(path: Path, check_format: Callable[[Path], object]) -> Path:
+    """Refuse, before anything renders, an ``-o`` file whose name or folder cannot be written."""
+    check_format(path)
+    check_output_folder(path.parent, "-o")
     return path
 
 

@@ -3,11 +3,12 @@
 from __future__ import annotations
 
 import argparse
+from pathlib import Path
 
 from ..harness.config import load_run_config, run_spec
 from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
 from ..viz.truth_frame import draw_truth_frame, render_truth_frame
-from .common import add_run_options, resolution
+from .common import add_run_options, check_output_file, resolution
 
 NAME = "frame"
 HELP = "render one frame with its ground truth drawn on it (PNG, or JPEG etc. by extension)"
@@ -22,7 +23,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    output = check_image_path(args.output)   # before rendering: a bad name wastes no time
+    output = check_output_file(Path(args.output), check_image_path)   # before rendering: no time wasted
     cfg = load_run_config(args.config, args.sets, scene=args.scene, trajectory=args.trajectory,
                           frames=args.frames, seed=args.seed, resolution=resolution(args.resolution))
     spec = run_spec(cfg).sequence

@@ -70,7 +70,8 @@ def main(argv: list[str] | None = None) -> int:
         return 1
     except KeyboardInterrupt as exc:
         what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
-        print(f"assocbench: {what}; finished results are kept and a rerun resumes", file=sys.stderr)
+        kept = "; finished jobs are kept and a rerun resumes" if args.command == "leaderboard" else ""
+        print(f"assocbench: {what}{kept}", file=sys.stderr)
         return 143 if isinstance(exc, _Terminated) else 130
 
 

@@ -9,16 +9,15 @@ from pathlib import Path
 import numpy as np
 from tqdm import tqdm
 
-from ..associators.registry import make_associator
 from ..belief.camera_belief import make_problem
 from ..harness.config import load_run_config, run_spec
-from ..harness.runner import call_method
+from ..harness.runner import execute
 from ..sim.render import FrameRenderer
 from ..sim.scene import load_scene
 from ..sim.sequence import load_sequence
 from ..viz.overlay import draw_association
 from ..viz.video import check_fps, check_video_path, write_video
-from .common import add_run_options
+from .common import add_run_options, check_output_file
 
 NAME = "render"
 HELP = "write a video (.mp4 or .gif) of a run with the association drawn on every frame"
@@ -34,37 +33,31 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     """Render the run; exit 1 (after writing the video) when the method failed on any frame.
-    Each answer goes through ``run``'s plugin boundary (``call_method``: a private copy of the
-    problem, anything raised or an invalid association is that frame's failure); the method runs
-    in this process, so ``time_limit_s`` is not enforced here."""
-    output = Path(args.output)
-    check_video_path(output)
+    The method runs as in ``run`` (``execute``: a worker process, ``time_limit_s`` per call, a
+    private copy of each problem, every answer validated); this process only draws."""
+    output = check_output_file(Path(args.output), check_video_path)
     fps = check_fps(args.fps)
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed)
     spec = run_spec(cfg)
-    seq = load_sequence(spec.sequence)
-    associator = make_associator(spec.method, **spec.params)
-    failures: list[str] = []
+    records, _ = execute(spec, associations=True)
+    seq = load_sequence(spec.sequence)   # cached by execute: nothing is rendered twice
+    failures = [f"frame {r.frame}: {r.error}" for r in records.itertuples() if r.error]
 
     def frames():
         with FrameRenderer(load_scene(spec.sequence.scene), spec.sequence.width, spec.sequence.height,
-                           spec.sequence.msaa) as r:
-            bar = tqdm(range(len(seq)), desc=f"render {spec.method}", unit="frame",
+                           spec.sequence.msaa) as renderer:
+            bar = tqdm(records.itertuples(), total=len(records), desc=f"render {spec.method}", unit="frame",
                        disable=args.quiet or not sys.stderr.isatty())
-            for k in bar:
-                problem, truth = make_problem(seq, k, spec.belief, spec.seed)
-                association, _, _, error = call_method(associator, problem)   # run's boundary and checks
-                if association is None:
-                    association = np.full(problem.n, -1, dtype=np.int64)
-                rgb = r.render(seq.rotations[k], seq.positions[k])["rgb"]
-                if error:
-                    failures.append(f"frame {k}: {error}")
-                    yield draw_association(rgb, problem, association, f"{spec.method} frame {k}: FAILED", error)
-                    continue
-                tp = int(((association >= 0) & (association == truth.association)).sum())
-                fp = int(((association >= 0) & (association != truth.association)).sum())
-                yield draw_association(rgb, problem, association, f"{spec.method} frame {k}: {tp} right, {fp} wrong")
+            for r in bar:
+                problem, _ = make_problem(seq, r.frame, spec.belief, spec.seed)
+                rgb = renderer.render(seq.rotations[r.frame], seq.positions[r.frame])["rgb"]
+                association = np.asarray(r.association, dtype=np.int64)
+                if r.error:
+                    yield draw_association(rgb, problem, association, f"{spec.method} frame {r.frame}: FAILED", r.error)
+                else:
+                    yield draw_association(rgb, problem, association,
+                                           f"{spec.method} frame {r.frame}: {r.tp} right, {r.fp} wrong")
 
     count = write_video(output, frames(), fps)
     print(f"wrote {output} ({count} frames)")

@@ -20,6 +20,7 @@ from ..errors import UserError
 from ..sim.detect import DetectorConfig
 from ..sim.render import check_msaa
 from ..sim.sequence import SequenceSpec
+from ..sim.trajectory import check_trajectory_params
 from ..sim.truth import TruthConfig
 from ..validation import check_number
 
@@ -177,11 +178,11 @@ def _check_sizes(cfg: dict) -> None:
     check_number(cfg["frames"], "frames", integer=True, lo=1)
     if cfg["frames"] > limits["frames"]:
         raise UserError(f"frames {cfg['frames']} exceeds limits.frames = {limits['frames']} (about 10 minutes of "
-                        f"rendering); lower it or raise the limit with --set limits.frames=N")
+                        f"rendering); lower it or raise limits.frames (--set limits.frames=N, or in a suite's base)")
     clutter = cfg["belief"].get("clutter", 0) if isinstance(cfg["belief"], dict) else 0
     if isinstance(clutter, int) and not isinstance(clutter, bool) and clutter > limits["clutter"]:
         raise UserError(f"belief.clutter {clutter} exceeds limits.clutter = {limits['clutter']} features per "
-                        f"frame; lower it or raise the limit with --set limits.clutter=N")
+                        f"frame; lower it or raise limits.clutter (--set limits.clutter=N, or in a suite's base)")
     res = cfg["resolution"]
     if not (isinstance(res, (list, tuple)) and len(res) == 2):
         raise UserError(f"resolution must be [width, height] in pixels, got {res!r}")
@@ -209,7 +210,7 @@ def run_spec(cfg: dict) -> RunSpec:
         detector=_typed(DetectorConfig, cfg["detector"], "detector"),
         truth=_typed(TruthConfig, cfg["truth"], "truth"),
     )
-    seq.resolved_trajectory()
+    check_trajectory_params(seq.resolved_trajectory(), seq.trajectory_params)
     params = _mapping(cfg, "params")
     make_associator(cfg["method"], **params)   # unknown method or bad parameters: refused now
     return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],

@@ -55,7 +55,7 @@ def to_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
                 notes.append(f"- {r['method']}: {r['status']}")
             for col, _ in MD_COLUMNS[1:]:
                 digits = 2 if col in ("surprisal_gap", "runtime_median_ms") else 3
-                cells.append(f"{r[col]:.{digits}f} ± {r[col + '_std']:.{digits}f}")
+                cells.append("n/a" if pd.isna(r[col]) else f"{r[col]:.{digits}f} ± {r[col + '_std']:.{digits}f}")
             cells += [f"{int(r['timed_out'])}/{int(r['frames'])}", f"{int(r['failures'])}/{int(r['frames'])}"]
             lines.append("| " + " | ".join(cells) + " |")
         lines += [""] + (notes + [""] if notes else [])

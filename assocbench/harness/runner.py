@@ -18,7 +18,7 @@ from pathlib import Path
 import numpy as np
 import pandas as pd
 
-from ..association.problem import Problem, validate_association
+from ..association.problem import NO_MATCH, Problem, validate_association
 from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig, FrameTruth, make_problem
 from ..errors import UserError
@@ -107,7 +107,7 @@ def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float,
 def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runtime: float) -> dict:
     """Record of frame ``k`` that failed: scored as if no pairing was returned, with its error."""
     return {"frame": k, **unscored_frame(problem, truth), "timed_out": False, "runtime_s": runtime,
-            "error": error}
+            "error": error, "association": [NO_MATCH] * problem.n}
 
 
 def _build(method: str, params: dict):
@@ -152,18 +152,21 @@ def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, param
         association, runtime, timed_out, error_k = call_method(associator, problem)
         record = failed_record(k, problem, truth, error_k, runtime) if association is None else {
             "frame": k, **score_frame(problem, truth, association), "timed_out": timed_out,
-            "runtime_s": runtime, "error": ""}
+            "runtime_s": runtime, "error": "", "association": association.tolist()}
         yield record
 
 
-def execute(spec: RunSpec, cache_dir: Path | None = None) -> tuple[pd.DataFrame, dict]:
+def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False) -> tuple[pd.DataFrame, dict]:
     """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
-    records and the summary."""
+    records and the summary. ``associations=True`` keeps each frame's association (a list, -1
+    where none; all -1 on a failed frame) in an ``association`` column, for pictures."""
     from .sandbox import Supervisor, Task  # here: sandbox imports this module
 
     name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
     task = Task(name, ((name, spec),),
                 ((spec.method, spec.method, dict(spec.params)),), str(cache_dir) if cache_dir else None)
     frames = pd.DataFrame(Supervisor(1).run_one(task)[(0, 0)])
+    if not associations:
+        frames = frames.drop(columns="association")
     return frames, summarize(frames)
 

@@ -82,7 +82,7 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     mean = grouped[metrics].agg(lambda col: col.mean(skipna=False))
     std = grouped[metrics].std(ddof=0).fillna(0.0)
     table = mean.join(std.add_suffix("_std"))
-    table["status"] = grouped["status"].agg(_combined_status) if "status" in summaries else OK
+    table["status"] = grouped[["status", "failures", "frames"]].apply(_combined_status) if "status" in summaries else OK
     table["seeds"] = grouped.size()
     table["frames"] = grouped["frames"].sum()
     table["failures"] = grouped["failures"].sum()
@@ -92,6 +92,14 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     return table.reset_index(drop=True)
 
 
-def _combined_status(statuses: pd.Series) -> str:
-    bad = sorted({s for s in statuses if s != OK})
-    return "; ".join(bad) if bad else OK
+def _combined_status(runs: pd.DataFrame) -> str:
+    """The status of one leaderboard row from its seeds' runs: failed frames counted over all
+    seeds (as the row's ``failures`` / ``frames``), other reasons with how many seeds had them."""
+    reasons = []
+    failures, frames = int(runs["failures"].sum()), int(runs["frames"].sum())
+    if failures:
+        reasons.append(f"{failures}/{frames} frames failed")
+    others = [r for status in runs["status"] for r in status.split("; ") if r != OK and "frames failed" not in r]
+    for reason in dict.fromkeys(others):
+        reasons.append(reason if len(runs) == 1 else f"{reason} in {others.count(reason)} of {len(runs)} seeds")
+    return "; ".join(reasons) or OK

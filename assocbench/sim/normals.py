@@ -23,6 +23,11 @@ RENDERED_GROUPS = mujoco.MjvOption().geomgroup.copy()
 PROBE_M = 0.05       # probe distance from the site (m): beyond a patch's offset or embedding
 REACH_M = 0.015      # a surface within this of the site is the one it sits on (m)
 N_PROBES = 96        # probe directions, spread evenly over the sphere
+RING_M = 0.005       # radius of the ring of rays that checks a candidate face round the site (m)
+N_RING = 8           # rays in that ring
+SAME_FACE_DEG = 5.0  # hit normals closer than this are one face (a 30 cm pillar turns 3° over reach)
+FACING_COS = 0.7     # a ring ray's hit faces the candidate within 45°: a side face (90°) does not,
+                     # a pillar does down to 7 mm radius (its normal turns asin(RING_M / radius))
 
 
 def unoriented_sites(spec: "mujoco.MjSpec", names: list[str]) -> np.ndarray:
@@ -58,29 +63,88 @@ def _ray(model, data, origin: np.ndarray, direction: np.ndarray) -> tuple[float,
     return float(dist), normal
 
 
+def _probe_hits(model, data, point: np.ndarray, probe: float, reach: float) -> list[tuple[float, np.ndarray]]:
+    """(gap, unit outward normal) of each probe ray that enters a surface from outside within
+    ``reach`` of ``point``, nearest first (see ``surface_normal``)."""
+    hits = []
+    for d in fibonacci_sphere(N_PROBES):
+        dist, normal = _ray(model, data, point + probe * d, -d)
+        if dist < 0 or normal @ d <= 0:
+            continue
+        gap = float(np.linalg.norm((probe - dist) * d))   # |hit - point|, the hit being q - dist·d
+        if gap <= reach:
+            hits.append((gap, normal / np.linalg.norm(normal)))
+    return sorted(hits, key=lambda h: h[0])
+
+
+def _distinct_faces(hits: list[tuple[float, np.ndarray]], most: int = 8) -> list[np.ndarray]:
+    """One normal per face direction among the hits (directions over ``SAME_FACE_DEG`` apart),
+    nearest first: the nearest hit speaks for its direction."""
+    faces: list[np.ndarray] = []
+    for _, normal in hits:
+        if len(faces) < most and all(normal @ f < np.cos(np.deg2rad(SAME_FACE_DEG)) for f in faces):
+            faces.append(normal)
+    return faces
+
+
+def ring_offsets(normal: np.ndarray, radius: float = RING_M, k: int = N_RING) -> np.ndarray:
+    """(k, 3) offsets of length ``radius`` perpendicular to ``normal``, evenly round it, none
+    along the axes of the frame built on ``normal`` (where a box tile's edges would lie)."""
+    helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
+    u = np.cross(normal, helper)
+    u /= np.linalg.norm(u)
+    v = np.cross(normal, u)
+    a = 2 * np.pi * (np.arange(k) + 0.25) / k
+    return radius * (np.outer(np.cos(a), u) + np.outer(np.sin(a), v))
+
+
+def face_support(model, data, point: np.ndarray, normal: np.ndarray, probe: float = PROBE_M,
+                 reach: float = REACH_M) -> float:
+    """Share of the ring around ``point`` that a face with outward ``normal`` covers there: of
+    the rays cast along ``-normal`` from ``point + probe·normal + o`` (``o`` in ``ring_offsets``),
+    those that meet a surface facing ``normal`` (``cos > FACING_COS``) at the point's depth
+    (``|dist - probe| ≤ reach``)."""
+    met = 0
+    offsets = ring_offsets(normal)
+    for o in offsets:
+        dist, hit = _ray(model, data, point + probe * normal + o, -normal)
+        facing = hit @ normal > FACING_COS * np.linalg.norm(hit)
+        met += dist >= 0 and abs(dist - probe) <= reach and facing
+    return met / len(offsets)
+
+
 def surface_normal(model, data, point: np.ndarray, probe: float = PROBE_M,
-                   reach: float = REACH_M) -> np.ndarray | None:
-    """Outward unit normal of the surface ``point`` sits on, or None when no surface is within
-    ``reach``.
+                   reach: float = REACH_M) -> tuple[np.ndarray, float] | None:
+    """Outward unit normal of the surface ``point`` sits on and the share of the ring around the
+    point that this face covers (``face_support``), or None when no surface is within ``reach``.
 
     From probe points ``q = point + probe·d`` in ``N_PROBES`` directions ``d`` a ray is cast
     back at ``point``. A probe in open space on the surface's front side enters the surface
     from outside (MuJoCo reports the outward normal ``n`` of the hit, so ``n·d > 0``) at a hit
     ``h`` within ``reach`` of the point, whether the point lies a little in front of the
     surface, on it or embedded in it. A probe inside a solid first meets a surface from within
-    (``n·d ≤ 0``) and a probe behind a thin wall meets its back face farther than the front
-    one, so the hit nearest the point decides; on a flat surface every accepted hit gives the
-    exact normal, on a pillar the nearest one gives the radial normal.
+    (``n·d ≤ 0``) and a probe behind a thin wall meets its back face farther than the front one.
+
+    Every distinct hit normal is a candidate face; the one covering most of the ring around the
+    point wins, the nearest among equals (a thin board's back face covers its ring too). The
+    ring decides where the point lies on an edge or corner: on the shared corner of four box
+    tiles every probe ray ends exactly on the corner, where MuJoCo reports the front or a side
+    face of any tile by rounding (gaps 1e-17 apart), so the nearest hit is a side face as often
+    as not. The tiles' front faces cover the whole ring; a side face, buried between two tiles
+    or 1 cm wide, at most the part of the ring inside the tiles. On a flat surface every
+    candidate normal is exact; on a pillar the nearest hit's is the radial normal.
     """
-    best, best_gap = None, np.inf
-    for d in fibonacci_sphere(N_PROBES):
-        dist, normal = _ray(model, data, point + probe * d, -d)
-        if dist < 0 or normal @ d <= 0:
-            continue
-        gap = np.linalg.norm(point + probe * d - dist * d - point)
-        if gap <= reach and gap < best_gap - 1e-9:
-            best, best_gap = normal / np.linalg.norm(normal), gap
-    return best
+    hits = _probe_hits(model, data, point, probe, reach)
+    if not hits:
+        return None
+    best, best_support = hits[0][1], -1.0
+    for normal in _distinct_faces(hits):
+        support = face_support(model, data, point, normal, probe, reach)
+        if support > best_support:   # strictly: the nearest of equally supported faces
+            best, best_support = normal, support
+        if support == 1.0:           # nothing farther can beat it
+            break
+    return best, best_support
 
 
 def faces_open_space(model, data, point: np.ndarray, normal: np.ndarray, probe: float = PROBE_M,
@@ -88,17 +152,19 @@ def faces_open_space(model, data, point: np.ndarray, normal: np.ndarray, probe: 
     """Whether an explicit ``normal`` points out of the surface at ``point`` (None: no surface
     there to judge by). The ray from ``point + probe·normal`` back at the point must enter a
     surface facing it near the point; a probe inside a solid, or a surface facing the other
-    way, means the site's z axis points into the wall."""
+    way, means the site's z axis points into the wall. On an edge or a corner (box tiles'
+    shared corner) that one ray reports a side face as often as not: the ring round the point
+    (``face_support``) then has the last word."""
     dist, hit_normal = _ray(model, data, point + probe * normal, -normal)
     if dist < 0 or dist > probe + reach:  # nothing near the point on the side it claims is open
         return None if surface_normal(model, data, point, probe, reach) is None else False
     if dist < probe - reach:
         return None  # something stands in front of the site: cannot tell from here
-    return bool(hit_normal @ normal > 0.5)
+    return bool(hit_normal @ normal > 0.5 or face_support(model, data, point, normal, probe, reach) >= 0.5)
 
 
 def plausibility_warning(landmarks: np.ndarray, normals: np.ndarray, names: list[str],
-                         unsupported: list[str], against: list[str]) -> str | None:
+                         unsupported: list[str], against: list[str], on_edge: list[str] = ()) -> str | None:
     """One line saying why the landmark normals look wrong, or None when they look plausible."""
     if unsupported:
         return (f"{len(unsupported)} of {len(names)} landmark sites ({_some(unsupported)}) have no orientation and sit "
@@ -108,6 +174,10 @@ def plausibility_warning(landmarks: np.ndarray, normals: np.ndarray, names: list
         return (f"{len(against)} of {len(names)} landmark sites ({_some(against)}) have a z axis that does not point "
                 f"out of the surface they sit on: make their zaxis point into open space (or drop it to have it "
                 f"inferred)")
+    if on_edge:
+        return (f"{len(on_edge)} of {len(names)} landmark sites ({_some(on_edge)}) have no orientation and sit on an "
+                f"edge or corner that no one face surrounds: their inferred normals are a guess; give each a zaxis "
+                f"pointing into open space or move it onto a face")
     spread = np.ptp(landmarks @ normals[0]) if len(landmarks) else 0.0
     if len(names) >= 4 and np.all(normals @ normals[0] > np.cos(np.deg2rad(1.0))) and spread > 0.25:
         return (f"all {len(names)} landmark normals are identical ({_fmt(normals[0])}) although the landmarks spread "
@@ -143,17 +213,19 @@ def landmark_normals(spec: "mujoco.MjSpec", model, data, site_ids: list[int],
     points = data.site_xpos[site_ids].copy()
     normals = data.site_xmat[site_ids].reshape(-1, 3, 3)[:, :, 2].copy()
     infer = unoriented_sites(spec, names)
-    unsupported, against = [], []
+    unsupported, against, on_edge = [], [], []
     for j in range(len(names)):
         if infer[j]:
             found = surface_normal(model, data, points[j])
             if found is None:
                 unsupported.append(names[j])
             else:
-                normals[j] = found
+                normals[j] = found[0]
+                if found[1] < 0.5:  # the winning face covers less than half the ring round the site
+                    on_edge.append(names[j])
         elif faces_open_space(model, data, points[j], normals[j]) is False:
             against.append(names[j])
-    message = plausibility_warning(points, normals, names, unsupported, against)
+    message = plausibility_warning(points, normals, names, unsupported, against, on_edge)
     if message:
         warn_once(f"scene {scene_name}: {message}")
     return normals, infer & ~np.isin(names, unsupported)

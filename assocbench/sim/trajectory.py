@@ -13,12 +13,14 @@ jitter.
 
 from __future__ import annotations
 
+import inspect
 from dataclasses import dataclass
 from typing import Callable
 
 import numpy as np
 
 from ..errors import UserError
+from ..validation import check_number, in_range
 from .camera import look_at
 
 Poses = tuple[np.ndarray, np.ndarray]  # (N, 3, 3) rotations, (N, 3) positions
@@ -228,6 +230,28 @@ KEYFRAMED = ("waypoints", "mjcf-cameras")   # paths the user gives; they need ``
 OPEN_PATHS = ("line",) + KEYFRAMED            # run from start to end (no seeded start phase)
 
 
+USER_PATH_KEYS = {"waypoints": {"file"}, "mjcf-cameras": {"cameras"}}   # read by ``waypoints.user_keyframes``
+# ranges of the numeric trajectory parameters (m, turns, degrees): a negative radius or zero length
+# would silently draw another path
+PARAM_RANGES = {"radius": in_range(0, 100, lo_open=True), "length": in_range(0, 1000, lo_open=True),
+                "turns": in_range(0, 100, lo_open=True), "revisit": in_range(0, 10),
+                "jitter_pos": in_range(0, 1), "jitter_deg": in_range(0, 45)}
+
+
+def check_trajectory_params(name: str, params: dict) -> None:
+    """Refuse, before anything runs, a parameter that trajectory ``name`` does not take or a
+    number outside ``PARAM_RANGES`` (one ``UserError`` line naming ``trajectory_params.<key>``)."""
+    accepted = set(inspect.signature(TRAJECTORIES[name]).parameters) - {"rig", "t", "keys"}
+    accepted |= {"jitter_pos", "jitter_deg"} | USER_PATH_KEYS.get(name, set())
+    for key, value in params.items():
+        if key not in accepted:
+            raise UserError(f"trajectory {name!r} takes no parameter {key!r}; it takes "
+                            f"{', '.join(sorted(accepted))}")
+        if key in PARAM_RANGES:
+            lo, hi, lo_open, hi_open = PARAM_RANGES[key]["range"]
+            check_number(value, f"trajectory_params.{key}", lo=lo, hi=hi, lo_open=lo_open, hi_open=hi_open)
+
+
 def make_trajectory(name: str, rig: Rig, frames: int, seed: int = 0, jitter_pos: float = 0.01,
                     jitter_deg: float = 0.5, keys: Keyframes | None = None, **params) -> Poses:
     """Camera poses ``(R, p)`` of ``frames`` frames of trajectory ``name``.
@@ -241,9 +265,7 @@ def make_trajectory(name: str, rig: Rig, frames: int, seed: int = 0, jitter_pos:
         raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
     if int(frames) < 1:
         raise UserError(f"frames must be a positive integer, got {frames!r}")
-    for key, value in (("jitter_pos", jitter_pos), ("jitter_deg", jitter_deg)):
-        if isinstance(value, bool) or not isinstance(value, (int, float)) or not 0 <= value < 1e3:
-            raise UserError(f"trajectory_params.{key} must be a number >= 0, got {value!r}")
+    check_trajectory_params(name, {"jitter_pos": jitter_pos, "jitter_deg": jitter_deg, **params})
     if name in KEYFRAMED:
         if keys is None:
             raise UserError(f"trajectory {name!r} needs its keyframes (the file or the MJCF cameras)")

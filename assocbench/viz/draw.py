@@ -147,11 +147,15 @@ def check_image_path(path) -> Path:
 
 
 def write_image(path, rgb: np.ndarray) -> None:
-    """Write an RGB image atomically in the format its extension names (PNG, JPEG, ...)."""
-    from ..atomic import atomic_path
+    """Write an RGB image atomically in the format its extension names (PNG, JPEG, ...). The image
+    is encoded in memory and written by us, so a full disk or a read-only folder is one line
+    naming ``-o`` (OpenCV's own writer only says it failed)."""
+    from ..atomic import OUTPUT_FILE, atomic_path
 
     path = check_image_path(path)
-    with atomic_path(path, suffix=path.suffix) as tmp:   # cv2 picks the format from the suffix
-        if not cv2.imwrite(str(tmp), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR)):
-            raise UserError(f"OpenCV could not write {path}; try a .png")
+    ok, data = cv2.imencode(path.suffix.lower(), cv2.cvtColor(rgb, cv2.COLOR_RGB2BGR))
+    if not ok:
+        raise UserError(f"OpenCV could not encode a {path.suffix} image; try a .png")
+    with atomic_path(path, suffix=path.suffix, role=OUTPUT_FILE) as tmp:
+        tmp.write_bytes(data.tobytes())
 

@@ -8,7 +8,7 @@ from typing import Iterable
 
 import numpy as np
 
-from ..atomic import atomic_path
+from ..atomic import OUTPUT_FILE, atomic_path
 from ..errors import UserError
 
 FORMATS = (".mp4", ".gif")
@@ -38,7 +38,7 @@ def write_video(path: Path, frames: Iterable[np.ndarray], fps: float = 8.0) -> i
     path = Path(path)
     check_video_path(path)
     check_fps(fps)
-    with atomic_path(path) as tmp:
+    with atomic_path(path, role=OUTPUT_FILE) as tmp:
         if path.suffix.lower() == ".gif":
             from PIL import Image
 
