@@ -21,7 +21,8 @@ from assocbench.atomic import CACHE, Role, atomic_path, ensure_dir, write_group
 from assocbench.errors import UserError
 from assocbench.fingerprint import class_digest
 from assocbench.harness.jobstore import load_job, store_job
-from assocbench.harness.suite import Job, MethodEntry
+from assocbench.harness.suite import Job, MethodEntry, load_suite
+from assocbench.harness.sweep import run_suite
 from assocbench.sim.scene import load_scene
 from assocbench.sim.sequence import SequenceSpec, load_sequence
 
@@ -333,3 +334,18 @@ def test_a_huge_plugin_folder_is_not_hashed_whole(tmp_path, monkeypatch, capsys)
     (tmp_path / "h4big_0.py").write_text("X = 10\n")
     assert class_digest(cls) == before   # bounded: the module's own file only, as the warning says
     sys.modules.pop("h4big", None)
+
+
+def test_a_source_edited_during_a_sweep_does_not_lose_its_jobs(tmp_path, monkeypatch):
+    """A job's key is computed once: a digest that changes between storing a job and reading it
+    back (a file saved while the sweep runs) used to end the sweep with 'cannot be read back'."""
+    import itertools
+
+    import assocbench.harness.suite as suite_module
+
+    counter = itertools.count()
+    monkeypatch.setattr(suite_module, "package_digest", lambda: f"edit{next(counter)}")
+    path = tmp_path / "suite.yaml"
+    path.write_text("base: {frames: 2, resolution: [320, 240]}\nscenes: [room]\nmethods: [enn]\nseeds: [0]\n")
+    summaries, _ = run_suite(load_suite(path), tmp_path / "runs", progress=False)
+    assert len(summaries) == 1 and summaries.loc[0, "status"] == "ok"

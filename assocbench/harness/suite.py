@@ -11,6 +11,7 @@ from __future__ import annotations
 import hashlib
 import json
 from dataclasses import dataclass, field
+from functools import cached_property
 from pathlib import Path
 
 from ..associators.registry import associator_class, make_associator
@@ -40,10 +41,12 @@ class Job:
     runs: tuple  # ((difficulty, run config), ...)
     methods: tuple[MethodEntry, ...]
 
-    @property
+    @cached_property
     def key(self) -> str:
         """Hash of the job's settings and of the code that runs it (this package and each method's
-        source file), so results stored by other code are never reused."""
+        package), so results stored by other code are never reused. Computed once per job: a
+        source edited while a sweep runs must not make a job stored under one key be looked up
+        under another."""
         code = [package_digest()] + [_method_digest(m.method) for m in self.methods]
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
