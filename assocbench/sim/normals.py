@@ -3,8 +3,10 @@ the surface it sits on when it does not, and checked for plausibility either way
 
 A site written without ``quat``/``euler``/``axisangle``/``xyaxes``/``zaxis`` has the z axis of
 its parent frame, +z in the world body: every landmark on a wall would then "face the
-ceiling". Such a site's normal is the outward normal of the nearest surface, found with
-``mj_ray`` from probe points around the site (see ``surface_normal``).
+ceiling". Such a site's normal is the outward normal of the surface it sits on, found with
+``mj_ray`` from probe points around the site and, where faces meet at the site (the shared
+corner of four box tiles), decided by the face that covers a small ring round it (see
+``surface_normal``).
 """
 
 from __future__ import annotations
@@ -98,25 +100,36 @@ def ring_offsets(normal: np.ndarray, radius: float = RING_M, k: int = N_RING) ->
     return radius * (np.outer(np.cos(a), u) + np.outer(np.sin(a), v))
 
 
-def face_support(model, data, point: np.ndarray, normal: np.ndarray, probe: float = PROBE_M,
-                 reach: float = REACH_M) -> float:
-    """Share of the ring around ``point`` that a face with outward ``normal`` covers there: of
-    the rays cast along ``-normal`` from ``point + probe·normal + o`` (``o`` in ``ring_offsets``),
-    those that meet a surface facing ``normal`` (``cos > FACING_COS``) at the point's depth
-    (``|dist - probe| ≤ reach``)."""
-    met = 0
+def starts_inside(model, data, origin: np.ndarray, away: np.ndarray) -> bool:
+    """Whether ``origin`` lies inside a solid: the ray from it along ``away`` first meets a
+    surface from within (its outward normal along the ray). A face glued to another solid (a
+    tile's back face on its wall) is met at the same distance as that solid's own face: only a
+    ray that starts in open space may count it as seen."""
+    dist, hit = _ray(model, data, origin, away)
+    return dist >= 0 and hit @ away > 0
+
+
+def ring_shares(model, data, point: np.ndarray, normal: np.ndarray, probe: float = PROBE_M,
+                reach: float = REACH_M) -> tuple[float, float]:
+    """Of the rays cast along ``-normal`` from ``point + probe·normal + o`` (``o`` in
+    ``ring_offsets``): the share that meets, from open space (``starts_inside``), a surface
+    facing ``normal`` (``cos > FACING_COS``) at the point's depth (``|dist - probe| ≤ reach``),
+    i.e. how much of the ring round the point a face with that outward normal covers; and the
+    share stopped well before that depth (``dist < probe - reach``: something in front)."""
+    facing = blocked = 0
     offsets = ring_offsets(normal)
     for o in offsets:
         dist, hit = _ray(model, data, point + probe * normal + o, -normal)
-        facing = hit @ normal > FACING_COS * np.linalg.norm(hit)
-        met += dist >= 0 and abs(dist - probe) <= reach and facing
-    return met / len(offsets)
+        blocked += 0 <= dist < probe - reach
+        if abs(dist - probe) <= reach and hit @ normal > FACING_COS * np.linalg.norm(hit):
+            facing += not starts_inside(model, data, point + probe * normal + o, normal)
+    return facing / len(offsets), blocked / len(offsets)
 
 
 def surface_normal(model, data, point: np.ndarray, probe: float = PROBE_M,
                    reach: float = REACH_M) -> tuple[np.ndarray, float] | None:
     """Outward unit normal of the surface ``point`` sits on and the share of the ring around the
-    point that this face covers (``face_support``), or None when no surface is within ``reach``.
+    point that this face covers (``ring_shares``), or None when no surface is within ``reach``.
 
     From probe points ``q = point + probe·d`` in ``N_PROBES`` directions ``d`` a ray is cast
     back at ``point``. A probe in open space on the surface's front side enters the surface
@@ -125,21 +138,21 @@ def surface_normal(model, data, point: np.ndarray, probe: float = PROBE_M,
     surface, on it or embedded in it. A probe inside a solid first meets a surface from within
     (``n·d ≤ 0``) and a probe behind a thin wall meets its back face farther than the front one.
 
-    Every distinct hit normal is a candidate face; the one covering most of the ring around the
-    point wins, the nearest among equals (a thin board's back face covers its ring too). The
-    ring decides where the point lies on an edge or corner: on the shared corner of four box
-    tiles every probe ray ends exactly on the corner, where MuJoCo reports the front or a side
-    face of any tile by rounding (gaps 1e-17 apart), so the nearest hit is a side face as often
-    as not. The tiles' front faces cover the whole ring; a side face, buried between two tiles
-    or 1 cm wide, at most the part of the ring inside the tiles. On a flat surface every
-    candidate normal is exact; on a pillar the nearest hit's is the radial normal.
+    Every distinct hit normal is a candidate face, checked on a ring round the point
+    (``ring_shares``): the face covering most of it wins, the nearest of equals (a thin board's
+    back face covers its ring too). The ring decides where faces meet at the point: on the
+    shared corner or edge of box tiles every probe ray ends exactly there, where MuJoCo reports
+    the front or a side face of any tile by rounding (gaps 1e-17 apart), so the nearest hit was
+    a side face as often as not (a third of a tiled hall's normals 90° off). The tiles' fronts
+    cover the whole ring; a side face buried between two tiles is seen from none of it. On a
+    flat surface every candidate normal is exact; on a pillar the nearest hit's is the radial one.
     """
     hits = _probe_hits(model, data, point, probe, reach)
     if not hits:
         return None
     best, best_support = hits[0][1], -1.0
     for normal in _distinct_faces(hits):
-        support = face_support(model, data, point, normal, probe, reach)
+        support = ring_shares(model, data, point, normal, probe, reach)[0]
         if support > best_support:   # strictly: the nearest of equally supported faces
             best, best_support = normal, support
         if support == 1.0:           # nothing farther can beat it
@@ -152,15 +165,19 @@ def faces_open_space(model, data, point: np.ndarray, normal: np.ndarray, probe: 
     """Whether an explicit ``normal`` points out of the surface at ``point`` (None: no surface
     there to judge by). The ray from ``point + probe·normal`` back at the point must enter a
     surface facing it near the point; a probe inside a solid, or a surface facing the other
-    way, means the site's z axis points into the wall. On an edge or a corner (box tiles'
-    shared corner) that one ray reports a side face as often as not: the ring round the point
-    (``face_support``) then has the last word."""
+    way, means the site's z axis points into the wall. When that one ray does not say yes the
+    ring round the point decides (``ring_shares``): aimed at the seam between box tiles a ray
+    slips through it or meets a side face, the ring's rays land on the tiles' faces."""
     dist, hit_normal = _ray(model, data, point + probe * normal, -normal)
-    if dist < 0 or dist > probe + reach:  # nothing near the point on the side it claims is open
-        return None if surface_normal(model, data, point, probe, reach) is None else False
-    if dist < probe - reach:
+    if abs(dist - probe) <= reach and hit_normal @ normal > 0.5:
+        if not starts_inside(model, data, point + probe * normal, normal):
+            return True
+    facing, blocked = ring_shares(model, data, point, normal, probe, reach)
+    if facing >= 0.5:
+        return True
+    if blocked >= 0.5:
         return None  # something stands in front of the site: cannot tell from here
-    return bool(hit_normal @ normal > 0.5 or face_support(model, data, point, normal, probe, reach) >= 0.5)
+    return None if surface_normal(model, data, point, probe, reach) is None else False
 
 
 def plausibility_warning(landmarks: np.ndarray, normals: np.ndarray, names: list[str],
@@ -221,7 +238,7 @@ def landmark_normals(spec: "mujoco.MjSpec", model, data, site_ids: list[int],
                 unsupported.append(names[j])
             else:
                 normals[j] = found[0]
-                if found[1] < 0.5:  # the winning face covers less than half the ring round the site
+                if found[1] <= 0.5:  # no face covers most of the ring round the site: an edge or corner
                     on_edge.append(names[j])
         elif faces_open_space(model, data, points[j], normals[j]) is False:
             against.append(names[j])

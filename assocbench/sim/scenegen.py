@@ -74,6 +74,24 @@ class SceneBuilder:
         )
         self.add_site(c, n, u, oriented)
 
+    def tile_patch(self, center, normal, up=(0.0, 0.0, 1.0), size: float = 0.24, thickness: float = 0.01,
+                   oriented: bool = False, site_offset=(0.0, 0.0)) -> None:
+        """A 2x2 checker patch built of four thin black/white boxes (a user's common way) whose
+        shared front corner is ``center``, facing ``normal``; the site sits exactly on that corner,
+        or ``site_offset`` (along right, up) from it: (size / 4, 0) puts it on the edge two tiles share."""
+        n = np.asarray(normal, float) / np.linalg.norm(normal)
+        u = np.asarray(up, float) - np.dot(up, n) * n
+        u /= np.linalg.norm(u)
+        r = np.cross(u, n)
+        c = np.asarray(center, float)
+        quat = _v(_mat_to_quat(np.column_stack([r, u, n])))   # the boxes' z is their thickness
+        for du, dv in ((1, 1), (-1, -1), (1, -1), (-1, 1)):
+            pos = c - n * thickness / 2 + (du * r + dv * u) * size / 4
+            rgba = "0.1 0.1 0.1 1" if du == dv else "0.9 0.9 0.9 1"
+            self.geoms.append(f'    <geom type="box" pos="{_v(pos)}" quat="{quat}" '
+                              f'size="{size / 4:.5f} {size / 4:.5f} {thickness / 2:.5f}" rgba="{rgba}"/>')
+        self.add_site(c + site_offset[0] * r + site_offset[1] * u, n, u, oriented)
+
     def add_site(self, center, normal, up=(0.0, 0.0, 1.0), oriented: bool = True) -> None:
         """The landmark site ``lm###`` at an X-junction, its z axis along ``normal`` (no
         orientation written when ``oriented`` is False: the loader infers it from the surface)."""
@@ -237,10 +255,12 @@ def corridor(sb: SceneBuilder) -> None:
 HALL_VERTICES = ((4.2, 0.0), (2.1, 3.1), (-1.9, 3.4), (-4.0, 0.4), (-2.3, -3.3), (1.8, -3.2))
 
 
-def polygon_hall(sb: SceneBuilder, vertices=HALL_VERTICES, height: float = 3.0, oriented: bool = False) -> None:
+def polygon_hall(sb: SceneBuilder, vertices=HALL_VERTICES, height: float = 3.0, oriented: bool = False,
+                 tiles: bool = False) -> None:
     """A hall whose walls join the ``vertices`` (x, y) of a convex polygon, counterclockwise: the
     default hexagon meets at 105-135° corners. Patches 1.1 m apart at two heights on every wall,
-    their sites un-oriented unless ``oriented`` (a user scene's common form; not shipped)."""
+    their sites un-oriented unless ``oriented`` (a user scene's common form; not shipped); with
+    ``tiles`` each patch is four 1 cm box tiles on the wall, the site on their shared corner."""
     v = np.asarray(vertices, float)
     lo, hi = v.min(axis=0) - 0.5, v.max(axis=0) + 0.5
     sb.box(((lo + hi) / 2).tolist() + [-0.1], ((hi - lo) / 2).tolist() + [0.1], material="floor")
@@ -255,7 +275,10 @@ def polygon_hall(sb: SceneBuilder, vertices=HALL_VERTICES, height: float = 3.0, 
             for z in (0.9, 1.8):
                 c = mid + s * np.array([*edge / length, 0.0])
                 c[2] = z
-                sb.landmark(c + OFFSET * inward, inward, size=0.6, oriented=oriented)
+                if tiles:
+                    sb.tile_patch(c + 0.01 * inward, inward, size=0.24, thickness=0.01, oriented=oriented)
+                else:
+                    sb.landmark(c + OFFSET * inward, inward, size=0.6, oriented=oriented)
 
 
 SCENES = {"room": room, "checkerboard": checkerboard, "corridor": corridor}
