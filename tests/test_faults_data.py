@@ -309,13 +309,15 @@ def test_editing_a_helper_module_of_a_plugin_changes_its_job_key(layout, tmp_pat
         helper, spec = tmp_path / f"{name}_helper.py", f"{name}:Picky"
     helper.write_text("def pick(problem):\n    return [-1] * problem.n\n")
     monkeypatch.syspath_prepend(str(tmp_path))
-    job = Job("room", 0, (("easy", {}),), (MethodEntry("mine", spec),))
-    before = job.key
+    def job():  # a job's key is computed once, so each sweep plans its own jobs
+        return Job("room", 0, (("easy", {}),), (MethodEntry("mine", spec),))
+
+    before = job().key
     helper.write_text(textwrap.dedent("""
         def pick(problem):
             return list(range(problem.n))
     """))
-    assert job.key != before
+    assert job().key != before
     for mod in [m for m in sys.modules if m.startswith(name)]:
         sys.modules.pop(mod)
 
