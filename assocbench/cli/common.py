@@ -12,6 +12,7 @@ from typing import Callable
 import pandas as pd
 
 from ..errors import UserError
+from ..sim.render import MIN_SIDE   # a zero side made the camera rig divide by zero
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
@@ -25,7 +26,6 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
                    help="override a config key, e.g. --set belief.sigma_rotation=2 (repeatable)")
 
 
-MIN_SIDE = 16   # the renderer's smallest frame (a zero side made the camera rig divide by zero)
 
 
 def resolution(text: str | None) -> list[int] | None:

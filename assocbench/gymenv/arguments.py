@@ -13,9 +13,9 @@ import numpy as np
 from ..errors import UserError
 from ..harness.config import DEFAULTS, RunSpec, merge, run_spec
 from ..harness.suite import shipped_difficulties
+from ..sim.render import MAX_SIDE, MIN_SIDE
 from ..validation import check_number
 
-MIN_SIDE, MAX_SIDE = 16, 8192   # the renderer needs 16 px a side; 8192 is what GL contexts reliably offer
 
 
 def _plain(value: Any) -> Any:

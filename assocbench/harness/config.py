@@ -18,7 +18,7 @@ from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig
 from ..errors import UserError
 from ..sim.detect import DetectorConfig
-from ..sim.render import check_msaa
+from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
 from ..sim.sequence import SequenceSpec
 from ..sim.trajectory import check_trajectory_params
 from ..sim.truth import TruthConfig
@@ -187,7 +187,7 @@ def _check_sizes(cfg: dict) -> None:
     if not (isinstance(res, (list, tuple)) and len(res) == 2):
         raise UserError(f"resolution must be [width, height] in pixels, got {res!r}")
     for name, value in zip(("width", "height"), res):
-        check_number(value, f"resolution {name}", integer=True, lo=16, hi=8192)
+        check_number(value, f"resolution {name}", integer=True, lo=MIN_SIDE, hi=MAX_SIDE)
 
 
 def run_spec(cfg: dict) -> RunSpec:

@@ -16,6 +16,7 @@ import mujoco  # noqa: E402
 
 
 MAX_MSAA = 16
+MIN_SIDE, MAX_SIDE = 16, 8192   # frame size in pixels: the smallest we render, the most GL contexts reliably offer
 
 
 def check_msaa(msaa: int | None) -> None:
@@ -70,8 +71,8 @@ class FrameRenderer:
     def __init__(self, scene: Scene, width: int = 640, height: int = 480, msaa: int | None = None) -> None:
         check_msaa(msaa)
         max_w, max_h = scene.offscreen
-        if width < 16 or height < 16:
-            raise UserError(f"resolution {width}x{height} is too small: use at least 16x16")
+        if width < MIN_SIDE or height < MIN_SIDE:
+            raise UserError(f"resolution {width}x{height} is too small: use at least {MIN_SIDE}x{MIN_SIDE}")
         if width > max_w or height > max_h:
             raise UserError(
                 f"resolution {width}x{height} exceeds the offscreen buffer {max_w}x{max_h} of scene "
