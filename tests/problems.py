@@ -42,7 +42,7 @@ def reference_joint(problem: Problem, association: np.ndarray) -> tuple[float, f
         S[a * d:(a + 1) * d, a * d:(a + 1) * d] += problem.R[i]
     y = wrap(problem.z[I] - problem.zhat[J], problem.angular).ravel()
     nis = float(y @ np.linalg.inv(S) @ y)
-    loglik = float(-0.5 * nis - 0.5 * np.log(np.linalg.det(2 * np.pi * S)))
+    loglik = float(-0.5 * nis - 0.5 * np.linalg.slogdet(2 * np.pi * S)[1])
     return nis, loglik
 
 

@@ -238,8 +238,13 @@ def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G,
 
 
 @njit(cache=True)
-def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
-    """Best hypothesis (pairs_i, pairs_j arrays of its pairings), nodes visited, timed out."""
+def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, init_j, init_nis):
+    """Depth-first branch and bound from the incumbent ``(init_i, init_j)`` (features, landmarks;
+    joint NIS ``init_nis``; it must be jointly compatible and individually compatible).
+
+    Returns (features, landmarks of the best hypothesis, nodes visited, timed out, and the
+    incumbent's history: nodes, pairings and NIS at each improvement, the first entry being the
+    incumbent given). A search that did not time out has proven its answer optimal."""
     m, n = ic.shape
     d = z.shape[1]
     adj_start = np.zeros(n + 1, np.int64)          # individually compatible features per landmark
@@ -270,9 +275,16 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
     lvl_pushed = np.zeros(levels, np.bool_)
     lvl_cols = np.zeros((levels, n), np.int64)     # landmarks still in play below each level
     lvl_ncols = np.zeros(levels, np.int64)
-    best_k, best_nis = 0, 0.0
+    best_k, best_nis = init_i.shape[0], init_nis
     best_i = np.full(n, -1, np.int64)
     best_j = np.full(n, -1, np.int64)
+    best_i[:best_k] = init_i
+    best_j[:best_k] = init_j
+    hist_nodes = np.zeros(2 * n + 2, np.int64)    # improvements; when full, the last slot is overwritten
+    hist_k = np.zeros(2 * n + 2, np.int64)
+    hist_nis = np.zeros(2 * n + 2)
+    hist_k[0], hist_nis[0] = best_k, best_nis
+    n_hist = 1
     lms_buf = np.empty(adj_start[n], np.int64)
     feats_buf = np.empty(adj_start[n], np.int64)
     dnis_buf = np.empty(adj_start[n])
@@ -297,6 +309,9 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
                 best_j[:] = -1
                 best_i[:k] = pair_i[:k]
                 best_j[:k] = pair_j[:k]
+                slot = min(n_hist, hist_k.shape[0] - 1)
+                hist_nodes[slot], hist_k[slot], hist_nis[slot] = nodes, k, nis
+                n_hist = slot + 1
             q = _forward_check(remaining[level], free, adj_start, adj_feat, P, z, zhat, R, wrap, C[k], G[k],
                                lms_buf, feats_buf, dnis_buf, pair_work)
             q, bound, floor = _bound(lms_buf, feats_buf, dnis_buf, q, nis, k, gate, best_k, bound_work)
@@ -345,4 +360,4 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test):
             lvl_pushed[level] = False                    # the "unassociated" child
         level += 1
         entering = True
-    return best_i[:best_k], best_j[:best_k], nodes, timed_out
+    return best_i[:best_k], best_j[:best_k], nodes, timed_out, hist_nodes[:n_hist], hist_k[:n_hist], hist_nis[:n_hist]

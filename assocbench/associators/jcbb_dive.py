@@ -1,0 +1,117 @@
+"""The classic JCBB first dive, compiled: the incumbent the exact search starts from.
+
+Neira & Tardós (2001) walk the landmarks in a fixed order (here: index order) and, at each,
+take the individually compatible pairing with the smallest joint NIS increase among those that
+keep the hypothesis jointly compatible (the prefix test ``NIS(H + p) <= χ²_{d(k+1)}(c)``), or
+leave the landmark unassociated when none does. It costs one pass over the landmarks, so it is
+always run in full, whatever the node budget: a budgeted search that starts from it can never
+return fewer pairings than it.
+
+The incremental joint factor is the one of ``association.compatibility``: after each pairing
+the rows of ``M = L⁻¹ P[J, :]`` are appended for every landmark of the dive, and a landmark's
+conditional moments are computed when its turn comes. Keeping every column (about twice the
+work of keeping the landmarks still to visit) gives, at the end, each landmark's conditional
+moments given the whole hypothesis, so how sure its best pairing is given the dive's answer
+comes for free: the next dive's order.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..association.compatibility import append_rows, conditional_moments, whitened_pair
+
+
+@njit(cache=True)
+def classic_dive(ic, P, z, zhat, R, wrap, gate, order):
+    """First dive of classic JCBB over the landmarks in ``order``: (features, landmarks, NIS) of
+    the hypothesis, pairings in the order they were made, and ``surest`` (n,): for each landmark
+    of ``order``, the least NIS increase ``NIS(H + (i, j)) - NIS(H)`` of its individually
+    compatible pairings given the final hypothesis ``H`` (inf elsewhere; a landmark already in
+    ``H`` is measured as if observed twice: a ranking, not a test).
+
+    ``ic`` (m, n) is the individual-compatibility mask, ``gate[k] = χ²_{dk}(c)``."""
+    m, n = ic.shape
+    d = z.shape[1]
+    Mt = np.zeros((n * d, n * d))
+    w = np.zeros(n * d)
+    C = np.zeros((n, d))
+    G = np.zeros((n, d, d))
+    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    free = np.ones(m, np.bool_)
+    pair_i = np.empty(n, np.int64)
+    pair_j = np.empty(n, np.int64)
+    k, nis = 0, 0.0
+    for t in range(order.shape[0]):
+        j = order[t]
+        conditional_moments(Mt, w, k * d, j, C[j], G[j])
+        best_i, best_dn = -1, np.inf
+        for i in range(m):
+            if free[i] and ic[i, j]:
+                dn = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+                if nis + dn <= gate[k + 1] and dn < best_dn:
+                    best_i, best_dn = i, dn
+        if best_i < 0:
+            continue
+        whitened_pair(P, z, zhat, R, wrap, best_i, j, C, G, S, y, L, w2)   # its L and w2 again
+        append_rows(Mt, w, k * d, P, j, L, w2, order)
+        pair_i[k], pair_j[k] = best_i, j
+        free[best_i] = False
+        nis += best_dn
+        k += 1
+    surest = np.full((n, 2), np.inf)
+    for j in order:
+        conditional_moments(Mt, w, k * d, j, C[j], G[j])
+        for i in range(m):
+            if ic[i, j]:
+                dn = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+                if dn < surest[j, 0]:
+                    surest[j, 1] = surest[j, 0]
+                    surest[j, 0] = dn
+                elif dn < surest[j, 1]:
+                    surest[j, 1] = dn
+    return pair_i[:k], pair_j[:k], nis, surest
+
+
+@njit(cache=True)
+def greedy_dive(ic, P, z, zhat, R, wrap, gate, candidates):
+    """Global greedy dive: at each step, of all free individually compatible pairings of the
+    ``candidates``, add the one with the smallest joint NIS increase that passes the prefix test;
+    stop when none does. (features, landmarks, NIS) as ``classic_dive``. Unlike a dive in a fixed
+    order it never commits a landmark before a surer pairing elsewhere has pinned the pose."""
+    m, n = ic.shape
+    d = z.shape[1]
+    Mt = np.zeros((n * d, n * d))
+    w = np.zeros(n * d)
+    C = np.zeros((n, d))
+    G = np.zeros((n, d, d))
+    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    free = np.ones(m, np.bool_)
+    open_lm = np.zeros(n, np.bool_)
+    open_lm[candidates] = True
+    pair_i = np.empty(n, np.int64)
+    pair_j = np.empty(n, np.int64)
+    k, nis = 0, 0.0
+    while True:
+        best_i, best_j, best_dn = -1, -1, np.inf
+        for j in candidates:
+            if not open_lm[j]:
+                continue
+            conditional_moments(Mt, w, k * d, j, C[j], G[j])
+            for i in range(m):
+                if free[i] and ic[i, j]:
+                    dn = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+                    if nis + dn <= gate[k + 1] and dn < best_dn:
+                        best_i, best_j, best_dn = i, j, dn
+        if best_i < 0:
+            break
+        conditional_moments(Mt, w, k * d, best_j, C[best_j], G[best_j])
+        whitened_pair(P, z, zhat, R, wrap, best_i, best_j, C, G, S, y, L, w2)
+        append_rows(Mt, w, k * d, P, best_j, L, w2, candidates)
+        pair_i[k], pair_j[k] = best_i, best_j
+        free[best_i] = False
+        open_lm[best_j] = False
+        nis += best_dn
+        k += 1
+    return pair_i[:k], pair_j[:k], nis
