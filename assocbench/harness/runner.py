@@ -82,10 +82,20 @@ def describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
 
 
-def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float, bool, str]:
+def method_diagnostics(associator) -> dict:
+    """What a method's ``info`` says about the call just made: ``timed_out`` (bool) and
+    ``proven_optimal`` (1.0 or 0.0 where the method says, NaN where it does not)."""
+    info = getattr(associator, "info", None) or {}
+    proven = info.get("proven_optimal")
+    return {"timed_out": bool(info.get("timed_out", False)),
+            "proven_optimal": float("nan") if proven is None else float(bool(proven))}
+
+
+def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float, dict, str]:
     """``associate`` on a private copy of ``problem``, timed alone: (association validated against
-    the pristine problem, runtime_s, timed_out, error). Everything the method raises, and any code
-    of its that validation runs (``__array__``, an ``info`` property), is the frame's failure."""
+    the pristine problem, runtime_s, ``method_diagnostics``, error). Everything the method raises,
+    and any code of its that validation runs (``__array__``, an ``info`` property), is the
+    frame's failure."""
     start = time.perf_counter()
     try:
         raw = associator.associate(private_copy(problem))
@@ -93,21 +103,21 @@ def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float,
     except BaseException as exc:  # noqa: BLE001 - SystemExit too: a plugin must not end the run
         if user_interrupt(exc):
             raise
-        return None, time.perf_counter() - start, False, describe(exc)
+        return None, time.perf_counter() - start, {}, describe(exc)
     try:
         association = validate_association(raw, problem)
-        timed_out = bool(getattr(associator, "info", {}).get("timed_out", False))
+        diagnostics = method_diagnostics(associator)
     except BaseException as exc:  # noqa: BLE001
         if user_interrupt(exc):
             raise
-        return None, runtime, False, describe(exc)
-    return association, runtime, timed_out, ""
+        return None, runtime, {}, describe(exc)
+    return association, runtime, diagnostics, ""
 
 
 def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runtime: float) -> dict:
     """Record of frame ``k`` that failed: scored as if no pairing was returned, with its error."""
-    return {"frame": k, **unscored_frame(problem, truth), "timed_out": False, "runtime_s": runtime,
-            "error": error, "association": [NO_MATCH] * problem.n}
+    return {"frame": k, **unscored_frame(problem, truth), "timed_out": False, "proven_optimal": float("nan"),
+            "runtime_s": runtime, "error": error, "association": [NO_MATCH] * problem.n}
 
 
 def _build(method: str, params: dict):
@@ -149,9 +159,9 @@ def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, param
             yield failed_record(k, problem, truth, *(faults.get(k) or (error, 0.0)))
             continue
         on_call(k, time_limit_s)
-        association, runtime, timed_out, error_k = call_method(associator, problem)
+        association, runtime, diagnostics, error_k = call_method(associator, problem)
         record = failed_record(k, problem, truth, error_k, runtime) if association is None else {
-            "frame": k, **score_frame(problem, truth, association), "timed_out": timed_out,
+            "frame": k, **score_frame(problem, truth, association), **diagnostics,
             "runtime_s": runtime, "error": "", "association": association.tolist()}
         yield record
 

@@ -4,7 +4,9 @@ precision = ΣTP / Σ(TP + FP),  recall = ΣTP / Σ(TP + FN),  F1 = 2PR / (P + R
 over frames); perfect = share of the frames with candidates whose association equals the truth
 exactly (a failed frame is not perfect);
 surprisal_gap = mean over frames of s(returned) - s(true); runtime median and p95 of
-``associate`` in milliseconds.
+``associate`` in milliseconds; proven_optimal = share of the frames (not failed) whose answer
+the method proved optimal (JCBB's search finished within its budget; NaN for methods that do
+not say).
 
 A ratio with nothing to count is NaN, never 1: precision when no pairing was returned, recall
 when the truth has no pair. ``status`` says in words whether the numbers can be trusted:
@@ -19,7 +21,9 @@ import pandas as pd
 
 ACCURACY_METRICS = ("precision", "recall", "f1", "perfect")
 SUMMARY_COLUMNS = ("status", "precision", "recall", "f1", "perfect", "surprisal_gap", "jc_share",
-                   "clutter_accepted", "runtime_median_ms", "runtime_p95_ms", "frames", "failures", "timed_out")
+                   "clutter_accepted", "runtime_median_ms", "runtime_p95_ms", "frames", "failures", "timed_out",
+                   "proven_optimal")
+REPORTED_METRICS = ("proven_optimal",)   # only some methods report these; NaN for the others
 OK = "ok"
 
 
@@ -52,6 +56,12 @@ def _perfect_share(frames: pd.DataFrame) -> float:
     return float(right.mean())
 
 
+def _reported_mean(ok: pd.DataFrame, column: str) -> float:
+    """Mean of a column a method may leave NaN (it does not report it); NaN if no frame has it."""
+    values = ok[column].dropna() if column in ok else pd.Series(dtype=float)
+    return float(values.mean()) if len(values) else float("nan")
+
+
 def summarize(frames: pd.DataFrame) -> dict[str, float]:
     """Summary metrics of one run's per-frame records (one row per frame)."""
     ok = frames[frames["error"] == ""] if "error" in frames else frames
@@ -70,6 +80,7 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
         "runtime_p95_ms": float(np.percentile(runtime_ms, 95)) if len(runtime_ms) else np.nan,
         "frames": int(len(frames)), "failures": int((frames["error"] != "").sum()) if "error" in frames else 0,
         "timed_out": int(frames["timed_out"].sum()) if "timed_out" in frames else 0,
+        "proven_optimal": _reported_mean(ok, "proven_optimal"),
     }
 
 
@@ -77,7 +88,8 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     """Mean and std over seeds of each method × scenario, sorted by scenario then F1 (best first).
     A NaN in any seed makes the mean NaN (it is not skipped), and ``status`` is ``ok`` only when
     every seed's run was."""
-    metrics = ["precision", "recall", "f1", "perfect", "surprisal_gap", "runtime_median_ms"]
+    metrics = ["precision", "recall", "f1", "perfect", "surprisal_gap", "runtime_median_ms", *REPORTED_METRICS]
+    summaries = summaries.assign(**{c: np.nan for c in REPORTED_METRICS if c not in summaries})
     grouped = summaries.groupby(["scenario", "method"], sort=True)
     mean = grouped[metrics].agg(lambda col: col.mean(skipna=False))
     std = grouped[metrics].std(ddof=0).fillna(0.0)
