@@ -15,7 +15,10 @@ from assocbench.scoring.metrics import true_mass
 from problems import random_problem, random_spd, reference_joint
 from test_cli import assert_one_line_error
 
-BP_TOLERANCE = 0.05   # max |β_BP - β_exact| over the small problems below (measured: 0.021)
+# BP (forced with max_events=1) against exact JPDA over the small problems below, measured:
+# max |Δβ| 0.250 (a 2 x 2 loop, where BP leans to the likelier assignment), mean over landmarks
+# of the row's max |Δβ| 0.023, hard answers equal on 123 of 124 landmarks.
+BP_MAX_ERROR, BP_MEAN_ERROR, BP_AGREEMENT = 0.3, 0.03, 0.97
 
 
 def crowded_problem(rng, n: int, m: int, angular=()) -> Problem:
@@ -90,17 +93,31 @@ def test_marginals_equal_brute_force_enumeration(params):
 
 
 def test_belief_propagation_is_close_to_exact():
-    worst = 0.0
-    approximated = 0
+    worst, row_errors, agree, landmarks, approximated = 0.0, [], 0, 0, 0
     for p in small_problems():
         exact, bp = make_associator("jpda"), make_associator("jpda", max_events=1)
-        exact.associate(p)
-        bp.associate(p)
+        agree += int(np.sum(exact.associate(p) == bp.associate(p)))
+        landmarks += p.n
         approximated += bp.info["approximate_clusters"]
-        assert not bp.info["exact"] or bp.info["clusters"] == 0
+        assert bp.info["exact"] == (bp.info["clusters"] == 0)
         np.testing.assert_allclose(bp.info["marginals"].sum(axis=1), 1.0, rtol=0, atol=1e-12)
-        worst = max(worst, float(np.abs(bp.info["marginals"] - exact.info["marginals"]).max()))
-    assert approximated > 30 and worst <= BP_TOLERANCE, (approximated, worst)
+        error = np.abs(bp.info["marginals"] - exact.info["marginals"])
+        worst = max(worst, float(error.max()))
+        row_errors += error.max(axis=1).tolist()
+    assert approximated > 30
+    assert worst <= BP_MAX_ERROR and np.mean(row_errors) <= BP_MEAN_ERROR, (worst, np.mean(row_errors))
+    assert agree >= BP_AGREEMENT * landmarks, (agree, landmarks)
+
+
+def test_belief_propagation_leans_to_the_likelier_assignment_on_a_loop():
+    """Two landmarks, two features, all four pairs gated: the 2 x 2 loop. BP keeps the ranking of
+    the two crossing assignments but is more certain than exact JPDA."""
+    p = Problem(np.array([[0.0, 0.0], [1.5, 0.0]]), np.repeat(0.1 * np.eye(2)[None], 2, 0),
+                np.array([[0.5, 0.0], [1.2, 0.0]]), np.eye(4), volume=100.0)
+    exact, bp = make_associator("jpda"), make_associator("jpda", max_events=1)
+    assert exact.associate(p).tolist() == bp.associate(p).tolist() == [0, 1]
+    e, b = exact.info["marginals"], bp.info["marginals"]
+    assert np.all(e[:, :2] > 0.05) and b[0, 0] > e[0, 0] > 0.5 and b[1, 1] > e[1, 1] > 0.5
 
 
 def chain_problem() -> Problem:

@@ -77,18 +77,68 @@ def _cluster(gated, logr, label, c):
 
 @njit(cache=True)
 def events_lower_bound(off, nbr, mf):
-    """A lower bound on the number of joint events of a cluster, cheap: every subset of a
-    matching is an event, so a greedy maximal matching of size k gives ``2^k``; the empty event
-    and the single pairings give ``1 + |E|``. Capped at 2^62."""
-    used = np.zeros(mf, np.bool_)
-    k = 0
-    for q in range(off.shape[0] - 1):
+    """A lower bound on the number of joint events of a cluster, in O(|E|): give each feature
+    to one of its landmarks (the one holding fewest so far); choosing, for every landmark
+    independently, undetected or one of the features it was given is always an event, so
+    there are at least ``Π_q (1 + given_q)`` events; and at least ``1 + |E|`` (none or one
+    pairing). Capped at 2^62."""
+    nl = off.shape[0] - 1
+    given = np.zeros(nl, np.int64)
+    owner = np.full(mf, -1, np.int64)
+    for q in range(nl):
         for e in range(off[q], off[q + 1]):
-            if not used[nbr[e]]:
-                used[nbr[e]] = True
-                k += 1
-                break
-    return max(np.int64(1) << min(k, 62), off[-1] + 1)
+            a = nbr[e]
+            if owner[a] < 0 or given[q] < given[owner[a]]:
+                if owner[a] >= 0:
+                    given[owner[a]] -= 1
+                owner[a] = q
+                given[q] += 1
+    cap = np.int64(1) << 62
+    bound = np.int64(1)
+    for q in range(nl):
+        bound = cap if bound > cap // (1 + given[q]) else bound * (1 + given[q])
+    return max(bound, off[-1] + 1)
+
+
+@njit(cache=True)
+def count_events(off, nbr, mf, budget):
+    """The number of joint events of a cluster, or -1 as soon as it exceeds ``budget``: the
+    enumeration's depth-first walk without weights, the last landmark's options counted at once
+    (undetected plus its features still free), several times cheaper than ``enumerate_events``."""
+    nl = off.shape[0] - 1
+    used = np.zeros(mf, np.bool_)
+    nxt = np.empty(nl, np.int64)
+    col = np.empty(nl, np.int64)
+    count = 0
+    k = 0
+    nxt[0] = -1
+    while k >= 0:
+        if k == nl - 1:                   # the last landmark: count its options, back up
+            count += 1
+            for e in range(off[k], off[k + 1]):
+                count += not used[nbr[e]]
+            if count > budget:
+                return -1
+            k -= 1
+            continue
+        if nxt[k] > off[k]:
+            used[col[k]] = False
+        if nxt[k] == -1:
+            nxt[k] = off[k]
+            col[k] = mf
+        else:
+            e = nxt[k]
+            while e < off[k + 1] and used[nbr[e]]:
+                e += 1
+            if e == off[k + 1]:
+                k -= 1
+                continue
+            nxt[k] = e + 1
+            used[nbr[e]] = True
+            col[k] = nbr[e]
+        k += 1
+        nxt[k] = -1
+    return count
 
 
 @njit(cache=True)
@@ -246,7 +296,7 @@ def jpda_marginals(gated, logr, max_events, tol, max_iter):
         largest = max(largest, nl)
         local = np.empty((nl, mf + 1))
         got = -1
-        if events_lower_bound(off, nbr, mf) <= max_events:
+        if events_lower_bound(off, nbr, mf) <= max_events and count_events(off, nbr, mf, max_events) >= 0:
             got = enumerate_events(off, nbr, lw, mf, max_events, local)
         if got >= 0:
             events += got
