@@ -1,6 +1,9 @@
 """JPDA against n on range-bearing problems (EKF-SLAM-like: detection 0.8, clutter 20 % of n),
 with MNN in the same process as the baseline; and the calibration of ``max_events``.
 
+Rows: ``jpda`` (shipped parameters), ``jpda-bp`` (``max_events=1``: loopy BP on every cluster,
+to show what the approximation costs in accuracy) and ``mnn``.
+
 Scale table, per n (``--problems`` problems each): median and p95 ms of ``associate`` (best of 3
 calls per problem, one core), precision, recall, mean true mass (``scoring.metrics.true_mass``;
 for MNN its hard answer as one-hot marginals), the share of problems JPDA solved exactly (every
@@ -39,8 +42,8 @@ def scale_rows(sizes: list[int], problems: int) -> list[list[object]]:
     rows = []
     for n in sizes:
         batch = [range_bearing_problem(np.random.default_rng(1000 * n + s), n=n) for s in range(problems)]
-        for method in ("jpda", "mnn"):
-            assoc = make_associator(method)
+        for method, assoc in (("jpda", make_associator("jpda")), ("jpda-bp", make_associator("jpda", max_events=1)),
+                              ("mnn", make_associator("mnn"))):
             times, tp, fp, fn, mass, exact, events, approx, largest = [], 0, 0, 0, [], 0, [], 0, 0
             for problem, truth in batch:
                 out = assoc.associate(problem)   # warm-up and accuracy

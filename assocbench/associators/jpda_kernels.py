@@ -234,7 +234,7 @@ def _leave_one_out(vals, ids, start, stop, out):
 @njit(cache=True)
 def belief_propagation(off, nbr, lw, mf, tol, max_iter, beta):
     """Approximate marginals of one cluster by loopy belief propagation on the assignment
-    problem (Williams & Lau 2014, eqs. 29-30), into ``beta`` (nl, mf + 1). With pair weights
+    problem (Williams & Lau 2014, IEEE TAES 50(4)), into ``beta`` (nl, mf + 1). With pair weights
     ``w_e = exp(lw_e)`` (undetected and false-alarm weights 1), per gated edge ``e = (q, a)``:
 
         μ_e = w_e / (1 + Σ_{e'∋q, e'≠e} w_e' ν_e'),   ν_e = 1 / (1 + Σ_{e'∋a, e'≠e} μ_e'),
