@@ -155,6 +155,34 @@ def test_cut_over_counts_events_and_budget():
     assert not below.info["exact"] and below.info["events"] == 0
 
 
+def test_event_count_and_its_lower_bound():
+    """The cut-over's count (a weightless walk) equals the enumeration's and the cheap lower bound
+    never exceeds it (a bound too high would send an enumerable cluster to BP)."""
+    from assocbench.associators.jpda_kernels import (_cluster, _components, count_events, enumerate_events,
+                                                     events_lower_bound)
+
+    clusters = 0
+    for p in small_problems() + [chain_problem()]:
+        gated, logr = make_associator("jpda").pair_log_weights(p)
+        label, count = _components(gated)
+        for c in range(count):
+            lms, feats, off, nbr, lw = _cluster(gated, logr, label, c)
+            events = enumerate_events(off, nbr, lw, len(feats), 10**9, np.empty((len(lms), len(feats) + 1)))
+            assert count_events(off, nbr, len(feats), 10**9) == events
+            assert count_events(off, nbr, len(feats), events - 1) == -1
+            assert events_lower_bound(off, nbr, len(feats)) <= events
+            clusters += 1
+    assert clusters > 50
+
+
+def test_same_problem_same_marginals_bit_for_bit():
+    p = crowded_problem(np.random.default_rng(5), 5, 6)
+    for params in ({}, {"max_events": 1}):
+        a, b = make_associator("jpda", **params), make_associator("jpda", **params)
+        assert a.associate(p).tolist() == b.associate(p).tolist()
+        assert np.array_equal(a.info["marginals"], b.info["marginals"])
+
+
 def test_hard_answer_follows_the_marginals():
     without_conflict = 0
     for p in small_problems():
