@@ -26,10 +26,16 @@ class Associator:
     ``confidence: float = field(default=0.99, metadata=CONFIDENCE)``; a bad value is a one-line
     ``UserError`` naming ``params.<field>``. A subclass that defines ``__post_init__`` calls
     ``super().__post_init__()``.
+
+    ``soft``: a soft associator (``soft = True``) also reports, after each ``associate``, its
+    marginal association probabilities in ``info["marginals"]``: an (n, m + 1) array whose row
+    ``j`` gives ``P(landmark j ↔ feature i)`` in column ``i`` and ``P(j unassociated)`` in the
+    last column, each row summing to 1 (``scoring.metrics.true_mass`` scores it).
     """
 
     name: ClassVar[str] = "base"
     summary: ClassVar[str] = ""
+    soft: ClassVar[bool] = False
 
     def __post_init__(self) -> None:
         validate_fields(self, "params")

@@ -1,4 +1,4 @@
-"""Registry of associators: the six built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
+"""Registry of associators: the seven built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
 
 from __future__ import annotations
 
@@ -12,13 +12,14 @@ from ..validation import validate_fields
 from .base import Associator
 from .enn import ENN
 from .jcbb import JCBB
+from .jpda import JPDA
 from .lsa import LSA
 from .ml import ML
 from .mnn import MNN
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, JPDA)}
 
 
 def _load_spec(spec: str) -> type[Associator]:

@@ -10,6 +10,8 @@ With ``a`` the returned and ``t`` the true association (feature index per candid
   method found something the model finds more (or less) likely than the truth.
 * jointly_compatible: whether ``a`` passes the joint χ² test at the method-independent
   confidence ``JC_CONFIDENCE``.
+* true_mass (soft associators, from their marginals ``β``): the probability the method puts
+  on the true outcome, ``mean_j β_{j, t_j}`` (``true_mass``).
 """
 
 from __future__ import annotations
@@ -44,3 +46,27 @@ def score_frame(problem: Problem, truth: FrameTruth, association: np.ndarray) ->
 def unscored_frame(problem: Problem, truth: FrameTruth) -> dict[str, float]:
     """Record of a frame the method failed on: scored as if it had returned no pairing."""
     return score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64))
+
+
+def true_mass(marginals: np.ndarray, truth_association: np.ndarray) -> float:
+    """Mean probability mass a soft associator puts on the true outcome of each candidate:
+
+        true_mass = (1/n) Σ_j β_{j, t_j},   column t_j = m (the last, "unassociated") when t_j = -1,
+
+    for marginals ``β`` (n, m + 1) (``Associator.soft``) and the true association ``t`` (n,).
+    1.0 for a perfect hard answer written as one-hot marginals, 0.0 when all mass is on wrong
+    outcomes; NaN when there is no candidate (nothing to count, as the other ratios). Raises
+    ``ValueError`` when the shapes disagree or ``t`` names a feature outside ``-1..m-1``.
+    """
+    beta = np.asarray(marginals, dtype=np.float64)
+    t = np.asarray(truth_association)
+    if beta.ndim != 2 or t.shape != (beta.shape[0],):
+        raise ValueError(f"marginals of shape {beta.shape} do not fit a truth of shape {t.shape}: "
+                         "expected (n, m + 1) and (n,)")
+    m = beta.shape[1] - 1
+    if t.size and (t.min() < NO_MATCH or t.max() >= m):
+        raise ValueError(f"truth pairs a candidate with a feature outside -1..{m - 1}")
+    if t.size == 0:
+        return float("nan")
+    cols = np.where(t == NO_MATCH, m, t).astype(np.int64)
+    return float(beta[np.arange(len(t)), cols].mean())
