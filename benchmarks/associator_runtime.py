@@ -3,7 +3,7 @@ range-bearing (EKF-SLAM-like, landmarks correlated with the pose) and camera pix
 rendered benchmark's belief model). Detection probability 0.8, clutter 20 % of n, full
 correlated covariance; median and p95 over the problems; one core.
 
-Usage: python benchmarks/associator_runtime.py [--problems 20] [--sizes 10 20 40 80 160]
+Usage: python benchmarks/associator_runtime.py [--problems 20] [--sizes 10 20 40 80 160 320]
        [--png benchmarks/associator_runtime.png]
 """
 
@@ -28,14 +28,15 @@ def measure(model: str, sizes: list[int], problems: int, methods: list[str]) -> 
         batch = [MODELS[model](np.random.default_rng(1000 * n + s), n=n) for s in range(problems)]
         for method in methods:
             assoc = make_associator(method)
-            times, timeouts, tp, fp = [], 0, 0, 0
+            times, timeouts, tp, fp, fn = [], 0, 0, 0, 0
             for problem, truth in batch:
                 out = assoc.associate(problem)   # warm-up and accuracy
                 timeouts += int(getattr(assoc, "info", {}).get("timed_out", False))
                 tp += int(np.sum((out >= 0) & (out == truth)))
                 fp += int(np.sum((out >= 0) & (out != truth)))
+                fn += int(np.sum((truth >= 0) & (out != truth)))
                 times.append(time_call(lambda: assoc.associate(problem), 3))
-            results[(method, n)] = (*summary_ms(times), timeouts, tp / max(tp + fp, 1))
+            results[(method, n)] = (*summary_ms(times), timeouts, tp / max(tp + fp, 1), tp / max(tp + fn, 1))
     return results
 
 
@@ -61,7 +62,7 @@ def plot(all_results: dict, path: str) -> None:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--problems", type=int, default=20)
-    ap.add_argument("--sizes", type=int, nargs="+", default=[10, 20, 40, 80, 160])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[10, 20, 40, 80, 160, 320])
     ap.add_argument("--methods", nargs="+", default=list(BUILTINS))
     ap.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))
     ap.add_argument("--png", default=str(Path(__file__).with_suffix(".png")))
@@ -72,7 +73,7 @@ def main() -> None:
         all_results[model] = res
         rows = [[m, n, *res[(m, n)]] for m in args.methods for n in args.sizes]
         print(f"{model}: ms per problem over {args.problems} problems (p_detect 0.8, clutter 0.2 n)")
-        print_table(["method", "n", "median ms", "p95 ms", "timed out", "precision"], rows)
+        print_table(["method", "n", "median ms", "p95 ms", "timed out", "precision", "recall"], rows)
     plot(all_results, args.png)
     print(f"wrote {args.png}")
 

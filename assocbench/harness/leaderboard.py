@@ -14,7 +14,8 @@ from ..viz.plots import pr_figure, runtime_figure, save_figure
 
 MD_COLUMNS = [("method", "method"), ("precision", "precision"), ("recall", "recall"), ("f1", "F1"),
               ("perfect", "perfect frames"), ("surprisal_gap", "surprisal gap"),
-              ("runtime_median_ms", "runtime ms (median)"), ("proven_optimal", "proven optimal")]
+              ("runtime_median_ms", "runtime ms (median)"), ("proven_optimal", "proven optimal"),
+              ("true_mass", "true mass")]
 DIFFICULTY_ORDER = ("easy", "medium", "hard")
 
 
@@ -41,7 +42,8 @@ def to_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
              "*timed out*: frames where the method spent its search budget and returned its best hypothesis so far;",
              "*failed*: frames where it raised or returned an invalid association;",
              "*proven optimal*: share of frames whose answer the method proved optimal (JCBB: the search ended within",
-             "its node budget); n/a for methods that make no such claim.",
+             "its node budget); n/a for methods that make no such claim;",
+             "*true mass*: for soft associators (JPDA), the mean probability put on each candidate's true outcome.",
              "A method marked **not ok** has numbers that cannot be trusted (failed frames, no candidates or nothing",
              "associated in some seed's run); the reason follows the table.", ""]
     table = order_scenarios(table, difficulties)

@@ -23,7 +23,7 @@ from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig, FrameTruth, make_problem
 from ..errors import UserError
 from ..scoring.aggregate import summarize
-from ..scoring.metrics import score_frame, unscored_frame
+from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..sim.sequence import Sequence
 from .config import RunSpec
 
@@ -82,13 +82,32 @@ def describe(exc: BaseException) -> str:
     return f"{type(exc).__name__}: {exc}".replace("\n", " ")[:300]
 
 
-def method_diagnostics(associator) -> dict:
-    """What a method's ``info`` says about the call just made: ``timed_out`` (bool) and
-    ``proven_optimal`` (1.0 or 0.0 where the method says, NaN where it does not)."""
+def method_diagnostics(associator, problem: Problem) -> dict:
+    """What a method's ``info`` says about the call just made: ``timed_out`` (bool),
+    ``proven_optimal`` (1.0 or 0.0 where the method says, NaN where it does not) and, for a
+    soft associator, its ``marginals`` (validated: ``soft_marginals``)."""
     info = getattr(associator, "info", None) or {}
     proven = info.get("proven_optimal")
-    return {"timed_out": bool(info.get("timed_out", False)),
-            "proven_optimal": float("nan") if proven is None else float(bool(proven))}
+    out = {"timed_out": bool(info.get("timed_out", False)),
+           "proven_optimal": float("nan") if proven is None else float(bool(proven))}
+    if getattr(associator, "soft", False) is True:
+        out["marginals"] = soft_marginals(info.get("marginals"), problem)
+    return out
+
+
+def soft_marginals(marginals, problem: Problem) -> np.ndarray:
+    """A soft associator's ``info["marginals"]`` as an (n, m + 1) float array of probabilities
+    whose rows sum to 1 (within 1e-6); anything else is the frame's failure (``ValueError``)."""
+    shape = (problem.n, problem.m + 1)
+    beta = np.array(marginals, dtype=np.float64) if marginals is not None else None
+    if beta is None or beta.shape != shape:
+        raise ValueError(f"a soft associator must set info['marginals'] of shape {shape}, "
+                         f"got {None if beta is None else beta.shape}")
+    if not np.all(np.isfinite(beta)) or beta.min(initial=0.0) < -1e-12 or beta.max(initial=0.0) > 1 + 1e-12:
+        raise ValueError("info['marginals'] must hold probabilities in [0, 1] (no NaN)")
+    if beta.size and np.abs(beta.sum(axis=1) - 1.0).max() > 1e-6:
+        raise ValueError("each row of info['marginals'] must sum to 1")
+    return beta
 
 
 def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float, dict, str]:
@@ -106,7 +125,7 @@ def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float,
         return None, time.perf_counter() - start, {}, describe(exc)
     try:
         association = validate_association(raw, problem)
-        diagnostics = method_diagnostics(associator)
+        diagnostics = method_diagnostics(associator, problem)
     except BaseException as exc:  # noqa: BLE001
         if user_interrupt(exc):
             raise
@@ -117,7 +136,7 @@ def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float,
 def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runtime: float) -> dict:
     """Record of frame ``k`` that failed: scored as if no pairing was returned, with its error."""
     return {"frame": k, **unscored_frame(problem, truth), "timed_out": False, "proven_optimal": float("nan"),
-            "runtime_s": runtime, "error": error, "association": [NO_MATCH] * problem.n}
+            "true_mass": float("nan"), "runtime_s": runtime, "error": error, "association": [NO_MATCH] * problem.n}
 
 
 def _build(method: str, params: dict):
@@ -160,10 +179,13 @@ def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, param
             continue
         on_call(k, time_limit_s)
         association, runtime, diagnostics, error_k = call_method(associator, problem)
-        record = failed_record(k, problem, truth, error_k, runtime) if association is None else {
-            "frame": k, **score_frame(problem, truth, association), **diagnostics,
-            "runtime_s": runtime, "error": "", "association": association.tolist()}
-        yield record
+        if association is None:
+            yield failed_record(k, problem, truth, error_k, runtime)
+            continue
+        marginals = diagnostics.pop("marginals", None)
+        mass = true_mass(marginals, truth.association) if marginals is not None else float("nan")
+        yield {"frame": k, **score_frame(problem, truth, association), **diagnostics, "true_mass": mass,
+               "runtime_s": runtime, "error": "", "association": association.tolist()}
 
 
 def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False) -> tuple[pd.DataFrame, dict]:

@@ -6,7 +6,8 @@ exactly (a failed frame is not perfect);
 surprisal_gap = mean over frames of s(returned) - s(true); runtime median and p95 of
 ``associate`` in milliseconds; proven_optimal = share of the frames (not failed) whose answer
 the method proved optimal (JCBB's search finished within its budget; NaN for methods that do
-not say).
+not say); true_mass = mean over frames of the probability a soft associator (JPDA) puts on the
+true outcome of each candidate (``metrics.true_mass``; NaN for hard associators).
 
 A ratio with nothing to count is NaN, never 1: precision when no pairing was returned, recall
 when the truth has no pair. ``status`` says in words whether the numbers can be trusted:
@@ -22,8 +23,8 @@ import pandas as pd
 ACCURACY_METRICS = ("precision", "recall", "f1", "perfect")
 SUMMARY_COLUMNS = ("status", "precision", "recall", "f1", "perfect", "surprisal_gap", "jc_share",
                    "clutter_accepted", "runtime_median_ms", "runtime_p95_ms", "frames", "failures", "timed_out",
-                   "proven_optimal")
-REPORTED_METRICS = ("proven_optimal",)   # only some methods report these; NaN for the others
+                   "proven_optimal", "true_mass")
+REPORTED_METRICS = ("proven_optimal", "true_mass")   # only some methods report these; NaN for the others
 OK = "ok"
 
 
@@ -81,6 +82,7 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
         "frames": int(len(frames)), "failures": int((frames["error"] != "").sum()) if "error" in frames else 0,
         "timed_out": int(frames["timed_out"].sum()) if "timed_out" in frames else 0,
         "proven_optimal": _reported_mean(ok, "proven_optimal"),
+        "true_mass": _reported_mean(ok, "true_mass"),
     }
 
 
