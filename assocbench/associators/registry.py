@@ -1,4 +1,4 @@
-"""Registry of associators: the six built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
+"""Registry of associators: the seven built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
 
 from __future__ import annotations
 
@@ -15,10 +15,11 @@ from .jcbb import JCBB
 from .lsa import LSA
 from .ml import ML
 from .mnn import MNN
+from .rjc import RJC
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC)}
 
 
 def _load_spec(spec: str) -> type[Associator]:
