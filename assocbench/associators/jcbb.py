@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import individually_compatible, joint_gates, pairwise_nis, wrap_mask
+from ..association.compatibility import individually_compatible, joint_gates, wrap_mask
 from ..association.problem import Problem
 from ..validation import in_range
 from .base import CONFIDENCE, Associator
@@ -87,38 +87,48 @@ class JCBB(Associator):
         self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
         if problem.m == 0 or problem.n == 0:
             return out
-        ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
+        ic = individually_compatible(problem, self.confidence)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
                 joint_gates(problem.d, problem.n, self.confidence))
-        feats, lms, nis, nodes, history = self._dives(problem, args)
-        feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(
-            *args, int(self.max_nodes) - nodes, bool(self.prefix_test), feats, lms, nis)
-        history += [(nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
+        feats, lms, self.info = anytime_jcbb(args, int(self.max_nodes), bool(self.prefix_test))
         out[lms] = feats
-        self.info = {"timed_out": bool(timed_out), "proven_optimal": not (timed_out or self.prefix_test),
-                     "nodes": nodes + min(int(used), max(int(self.max_nodes) - nodes, 0)),
-                     "dive_pairings": history[0][1], "history": history}
         return out
 
-    def _dives(self, problem: Problem, args: tuple) -> tuple:
-        """Steps 1 and 2: (features, landmarks, NIS) of the best dive, nodes used, history."""
-        ic = args[0]
-        candidates = np.flatnonzero(ic.any(axis=0))
-        feats, lms, nis, surest = classic_dive(*args, candidates)
-        history = [(0, len(lms), float(nis))]
-        nodes = len(candidates)
-        if nodes + len(candidates) <= self.max_nodes:
-            f2, l2, nis2 = greedy_dive(*args, candidates)
-            nodes += len(candidates)
-            if len(l2) > len(lms) or (len(l2) == len(lms) and nis2 < nis):
-                feats, lms, nis = f2, l2, nis2
-                history.append((nodes, len(lms), float(nis)))
-        for _ in range(REORDERED_DIVES):
-            if nodes + len(candidates) > self.max_nodes:
-                break
-            f2, l2, nis2, surest = classic_dive(*args, candidates[np.argsort(surest[candidates, 0], kind="stable")])
-            nodes += len(candidates)
-            if len(l2) > len(lms) or (len(l2) == len(lms) and nis2 < nis):
-                feats, lms, nis = f2, l2, nis2
-                history.append((nodes, len(lms), float(nis)))
-        return feats, lms, nis, nodes, history
+
+def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False) -> tuple[np.ndarray, np.ndarray, dict]:
+    """The three steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
+    (features, landmarks of the answer, ``info``). RJC calls it on its samples' sub-problems."""
+    feats, lms, nis, nodes, history = _dives(args, max_nodes)
+    feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(*args, max_nodes - nodes, prefix_test, feats, lms, nis)
+    history += [(nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
+    info = {"timed_out": bool(timed_out), "proven_optimal": not (timed_out or prefix_test),
+            "nodes": nodes + min(int(used), max(max_nodes - nodes, 0)), "dive_pairings": history[0][1],
+            "history": history}
+    return feats, lms, info
+
+
+def _better(k: int, nis: float, best_k: int, best_nis: float) -> bool:
+    return k > best_k or (k == best_k and nis < best_nis)
+
+
+def _dives(args: tuple, max_nodes: int) -> tuple:
+    """Steps 1 and 2: (features, landmarks, NIS) of the best dive, nodes used, history."""
+    candidates = np.flatnonzero(args[0].any(axis=0))
+    feats, lms, nis, surest = classic_dive(*args, candidates)
+    history = [(0, len(lms), float(nis))]
+    nodes = len(candidates)
+    if nodes + len(candidates) <= max_nodes:
+        f2, l2, nis2 = greedy_dive(*args, candidates)
+        nodes += len(candidates)
+        if _better(len(l2), nis2, len(lms), nis):
+            feats, lms, nis = f2, l2, nis2
+            history.append((nodes, len(lms), float(nis)))
+    for _ in range(REORDERED_DIVES):
+        if nodes + len(candidates) > max_nodes:
+            break
+        f2, l2, nis2, surest = classic_dive(*args, candidates[np.argsort(surest[candidates, 0], kind="stable")])
+        nodes += len(candidates)
+        if _better(len(l2), nis2, len(lms), nis):
+            feats, lms, nis = f2, l2, nis2
+            history.append((nodes, len(lms), float(nis)))
+    return feats, lms, nis, nodes, history

@@ -16,10 +16,11 @@ from .jpda import JPDA
 from .lsa import LSA
 from .ml import ML
 from .mnn import MNN
+from .rjc import RJC
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, JPDA)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, JPDA)}
 
 
 def _load_spec(spec: str) -> type[Associator]:
