@@ -1,4 +1,4 @@
-"""Registry of associators: the six built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
+"""Registry of associators: the built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from importlib.metadata import entry_points
 from ..errors import UserError
 from ..validation import validate_fields
 from .base import Associator
+from .ccda import CCDA
 from .enn import ENN
 from .jcbb import JCBB
 from .lsa import LSA
@@ -18,7 +19,7 @@ from .mnn import MNN
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, CCDA)}
 
 
 def _load_spec(spec: str) -> type[Associator]:
