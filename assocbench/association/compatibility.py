@@ -315,7 +315,10 @@ def difference_nis(problem: Problem, pairs: np.ndarray, others: np.ndarray) -> n
     pairing (i, j) = ``pairs[t]`` with (i', j') = ``others[t]``::
 
         Δ = wrap(y_ij - y_i'j') = wrap((z_i - z_i') - (zhat_j - zhat_j')),
-        S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i' = L Lᵀ,   NIS_Δ = |L⁻¹ Δ|².
+        S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i' = L D Lᵀ,   NIS_Δ = Σ_a (L⁻¹ Δ)_a² / D_a
+
+    (the square-root-free Cholesky factorisation, ``_ldl_nis``; equal to ``|L⁻¹Δ|²`` with the
+    usual factor ``L D^½``).
 
     ``Δ`` is the measured minus the predicted displacement between the two landmarks: an error
     common to both predictions (the vehicle's pose error, a common shift) cancels from ``Δ``

@@ -173,26 +173,31 @@ class CCDA(Associator):
     """Largest set of pairwise consistent pairings: a maximum clique of the correspondence graph.
 
     The clique is found exactly by branch and bound with a greedy colouring bound (Tomita's MCQ
-    on bitsets, compiled, ``max_clique``). Several maximum cliques often exist (a landmark with
-    two features that both agree with all the others); enumerating them to compare their joint
-    NIS costs far more than the search (thousands of ties at n = 160, every one a branch), so
-    the tie rule is local and cheap: from the clique found, swap one pairing at a time for one
-    consistent with all the others while that lowers the clique's total binary NIS
-    (``swap_descent``). The total is, like the binary test, blind to a common error, so the rule
-    also holds with ``unary=False``. Deterministic.
+    on bitsets, compiled, ``max_clique``). Maximum cliques are seldom unique (a landmark with
+    two features that both agree with all the others, two landmarks trading close features),
+    and enumerating them all to compare their joint NIS costs far more than the search: on
+    range-bearing problems there were hundreds to tens of thousands of them at n = 160-320,
+    each its own branch. So the tie rule is local and cheap: from the clique found, swap one
+    pairing (or two) for pairings consistent with all the others while that lowers the
+    clique's total binary NIS (``swap_descent``). The total is, like the binary test, blind to a
+    common error, so the rule holds with ``unary=False`` too. Deterministic.
 
     The clique is returned as it is, as in Bailey's CCDA: it is not put to the joint
     compatibility test, and a pairwise consistent set need not be jointly compatible. (Nor is
     the true association always a clique: a right pair fails each of its binary tests with
-    probability ``1 - c``, and k pairings face ``k(k-1)/2`` of them.)
+    probability ``1 - c``, and k right pairings face ``k(k-1)/2`` of them.)
 
-    confidence: the gate ``c`` of both tests, χ²_d. 0.99 as the other associators; Bailey's
-        own gates were on scalar distances between his laser features and we could not
-        confirm their values.
+    confidence: the gate ``c`` of both tests, χ²_d. 0.99, the house default, so that methods
+        compare at one gate: Bailey's own gates were on scalar distances between his laser
+        features and we could not confirm their values. Because of the ``k(k-1)/2`` tests,
+        0.999 raises recall on range-bearing problems (0.92 to 0.99 at n = 20, 0.90 to 0.96 at
+        n = 80, precision as good or better) but makes n = 320 three times slower.
     unary: apply the individual gate; False makes every (feature, landmark) pair a vertex, so no
         pose prior is needed (``m·n`` vertices, at most ``MAX_VERTICES``; O((mn)²) tests).
     max_nodes: node budget of the clique search; when spent the largest clique so far is
-        returned and ``info["timed_out"]`` is True.
+        returned and ``info["timed_out"]`` is True. 100 000: range-bearing problems up to
+        n = 320 needed at most 2 700 nodes (``benchmarks/ccda_scale.py``); a node costs about
+        a microsecond there, so the budget caps a pathological frame near 0.1-0.3 s.
 
     ``info``: ``timed_out``; ``proven_optimal`` (the search ended within the budget, so the
     clique is maximum); ``nodes``; ``vertices`` of the graph; ``swaps`` of the tie rule.
@@ -212,8 +217,9 @@ class CCDA(Associator):
         allowed = individually_compatible(problem, self.confidence) if self.unary else np.ones((problem.m, problem.n), bool)
         lms, feats = np.nonzero(allowed.T)          # vertices by landmark, then feature
         if len(lms) > MAX_VERTICES:
+            hint = "the individual gate passes too many pairs" if self.unary else "use unary=True"
             raise UserError(f"ccda: the correspondence graph would have {len(lms)} vertices (m={problem.m}, "
-                            f"n={problem.n}, unary={self.unary}), more than {MAX_VERTICES}: use unary=True")
+                            f"n={problem.n}, unary={self.unary}), more than {MAX_VERTICES}: {hint}")
         args = (problem.P, np.ascontiguousarray(marginal_blocks(problem)), problem.z, problem.zhat, problem.R,
                 wrap_mask(problem))
         adj = correspondence_graph(*args, feats, lms, chi2_threshold(problem.d, self.confidence))

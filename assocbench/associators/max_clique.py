@@ -132,20 +132,35 @@ def _colour_sort(P, adj, kmin, order, col, U, Q):
 
 
 @njit(cache=True)
+def _grow(buf, need):
+    """``buf`` if it holds ``need`` entries, else a copy twice as large (or ``need``)."""
+    if need <= buf.shape[0]:
+        return buf
+    out = np.empty(max(need, 2 * buf.shape[0]), buf.dtype)
+    out[:buf.shape[0]] = buf
+    return out
+
+
+@njit(cache=True)
 def _search(adj, levels, max_nodes):
-    """The MCQ search on a renumbered graph: (best clique, nodes, timed out)."""
+    """The MCQ search on a renumbered graph: (best clique, nodes, timed out).
+
+    The coloured candidate lists live on one stack (``order``, ``col``): level L's list starts at
+    ``start[L]`` and its untried entries are the first ``pos[L]``; a child's list goes right after
+    them, over the entries already tried, so memory follows the current path, not levels × V."""
     V, W = adj.shape
     P = np.zeros((levels + 1, W), np.uint64)      # candidates at each depth
-    order = np.empty((levels + 1, V), np.int32)   # coloured candidates to branch on, by colour
-    col = np.empty((levels + 1, V), np.int32)
-    pos = np.zeros(levels + 1, np.int64)          # how many of them are left
+    order = np.empty(2 * V, np.int32)             # coloured candidates to branch on, by colour
+    col = np.empty(2 * V, np.int32)
+    start = np.zeros(levels + 1, np.int64)
+    pos = np.zeros(levels + 1, np.int64)
     clique = np.empty(levels + 1, np.int64)
     best_clique = np.empty(levels + 1, np.int64)
     U, Q = np.empty(W, np.uint64), np.empty(W, np.uint64)
     best = 0
     for v in range(V):
         P[0, v >> 6] |= ONE << np.uint64(v & 63)
-    pos[0] = _colour_sort(P[0], adj, 1, order[0], col[0], U, Q)
+    pos[0] = _colour_sort(P[0], adj, 1, order, col, U, Q)
     nodes, timed_out = 1, False
     level = 0
     while level >= 0:
@@ -153,30 +168,31 @@ def _search(adj, levels, max_nodes):
             level -= 1
             continue
         pos[level] -= 1
-        t = pos[level]
-        if level + col[level, t] <= best:
+        t = start[level] + pos[level]
+        if level + col[t] <= best:
             level -= 1                   # the rest of the list has no higher colour
             continue
         nodes += 1
         if nodes > max_nodes:
             timed_out = True
             break
-        v = order[level, t]
+        v = order[t]
         clique[level] = v
-        empty = True
+        left = 0
         for w in range(W):
             x = P[level, w] & adj[v, w]
             P[level + 1, w] = x
-            if x != np.uint64(0):
-                empty = False
+            left += _popcount(x)
         P[level, v >> 6] &= ~(ONE << np.uint64(v & 63))   # later siblings exclude v
         size = level + 1
         if size > best:                  # every node's clique counts: a dive cut short still leaves one
             best = size
             best_clique[:size] = clique[:size]
-        if empty or size >= levels:      # maximal, or at the caller's bound on the size
+        if left == 0 or size >= levels:  # maximal, or at the caller's bound on the size
             continue
-        pos[size] = _colour_sort(P[size], adj, best - size + 1, order[size], col[size], U, Q)
+        start[size] = t
+        order, col = _grow(order, t + left), _grow(col, t + left)
+        pos[size] = _colour_sort(P[size], adj, best - size + 1, order[t:], col[t:], U, Q)
         level = size
     return best_clique[:best].copy(), nodes, timed_out
 
