@@ -202,9 +202,10 @@ def max_clique(adj: np.ndarray, size_bound: int, max_nodes: int) -> tuple[np.nda
     loops; ``set_edge`` fills it).
 
     ``size_bound`` bounds the clique size (it sizes the search stack; the search stops
-    deepening there). The vertices are searched in smallest-last order (``_degeneracy_order``:
-    on correspondence graphs it proved the search 10-100 times smaller than MCQ's order by
-    degree). The search visits at most ``max_nodes`` nodes (the root included).
+    deepening there). The vertices are searched in smallest-last order (``_degeneracy_order``;
+    on the correspondence graphs of range-bearing problems with n = 160-320 it made the search
+    35-50 times smaller than MCQ's order by degree). The search visits at most ``max_nodes``
+    nodes (the root included).
 
     Returns (the clique's vertices, sorted; nodes visited; timed out). When not timed out the
     clique is maximum; otherwise it is the largest met so far (not even maximal if the budget
