@@ -8,9 +8,10 @@ hypothesis pairing landmarks ``J`` with features ``I``
     NIS(A) = wᵀw,   log N(y_A; 0, S_A) = -½ (wᵀw + log det S_A + d|A| log 2π).
 
 Individual compatibility is ``NIS({(i, j)}) <= χ²_d(c)``, joint compatibility
-``NIS(A) <= χ²_{d|A|}(c)``. Total surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)``
-with ``n_U = n - |A|`` candidates left unassociated. Cholesky factors and triangular solves
-throughout; no explicit inverse.
+``NIS(A) <= χ²_{d|A|}(c)``; the relative (binary) constraint of two pairings tests the
+difference of their innovations against its own covariance (``difference_nis``). Total
+surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` with ``n_U = n - |A|`` candidates left
+unassociated. Cholesky factors and triangular solves throughout; no explicit inverse.
 """
 
 from __future__ import annotations
@@ -294,6 +295,89 @@ def whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
     ``L22`` and ``L22⁻¹ y`` into the outputs."""
     pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
     return _whiten(S, y, L_out, w_out)
+
+
+@njit(cache=True, inline="always")
+def _ldl_nis(S, y):
+    """``yᵀ S⁻¹ y`` by the square-root-free Cholesky ``S = L D Lᵀ`` (``L`` unit lower triangular, in
+    the strict lower triangle of ``S``; ``D`` on its diagonal): ``u = L⁻¹ y`` (into ``y``) and
+    ``Σ u_a² / D_a``. Both arrays are overwritten; inf when ``S`` is not positive definite. What
+    a test needs when it needs no log det: no square root or log per call."""
+    d = S.shape[0]
+    nis = 0.0
+    for a in range(d):
+        for b in range(a):
+            acc = S[a, b]
+            for c in range(b):
+                acc -= S[a, c] * S[c, c] * S[b, c]
+            S[a, b] = acc / S[b, b]
+        piv = S[a, a]
+        u = y[a]
+        for c in range(a):
+            piv -= S[a, c] * S[a, c] * S[c, c]
+            u -= S[a, c] * y[c]
+        if not piv > 0.0:
+            return np.inf
+        S[a, a] = piv
+        y[a] = u
+        nis += u * u / piv
+    return nis
+
+
+@njit(cache=True, inline="always")
+def difference_nis_kernel(P, Pd, z, zhat, R, wrap, i, j, i2, j2, S, y):
+    """``difference_nis`` of pairings (i, j) and (i2, j2), with the diagonal blocks ``Pd``
+    (``marginal_blocks``) and (d, d), (d,) work arrays ``S``, ``y``; inf when ``S`` is not positive
+    definite. ``P_j'j = P_jj'ᵀ`` is read from landmark j's rows, so a caller looping over j'
+    reads P along its rows."""
+    d = z.shape[1]
+    for a in range(d):
+        acc = (z[i, a] - zhat[j, a]) - (z[i2, a] - zhat[j2, a])
+        if wrap[a] and (acc >= np.pi or acc < -np.pi):
+            acc -= 2.0 * np.pi * np.floor((acc + np.pi) / (2.0 * np.pi))
+        y[a] = acc
+        for b in range(d):
+            S[a, b] = (Pd[j, a, b] + Pd[j2, a, b] - P[j * d + a, j2 * d + b] - P[j * d + b, j2 * d + a]
+                       + R[i, a, b] + R[i2, a, b])
+    return _ldl_nis(S, y)
+
+
+@njit(cache=True)
+def _difference_terms(P, Pd, z, zhat, R, wrap, feats, lms, feats2, lms2):
+    d = z.shape[1]
+    out = np.empty(feats.shape[0])
+    S, y = np.empty((d, d)), np.empty(d)
+    for t in range(feats.shape[0]):
+        out[t] = difference_nis_kernel(P, Pd, z, zhat, R, wrap, feats[t], lms[t], feats2[t], lms2[t], S, y)
+    return out
+
+
+def difference_nis(problem: Problem, pairs: np.ndarray, others: np.ndarray) -> np.ndarray:
+    """NIS of the difference of two pairings' innovations (the relative, or binary, constraint).
+
+    ``pairs`` and ``others`` are (q, 2) arrays of (feature, landmark) rows; row t compares
+    pairing (i, j) = ``pairs[t]`` with (i', j') = ``others[t]``::
+
+        Δ = wrap(y_ij - y_i'j') = wrap((z_i - z_i') - (zhat_j - zhat_j')),
+        S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i' = L D Lᵀ,   NIS_Δ = Σ_a (L⁻¹ Δ)_a² / D_a
+
+    (the square-root-free Cholesky factorisation, ``_ldl_nis``; equal to ``|L⁻¹Δ|²`` with the
+    usual factor ``L D^½``).
+
+    ``Δ`` is the measured minus the predicted displacement between the two landmarks: an error
+    common to both predictions (the vehicle's pose error, a common shift) cancels from ``Δ``
+    and, through the cross blocks ``P_jj'``, from ``S_Δ``; the measurement noises are
+    independent and add. Under the hypothesis that both pairings are right, ``NIS_Δ`` is
+    χ²_d-distributed (to first order). Returns (q,) values; inf where ``S_Δ`` is singular.
+    """
+    a = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
+    b = np.asarray(others, dtype=np.int64).reshape(-1, 2)
+    if a.shape != b.shape:
+        raise ValueError(f"pairs {a.shape} and others {b.shape} must have the same shape")
+    if not len(a):
+        return np.zeros(0)
+    return _difference_terms(problem.P, np.ascontiguousarray(marginal_blocks(problem)), problem.z, problem.zhat,
+                             problem.R, wrap_mask(problem), a[:, 0], a[:, 1], b[:, 0], b[:, 1])
 
 
 @njit(cache=True)

@@ -1,4 +1,4 @@
-"""Registry of associators: the seven built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
+"""Registry of associators: the built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
 
 from __future__ import annotations
 
@@ -10,6 +10,7 @@ from importlib.metadata import entry_points
 from ..errors import UserError
 from ..validation import validate_fields
 from .base import Associator
+from .ccda import CCDA
 from .enn import ENN
 from .jcbb import JCBB
 from .jpda import JPDA
@@ -20,7 +21,7 @@ from .rjc import RJC
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, JPDA)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA)}
 
 
 def _load_spec(spec: str) -> type[Associator]:
