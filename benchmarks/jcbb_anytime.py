@@ -22,6 +22,7 @@ from _util import print_table, summary_ms, time_call
 from assocbench import Problem, make_associator
 from assocbench.association.compatibility import individually_compatible, jointly_compatible
 from assocbench.association.problem import pairs_of
+from assocbench.associators.jcbb import JCBB
 from assocbench.associators.registry import BUILTINS
 from assocbench.belief.synthetic import range_bearing_problem
 
@@ -70,7 +71,7 @@ def plot_cases(path: str) -> None:
         d = np.load(CASES / name)
         problem = Problem(z=d["z"], R=d["R"], zhat=d["zhat"], P=d["P"], volume=float(d["volume"]),
                           angular=tuple(int(a) for a in d["angular"]))
-        for budget in (3_000, 30_000):
+        for budget in (JCBB.max_nodes, 10 * JCBB.max_nodes):    # the default and ten times it
             jcbb = make_associator("jcbb", max_nodes=budget)
             jcbb.associate(problem)
             nodes, k, _ = zip(*jcbb.info["history"], (jcbb.info["nodes"], jcbb.info["history"][-1][1], 0))

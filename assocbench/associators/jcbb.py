@@ -14,6 +14,7 @@ from .jcbb_dive import classic_dive, greedy_dive
 from .jcbb_search import jcbb_search
 
 REORDERED_DIVES = 4   # each ordered by the previous dive's answer; the class docstring has the measurement
+QUICK_NODES = 200     # a first exact search from the classic dive proves most problems up to n ≈ 40 alone
 
 
 @dataclass
@@ -27,6 +28,8 @@ class JCBB(Associator):
     1. **The classic first dive** (``jcbb_dive.classic_dive``): landmarks in index order, each
        takes the pairing with the smallest joint NIS increase that passes the prefix test, or
        none. Always run in full, so the answer is never worse than classic JCBB's first dive.
+       Then a short exact search from it (``QUICK_NODES``): it proves most problems up to
+       n ≈ 40 alone (all 20 at n = 40), which then skip step 2 (n = 10: 0.1 ms, not 0.66).
     2. **More starts**, each kept if it beats the incumbent: a global greedy dive (of all free
        pairings, the smallest NIS increase that passes the prefix test, until none does;
        ``jcbb_dive.greedy_dive``); ``REORDERED_DIVES`` classic dives, each with the landmarks
@@ -118,47 +121,60 @@ class JCBB(Associator):
 
 def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
                  restarts=None) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The three steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
+    """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
     (features, landmarks of the answer, ``info``). ``restarts()``, when given and the budget
     allows, returns one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)``
     to start from. RJC calls this on its samples' sub-problems (without restarts)."""
-    feats, lms, nis, nodes, history = _dives(args, max_nodes)
-    if restarts is not None and nodes < max_nodes:
-        f2, l2, nis2, used = restarts()
-        nodes += used
-        if _better(len(l2), nis2, len(lms), nis):
-            feats, lms, nis = f2, l2, nis2
-            history.append((nodes, len(lms), float(nis)))
-    feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(*args, max_nodes - nodes, prefix_test, feats, lms, nis)
-    history += [(nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
-    info = {"timed_out": bool(timed_out), "proven_optimal": not (timed_out or prefix_test),
-            "nodes": nodes + min(int(used), max(max_nodes - nodes, 0)), "dive_pairings": history[0][1],
-            "history": history}
-    return feats, lms, info
+    candidates = np.flatnonzero(args[0].any(axis=0))
+    feats, lms, nis, surest = classic_dive(*args, candidates)
+    best = _Incumbent(feats, lms, nis, len(candidates))
+    timed_out = best.search(args, min(QUICK_NODES, max_nodes - best.nodes), prefix_test)
+    if timed_out:
+        _more_starts(args, candidates, surest, best, max_nodes, restarts)
+        timed_out = best.search(args, max_nodes - best.nodes, prefix_test)
+    info = {"timed_out": timed_out, "proven_optimal": not (timed_out or prefix_test), "nodes": best.nodes,
+            "dive_pairings": best.history[0][1], "history": best.history}
+    return best.feats, best.lms, info
 
 
 def _better(k: int, nis: float, best_k: int, best_nis: float) -> bool:
     return k > best_k or (k == best_k and nis < best_nis)
 
 
-def _dives(args: tuple, max_nodes: int) -> tuple:
-    """Steps 1 and 2: (features, landmarks, NIS) of the best dive, nodes used, history."""
-    candidates = np.flatnonzero(args[0].any(axis=0))
-    feats, lms, nis, surest = classic_dive(*args, candidates)
-    history = [(0, len(lms), float(nis))]
-    nodes = len(candidates)
-    if nodes + len(candidates) <= max_nodes:
-        f2, l2, nis2 = greedy_dive(*args, candidates)
-        nodes += len(candidates)
-        if _better(len(l2), nis2, len(lms), nis):
-            feats, lms, nis = f2, l2, nis2
-            history.append((nodes, len(lms), float(nis)))
+class _Incumbent:
+    """The best hypothesis so far (features, landmarks, NIS), the nodes spent and the history of
+    improvements ``(nodes, pairings, NIS)``."""
+
+    def __init__(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
+        self.feats, self.lms, self.nis, self.nodes = feats, lms, float(nis), nodes
+        self.history = [(0, len(lms), float(nis))]
+
+    def offer(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
+        """Count ``nodes`` spent finding a hypothesis; keep it if it is better."""
+        self.nodes += nodes
+        if _better(len(lms), nis, len(self.lms), self.nis):
+            self.feats, self.lms, self.nis = feats, lms, float(nis)
+            self.history.append((self.nodes, len(lms), float(nis)))
+
+    def search(self, args: tuple, budget: int, prefix_test: bool) -> bool:
+        """Branch and bound from the incumbent with ``budget`` nodes; True if it timed out."""
+        feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(*args, budget, prefix_test, self.feats,
+                                                                       self.lms, self.nis)
+        self.history += [(self.nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
+        self.feats, self.lms, self.nis = feats, lms, self.history[-1][2]
+        self.nodes += min(int(used), max(budget, 0))
+        return bool(timed_out)
+
+
+def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: _Incumbent, max_nodes: int,
+                 restarts) -> None:
+    """Step 2: the greedy dive, the reordered dives and the restarts, each while the budget lasts."""
+    if best.nodes + len(candidates) <= max_nodes:
+        best.offer(*greedy_dive(*args, candidates), len(candidates))
     for _ in range(REORDERED_DIVES):
-        if nodes + len(candidates) > max_nodes:
+        if best.nodes + len(candidates) > max_nodes:
             break
-        f2, l2, nis2, surest = classic_dive(*args, candidates[np.argsort(surest[candidates, 0], kind="stable")])
-        nodes += len(candidates)
-        if _better(len(l2), nis2, len(lms), nis):
-            feats, lms, nis = f2, l2, nis2
-            history.append((nodes, len(lms), float(nis)))
-    return feats, lms, nis, nodes, history
+        feats, lms, nis, surest = classic_dive(*args, candidates[np.argsort(surest[candidates, 0], kind="stable")])
+        best.offer(feats, lms, nis, len(candidates))
+    if restarts is not None and best.nodes < max_nodes:
+        best.offer(*restarts())
