@@ -22,7 +22,7 @@ from _util import print_table, summary_ms, time_call
 from assocbench import Problem, make_associator
 from assocbench.association.compatibility import individually_compatible, jointly_compatible
 from assocbench.association.problem import pairs_of
-from assocbench.associators.jcbb import JCBB
+from assocbench.associators.jcbb import default_budget
 from assocbench.associators.registry import BUILTINS
 from assocbench.belief.synthetic import range_bearing_problem
 
@@ -71,11 +71,12 @@ def plot_cases(path: str) -> None:
         d = np.load(CASES / name)
         problem = Problem(z=d["z"], R=d["R"], zhat=d["zhat"], P=d["P"], volume=float(d["volume"]),
                           angular=tuple(int(a) for a in d["angular"]))
-        for budget in (JCBB.max_nodes, 10 * JCBB.max_nodes):    # the default and ten times it
+        default = default_budget(int(individually_compatible(problem).any(axis=0).sum()))
+        for budget in (default, 10 * default):
             jcbb = make_associator("jcbb", max_nodes=budget)
             jcbb.associate(problem)
             nodes, k, _ = zip(*jcbb.info["history"], (jcbb.info["nodes"], jcbb.info["history"][-1][1], 0))
-            ax.step(nodes, k, where="post", label=f"max_nodes {budget}")
+            ax.step(nodes, k, where="post", label=f"max_nodes {budget}" + (" (default)" if budget == default else ""))
         ax.set(title=name, xlabel="nodes (dives and search)", ylabel="pairings of the incumbent", xscale="symlog")
         ax.grid(alpha=0.3)
         ax.legend()

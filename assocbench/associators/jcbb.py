@@ -14,6 +14,7 @@ from .jcbb_dive import classic_dive, greedy_dive
 from .jcbb_search import jcbb_search
 
 REORDERED_DIVES = 4   # each ordered by the previous dive's answer; the class docstring has the measurement
+BUDGET_WORK, MIN_BUDGET, MAX_BUDGET = 320_000, 2_000, 20_000   # default_budget
 QUICK_NODES = 200     # a first exact search from the classic dive proves most problems up to n ≈ 40 alone
 
 
@@ -76,10 +77,11 @@ class JCBB(Associator):
     it 2-4× slower per node with no more pairings at n = 40-320.
 
     confidence: individual and joint gate ``c``.
-    max_nodes: node budget of steps 2 and 3 (a dive counts one node per landmark it visits, the
-        restarts their search nodes and one per feature each completion visits), checked
-        before each step (a step started is finished); when spent, the incumbent is returned
-        and ``info["timed_out"]`` is True. 2500 keeps n = 160 within 50 ms (median).
+    max_nodes: node budget after the classic dive (a dive counts one node per landmark it
+        visits, the restarts their search nodes and one per feature each completion visits),
+        checked before each step (a step started is finished); when spent, the incumbent is
+        returned and ``info["timed_out"]`` is True. None (the default): ``default_budget``, which
+        shrinks as the candidates grow, since a node's cost grows with them.
     prefix_test: apply the joint test to every partial hypothesis (classic JCBB).
 
     ``info``: ``timed_out``, ``proven_optimal``, ``nodes`` (dives and search), ``dive_pairings``
@@ -90,7 +92,7 @@ class JCBB(Associator):
     name = "jcbb"
     summary = "joint compatibility branch and bound: most jointly compatible pairings, then lowest NIS"
     confidence: float = field(default=0.99, metadata=CONFIDENCE)
-    max_nodes: int = field(default=2_500, metadata=in_range(1))
+    max_nodes: int | None = field(default=None, metadata=in_range(1))
     prefix_test: bool = False
 
     def associate(self, problem: Problem) -> np.ndarray:
@@ -101,7 +103,8 @@ class JCBB(Associator):
         ic = individually_compatible(problem, self.confidence)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
                 joint_gates(problem.d, problem.n, self.confidence))
-        feats, lms, self.info = anytime_jcbb(args, int(self.max_nodes), bool(self.prefix_test),
+        budget = default_budget(int(ic.any(axis=0).sum())) if self.max_nodes is None else int(self.max_nodes)
+        feats, lms, self.info = anytime_jcbb(args, budget, bool(self.prefix_test),
                                              restarts=lambda: self._restarts(problem))
         out[lms] = feats
         return out
@@ -117,6 +120,17 @@ class JCBB(Associator):
         lms = np.flatnonzero(answer >= 0)
         nodes = rjc.info["nodes"] + rjc.info["iterations"] * problem.m
         return answer[lms], lms, joint_nis(problem, answer), nodes
+
+
+def default_budget(candidates: int) -> int:
+    """Default node budget for ``candidates`` landmarks with an individually compatible feature:
+    ``BUDGET_WORK / candidates`` within [``MIN_BUDGET``, ``MAX_BUDGET``]. A node's cost grows
+    about linearly with the candidates (forward checking, the factor's columns), so this keeps
+    the budget's time roughly level: about 2100 nodes at n = 160 (median 47 ms, within the
+    50 ms target; 400 000 / n gave 51 ms), 8000 at n = 40, and never fewer than 2000, so that
+    every start of step 2 fits at n = 320 (``benchmarks/jcbb_anytime.py``). On the camera
+    leaderboard it proves 98 % of the corridor/hard frames, where a fixed 2500 proved 6 %."""
+    return int(min(MAX_BUDGET, max(MIN_BUDGET, BUDGET_WORK // max(candidates, 1))))
 
 
 def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
