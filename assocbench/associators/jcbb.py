@@ -13,9 +13,10 @@ from .base import CONFIDENCE, Associator
 from .jcbb_dive import classic_dive, greedy_dive
 from .jcbb_search import jcbb_search
 
-REORDERED_DIVES = 4   # each ordered by the previous dive's answer; the class docstring has the measurement
+REORDERED_DIVES = 3   # each ordered by the previous dive's answer; the class docstring has the measurement
 BUDGET_WORK, MIN_BUDGET, MAX_BUDGET = 320_000, 2_000, 20_000   # default_budget
-QUICK_NODES = 200     # a first exact search from the classic dive proves most problems up to n ≈ 40 alone
+QUICK_NODES = 200     # a first exact search from the classic dive proves most problems up to n ≈ 40 alone;
+QUICK_MAX_CANDIDATES = 100   # beyond, it proves none (0 of 20 at n = 160) and costs ~5 ms there
 
 
 @dataclass
@@ -29,8 +30,9 @@ class JCBB(Associator):
     1. **The classic first dive** (``jcbb_dive.classic_dive``): landmarks in index order, each
        takes the pairing with the smallest joint NIS increase that passes the prefix test, or
        none. Always run in full, so the answer is never worse than classic JCBB's first dive.
-       Then a short exact search from it (``QUICK_NODES``): it proves most problems up to
-       n ≈ 40 alone (all 20 at n = 40), which then skip step 2 (n = 10: 0.1 ms, not 0.66).
+       Then, up to ``QUICK_MAX_CANDIDATES``, a short exact search from it (``QUICK_NODES``): it
+       proves most problems up to n ≈ 40 alone (all 20 at n = 40), which then skip step 2
+       (n = 10: 0.08 ms, not 0.66).
     2. **More starts**, each kept if it beats the incumbent: a global greedy dive (of all free
        pairings, the smallest NIS increase that passes the prefix test, until none does;
        ``jcbb_dive.greedy_dive``); ``REORDERED_DIVES`` classic dives, each with the landmarks
@@ -46,8 +48,8 @@ class JCBB(Associator):
        does not improve left 3 at n = 320; chaining 8 left 1 (SNN's 256 against 253), which the
        greedy dive closed; RJC's answers (merged later) then beat it by one pairing on 4
        problems at n = 160-320, which the restarts closed (so JCBB is never below RJC with the
-       same seed, by construction). Four reordered dives with the restarts lose nothing
-       against eight and keep n = 160 within 50 ms.
+       same seed, by construction). Three reordered dives with the restarts lose nothing
+       against eight and keep n = 160 within 50 ms (medians 30-48 ms over runs of the benchmarks).
     3. **Branch and bound** (compiled, ``jcbb_search``) from the incumbent with the remaining
        node budget. Each node takes the remaining landmark with the fewest feasible features
        (ties: the smallest least NIS increase) and tries, in order, the pairings that keep the
@@ -142,7 +144,8 @@ def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
     candidates = np.flatnonzero(args[0].any(axis=0))
     feats, lms, nis, surest = classic_dive(*args, candidates)
     best = _Incumbent(feats, lms, nis, len(candidates))
-    timed_out = best.search(args, min(QUICK_NODES, max_nodes - best.nodes), prefix_test)
+    quick = QUICK_NODES if len(candidates) <= QUICK_MAX_CANDIDATES else 0
+    timed_out = best.search(args, min(quick, max_nodes - best.nodes), prefix_test)
     if timed_out:
         _more_starts(args, candidates, surest, best, max_nodes, restarts)
         timed_out = best.search(args, max_nodes - best.nodes, prefix_test)
