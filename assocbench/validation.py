@@ -48,6 +48,9 @@ def describe_range(lo, hi, lo_open: bool = False, hi_open: bool = False) -> str:
     return "finite"
 
 
+INT_LIMIT = 10**15   # an integer setting beyond this cannot be meant, and overflows the kernels' int64
+
+
 def check_number(value: Any, key: str, *, integer: bool = False, lo=None, hi=None, lo_open: bool = False,
                  hi_open: bool = False) -> Number:
     """``value`` if it is a finite real number (an integer when ``integer``) inside the range, else a
@@ -59,6 +62,8 @@ def check_number(value: Any, key: str, *, integer: bool = False, lo=None, hi=Non
         raise UserError(f"{expect}, got {value!r}")
     if integer and not isinstance(value, int):
         raise UserError(f"{expect}, got {value!r}")
+    if integer and abs(value) > INT_LIMIT:   # compiled kernels take 64-bit integers
+        raise UserError(f"{expect} of at most {INT_LIMIT:.0e} in size, got {value!r}")
     if not math.isfinite(value):
         raise UserError(f"{expect}, got {value!r}")
     below = lo is not None and (value <= lo if lo_open else value < lo)

@@ -84,8 +84,8 @@ def test_never_worse_than_the_classic_dive_whatever_the_budget(max_nodes):
         k = int(np.sum(out >= 0))
         assert jointly_compatible(problem, out)
         assert k >= jcbb.info["dive_pairings"]
-        # the budget is checked before each step: at most one step (a dive, the restarts) overruns it
-        assert jcbb.info["nodes"] <= max_nodes + max(problem.m * 12, problem.n)
+        # only the classic dive runs whatever the budget; the restarts may add their small sample searches
+        assert jcbb.info["nodes"] <= max(max_nodes, problem.n) + 200
         if jcbb.info["timed_out"]:
             assert not jcbb.info["proven_optimal"]
 
@@ -95,7 +95,7 @@ def test_history_is_the_anytime_curve():
     jcbb = make_associator("jcbb")
     out = jcbb.associate(problem)
     history = jcbb.info["history"]
-    assert history[0][:2] == (0, jcbb.info["dive_pairings"])
+    assert history[0][1] == jcbb.info["dive_pairings"] and history[0][0] == np.sum(individually_compatible(problem).any(axis=0))
     for (n0, k0, nis0), (n1, k1, nis1) in zip(history, history[1:]):
         assert n1 >= n0 and (k1 > k0 or (k1 == k0 and nis1 < nis0))
     assert history[-1][1] == int(np.sum(out >= 0))

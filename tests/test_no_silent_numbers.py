@@ -62,6 +62,7 @@ def test_limits_can_be_raised():
 @pytest.mark.parametrize("method,params", [
     ("mnn", {"confidence": 1.5}), ("jcbb", {"max_nodes": -5}), ("enn", {"gate": float("nan")}),
     ("ml", {"log_alpha": "x"}), ("lsa", {"threshold": float("inf")}), ("snn", {"confidence": 0}),
+    ("ccda", {"max_nodes": 10**20}), ("jpda", {"max_events": 10**20}), ("rjc", {"seed": 2**64}),
 ])
 def test_method_parameters_are_checked_when_the_method_is_built(method, params):
     with pytest.raises(UserError, match=f"params.{next(iter(params))}"):

@@ -77,11 +77,11 @@ def test_a_sample_of_every_feature_is_jcbb():
 
 
 def test_ransac_count_is_the_papers():
-    """t = ceil(log(1 - P_success) / log(1 - P_good^b)): 9 tries for 0.99, 0.8 and b = 4."""
-    assert ransac_iterations(0.99, 0.8, 4) == 9
-    assert ransac_iterations(0.99, 0.8, 1) == 3
-    assert ransac_iterations(0.99, 1.0, 4) == 1
-    assert [ransac_iterations(0.99, 0.8, b) for b in range(1, 8)] == sorted(ransac_iterations(0.99, 0.8, b)
+    """t = ceil(log P_fail / log(1 - P_good^b)): 9 tries for P_fail 0.01, P_good 0.8 and b = 4."""
+    assert ransac_iterations(0.01, 0.8, 4) == 9
+    assert ransac_iterations(0.01, 0.8, 1) == 3
+    assert ransac_iterations(0.01, 1.0, 4) == 1
+    assert [ransac_iterations(0.01, 0.8, b) for b in range(1, 8)] == sorted(ransac_iterations(0.01, 0.8, b)
                                                                             for b in range(1, 8))
 
 
@@ -111,8 +111,8 @@ def test_iteration_cap_is_reported_as_timed_out():
     ({"iterations": 0}, "params.iterations must be an integer >= 1, got 0"),
     ({"iterations": 2.5}, "params.iterations must be an integer >= 1, got 2.5"),
     ({"sample_size": 0}, "params.sample_size must be an integer >= 1, got 0"),
-    ({"p_success": 1.0}, "params.p_success must be a finite number in (0, 1), got 1.0"),
-    ({"p_fail": 1.0}, "params.p_fail must be a finite number in [0, 1), got 1.0"),
+    ({"p_fail": 0.0}, "params.p_fail must be a finite number in (0, 1), got 0.0"),
+    ({"p_good": 0.0}, "params.p_good must be a finite number in (0, 1], got 0.0"),
     ({"max_iterations": 0}, "params.max_iterations must be an integer >= 1, got 0"),
     ({"seed": -1}, "params.seed must be an integer >= 0, got -1"),
     ({"confidence": 1.0}, "params.confidence must be a finite number in (0, 1), got 1.0"),

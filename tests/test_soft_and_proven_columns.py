@@ -62,3 +62,19 @@ def test_a_soft_method_with_bad_marginals_fails_its_frames(tmp_path, monkeypatch
     assert shape["error"].str.contains(r"info\['marginals'\] of shape").all()
     rows = records("bad_soft:NotNormalised")
     assert rows["error"].str.contains("must sum to 1").all() and rows["true_mass"].isna().all()
+
+
+def test_a_truthy_soft_flag_is_soft_and_proven_must_be_a_bool(tmp_path, monkeypatch):
+    (tmp_path / "odd_flags.py").write_text(
+        "import numpy as np\nfrom assocbench import Associator\n"
+        "class SoftOne(Associator):\n    soft = 1\n"
+        "    def associate(self, problem):\n"
+        "        self.info = {}\n"
+        "        return np.full(problem.n, -1)\n"
+        "class ProvenString(Associator):\n"
+        "    def associate(self, problem):\n"
+        "        self.info = {'proven_optimal': 'false'}\n"
+        "        return np.full(problem.n, -1)\n")
+    monkeypatch.syspath_prepend(str(tmp_path))
+    assert records("odd_flags:SoftOne")["error"].str.contains("must set info\\['marginals'\\]").all()
+    assert records("odd_flags:ProvenString")["error"].str.contains("must be True, False or absent").all()

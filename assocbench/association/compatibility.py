@@ -365,9 +365,12 @@ def difference_nis(problem: Problem, pairs: np.ndarray, others: np.ndarray) -> n
     usual factor ``L D^½``).
 
     ``Δ`` is the measured minus the predicted displacement between the two landmarks: an error
-    common to both predictions (the vehicle's pose error, a common shift) cancels from ``Δ``
-    and, through the cross blocks ``P_jj'``, from ``S_Δ``; the measurement noises are
-    independent and add. Under the hypothesis that both pairings are right, ``NIS_Δ`` is
+    that moves both predictions alike in measurement space (a common shift, such as a heading
+    error in bearings) cancels from ``Δ`` and, through the cross blocks ``P_jj'``, from
+    ``S_Δ``; the part of a pose error that moves them differently (a translation changes two
+    ranges and bearings by different amounts) stays, and ``S_Δ`` accounts for it through ``P``.
+    Unlike the distance between two points, ``Δ`` is not invariant to every rigid motion. The
+    measurement noises are independent and add. Under the hypothesis that both pairings are right, ``NIS_Δ`` is
     χ²_d-distributed (to first order). Returns (q,) values; inf where ``S_Δ`` is singular.
     """
     a = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)

@@ -15,7 +15,9 @@ constraints are stated in measurement space (``association.compatibility``):
   ``Δ = wrap((z_i - z_i') - (zhat_j - zhat_j'))`` with covariance
   ``S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i'``, passes ``NIS_Δ = |L⁻¹Δ|² <= χ²_d(c)``
   (``difference_nis``). Like Bailey's test of the distance between two points, it is blind to
-  an error common to both predictions (the vehicle's pose error).
+  an error that shifts both predictions alike (in bearings, a heading error); unlike it, not
+  to every rigid motion: what a pose error does differently to the two predictions stays in
+  ``Δ`` and is weighed by ``S_Δ``, which carries it through ``P``.
 
 The binary constraint needs no pose, so the unary gate may be dropped (``unary=False``: every
 pair is a vertex): Bailey's point that CCDA associates with no pose prior at all.
@@ -180,7 +182,7 @@ class CCDA(Associator):
     each its own branch. So the tie rule is local and cheap: from the clique found, swap one
     pairing (or two) for pairings consistent with all the others while that lowers the
     clique's total binary NIS (``swap_descent``). The total is, like the binary test, blind to a
-    common error, so the rule holds with ``unary=False`` too. Deterministic.
+    common shift, so the rule holds with ``unary=False`` too. Deterministic.
 
     The clique is returned as it is, as in Bailey's CCDA: it is not put to the joint
     compatibility test, and a pairwise consistent set need not be jointly compatible. (Nor is

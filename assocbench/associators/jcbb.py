@@ -14,7 +14,7 @@ from .jcbb_dive import classic_dive, greedy_dive
 from .jcbb_search import jcbb_search
 
 REORDERED_DIVES = 3   # each ordered by the previous dive's answer; the class docstring has the measurement
-BUDGET_WORK, MIN_BUDGET, MAX_BUDGET = 320_000, 2_000, 20_000   # default_budget
+BUDGET_WORK, START_NODES, MAX_BUDGET = 320_000, 12, 20_000   # default_budget
 QUICK_NODES = 200     # a first exact search from the classic dive proves most problems up to n ≈ 40 alone;
 QUICK_MAX_CANDIDATES = 100   # beyond, it proves none (0 of 20 at n = 160) and costs ~5 ms there
 
@@ -79,16 +79,19 @@ class JCBB(Associator):
     it 2-4× slower per node with no more pairings at n = 40-320.
 
     confidence: individual and joint gate ``c``.
-    max_nodes: node budget after the classic dive (a dive counts one node per landmark it
-        visits, the restarts their search nodes and one per feature each completion visits),
-        checked before each step (a step started is finished); when spent, the incumbent is
+    max_nodes: node budget (a dive counts one node per landmark it visits, the restarts their
+        search nodes and one per feature each completion visits). The classic dive always runs;
+        every later step starts only if the budget has room for it (the restarts run as many
+        RANSAC iterations as it has room for; a step started is finished, so the total can
+        exceed the budget by the restarts' small sample searches); when spent, the incumbent is
         returned and ``info["timed_out"]`` is True. None (the default): ``default_budget``, which
         shrinks as the candidates grow, since a node's cost grows with them.
     prefix_test: apply the joint test to every partial hypothesis (classic JCBB).
 
-    ``info``: ``timed_out``, ``proven_optimal``, ``nodes`` (dives and search), ``dive_pairings``
-    (the classic dive's count), ``history`` (one ``(nodes, pairings, NIS)`` per improvement of
-    the incumbent, the classic dive first: the anytime curve).
+    ``info``: ``timed_out``, ``proven_optimal``, ``nodes`` (dives, restarts and search),
+    ``dive_pairings`` (the classic dive's count), ``history`` (one ``(nodes, pairings, NIS)``
+    per improvement of the incumbent, nodes counted so far, the classic dive first: the
+    anytime curve).
     """
 
     name = "jcbb"
@@ -107,17 +110,20 @@ class JCBB(Associator):
                 joint_gates(problem.d, problem.n, self.confidence))
         budget = default_budget(int(ic.any(axis=0).sum())) if self.max_nodes is None else int(self.max_nodes)
         feats, lms, self.info = anytime_jcbb(args, budget, bool(self.prefix_test),
-                                             restarts=lambda: self._restarts(problem))
+                                             restarts=lambda budget: self._restarts(problem, budget))
         out[lms] = feats
         return out
 
-    def _restarts(self, problem: Problem) -> tuple[np.ndarray, np.ndarray, float, int]:
+    def _restarts(self, problem: Problem, budget: int) -> tuple[np.ndarray, np.ndarray, float, int] | None:
         """RANSAC restarts at the shallow levels: RJC's hypothesis (exact search on random samples
-        of 4 features, then a jointly compatible completion), seeded: (features, landmarks, NIS,
-        nodes: its search nodes plus one per feature each completion visits)."""
+        of 4 features, then a jointly compatible completion), seeded, with as many iterations as
+        ``budget`` has room for at one node per feature a completion visits: (features,
+        landmarks, NIS, nodes: its search nodes plus those), or None when not even one fits."""
         from .rjc import RJC
 
-        rjc = RJC(confidence=self.confidence)
+        if budget < problem.m:
+            return None
+        rjc = RJC(confidence=self.confidence, max_iterations=budget // problem.m)
         answer = rjc.associate(problem)
         lms = np.flatnonzero(answer >= 0)
         nodes = rjc.info["nodes"] + rjc.info["iterations"] * problem.m
@@ -126,21 +132,25 @@ class JCBB(Associator):
 
 def default_budget(candidates: int) -> int:
     """Default node budget for ``candidates`` landmarks with an individually compatible feature:
-    ``BUDGET_WORK / candidates`` within [``MIN_BUDGET``, ``MAX_BUDGET``]. A node's cost grows
-    about linearly with the candidates (forward checking, the factor's columns), so this keeps
-    the budget's time roughly level: about 2100 nodes at n = 160 (median 47 ms, within the
-    50 ms target; 400 000 / n gave 51 ms), 8000 at n = 40, and never fewer than 2000, so that
-    every start of step 2 fits at n = 320 (``benchmarks/jcbb_anytime.py``). On the camera
-    leaderboard it proves 98 % of the corridor/hard frames, where a fixed 2500 proved 6 %."""
-    return int(min(MAX_BUDGET, max(MIN_BUDGET, BUDGET_WORK // max(candidates, 1))))
+    ``BUDGET_WORK / candidates``, but room for every start of step 3 at least
+    (``START_NODES × candidates``: five dives and about seven RANSAC iterations at one node
+    per landmark or feature), and at most ``MAX_BUDGET``. A node's cost grows about linearly
+    with the candidates (forward checking, the factor's columns), so this keeps the budget's
+    time roughly level: about 2100 nodes at n = 160 (medians 31-48 ms over runs of
+    ``benchmarks/jcbb_anytime.py``, within the 50 ms target; 400 000 / n gave 51 ms), 8000 at
+    n = 40, 3600 at n = 320 (where fewer left the restarts too few iterations: 2 problems fell
+    short of SNN's or RJC's answer). On the camera leaderboard it proves 98 % of the
+    corridor/hard frames, where a fixed 2500 proved 6 %."""
+    return int(min(MAX_BUDGET, max(START_NODES * candidates, BUDGET_WORK // max(candidates, 1))))
 
 
 def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
                  restarts=None) -> tuple[np.ndarray, np.ndarray, dict]:
     """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
-    (features, landmarks of the answer, ``info``). ``restarts()``, when given and the budget
-    allows, returns one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)``
-    to start from. RJC calls this on its samples' sub-problems (without restarts)."""
+    (features, landmarks of the answer, ``info``). ``restarts(budget)``, when given, returns
+    one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)`` to start from,
+    found within about ``budget`` nodes, or None. RJC calls this on its samples' sub-problems
+    (without restarts)."""
     candidates = np.flatnonzero(args[0].any(axis=0))
     feats, lms, nis, surest = classic_dive(*args, candidates)
     best = _Incumbent(feats, lms, nis, len(candidates))
@@ -164,7 +174,7 @@ class _Incumbent:
 
     def __init__(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
         self.feats, self.lms, self.nis, self.nodes = feats, lms, float(nis), nodes
-        self.history = [(0, len(lms), float(nis))]
+        self.history = [(nodes, len(lms), float(nis))]
 
     def offer(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
         """Count ``nodes`` spent finding a hypothesis; keep it if it is better."""
@@ -193,5 +203,6 @@ def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: 
             break
         feats, lms, nis, surest = classic_dive(*args, candidates[np.argsort(surest[candidates, 0], kind="stable")])
         best.offer(feats, lms, nis, len(candidates))
-    if restarts is not None and best.nodes < max_nodes:
-        best.offer(*restarts())
+    found = restarts(max_nodes - best.nodes) if restarts is not None else None
+    if found is not None:
+        best.offer(*found)

@@ -39,16 +39,16 @@ from .jcbb import anytime_jcbb
 from .rjc_kernels import adjacency, complete, make_work
 
 
-def ransac_iterations(p_success: float, p_good: float, sample_size: int) -> int:
-    """``ceil(log(1 - p_success) / log(1 - p_good^b))``: iterations after which a sample of ``b``
-    good features has been drawn with probability ``p_success`` (at least 1; a huge number when
+def ransac_iterations(p_fail: float, p_good: float, sample_size: int) -> int:
+    """``ceil(log(P_fail) / log(1 - P_good^b))``: iterations after which a sample of ``b`` good
+    features has been drawn with probability ``1 - P_fail`` (at least 1; a huge number when
     ``p_good^b`` underflows, to be capped by the caller)."""
     clean = p_good ** sample_size
     if clean >= 1.0:
         return 1
     if clean <= 0.0:
         return 2**62
-    return max(1, math.ceil(math.log1p(-p_success) / math.log1p(-clean)))
+    return max(1, math.ceil(math.log(p_fail) / math.log1p(-clean)))
 
 
 @dataclass
@@ -72,16 +72,17 @@ class RJC(Associator):
     pairings at best with a NIS already no lower) is abandoned: it would not be kept. When
     ``N ≤ sample_size`` the one sample is every feature and the answer is JCBB's.
 
-    Shipped values are the paper's, as we recall them: acceptable failure probability 0.01
-    (``p_success = 0.99``), initial good-feature probability 0.8 (``p_fail = 0.2``) and
+    Shipped values are the paper's, as we recall them, under the paper's names: acceptable
+    failure probability ``p_fail = 0.01``, initial good-feature probability ``p_good = 0.8`` and
     ``b = 4``, so ``t = 9`` before adapting; on range-bearing problems with 20 % clutter the
     adapted count is about 4 (``benchmarks/rjc_scale.py``). ``max_iterations = 100`` only binds
-    when ``p_fail`` is raised (``t`` ≤ 9 with the shipped values).
+    when ``p_good`` is lowered (``t`` ≤ 9 with the shipped values).
 
     confidence: individual and joint gates ``χ²_{dk}(c)``.
     sample_size: features per sample ``b``.
-    p_success: wanted probability that some sample was clean.
-    p_fail: prior probability that a feature is spurious or mismatched (``1 - P_good``).
+    p_fail: acceptable probability that no sample was clean (the paper's ``P_fail``).
+    p_good: prior probability that a feature is good, neither spurious nor mismatched (the
+        paper's ``P_good``; raised to the best hypothesis' share as the loop runs).
     iterations: a fixed number of iterations; None adapts ``t`` as above.
     max_iterations: cap on the adaptive count (a fixed ``iterations`` is not capped).
     max_nodes: node budget of each sample's JCBB.
@@ -96,8 +97,8 @@ class RJC(Associator):
     summary = "randomised joint compatibility: RANSAC over features, JCBB on each sample, joint NN completion"
     confidence: float = field(default=0.99, metadata=CONFIDENCE)
     sample_size: int = field(default=4, metadata=in_range(1))
-    p_success: float = field(default=0.99, metadata=in_range(0, 1, lo_open=True, hi_open=True))
-    p_fail: float = field(default=0.2, metadata=in_range(0, 1, hi_open=True))
+    p_fail: float = field(default=0.01, metadata=in_range(0, 1, lo_open=True, hi_open=True))
+    p_good: float = field(default=0.8, metadata=in_range(0, 1, lo_open=True))
     iterations: int | None = field(default=None, metadata=in_range(1))
     max_iterations: int = field(default=100, metadata=in_range(1))
     max_nodes: int = field(default=10_000, metadata=in_range(1))
@@ -130,7 +131,7 @@ class RJC(Associator):
             required = 1                                   # the sample is every feature: JCBB
         else:
             required = int(self.iterations) if self.iterations is not None else \
-                ransac_iterations(self.p_success, 1.0 - self.p_fail, b)
+                ransac_iterations(self.p_fail, self.p_good, b)
         cap = self.max_iterations if adaptive else required
         wrap, gate = wrap_mask(problem), joint_gates(problem.d, problem.n, self.confidence)
         work = make_work(problem.n, problem.d)
@@ -150,7 +151,7 @@ class RJC(Associator):
             if k > best_k or (k == best_k and k > 0 and nis < best_nis):
                 best_k, best_nis, best = k, nis, (pairs[0][:k].copy(), pairs[1][:k].copy())
             if adaptive:
-                required = ransac_iterations(self.p_success, max(1.0 - self.p_fail, best_k / gated.size), b)
+                required = ransac_iterations(self.p_fail, max(self.p_good, best_k / gated.size), b)
         return *best, nodes, timed_out, ran, required
 
 

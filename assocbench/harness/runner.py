@@ -88,9 +88,11 @@ def method_diagnostics(associator, problem: Problem) -> dict:
     soft associator, its ``marginals`` (validated: ``soft_marginals``)."""
     info = getattr(associator, "info", None) or {}
     proven = info.get("proven_optimal")
+    if proven is not None and not isinstance(proven, (bool, np.bool_)):
+        raise ValueError(f"info['proven_optimal'] must be True, False or absent, got {proven!r}")
     out = {"timed_out": bool(info.get("timed_out", False)),
-           "proven_optimal": float("nan") if proven is None else float(bool(proven))}
-    if getattr(associator, "soft", False) is True:
+           "proven_optimal": float("nan") if proven is None else float(proven)}
+    if getattr(associator, "soft", False):
         out["marginals"] = soft_marginals(info.get("marginals"), problem)
     return out
 
