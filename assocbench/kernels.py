@@ -11,7 +11,7 @@ which runs once per kernel and signature in a process, never inside the timed ca
   costs the caching, not the run.
 * ``warm(calls)`` runs calls that load or compile kernels (the harness warms the built-ins and
   the scoring once per process, ``sandbox.warm_builtins``). When one must be compiled (a cache
-  empty for this version of the sources, ~20 s), it says so on stderr: one line, a dot per
+  empty for this version of the sources, ~30 s), it says so on stderr: one line, a dot per
   compiled kernel, and the time it took. A warm cache prints nothing.
 """
 
@@ -86,12 +86,12 @@ def _compiling(cache) -> None:
     if _state["active"]:
         if _state["started"] is None:
             _state["started"] = time.perf_counter()
-            print(f"assocbench: compiling {_state['what']} (first run in this environment, ~20 s) ",
+            print(f"assocbench: compiling {_state['what']} (first run in this environment, ~30 s) ",
                   end="", file=sys.stderr, flush=True)
         print(".", end="", file=sys.stderr, flush=True)
     elif not _state["noted"] and _module(cache).startswith("assocbench"):
         _state["noted"] = True  # compiled outside warm(): a plain line, once
-        print("assocbench: compiling association kernels (first run in this environment, ~20 s)",
+        print("assocbench: compiling association kernels (first run in this environment, ~30 s)",
               file=sys.stderr, flush=True)
 
 

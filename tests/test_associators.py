@@ -174,3 +174,40 @@ def test_readme_python_example_runs_and_prints_what_it_says(capsys):
     block = next(b for b in re.findall(r"```python\n(.*?)```", readme, re.S) if "make_associator(\"jcbb\")" in b)
     exec(compile(block, "README.md", "exec"), {})
     assert capsys.readouterr().out.strip() == "[2 0]"
+
+
+WARM_CHECK = """
+import sys
+import numpy as np
+from numba.core.registry import CPUDispatcher
+from assocbench import make_associator
+from assocbench.belief.synthetic import camera_problem, range_bearing_problem
+from assocbench.harness.runner import private_copy, warm_up
+
+def signatures():
+    return {f"{name}.{attr}": len(obj.signatures) for name, mod in list(sys.modules.items())
+            if name.startswith("assocbench") for attr, obj in list(vars(mod).items()) if isinstance(obj, CPUDispatcher)}
+
+method = sys.argv[1]
+associator = make_associator(method)
+warm_up(associator)
+before = signatures()
+for seed, make in enumerate([range_bearing_problem, range_bearing_problem, camera_problem]):
+    problem, _ = make(np.random.default_rng(seed), n=60 + 40 * seed)
+    associator.associate(private_copy(problem))
+after = signatures()
+print(sorted(k for k, v in after.items() if v > before.get(k, 0)))
+"""
+
+
+@pytest.mark.parametrize("method", METHODS)
+def test_warm_up_loads_every_kernel_a_frame_uses(method):
+    """After the harness's warm-up on a tiny problem, real problems (n = 60-140, budgets spent,
+    large clusters) need no kernel it did not load: a cold cache's compile is never timed as a
+    frame's runtime. A fresh interpreter per method, so no other method's kernels hide a gap."""
+    import subprocess
+    import sys
+
+    out = subprocess.run([sys.executable, "-c", WARM_CHECK, method], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout

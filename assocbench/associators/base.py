@@ -44,6 +44,13 @@ class Associator:
     def associate(self, problem: Problem) -> np.ndarray:  # pragma: no cover - interface
         raise NotImplementedError
 
+    def warm_up(self, problem: Problem) -> None:
+        """Load every compiled kernel ``associate`` may use, on a tiny ``problem``, so that no
+        frame's runtime includes a compile. The default calls ``associate`` once; a method with
+        paths a tiny problem does not take (a budget's later steps, an approximation past a
+        size limit) overrides it to take them too."""
+        self.associate(problem)
+
     @staticmethod
     def empty(problem: Problem) -> np.ndarray:
         return np.full(problem.n, NO_MATCH, dtype=np.int64)

@@ -114,6 +114,18 @@ class JCBB(Associator):
         out[lms] = feats
         return out
 
+    def warm_up(self, problem: Problem) -> None:
+        """``associate``, then every step of the anytime search, which a tiny problem skips
+        (its quick search proves it), and the restarts' own kernels."""
+        from .rjc import RJC
+
+        self.associate(problem)
+        ic = individually_compatible(problem, self.confidence)
+        args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
+                joint_gates(problem.d, problem.n, self.confidence))
+        anytime_jcbb(args, 10_000, restarts=lambda budget: self._restarts(problem, budget), quick=False)
+        RJC(confidence=self.confidence).warm_up(problem)
+
     def _restarts(self, problem: Problem, budget: int) -> tuple[np.ndarray, np.ndarray, float, int] | None:
         """RANSAC restarts at the shallow levels: RJC's hypothesis (exact search on random samples
         of 4 features, then a jointly compatible completion), seeded, with as many iterations as
@@ -145,17 +157,18 @@ def default_budget(candidates: int) -> int:
 
 
 def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
-                 restarts=None) -> tuple[np.ndarray, np.ndarray, dict]:
+                 restarts=None, quick: bool = True) -> tuple[np.ndarray, np.ndarray, dict]:
     """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
     (features, landmarks of the answer, ``info``). ``restarts(budget)``, when given, returns
     one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)`` to start from,
-    found within about ``budget`` nodes, or None. RJC calls this on its samples' sub-problems
-    (without restarts)."""
+    found within about ``budget`` nodes, or None. ``quick=False`` skips the quick search (so
+    every step runs: ``JCBB.warm_up``). RJC calls this on its samples' sub-problems (without
+    restarts)."""
     candidates = np.flatnonzero(args[0].any(axis=0))
     feats, lms, nis, surest = classic_dive(*args, candidates)
     best = _Incumbent(feats, lms, nis, len(candidates))
-    quick = QUICK_NODES if len(candidates) <= QUICK_MAX_CANDIDATES else 0
-    timed_out = best.search(args, min(quick, max_nodes - best.nodes), prefix_test)
+    quick_nodes = QUICK_NODES if quick and len(candidates) <= QUICK_MAX_CANDIDATES else 0
+    timed_out = best.search(args, min(quick_nodes, max_nodes - best.nodes), prefix_test)
     if timed_out:
         _more_starts(args, candidates, surest, best, max_nodes, restarts)
         timed_out = best.search(args, max_nodes - best.nodes, prefix_test)

@@ -17,7 +17,7 @@ with ``N_ij = N(z_i; zhat_j, P_jj + R_i)`` (``pairwise_log_likelihood``'s terms,
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -108,6 +108,12 @@ class JPDA(Associator):
                      "events": int(events), "clusters": int(clusters), "largest_cluster": int(largest),
                      "bp_sweeps": int(sweeps)}
         return beta
+
+    def warm_up(self, problem: Problem) -> None:
+        """``associate``, then once with every cluster past the cut-over, so that loopy belief
+        propagation (which a tiny problem never needs) is compiled too."""
+        self.associate(problem)
+        replace(self, max_events=1).associate(problem)
 
     def associate(self, problem: Problem) -> np.ndarray:
         beta = self.marginals(problem)

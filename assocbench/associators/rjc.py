@@ -27,7 +27,7 @@ Where this differs from the paper, and why:
 from __future__ import annotations
 
 import math
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 
@@ -103,6 +103,12 @@ class RJC(Associator):
     max_iterations: int = field(default=100, metadata=in_range(1))
     max_nodes: int = field(default=10_000, metadata=in_range(1))
     seed: int = field(default=0, metadata=in_range(0))
+
+    def warm_up(self, problem: Problem) -> None:
+        """``associate``, then once with samples of one feature, so that the completion (which a
+        tiny problem's whole-problem sample skips) is compiled too."""
+        self.associate(problem)
+        replace(self, sample_size=1).associate(problem)
 
     def associate(self, problem: Problem) -> np.ndarray:
         out = self.empty(problem)
