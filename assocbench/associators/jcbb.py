@@ -144,7 +144,7 @@ class JCBB(Associator):
 
 def default_budget(candidates: int) -> int:
     """Default node budget for ``candidates`` landmarks with an individually compatible feature:
-    ``BUDGET_WORK / candidates``, but room for every start of step 3 at least
+    ``BUDGET_WORK / candidates``, but room for every start of step 2 at least
     (``START_NODES × candidates``: five dives and about seven RANSAC iterations at one node
     per landmark or feature), and at most ``MAX_BUDGET``. A node's cost grows about linearly
     with the candidates (forward checking, the factor's columns), so this keeps the budget's
