@@ -399,6 +399,14 @@ def _individual_terms(P, z, zhat, R, wrap, lms, feats):
 
 
 @njit(cache=True)
+def empty_factor(n, d):
+    """The incremental factor of the empty hypothesis over ``n`` landmarks of dimension ``d``, and
+    ``whitened_pair``'s work arrays: ``(Mt, w, C, G, S, y, L, w2)`` (zero factor and moments)."""
+    return (np.zeros((n * d, n * d)), np.zeros(n * d), np.zeros((n, d)), np.zeros((n, d, d)),
+            np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d))
+
+
+@njit(cache=True)
 def append_rows(Mt, w, kd, P, j, L, w2, cols):
     """Append the rows of a pairing with landmark ``j`` whose ``whitened_pair`` gave ``L``, ``w2``:
     ``M[kd:kd+d, l] = L⁻¹ (P[j, l] - Xᵀ M[:kd, l])`` for the landmarks ``l`` in ``cols`` (the only

@@ -20,7 +20,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import append_rows, conditional_moments, whitened_pair
+from ..association.compatibility import append_rows, conditional_moments, empty_factor, whitened_pair
 
 
 @njit(cache=True)
@@ -34,11 +34,7 @@ def classic_dive(ic, P, z, zhat, R, wrap, gate, order):
     ``ic`` (m, n) is the individual-compatibility mask, ``gate[k] = χ²_{dk}(c)``."""
     m, n = ic.shape
     d = z.shape[1]
-    Mt = np.zeros((n * d, n * d))
-    w = np.zeros(n * d)
-    C = np.zeros((n, d))
-    G = np.zeros((n, d, d))
-    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    Mt, w, C, G, S, y, L, w2 = empty_factor(n, d)
     free = np.ones(m, np.bool_)
     pair_i = np.empty(n, np.int64)
     pair_j = np.empty(n, np.int64)
@@ -82,11 +78,7 @@ def greedy_dive(ic, P, z, zhat, R, wrap, gate, candidates):
     order it never commits a landmark before a surer pairing elsewhere has pinned the pose."""
     m, n = ic.shape
     d = z.shape[1]
-    Mt = np.zeros((n * d, n * d))
-    w = np.zeros(n * d)
-    C = np.zeros((n, d))
-    G = np.zeros((n, d, d))
-    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    Mt, w, C, G, S, y, L, w2 = empty_factor(n, d)
     free = np.ones(m, np.bool_)
     open_lm = np.zeros(n, np.bool_)
     open_lm[candidates] = True

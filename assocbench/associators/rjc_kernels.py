@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import advance_moments, append_rows, whitened_pair
+from ..association.compatibility import advance_moments, append_rows, empty_factor, whitened_pair
 
 
 def adjacency(ic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -24,9 +24,9 @@ def adjacency(ic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 def make_work(n: int, d: int) -> tuple[np.ndarray, ...]:
     """Work arrays of one completion, reused across iterations: ``(Mt, w, C, G, S, y, L, w2)``
-    (the joint factor, the landmarks' conditional moments, ``whitened_pair``'s small arrays)."""
-    return (np.empty((n * d, n * d)), np.empty(n * d), np.zeros((n, d)), np.zeros((n, d, d)),
-            np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d))
+    (the joint factor, the landmarks' conditional moments, ``whitened_pair``'s small arrays;
+    ``compatibility.empty_factor``)."""
+    return empty_factor(n, d)
 
 
 @njit(cache=True)

@@ -7,8 +7,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, individually_compatible,
-                                         joint_gates, pairwise_nis, whitened_pair, wrap_mask)
+from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, empty_factor,
+                                         individually_compatible, joint_gates, pairwise_nis, whitened_pair,
+                                         wrap_mask)
 from ..association.problem import Problem
 from .base import CONFIDENCE, Associator
 
@@ -50,11 +51,7 @@ def snn_greedy(ic, P, z, zhat, R, wrap, gate, new_cost):
     no ``Δs`` is negative."""
     m, n = ic.shape
     d = z.shape[1]
-    Mt = np.zeros((n * d, n * d))
-    w = np.zeros(n * d)
-    C = np.zeros((n, d))
-    G = np.zeros((n, d, d))
-    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    Mt, w, C, G, S, y, L, w2 = empty_factor(n, d)
     open_f = np.ones(m, np.bool_)
     open_l = np.ones(n, np.bool_)
     pairs_i = np.empty(min(m, n), np.int64)
