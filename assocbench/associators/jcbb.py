@@ -214,7 +214,7 @@ def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: 
     for _ in range(REORDERED_DIVES):
         if best.nodes + len(candidates) > max_nodes:
             break
-        feats, lms, nis, surest = classic_dive(*args, candidates[np.argsort(surest[candidates, 0], kind="stable")])
+        feats, lms, nis, surest = classic_dive(*args, candidates[np.argsort(surest[candidates], kind="stable")])
         best.offer(feats, lms, nis, len(candidates))
     found = restarts(max_nodes - best.nodes) if restarts is not None else None
     if found is not None:

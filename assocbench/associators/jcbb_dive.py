@@ -56,17 +56,12 @@ def classic_dive(ic, P, z, zhat, R, wrap, gate, order):
         free[best_i] = False
         nis += best_dn
         k += 1
-    surest = np.full((n, 2), np.inf)
+    surest = np.full(n, np.inf)
     for j in order:
         conditional_moments(Mt, w, k * d, j, C[j], G[j])
         for i in range(m):
             if ic[i, j]:
-                dn = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
-                if dn < surest[j, 0]:
-                    surest[j, 1] = surest[j, 0]
-                    surest[j, 0] = dn
-                elif dn < surest[j, 1]:
-                    surest[j, 1] = dn
+                surest[j] = min(surest[j], whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0])
     return pair_i[:k], pair_j[:k], nis, surest
 
 

@@ -49,8 +49,11 @@ def warm_up(associator) -> None:
     cache, a plugin's own JIT) is not timed as the first frame's runtime. Errors are left to
     the real frames to report, ``SystemExit`` included; a user's interrupt is not swallowed."""
     try:
-        hook = getattr(associator, "warm_up", None)
-        hook(tiny_problem()) if callable(hook) else associator.associate(tiny_problem())
+        hook = getattr(associator, "warm_up", None)   # Associator subclasses have one; other plugins need not
+        if callable(hook):
+            hook(tiny_problem())
+        else:
+            associator.associate(tiny_problem())
     except BaseException as exc:  # noqa: BLE001
         if user_interrupt(exc):
             raise
