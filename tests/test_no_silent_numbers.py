@@ -278,3 +278,8 @@ def test_a_leaderboard_row_counts_failed_frames_over_all_seeds():
     row = leaderboard_table(pd.DataFrame(runs)).iloc[0]
     assert row["status"] == "12/12 frames failed; nothing associated in 2 of 2 seeds"
     assert np.isnan(row["precision"])   # NaN is kept, not averaged away
+
+
+def test_a_folder_given_as_config_is_named_as_a_folder(tmp_path):
+    with pytest.raises(UserError, match="is a folder; pass a YAML file"):
+        read_yaml(tmp_path)

@@ -66,6 +66,8 @@ class _UniqueKeyLoader(yaml.SafeLoader):
 def read_yaml(path: str | Path) -> dict:
     """Parse a YAML mapping, or raise a one-line ``UserError`` (duplicate keys included)."""
     path = Path(path)
+    if path.is_dir():
+        raise UserError(f"config file {path} is a folder; pass a YAML file")
     if not path.is_file():
         raise UserError(f"config file {path} not found; pass an existing YAML file")
     try:
