@@ -1,1 +1,2 @@
-"""Scoring: per-frame counts against the truth, and their aggregation into a summary."""
+"""Scoring: per-frame counts against the truth, their aggregation into a summary, and the
+accuracy and consistency of an estimated camera trajectory (``trajectory``)."""
