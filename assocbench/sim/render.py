@@ -80,6 +80,7 @@ class FrameRenderer:
             )
         self.scene = scene
         self.K = Intrinsics.from_fovy(width, height, scene.fovy)
+        self.far = float(scene.model.vis.map.zfar * scene.model.stat.extent)   # depth of "nothing hit"
         quality = scene.model.vis.quality
         own = quality.offsamples
         quality.offsamples = own if msaa is None else msaa   # read when the GL context is made

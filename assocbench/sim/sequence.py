@@ -35,7 +35,7 @@ from .trajectory import TRAJECTORIES, make_trajectory, rig_for
 from .truth import TruthConfig, label_features, visibility
 from .waypoints import file_digest, read_waypoints, user_keyframes, waypoint_path
 
-FORMAT_VERSION = 4  # 4: truth labels every imaged landmark, however oblique
+FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
 DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line"}
 
 
@@ -59,6 +59,7 @@ class SequenceSpec:
     detector: DetectorConfig = field(default_factory=DetectorConfig)
     truth: TruthConfig = field(default_factory=TruthConfig)
     keep_images: bool = False
+    feature_depth: bool = False             # render depth and keep its value at each feature (RGB-D)
 
     def resolved_trajectory(self) -> str:
         """The trajectory's name (the scene's default when None), checked; a waypoint file is
@@ -96,6 +97,7 @@ class Sequence:
     labels: list[np.ndarray]       # N x (m_k,) landmark index or -1
     visible: np.ndarray            # (N, L) truly visible: imaged, the only landmarks labels name
     projections: np.ndarray        # (N, L, 2) true projections
+    depths: list[np.ndarray] | None = None   # N x (m_k,) rendered z-depth at each feature, NaN where none
     images: np.ndarray | None = None
     from_cache: bool = False
 
@@ -112,6 +114,7 @@ class RenderedFrame:
     labels: np.ndarray       # (m,) landmark index or -1
     projections: np.ndarray  # (L, 2)
     visible: np.ndarray      # (L,) in front, in the image, front side towards the camera, unoccluded
+    depths: np.ndarray | None = None   # (m,) rendered z-depth at each feature (``feature_depth``)
 
 
 def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
@@ -125,11 +128,22 @@ def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.n
 def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: np.ndarray, p: np.ndarray,
                   k: int) -> RenderedFrame:
     """Render frame ``k`` at pose ``(R, p)``, detect its features and label them."""
-    frame = renderer.render(R, p, depth=spec.truth.occlusion == "depth")
+    frame = renderer.render(R, p, depth=spec.truth.occlusion == "depth" or spec.feature_depth)
     features = detect(frame["rgb"], spec.detector, np.random.default_rng([spec.seed, k, 11]))
     uv, visible = visibility(scene, R, p, renderer.K, spec.truth, frame.get("depth"))
     labels = label_features(features, uv, visible, spec.truth.gate_px)
-    return RenderedFrame(frame["rgb"], features, labels, uv, visible)
+    depths = depth_at(frame["depth"], features, renderer.far) if spec.feature_depth else None
+    return RenderedFrame(frame["rgb"], features, labels, uv, visible, depths)
+
+
+def depth_at(depth: np.ndarray, features: np.ndarray, far: float) -> np.ndarray:
+    """Rendered z-depth at each feature's nearest pixel (a depth sensor returns one surface's
+    value, not a blend across an edge); NaN where nothing was hit (the far plane) or the value is
+    not a positive finite number."""
+    cols = np.clip(np.rint(features[:, 0]).astype(int), 0, depth.shape[1] - 1)
+    rows = np.clip(np.rint(features[:, 1]).astype(int), 0, depth.shape[0] - 1)
+    z = depth[rows, cols].astype(np.float64)
+    return np.where(np.isfinite(z) & (z > 0) & (z < 0.999 * far), z, np.nan)
 
 
 def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
@@ -149,6 +163,7 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
     return Sequence(scene.name, K, scene.landmarks, scene.normals, scene.landmark_names, rots, pos,
                     [f.features for f in frames], [f.labels for f in frames],
                     np.array([f.visible for f in frames]), np.array([f.projections for f in frames]),
+                    [f.depths for f in frames] if spec.feature_depth else None,
                     np.array(images) if spec.keep_images else None)
 
 
@@ -167,6 +182,8 @@ def _save(seq: Sequence, path: Path, key: str) -> None:
     )
     if seq.images is not None:
         arrays["images"] = seq.images
+    if seq.depths is not None:
+        arrays["depths"] = np.concatenate(seq.depths) if counts.sum() else np.zeros(0)
     with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
         with open(tmp, "wb") as fh:
             np.savez_compressed(fh, **arrays)
@@ -195,7 +212,8 @@ def _load(path: Path, key: str, spec: SequenceSpec) -> Sequence:
             str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
             z["landmarks"], z["normals"], [str(n) for n in z["names"]], z["rotations"], z["positions"],
             np.split(z["features"], splits), np.split(z["labels"], splits), z["visible"],
-            z["projections"], z["images"] if "images" in z.files else None, from_cache=True,
+            z["projections"], np.split(z["depths"], splits) if "depths" in z.files else None,
+            z["images"] if "images" in z.files else None, from_cache=True,
         )
     _check_shapes(seq, counts, spec)
     return seq
@@ -213,7 +231,9 @@ def _check_shapes(seq: Sequence, counts: np.ndarray, spec: SequenceSpec) -> None
                 "features": (features.shape, (int(counts.sum()), 2)), "labels": (labels.shape, (int(counts.sum()),)),
                 "image size": ((seq.K.width, seq.K.height), (spec.width, spec.height)),
                 "images": (None if seq.images is None else seq.images.shape,
-                           (n, spec.height, spec.width, 3) if spec.keep_images else None)}
+                           (n, spec.height, spec.width, 3) if spec.keep_images else None),
+                "depths": (None if seq.depths is None else (sum(len(d) for d in seq.depths),),
+                           (int(counts.sum()),) if spec.feature_depth else None)}
     for name, (got, want) in expected.items():
         if got != want:
             raise _Unusable(f"{name} has shape {got}, expected {want}")

@@ -1,0 +1,128 @@
+"""The estimator interface of the closed loop, shared by every track.
+
+Each frame the harness calls, in this order::
+
+    estimator.predict(motion)            # k > 0: odometry increment and its covariance
+    problem = estimator.problem(frame)   # candidates predicted from the estimator's own mean and P
+    estimator.update(association)        # the method's pairings (n,) against problem's candidates
+    estimator.initialise(frame, unused)  # slam mode: unassociated features become landmarks
+
+and reads ``pose``, ``pose_covariance``, ``landmarks``, ``covariance`` and ``book`` (the map's
+bookkeeping). The estimator never sees the truth: the harness ties map entries to true
+landmarks on the side (``harness.loop_truth``).
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..association.problem import Problem
+
+TENTATIVE, CONFIRMED = 0, 1
+
+
+@dataclass(frozen=True)
+class Motion:
+    """An odometry increment in the previous pose's frame and the covariance the filter is told.
+    Camera track: ``increment = [Δp (3), Δθ (3)]`` with ``p' = p + R Δp``, ``R' = R Exp(Δθ)``."""
+
+    increment: np.ndarray
+    covariance: np.ndarray
+
+
+@dataclass(frozen=True)
+class FrameData:
+    """One frame's measurements: ``z`` (m, d), their noise ``R`` (m, d, d) and, for an RGB-D
+    camera, the measured depth at each feature (m,) (NaN where the sensor has none)."""
+
+    z: np.ndarray
+    R: np.ndarray
+    depth: np.ndarray | None = None
+
+
+@dataclass
+class LandmarkBook:
+    """Bookkeeping of the map, one entry per landmark in state order: a stable ``ids`` (map id,
+    what ``Problem.landmark_ids`` names), ``status`` (tentative or confirmed), how often each was
+    ``observed`` (associated; its creation counts once) and ``missed`` (predicted in view,
+    left unassociated), and the frame it was ``born``."""
+
+    ids: list[int] = field(default_factory=list)
+    status: list[int] = field(default_factory=list)
+    observed: list[int] = field(default_factory=list)
+    missed: list[int] = field(default_factory=list)
+    born: list[int] = field(default_factory=list)
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    def add(self, map_id: int, frame: int, confirmed: bool) -> None:
+        """Append a landmark (observed once, at its creation)."""
+        self.ids.append(map_id)
+        self.status.append(CONFIRMED if confirmed else TENTATIVE)
+        self.observed.append(1)
+        self.missed.append(0)
+        self.born.append(frame)
+
+    def keep(self, rows: np.ndarray) -> None:
+        """Keep only the entries ``rows`` (in order): the others were removed from the state."""
+        for name in ("ids", "status", "observed", "missed", "born"):
+            values = getattr(self, name)
+            setattr(self, name, [values[r] for r in rows])
+
+    @property
+    def confirmed(self) -> np.ndarray:
+        """Mask of confirmed entries."""
+        return np.array(self.status, dtype=int) == CONFIRMED
+
+
+@dataclass(frozen=True)
+class UpdateReport:
+    """What an update did: ``paired`` pairings applied, map ids ``confirmed`` and ``removed``."""
+
+    paired: int
+    confirmed: tuple[int, ...] = ()
+    removed: tuple[int, ...] = ()
+
+
+class Estimator(ABC):
+    """A filter (or smoother) whose posterior is the closed loop's belief."""
+
+    book: LandmarkBook
+
+    @abstractmethod
+    def predict(self, motion: Motion) -> None:
+        """Move the pose by an odometry increment; the uncertainty grows by its covariance."""
+
+    @abstractmethod
+    def problem(self, frame: FrameData) -> Problem:
+        """The frame's association problem: candidates are the map landmarks the estimate expects
+        to see, ``zhat`` and the joint ``P = H Σ Hᵀ`` from the estimator's own mean and covariance."""
+
+    @abstractmethod
+    def update(self, association: np.ndarray) -> UpdateReport:
+        """Update with ``association`` (n,) (feature index per candidate of the last ``problem``,
+        or -1), exactly as given: the estimator does not second-guess the associator."""
+
+    def initialise(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
+        """Make landmarks from ``features`` (indices of unassociated features); return
+        ``(map id, feature index)`` of each new one. Localisation makes none."""
+        return []
+
+    @property
+    @abstractmethod
+    def pose_covariance(self) -> np.ndarray:
+        """The pose block of the covariance (q, q)."""
+
+    @property
+    @abstractmethod
+    def landmarks(self) -> np.ndarray:
+        """Landmark means (N, s) in ``book`` order."""
+
+    @property
+    @abstractmethod
+    def covariance(self) -> np.ndarray:
+        """The full covariance (q + sN, q + sN)."""

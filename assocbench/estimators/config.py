@@ -1,0 +1,61 @@
+"""Settings of the closed loop's estimator (the ``estimator:`` section of a run config)."""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from ..validation import in_range, one_of, validate_fields
+
+MODES = ("localisation", "slam")
+INITIALISERS = ("depth", "triangulation")
+
+
+@dataclass(frozen=True)
+class EstimatorConfig:
+    """How the closed loop estimates.
+
+    name: the estimator (``ekf``: camera EKF-SLAM).
+    mode: ``localisation`` (the map's landmarks start at the belief's sampled estimate and are
+        refined) or ``slam`` (the map starts empty; unassociated features become landmarks).
+    odometry_sigma_translation / odometry_sigma_rotation: σ per axis of the odometry increment's
+        noise per frame (m, deg); the filter reports Q = diag(σ_t² I₃, σ_r² I₃).
+    odometry_miscalibration: k; the actual odometry noise is drawn with k σ while σ is reported.
+    init: how ``slam`` makes a landmark: ``depth`` (RGB-D: the rendered depth at the feature plus
+        noise) or ``triangulation`` (two views, DLT).
+    depth_sigma / depth_sigma_quadratic: RGB-D depth noise σ_z(z) = σ₀ + k z² (m, 1/m).
+    confirm_after: a new landmark is tentative until observed this many times (its first included).
+    drop_after: a tentative landmark predicted in view and left unassociated this many times is removed.
+    max_new_per_frame / max_landmarks: caps on landmark creation, so the state stays tractable.
+    pixel_noise: add N(0, σ_pixel² I) to every feature after its truth is labelled, so the R the
+        filter is told is the noise it gets (the detector's own sub-pixel error comes on top);
+        false leaves the detector's error alone (the filter is then conservative).
+    """
+
+    name: str = field(default="ekf", metadata=one_of("ekf"))
+    mode: str = field(default="localisation", metadata=one_of(*MODES))
+    odometry_sigma_translation: float = field(default=0.01, metadata=in_range(0, 10))
+    odometry_sigma_rotation: float = field(default=0.2, metadata=in_range(0, 90))
+    odometry_miscalibration: float = field(default=1.0, metadata=in_range(0, 100, lo_open=True))
+    init: str = field(default="depth", metadata=one_of(*INITIALISERS))
+    depth_sigma: float = field(default=0.002, metadata=in_range(0, 1))
+    depth_sigma_quadratic: float = field(default=0.002, metadata=in_range(0, 1))
+    confirm_after: int = field(default=2, metadata=in_range(1, 1000))
+    drop_after: int = field(default=2, metadata=in_range(1, 1000))
+    max_new_per_frame: int = field(default=10, metadata=in_range(0, 1000))
+    max_landmarks: int = field(default=200, metadata=in_range(1, 5000))
+    pixel_noise: bool = True
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "estimator")
+
+    @property
+    def odometry_covariance(self) -> np.ndarray:
+        """Q (6, 6) of the increment ``[δp, δθ]`` reported to the filter, rotation in radians."""
+        return np.diag([self.odometry_sigma_translation ** 2] * 3
+                       + [np.deg2rad(self.odometry_sigma_rotation) ** 2] * 3)
+
+    def depth_std(self, z: np.ndarray) -> np.ndarray:
+        """σ_z(z) = σ₀ + k z² (a structured-light sensor's axial noise grows with depth squared)."""
+        return self.depth_sigma + self.depth_sigma_quadratic * np.asarray(z) ** 2

@@ -1,0 +1,153 @@
+"""The closed loop: the belief of frame k is the estimator's posterior after frames < k were
+updated with the method's own pairings (``--loop``).
+
+Per frame: predict with odometry (k > 0), build the problem from the estimator, call the method
+(``oracle``: the true association, for the harness only), update the filter with what it
+returned, and in slam mode make landmarks of the features left unassociated. A frame whose
+method fails (raises, times out, returns an invalid association) updates nothing: the filter
+only predicts through it. ``replay`` gives the associations of frames already recorded, so a
+worker that resumes after a killed call rebuilds the same filter without calling the method.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Iterator
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..association.problem import NO_MATCH
+from ..belief.camera_belief import BeliefConfig
+from ..estimators.base import FrameData
+from ..estimators.config import EstimatorConfig
+from ..estimators.ekf_core import NotPositiveDefinite
+from ..estimators.registry import make_estimator
+from ..scoring.metrics import score_frame, true_mass
+from ..scoring.trajectory import pose_error, pose_nees
+from ..sim.odometry import odometry
+from ..sim.sequence import Sequence
+from .loop_truth import MapTruth, back_project, loop_truth, map_quality
+from .runner import WARM_UP, _build, call_method, describe, failed_record, warm_up
+
+ORACLE = "oracle"
+
+
+def camera_frame(seq: Sequence, k: int, belief: BeliefConfig, est: EstimatorConfig, seed: int,
+                 in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray, np.ndarray]:
+    """Frame ``k``'s measurements (features plus N(0, σ_pixel²) when ``est.pixel_noise``, then
+    ``belief.clutter`` uniform clutter features with no depth) and their truth: labels (landmark index; -1 for texture corners, clutter, and
+    landmarks outside the map in localisation) and true 3-D points (rendered depth, true pose)."""
+    rng = np.random.default_rng([seed, k, 101])
+    features, labels = seq.features[k], seq.labels[k]
+    clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (belief.clutter, 2))
+    if est.pixel_noise:   # drawn after labelling: a truth gate must not truncate the noise
+        features = features + rng.normal(0.0, belief.sigma_pixel, features.shape)
+    z = np.vstack([features, clutter])
+    if in_map is not None:
+        labels = np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH)
+    labels = np.concatenate([labels, np.full(belief.clutter, NO_MATCH)]).astype(np.int64)
+    true_depth = np.concatenate([seq.depths[k] if seq.depths is not None else np.full(len(features), np.nan),
+                                 np.full(belief.clutter, np.nan)])
+    points = back_project(z, true_depth, seq.rotations[k], seq.positions[k], seq.K)
+    noisy = true_depth + rng.normal(0.0, 1.0, len(z)) * est.depth_std(np.nan_to_num(true_depth))
+    R = np.repeat((belief.sigma_pixel ** 2 * np.eye(2))[None], len(z), axis=0)
+    return FrameData(z, R, noisy if seq.depths is not None else None), labels, points
+
+
+def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
+    """``{prefix}x … {prefix}qw``: a pose as TUM's position and scalar-last quaternion."""
+    q = Rotation.from_matrix(R).as_quat()
+    return {f"{prefix}{k}": float(v) for k, v in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), (*p, *q))}
+
+
+class ClosedLoop:
+    """One method's closed-loop run on one sequence (see the module docstring)."""
+
+    def __init__(self, seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
+        self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
+        self.filter = make_estimator(seq, est, belief, seed)
+        self.truth = MapTruth()
+        self.in_map = None
+        if est.mode == "localisation":
+            self.in_map = np.zeros(len(seq.landmarks), bool)
+            self.in_map[self.filter.book.ids] = True
+            for mid in self.filter.book.ids:
+                self.truth.tie(mid, mid, seq.landmarks[mid])
+
+    def frame(self, k: int, decide: Callable) -> dict:
+        """Run frame ``k``: ``decide(problem, truth) -> (association | None, runtime, info, error)``."""
+        if k > 0:
+            self.filter.predict(odometry(self.seq.rotations, self.seq.positions, k, self.est, self.seed))
+        data, labels, points = camera_frame(self.seq, k, self.belief, self.est, self.seed, self.in_map)
+        problem = self.filter.problem(data)
+        ids = problem.landmark_ids
+        visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
+        truth = loop_truth(ids, self.truth, labels, points, visible)
+        association, runtime, info, error = decide(problem, truth)
+        if association is None:
+            self.filter.update(np.full(problem.n, NO_MATCH))   # no pairing: counts nothing, moves nothing
+            record = failed_record(k, problem, truth, error, runtime)
+        else:
+            record = self._apply(k, problem, truth, association, data, labels, points, runtime, info)
+        return record | self._state_columns(k)
+
+    def _apply(self, k, problem, truth, association, data, labels, points, runtime, info) -> dict:
+        marginals = info.pop("marginals", None)
+        record = {"frame": k, **score_frame(problem, truth, association), **info,
+                  "true_mass": true_mass(marginals, truth.association) if marginals is not None else float("nan"),
+                  "runtime_s": runtime, "error": "", "association": association.tolist()}
+        try:
+            self.filter.update(association)
+        except NotPositiveDefinite as exc:
+            return record | {"error": f"FilterUpdate: {exc}"}
+        used = set(association[association >= 0].tolist())
+        free = np.array([i for i in range(len(data.z)) if i not in used], dtype=np.int64)
+        made = self.filter.initialise(data, free)
+        for map_id, i in made:
+            self.truth.tie(map_id, labels[i], points[i])
+        no_depth = int(np.sum(~np.isfinite(data.depth[free]) | (data.depth[free] <= 0))) if data.depth is not None else 0
+        return record | {"new_landmarks": len(made), "no_depth": no_depth}
+
+    def _state_columns(self, k: int) -> dict:
+        f, seq = self.filter, self.seq
+        err = pose_error(seq.rotations[k], seq.positions[k], f.R, f.p)
+        nees = pose_nees(err, f.pose_covariance) if np.any(f.pose_covariance) else float("nan")
+        quality = map_quality(f.book.ids, f.book.confirmed, f.landmarks, self.truth, seq.landmarks)
+        return {**pose_columns("est_", f.R, f.p), **pose_columns("true_", seq.rotations[k], seq.positions[k]),
+                "pos_err": float(np.linalg.norm(err[:3])), "rot_err_deg": float(np.rad2deg(np.linalg.norm(err[3:]))),
+                "nees": nees, "tentative": int(len(f.book) - np.sum(f.book.confirmed)), **quality}
+
+
+def loop_records(seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed: int, method: str, params: dict,
+                 time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
+                 on_call: Callable[[int, float], None] = lambda k, limit: None,
+                 replay: dict | None = None) -> Iterator[dict]:
+    """Per-frame records of ``method`` in the closed loop, frames ``first..`` (frames before
+    ``first`` are replayed from ``replay[k] = (association, error)``). ``faults`` and ``on_call``
+    as in ``runner.frame_records``."""
+    faults, replay = faults or {}, replay or {}
+    loop = ClosedLoop(seq, belief, est, seed)
+    associator, build_error = None, ""
+    if method != ORACLE and WARM_UP not in faults:
+        on_call(WARM_UP, 10 * time_limit_s)
+        associator, build_error = _build(method, params)
+        if associator is not None:
+            warm_up(associator)
+    start_error = faults.get(WARM_UP, (build_error, 0.0))[0] if method != ORACLE else ""
+
+    for k in range(len(seq)):
+        def decide(problem, truth, k=k):
+            if k < first:
+                assoc, error = replay.get(k, (None, "not replayed"))
+                return (None, 0.0, {}, error) if error else (np.asarray(assoc, dtype=np.int64), 0.0, {}, "")
+            if k in faults:
+                return None, faults[k][1], {}, faults[k][0]
+            if method == ORACLE:
+                return truth.association.copy(), 0.0, {"timed_out": False, "proven_optimal": float("nan")}, ""
+            if associator is None:
+                return None, 0.0, {}, start_error or "the method could not start"
+            on_call(k, time_limit_s)
+            return call_method(associator, problem)
+        record = loop.frame(k, decide)
+        if k >= first:
+            yield record

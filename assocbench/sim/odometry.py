@@ -1,0 +1,32 @@
+"""Odometry: the true motion between consecutive poses plus noise (a sensor, like the renderer).
+
+The increment from pose k−1 to k in the frame of k−1: ``Δp = R_{k−1}ᵀ (p_k − p_{k−1})``,
+``ΔR = R_{k−1}ᵀ R_k``. The measured one is ``Δp + k σ_t n_p``, ``ΔR Exp(k σ_r n_θ)`` with
+``n ~ N(0, I₃)`` (``k``: miscalibration, while the filter is told ``σ``). Each frame's noise
+has its own seeded generator, so frame k's odometry is the same whatever ran before it.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..estimators.base import Motion
+from ..estimators.config import EstimatorConfig
+
+
+def true_increment(R0: np.ndarray, p0: np.ndarray, R1: np.ndarray, p1: np.ndarray) -> np.ndarray:
+    """``[Δp, Δθ]`` (6,) taking pose 0 to pose 1, in pose 0's frame (``Δθ = Log(R0ᵀ R1)``)."""
+    return np.concatenate([R0.T @ (p1 - p0), Rotation.from_matrix(R0.T @ R1).as_rotvec()])
+
+
+def odometry(rotations: np.ndarray, positions: np.ndarray, k: int, cfg: EstimatorConfig, seed: int) -> Motion:
+    """The measured increment from frame ``k − 1`` to ``k`` and the covariance the filter is told."""
+    rng = np.random.default_rng([seed, k, 404])
+    inc = true_increment(rotations[k - 1], positions[k - 1], rotations[k], positions[k])
+    scale = cfg.odometry_miscalibration
+    noise_p = rng.normal(0.0, 1.0, 3) * cfg.odometry_sigma_translation * scale
+    noise_theta = rng.normal(0.0, 1.0, 3) * np.deg2rad(cfg.odometry_sigma_rotation) * scale
+    dR = Rotation.from_rotvec(inc[3:]).as_matrix() @ Rotation.from_rotvec(noise_theta).as_matrix()
+    measured = np.concatenate([inc[:3] + noise_p, Rotation.from_matrix(dR).as_rotvec()])
+    return Motion(measured, cfg.odometry_covariance)
