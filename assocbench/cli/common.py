@@ -24,6 +24,9 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     p.add_argument("--config", help="YAML run config (default: the shipped configs/default.yaml)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="sets",
                    help="override a config key, e.g. --set belief.sigma_rotation=2 (repeatable)")
+    p.add_argument("--loop", action="store_true", default=None,
+                   help="closed loop: the belief is the estimator's posterior (EKF-SLAM), updated with the "
+                        "method's own pairings; settings under estimator.* (mode: localisation | slam)")
 
 
 

@@ -8,11 +8,14 @@ from functools import partial
 from pathlib import Path
 
 import pandas as pd
+from scipy.spatial.transform import Rotation
 
 from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
 from ..harness.runner import execute
 from ..scoring.aggregate import OK, SUMMARY_COLUMNS
+from ..scoring.loop_summary import LOOP_COLUMNS
+from ..scoring.trajectory import tum_text
 from .common import add_run_options, check_output_folder, config_digest, print_table
 
 NAME = "run"
@@ -33,22 +36,39 @@ def default_out(cfg: dict, scene: str, method: str, seed: int) -> Path:
     return Path("results/runs") / tag
 
 
+def tum_writers(frames: pd.DataFrame, out: Path) -> dict:
+    """Writers of ``truth.txt`` and ``estimate.txt`` (TUM: ``t x y z qx qy qz qw``, one line per
+    frame, t = frame index in seconds), for ``evo_ape tum truth.txt estimate.txt``."""
+    def writer(prefix: str):
+        p = frames[[f"{prefix}{c}" for c in ("x", "y", "z")]].to_numpy(dtype=float)
+        R = Rotation.from_quat(frames[[f"{prefix}{c}" for c in ("qx", "qy", "qz", "qw")]].to_numpy(dtype=float))
+        text = tum_text(frames["frame"].to_numpy(dtype=float), R.as_matrix(), p, out / f"{prefix}trajectory")
+        return lambda path: Path(path).write_text(text)
+    return {out / "truth.txt": writer("true_"), out / "estimate.txt": writer("est_")}
+
+
 def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
-                          trajectory=args.trajectory, frames=args.frames, seed=args.seed)
+                          trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = run_spec(cfg)
     out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
                                                                            spec.seed))
     frames, summary = execute(spec)
+    columns = SUMMARY_COLUMNS + (LOOP_COLUMNS if spec.loop else ())
     row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
-           "method": spec.method, "seed": spec.seed, **{k: summary[k] for k in SUMMARY_COLUMNS}}
+           "method": spec.method, "seed": spec.seed, "loop": spec.estimator.mode if spec.loop else "open",
+           **{k: summary[k] for k in columns}}
     summary_df = pd.DataFrame([row])
-    write_group({out / name: partial(df.to_csv, index=False, float_format="%.9g")   # both files or neither
-                 for name, df in (("frames.csv", frames), ("summary.csv", summary_df))})
+    writers = {out / name: partial(df.to_csv, index=False, float_format="%.9g")   # all files or none
+               for name, df in (("frames.csv", frames), ("summary.csv", summary_df))}
+    if spec.loop:
+        writers |= tum_writers(frames, out)
+    write_group(writers)
     if args.format == "table":
         print(f"{row['method']} on {row['scene']} ({row['trajectory']}, {row['frames']} frames, seed {row['seed']})")
         print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values())}), "table")
-        print(f"wrote {out / 'frames.csv'} and {out / 'summary.csv'}")
+        extra = f", {out / 'truth.txt'} and {out / 'estimate.txt'} (TUM)" if spec.loop else ""
+        print(f"wrote {out / 'frames.csv'}, {out / 'summary.csv'}{extra}")
     else:
         print_table(summary_df, args.format)
     if summary["status"] != OK:

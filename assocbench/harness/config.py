@@ -17,6 +17,7 @@ import yaml
 from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig
 from ..errors import UserError
+from ..estimators.config import EstimatorConfig
 from ..sim.detect import DetectorConfig
 from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
 from ..sim.sequence import SequenceSpec
@@ -35,11 +36,14 @@ DEFAULTS: dict = {
     "detector": asdict(DetectorConfig()),
     "truth": asdict(TruthConfig()),
     "belief": asdict(BeliefConfig()),
+    "loop": False,
+    "estimator": asdict(EstimatorConfig()),
     "method": "jcbb",
     "params": {},
     "time_limit_s": 30.0,
     "limits": {"frames": 5000, "clutter": 1000},
 }
+ORACLE = "oracle"   # the closed loop's reference method: the true association
 FREE_FORM = {"trajectory_params", "params"}  # checked by the trajectory / associator itself
 
 
@@ -144,6 +148,8 @@ class RunSpec:
     method: str
     params: dict
     time_limit_s: float = 30.0   # per associate() call; a call past it is a failed frame
+    loop: bool = False           # closed loop: the belief is the estimator's posterior
+    estimator: EstimatorConfig = EstimatorConfig()
 
 
 def _typed(cls, values: dict, section: str):
@@ -205,15 +211,32 @@ def run_spec(cfg: dict) -> RunSpec:
             raise UserError(f"{key} must be a name or a path, got {cfg[key]!r}")
     if cfg["trajectory"] is not None and not isinstance(cfg["trajectory"], str):
         raise UserError(f"trajectory must be a name or null, got {cfg['trajectory']!r}")
+    if not isinstance(cfg["loop"], bool):
+        raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
+    estimator = _typed(EstimatorConfig, cfg["estimator"], "estimator")
     res = cfg["resolution"]
     seq = SequenceSpec(
         scene=cfg["scene"], trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
         width=res[0], height=res[1], msaa=cfg["msaa"], trajectory_params=_mapping(cfg, "trajectory_params"),
         detector=_typed(DetectorConfig, cfg["detector"], "detector"),
         truth=_typed(TruthConfig, cfg["truth"], "truth"),
+        feature_depth=cfg["loop"] and estimator.mode == "slam",   # RGB-D, and the truth of texture corners
     )
     check_trajectory_params(seq.resolved_trajectory(), seq.trajectory_params)
     params = _mapping(cfg, "params")
-    make_associator(cfg["method"], **params)   # unknown method or bad parameters: refused now
+    check_method(cfg["method"], params, cfg["loop"])
     return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
-                   params, float(cfg["time_limit_s"]))
+                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator)
+
+
+def check_method(method: str, params: dict, loop: bool) -> None:
+    """Refuse an unknown method or bad parameters now (built once and thrown away). ``oracle``
+    (the true association) exists only in the closed loop, as its reference row."""
+    if method == ORACLE:
+        if not loop:
+            raise UserError("method 'oracle' (the true association) is the closed loop's reference; "
+                            "use it with --loop (loop: true)")
+        if params:
+            raise UserError(f"method 'oracle' takes no parameters, got {sorted(params)}")
+        return
+    make_associator(method, **params)

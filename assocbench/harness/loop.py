@@ -26,10 +26,9 @@ from ..scoring.metrics import score_frame, true_mass
 from ..scoring.trajectory import pose_error, pose_nees
 from ..sim.odometry import odometry
 from ..sim.sequence import Sequence
+from .config import ORACLE
 from .loop_truth import MapTruth, back_project, loop_truth, map_quality
-from .runner import WARM_UP, _build, call_method, describe, failed_record, warm_up
-
-ORACLE = "oracle"
+from .runner import WARM_UP, _build, call_method, failed_record, warm_up
 
 
 def camera_frame(seq: Sequence, k: int, belief: BeliefConfig, est: EstimatorConfig, seed: int,
@@ -84,8 +83,7 @@ class ClosedLoop:
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
         truth = loop_truth(ids, self.truth, labels, points, visible)
         association, runtime, info, error = decide(problem, truth)
-        if association is None:
-            self.filter.update(np.full(problem.n, NO_MATCH))   # no pairing: counts nothing, moves nothing
+        if association is None:   # the filter only predicts through a failed frame
             record = failed_record(k, problem, truth, error, runtime)
         else:
             record = self._apply(k, problem, truth, association, data, labels, points, runtime, info)

@@ -36,6 +36,7 @@ from tqdm import tqdm
 
 from ..errors import UserError
 from ..sim.sequence import load_sequence
+from .loop import loop_records
 from .runner import WARM_UP, describe, frame_problems, frame_records
 
 # modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
@@ -75,12 +76,13 @@ class _Progress:
 
 # ---------------------------------------------------------------- worker side
 
-def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, environ: dict) -> None:
+def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, environ: dict,
+            replay: dict | None = None) -> None:
     """Worker process entry: run ``task`` from ``resume``, streaming messages; always ``os._exit``,
     so threads a method left behind cannot keep the process alive."""
     _become_worker(environ)
     try:
-        _run_task(conn.send, task, resume, faults)
+        _run_task(conn.send, task, resume, faults, replay)
         conn.send(("done",))
     except UserError as exc:
         conn.send(("usererror", str(exc)))
@@ -113,17 +115,27 @@ def _exit_with(sentinel) -> None:
     os._exit(1)
 
 
-def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: dict) -> None:
+def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: dict,
+              replay: dict | None = None) -> None:
+    """Run the task's runs × methods from ``resume``; a closed-loop run replays the frames before
+    ``resume`` from ``replay`` (frame -> (association, error)) to rebuild its filter."""
     cache = Path(task.cache_dir) if task.cache_dir else None
     for r in range(resume[0], len(task.runs)):
         spec = task.runs[r][1]
-        problems = frame_problems(load_sequence(spec.sequence, cache), spec.belief, spec.seed)
+        seq = load_sequence(spec.sequence, cache)
+        problems = None if spec.loop else frame_problems(seq, spec.belief, spec.seed)
         for mi in range(resume[1] if r == resume[0] else 0, len(task.methods)):
             _, method, params = task.methods[mi]
             first = resume[2] if (r, mi) == resume[:2] else 0
             announce = lambda k, limit, r=r, mi=mi: send(("call", r, mi, k, limit))  # noqa: E731
-            for record in frame_records(problems, method, params, spec.time_limit_s, first,
-                                        faults.get((r, mi)), announce):
+            if spec.loop:
+                records = loop_records(seq, spec.belief, spec.estimator, spec.seed, method, params,
+                                       spec.time_limit_s, first, faults.get((r, mi)), announce,
+                                       replay if (r, mi) == resume[:2] else None)
+            else:
+                records = frame_records(problems, method, params, spec.time_limit_s, first,
+                                        faults.get((r, mi)), announce)
+            for record in records:
                 send(("frame", r, mi, record["frame"], record))
 
 
@@ -243,8 +255,10 @@ class Supervisor:
             raise RuntimeError(f"assocbench was run while a process imported the main script; {_GUARD}")
         ctx = _context(m[1] for m in task.methods)
         here, there = ctx.Pipe(duplex=False)
+        done = progress.records.get(progress.resume[:2], {})   # a closed loop replays these frames
+        replay = {k: (rec["association"], rec["error"]) for k, rec in done.items() if k < progress.resume[2]}
         process = ctx.Process(target=_worker, name=f"assocbench {task.name}",
-                              args=(there, task, progress.resume, progress.faults, dict(os.environ)))
+                              args=(there, task, progress.resume, progress.faults, dict(os.environ), replay))
         try:
             with _allow_children():
                 process.start()

@@ -14,11 +14,11 @@ from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
-from ..associators.registry import associator_class, make_associator
+from ..associators.registry import associator_class
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
 from ..validation import check_number
-from .config import DEFAULTS, merge, read_yaml, run_spec
+from .config import DEFAULTS, check_method, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "methods", "seeds", "tolerance")
 
@@ -130,8 +130,10 @@ def load_suite(path: str | Path) -> Suite:
     _refuse_duplicates(seeds, "seeds", str(path), "list each seed once")
     _refuse_duplicates(scenes, "scenes", str(path), "list each scene once")
     methods = _methods(raw.get("methods"), str(path))
+    loop = base.get("loop") is True or any(isinstance(o, dict) and o.get("loop") is True
+                                          for o in difficulties.values() if o)
     for m in methods:
-        make_associator(m.method, **m.params)   # unknown methods, broken plugins, bad parameters: now
+        check_method(m.method, m.params, loop)   # unknown methods, broken plugins, bad parameters: now
     tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)
     jobs = []
     for scene in scenes:

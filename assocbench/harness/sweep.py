@@ -24,6 +24,7 @@ from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
+LOOP_FRAME_COLUMNS = ("pos_err", "rot_err_deg", "nees")   # a closed loop's frames, for its plots
 
 
 def job_task(job: Job, cache_dir: str | None = None) -> Task:
@@ -44,7 +45,8 @@ def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
             label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}
             summaries.append({**label, **summarize(per_frame), "error": errors[0] if errors else ""})
-            frames.append(per_frame.assign(**label)[list(label) + ["frame", "n", "m", "runtime_s"]])
+            kept = ["frame", "n", "m", "runtime_s"] + [c for c in LOOP_FRAME_COLUMNS if c in per_frame]
+            frames.append(per_frame.assign(**label)[list(label) + kept])
     return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
 
 

@@ -20,6 +20,8 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 
+from .loop_summary import LOOP_COLUMNS, loop_status, loop_summary
+
 ACCURACY_METRICS = ("precision", "recall", "f1", "perfect")
 SUMMARY_COLUMNS = ("status", "precision", "recall", "f1", "perfect", "surprisal_gap", "jc_share",
                    "clutter_accepted", "runtime_median_ms", "runtime_p95_ms", "frames", "failures", "timed_out",
@@ -44,6 +46,8 @@ def run_status(frames: pd.DataFrame) -> str:
         reasons.append("no candidates in any frame")
     elif len(frames) and (frames["tp"] + frames["fp"]).sum() == 0:
         reasons.append("nothing associated")
+    if "nees" in frames:   # a closed-loop run
+        reasons += loop_status(frames)
     return "; ".join(reasons) or OK
 
 
@@ -64,7 +68,8 @@ def _reported_mean(ok: pd.DataFrame, column: str) -> float:
 
 
 def summarize(frames: pd.DataFrame) -> dict[str, float]:
-    """Summary metrics of one run's per-frame records (one row per frame)."""
+    """Summary metrics of one run's per-frame records (one row per frame); a closed-loop run's
+    (records with ``nees``) also gets ``loop_summary``'s trajectory and map columns."""
     ok = frames[frames["error"] == ""] if "error" in frames else frames
     tp, fp, fn = frames["tp"].sum(), frames["fp"].sum(), frames["fn"].sum()
     precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
@@ -83,7 +88,7 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
         "timed_out": int(frames["timed_out"].sum()) if "timed_out" in frames else 0,
         "proven_optimal": _reported_mean(ok, "proven_optimal"),
         "true_mass": _reported_mean(ok, "true_mass"),
-    }
+    } | (loop_summary(frames) if "nees" in frames else {})
 
 
 def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:

@@ -206,16 +206,15 @@ def _check_confidence(confidence: float) -> None:
 
 # ---- TUM files -----------------------------------------------------------------------------
 
-def write_tum(path: Path | str, stamps: np.ndarray, R: np.ndarray, p: np.ndarray,
-              role: Role = OUTPUT_FILE) -> None:
-    """Write a trajectory as a TUM file, one line per pose, written atomically:
+def tum_text(stamps: np.ndarray, R: np.ndarray, p: np.ndarray, path: Path | str = "trajectory") -> str:
+    """A trajectory as a TUM file's text, one line per pose:
 
         t tx ty tz qx qy qz qw
 
     with ``(tx, ty, tz) = p`` and the unit quaternion of ``R`` (camera-to-world, scalar last),
     every number in shortest round-trip form (``repr``), so reading it back loses nothing but
-    the quaternion's own rounding. Raises ``UserError`` for mismatched shapes, non-finite
-    values, stamps that do not increase, or an ``R`` that is not a rotation."""
+    the quaternion's own rounding. Raises ``UserError`` (naming ``path``) for mismatched shapes,
+    non-finite values, stamps that do not increase, or an ``R`` that is not a rotation."""
     stamps = np.asarray(stamps, dtype=np.float64)
     R, p = _rotations(R, "R"), _positions(p, "p")
     if stamps.shape != (len(R),) or len(p) != len(R):
@@ -230,8 +229,13 @@ def write_tum(path: Path | str, stamps: np.ndarray, R: np.ndarray, p: np.ndarray
                         f"{int(np.flatnonzero(np.diff(stamps) <= 0)[0]) + 1} does not)")
     _check_rotations(R, path)
     rows = np.column_stack([stamps, p, Rotation.from_matrix(R).as_quat()])   # quat is (x, y, z, w)
-    text = "".join(" ".join(repr(float(x)) for x in row) + "\n" for row in rows)
-    write_text(Path(path), "# timestamp tx ty tz qx qy qz qw\n" + text, role)
+    return "# timestamp tx ty tz qx qy qz qw\n" + "".join(" ".join(repr(float(x)) for x in row) + "\n" for row in rows)
+
+
+def write_tum(path: Path | str, stamps: np.ndarray, R: np.ndarray, p: np.ndarray,
+              role: Role = OUTPUT_FILE) -> None:
+    """Write ``tum_text(stamps, R, p)`` to ``path`` atomically."""
+    write_text(Path(path), tum_text(stamps, R, p, path), role)
 
 
 def read_tum(path: Path | str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

@@ -1,0 +1,50 @@
+"""Summary of a closed-loop run from its per-frame records (``harness.loop``).
+
+ate_rmse (m) and rot_rmse_deg: RMSE of the position and rotation errors over all frames, no
+alignment (``evo_ape tum truth.txt estimate.txt`` gives the same); anees: mean pose NEES over the
+frames with a pose covariance (slam's frame 0 has none), with the two-sided 95 % band
+``[anees_lo, anees_hi] = χ²_{6N}(0.025, 0.975) / N``. The band assumes independent frames; the
+frames of one run are correlated (the same map error steers them all), so one run's ANEES
+scatters more widely than the band says. diverged_at: the first frame whose NEES stays above
+χ²_6(0.999) for 5 frames, -1 for never. Map figures are the last frame's: confirmed landmarks,
+duplicates, false landmarks and map_rmse (m) of the entries tied to a landmark.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .trajectory import anees, anees_band, divergence_frame
+
+LOOP_COLUMNS = ("ate_rmse", "rot_rmse_deg", "anees", "anees_lo", "anees_hi", "diverged_at", "map_size",
+                "duplicates", "false_landmarks", "map_rmse", "new_landmarks", "no_depth")
+
+
+def loop_summary(frames: pd.DataFrame) -> dict:
+    """The closed-loop columns of a run's summary (see module docstring)."""
+    if not len(frames):
+        return {c: float("nan") for c in LOOP_COLUMNS}
+    nees = frames["nees"].to_numpy(dtype=float)
+    excluded = [k for k in range(len(nees)) if k == 0 and not np.isfinite(nees[k])]
+    counted = len(nees) - len(excluded)
+    lo, hi = anees_band(counted) if counted else (float("nan"), float("nan"))
+    last = frames.iloc[-1]
+    return {
+        "ate_rmse": float(np.sqrt(np.mean(frames["pos_err"].to_numpy(dtype=float) ** 2))),
+        "rot_rmse_deg": float(np.sqrt(np.mean(frames["rot_err_deg"].to_numpy(dtype=float) ** 2))),
+        "anees": anees(nees, exclude=excluded) if counted else float("nan"), "anees_lo": lo, "anees_hi": hi,
+        "diverged_at": int(divergence_frame(np.nan_to_num(nees, nan=0.0))),
+        "map_size": int(last["map_size"]), "duplicates": int(last["duplicates"]),
+        "false_landmarks": int(last["false_landmarks"]), "map_rmse": float(last["map_rmse"]),
+        "new_landmarks": int(frames.get("new_landmarks", pd.Series(0)).fillna(0).sum()),
+        "no_depth": int(frames.get("no_depth", pd.Series(0)).fillna(0).sum()),
+    }
+
+
+def loop_status(frames: pd.DataFrame) -> list[str]:
+    """Reasons a closed-loop run cannot be trusted beyond the open loop's: a pose covariance that
+    stopped being positive definite (NEES NaN after frame 0)."""
+    nees = frames["nees"].to_numpy(dtype=float) if "nees" in frames else np.zeros(0)
+    bad = np.flatnonzero(~np.isfinite(nees[1:]))
+    return [f"pose covariance not positive definite from frame {bad[0] + 1}"] if len(bad) else []
