@@ -100,12 +100,14 @@ class CameraEKF(Estimator):
         return UpdateReport(len(paired), confirmed, removed)
 
     def initialise(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
-        """RGB-D: a landmark from each feature with a valid depth, in the given order, at most
+        """RGB-D: a landmark from each feature with a valid depth, in the given order, while the
+        frame paired fewer than ``target_paired`` features (at most the shortfall), at most
         ``max_new_per_frame`` per frame and ``max_landmarks`` in the map. Features without a
         positive finite depth are skipped (the caller counts them)."""
         if self.cfg.mode != "slam" or frame.depth is None:
             return []
-        room = min(self.cfg.max_new_per_frame, self.cfg.max_landmarks - len(self.book))
+        shortfall = self.cfg.target_paired - (len(frame.z) - len(features))
+        room = min(shortfall, self.cfg.max_new_per_frame, self.cfg.max_landmarks - len(self.book))
         made = []
         for i in features:
             if len(made) >= room:

@@ -27,6 +27,8 @@ class EstimatorConfig:
     depth_sigma / depth_sigma_quadratic: RGB-D depth noise σ_z(z) = σ₀ + k z² (m, 1/m).
     confirm_after: a new landmark is tentative until observed this many times (its first included).
     drop_after: a tentative landmark predicted in view and left unassociated this many times is removed.
+    target_paired: slam makes landmarks only while fewer than this many features were paired in
+        the frame (and at most the shortfall): the common "keep N features tracked" policy.
     max_new_per_frame / max_landmarks: caps on landmark creation, so the state stays tractable.
     pixel_noise: add N(0, σ_pixel² I) to every feature after its truth is labelled, so the R the
         filter is told is the noise it gets (the detector's own sub-pixel error comes on top);
@@ -43,8 +45,9 @@ class EstimatorConfig:
     depth_sigma_quadratic: float = field(default=0.002, metadata=in_range(0, 1))
     confirm_after: int = field(default=2, metadata=in_range(1, 1000))
     drop_after: int = field(default=2, metadata=in_range(1, 1000))
+    target_paired: int = field(default=15, metadata=in_range(0, 1000))
     max_new_per_frame: int = field(default=10, metadata=in_range(0, 1000))
-    max_landmarks: int = field(default=200, metadata=in_range(1, 5000))
+    max_landmarks: int = field(default=300, metadata=in_range(1, 5000))
     pixel_noise: bool = True
 
     def __post_init__(self) -> None:

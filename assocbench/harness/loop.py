@@ -27,15 +27,15 @@ from ..scoring.trajectory import pose_error, pose_nees
 from ..sim.odometry import odometry
 from ..sim.sequence import Sequence
 from .config import ORACLE
-from .loop_truth import MapTruth, back_project, loop_truth, map_quality
+from .loop_truth import MapTruth, loop_truth, map_quality
 from .runner import WARM_UP, _build, call_method, failed_record, warm_up
 
 
 def camera_frame(seq: Sequence, k: int, belief: BeliefConfig, est: EstimatorConfig, seed: int,
-                 in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray, np.ndarray]:
+                 in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
     """Frame ``k``'s measurements (features plus N(0, σ_pixel²) when ``est.pixel_noise``, then
-    ``belief.clutter`` uniform clutter features with no depth) and their truth: labels (landmark index; -1 for texture corners, clutter, and
-    landmarks outside the map in localisation) and true 3-D points (rendered depth, true pose)."""
+    ``belief.clutter`` uniform clutter features with no depth) and their labels (landmark index; -1 for texture corners, clutter, and landmarks
+    outside the map in localisation). The measured depth is the rendered one plus N(0, σ_z(z)²)."""
     rng = np.random.default_rng([seed, k, 101])
     features, labels = seq.features[k], seq.labels[k]
     clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (belief.clutter, 2))
@@ -47,10 +47,9 @@ def camera_frame(seq: Sequence, k: int, belief: BeliefConfig, est: EstimatorConf
     labels = np.concatenate([labels, np.full(belief.clutter, NO_MATCH)]).astype(np.int64)
     true_depth = np.concatenate([seq.depths[k] if seq.depths is not None else np.full(len(features), np.nan),
                                  np.full(belief.clutter, np.nan)])
-    points = back_project(z, true_depth, seq.rotations[k], seq.positions[k], seq.K)
     noisy = true_depth + rng.normal(0.0, 1.0, len(z)) * est.depth_std(np.nan_to_num(true_depth))
     R = np.repeat((belief.sigma_pixel ** 2 * np.eye(2))[None], len(z), axis=0)
-    return FrameData(z, R, noisy if seq.depths is not None else None), labels, points
+    return FrameData(z, R, noisy if seq.depths is not None else None), labels
 
 
 def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
@@ -71,25 +70,25 @@ class ClosedLoop:
             self.in_map = np.zeros(len(seq.landmarks), bool)
             self.in_map[self.filter.book.ids] = True
             for mid in self.filter.book.ids:
-                self.truth.tie(mid, mid, seq.landmarks[mid])
+                self.truth.tie(mid, mid)
 
     def frame(self, k: int, decide: Callable) -> dict:
         """Run frame ``k``: ``decide(problem, truth) -> (association | None, runtime, info, error)``."""
         if k > 0:
             self.filter.predict(odometry(self.seq.rotations, self.seq.positions, k, self.est, self.seed))
-        data, labels, points = camera_frame(self.seq, k, self.belief, self.est, self.seed, self.in_map)
+        data, labels = camera_frame(self.seq, k, self.belief, self.est, self.seed, self.in_map)
         problem = self.filter.problem(data)
         ids = problem.landmark_ids
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
-        truth = loop_truth(ids, self.truth, labels, points, visible)
+        truth = loop_truth(ids, self.truth, labels, visible)
         association, runtime, info, error = decide(problem, truth)
         if association is None:   # the filter only predicts through a failed frame
             record = failed_record(k, problem, truth, error, runtime)
         else:
-            record = self._apply(k, problem, truth, association, data, labels, points, runtime, info)
+            record = self._apply(k, problem, truth, association, data, labels, runtime, info)
         return record | self._state_columns(k)
 
-    def _apply(self, k, problem, truth, association, data, labels, points, runtime, info) -> dict:
+    def _apply(self, k, problem, truth, association, data, labels, runtime, info) -> dict:
         marginals = info.pop("marginals", None)
         record = {"frame": k, **score_frame(problem, truth, association), **info,
                   "true_mass": true_mass(marginals, truth.association) if marginals is not None else float("nan"),
@@ -102,7 +101,7 @@ class ClosedLoop:
         free = np.array([i for i in range(len(data.z)) if i not in used], dtype=np.int64)
         made = self.filter.initialise(data, free)
         for map_id, i in made:
-            self.truth.tie(map_id, labels[i], points[i])
+            self.truth.tie(map_id, labels[i])
         no_depth = int(np.sum(~np.isfinite(data.depth[free]) | (data.depth[free] <= 0))) if data.depth is not None else 0
         return record | {"new_landmarks": len(made), "no_depth": no_depth}
 
