@@ -7,8 +7,8 @@ import tempfile
 from pathlib import Path
 
 from ..harness.check import baseline_table, check_tolerance, compare, read_baseline, write_baseline
-from ..harness.config import shipped_config
-from ..harness.suite import load_suite
+from ..errors import UserError
+from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table
 from .common import check_output_folder, print_table
@@ -18,18 +18,36 @@ HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML (default: the shipped configs/ci.yaml)")
-    p.add_argument("--baseline", default="results/baseline.csv", help="baseline CSV")
+    p.add_argument("--suite", help="suite YAML or shipped suite name (default: both shipped CI suites, "
+                   "configs/ci.yaml and the closed loop's configs/loop_ci.yaml)")
+    p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
+                   "results/baseline_<suite>.csv for another suite)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
     p.add_argument("--update", action="store_true", help="rewrite the baseline from this run")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
+DEFAULT_SUITES = ("ci", "loop_ci")
+
+
+def default_baseline(suite_name: str) -> Path:
+    """``results/baseline.csv`` for the ci suite, ``results/baseline_<name>.csv`` for others."""
+    return Path("results/baseline.csv" if suite_name == "ci" else f"results/baseline_{suite_name}.csv")
+
+
 def main(args: argparse.Namespace) -> int:
-    suite = load_suite(args.suite or shipped_config("ci.yaml"))
+    if args.suite is None and args.baseline is not None:
+        raise UserError("--baseline names one suite's baseline: give --suite too")
+    suites = [args.suite] if args.suite else list(DEFAULT_SUITES)
+    loaded = [load_suite(resolve_suite(s)) for s in suites]   # every suite checked before any runs
+    return max(check_suite(suite, args) for suite in loaded)
+
+
+def check_suite(suite, args: argparse.Namespace) -> int:
+    """Run one suite and compare it with its baseline (or rewrite the baseline): exit status."""
     tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
-    baseline_path = Path(args.baseline)
+    baseline_path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
     baseline = None if args.update else read_baseline(baseline_path)
     if args.update:
         check_output_folder(baseline_path.parent, "--baseline")   # before the suite runs, not after
@@ -40,7 +58,7 @@ def main(args: argparse.Namespace) -> int:
         print(f"wrote baseline {baseline_path} ({len(baseline_table(summaries))} rows)")
         return 0
     expected = suite.rows()
-    findings = compare(leaderboard_table(summaries), baseline, tolerance, expected)
+    findings = compare(leaderboard_table(summaries), baseline, tolerance, expected, suite.ate_tolerance)
     if len(findings):
         print(f"check failed: {len(findings)} finding(s) against {baseline_path} (tolerance {tolerance}):")
         print_table(findings, "table")

@@ -6,9 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..harness.config import shipped_config
 from ..harness.leaderboard import write_leaderboard
-from ..harness.suite import load_suite
+from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import EXECUTORS, run_suite
 from ..scoring.aggregate import OK
 from .common import check_output_folder
@@ -18,7 +17,7 @@ HELP = "run every method of a suite and write the leaderboard (CSV, Markdown, PN
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML (default: the shipped configs/leaderboard.yaml)")
+    p.add_argument("--suite", help="suite YAML or shipped suite name: leaderboard (default), loop (closed loop)")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
     p.add_argument("--executor", choices=EXECUTORS, default="local", help="local processes or a dask cluster")
     p.add_argument("--address", help="dask scheduler address, e.g. tcp://127.0.0.1:8786")
@@ -28,7 +27,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    suite = load_suite(args.suite or shipped_config("leaderboard.yaml"))
+    suite = load_suite(resolve_suite(args.suite or "leaderboard"))
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
     summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
     paths = write_leaderboard(summaries, frames, out)

@@ -11,6 +11,7 @@ from __future__ import annotations
 import math
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 
 from ..atomic import Role, atomic_path
@@ -49,6 +50,14 @@ def read_baseline(path: Path) -> pd.DataFrame:
             raise UserError(f"baseline {path} row {row + 2}: {metric} is {base[metric].iloc[row]!r}, not a number "
                             f"in [0, 1] (truncated or edited?); regenerate it with --update")
         base[metric] = values
+    if "ate_rmse" in base:   # a closed loop's baseline: metres, finite and >= 0
+        values = pd.to_numeric(base["ate_rmse"], errors="coerce")
+        bad = ~(values >= 0) | ~np.isfinite(values)
+        if bad.any():
+            row = int(bad.to_numpy().argmax())
+            raise UserError(f"baseline {path} row {row + 2}: ate_rmse is {base['ate_rmse'].iloc[row]!r}, not a "
+                            f"number >= 0 (truncated or edited?); regenerate it with --update")
+        base["ate_rmse"] = values
     dup = base.duplicated(KEY)
     if dup.any():
         r = base[dup].iloc[0]
@@ -57,10 +66,11 @@ def read_baseline(path: Path) -> pd.DataFrame:
 
 
 def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float,
-            expected: list[tuple[str, str]]) -> pd.DataFrame:
+            expected: list[tuple[str, str]], ate_tolerance: float = 0.01) -> pd.DataFrame:
     """Findings (one row each) that make ``check`` fail: an accuracy metric more than
-    ``tolerance`` below the baseline, a non-finite value, a run whose status is not ``ok``, or an
-    ``expected`` row missing from the baseline or from the current results."""
+    ``tolerance`` below the baseline, a closed loop's ATE more than ``ate_tolerance`` (m) above
+    it, a non-finite value, a run whose status is not ``ok``, or an ``expected`` row missing from
+    the baseline or from the current results."""
     cur = current.set_index(KEY)
     base = baseline.set_index(KEY)
     rows = []
@@ -85,6 +95,12 @@ def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float,
                 finding(key, "not a finite number", metric, b, c)
             elif c < b - tolerance:
                 finding(key, "regressed", metric, b, c)
+        if "ate_rmse" in base.columns:   # a closed loop: lower is better
+            b, c = float(base.loc[key, "ate_rmse"]), float(cur.loc[key, "ate_rmse"]) if "ate_rmse" in cur else math.nan
+            if not math.isfinite(c):
+                finding(key, "not a finite number", "ate_rmse", b, c)
+            elif c > b + ate_tolerance:
+                finding(key, "regressed", "ate_rmse", b, c)
     for key in base.index:
         if key not in set(expected):
             finding(key, "in the baseline but not in the suite")
@@ -92,8 +108,10 @@ def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float,
 
 
 def baseline_table(summaries: pd.DataFrame) -> pd.DataFrame:
-    """The rows written to the baseline: mean accuracy per scenario × method."""
-    return leaderboard_table(summaries)[KEY + list(ACCURACY_METRICS)]
+    """The rows written to the baseline: mean accuracy per scenario × method (and a closed
+    loop's ATE)."""
+    table = leaderboard_table(summaries)
+    return table[KEY + list(ACCURACY_METRICS) + (["ate_rmse"] if "ate_rmse" in table else [])]
 
 
 def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
@@ -104,4 +122,4 @@ def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
         r = bad.iloc[0]
         raise UserError(f"not writing baseline {path}: {r['scenario']} × {r['method']} is not ok ({r['status']})")
     with atomic_path(path, role=Role("baseline", "--baseline")) as tmp:
-        table[KEY + list(ACCURACY_METRICS)].to_csv(tmp, index=False, float_format="%.6f")
+        baseline_table(summaries).to_csv(tmp, index=False, float_format="%.6f")

@@ -20,7 +20,7 @@ from ..fingerprint import class_digest, package_digest
 from ..validation import check_number
 from .config import DEFAULTS, check_method, merge, read_yaml, run_spec
 
-SUITE_KEYS = ("description", "base", "scenes", "difficulties", "methods", "seeds", "tolerance")
+SUITE_KEYS = ("description", "base", "scenes", "difficulties", "methods", "seeds", "tolerance", "ate_tolerance")
 
 
 @dataclass(frozen=True)
@@ -67,7 +67,7 @@ class Suite:
     name: str
     jobs: tuple[Job, ...]
     tolerance: float
-
+    ate_tolerance: float = 0.01   # m: a closed loop's ATE may rise this much above the baseline
     def rows(self) -> list[tuple[str, str]]:
         """The (scenario, method label) rows a run of this suite must produce."""
         first = {}
@@ -145,7 +145,23 @@ def load_suite(path: str | Path) -> Suite:
                 run_spec(cfg)  # validate now
                 runs.append((str(name), cfg))
             jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
-    return Suite(path.stem, tuple(jobs), float(tolerance))
+    ate_tolerance = check_number(raw.get("ate_tolerance", 0.01), f"ate_tolerance in {path}", lo=0)
+    return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance))
+
+
+def resolve_suite(name: str) -> Path:
+    """A suite file: ``name`` itself when it is a path that exists or ends in .yaml/.yml, else
+    the shipped ``configs/<name>.yaml`` (``leaderboard``, ``loop``, ``ci``, ``loop_ci``)."""
+    from .config import shipped_config
+
+    path = Path(name)
+    if path.exists() or path.suffix in (".yaml", ".yml") or len(path.parts) > 1:
+        return path
+    shipped = shipped_config(f"{name}.yaml")
+    if not shipped.is_file():
+        raise UserError(f"suite {name!r} is neither a file nor a shipped suite (leaderboard, loop, ci, loop_ci); "
+                        "pass a YAML path")
+    return shipped
 
 
 def shipped_difficulties() -> dict[str, dict]:

@@ -92,10 +92,15 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
 
 
 def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
-    """Mean and std over seeds of each method × scenario, sorted by scenario then F1 (best first).
+    """Mean and std over seeds of each method × scenario, sorted by scenario then F1 (best first);
+    a closed-loop suite's by ATE (lowest first), with ``diverged`` the number of seeds that did.
     A NaN in any seed makes the mean NaN (it is not skipped), and ``status`` is ``ok`` only when
     every seed's run was."""
     metrics = ["precision", "recall", "f1", "perfect", "surprisal_gap", "runtime_median_ms", *REPORTED_METRICS]
+    loop = "ate_rmse" in summaries
+    if loop:   # a closed-loop suite: the trajectory, consistency and map columns too
+        metrics += [c for c in LOOP_COLUMNS if c not in ("anees_lo", "anees_hi", "diverged_at")]
+        summaries = summaries.assign(diverged=(summaries["diverged_at"] >= 0).astype(float))
     summaries = summaries.assign(**{c: np.nan for c in REPORTED_METRICS if c not in summaries})
     grouped = summaries.groupby(["scenario", "method"], sort=True)
     mean = grouped[metrics].agg(lambda col: col.mean(skipna=False))
@@ -106,6 +111,11 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     table["frames"] = grouped["frames"].sum()
     table["failures"] = grouped["failures"].sum()
     table["timed_out"] = grouped["timed_out"].sum()
+    if loop:
+        table["diverged"] = grouped["diverged"].sum().astype(int)
+        table[["anees_lo", "anees_hi"]] = grouped[["anees_lo", "anees_hi"]].mean()
+        table = table.reset_index().sort_values(["scenario", "ate_rmse", "method"], ascending=[True, True, True])
+        return table.reset_index(drop=True)
     table = table.reset_index().sort_values(["scenario", "f1", "precision", "method"],
                                             ascending=[True, False, False, True])
     return table.reset_index(drop=True)
