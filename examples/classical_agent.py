@@ -1,5 +1,6 @@
 """A classical associator driving the Gymnasium environment through ``info["problem"]``.
-Run: python examples/classical_agent.py [method]   (default jcbb)"""
+Run: python examples/classical_agent.py [method] [env id]   (default jcbb on assocbench/Room-v0;
+assocbench/RoomLoop-v0 is the closed loop: its actions update the filter that predicts the next frame)"""
 
 import sys
 
@@ -9,8 +10,8 @@ import assocbench  # noqa: F401  (registers the environments)
 from assocbench.gymenv import classical_action
 
 
-def main(method: str = "jcbb") -> None:
-    env = gym.make("assocbench/Room-v0", frames=10, difficulty="medium", render_mode="rgb_array")
+def main(method: str = "jcbb", env_id: str = "assocbench/Room-v0") -> None:
+    env = gym.make(env_id, frames=10, difficulty="medium", render_mode="rgb_array")
     obs, info = env.reset(seed=0)
     total = tp = fp = fn = 0
     done = False
@@ -21,8 +22,10 @@ def main(method: str = "jcbb") -> None:
     frame = env.render()
     print(f"{method}: return {total:.0f}, precision {tp / max(tp + fp, 1):.3f}, recall {tp / max(tp + fn, 1):.3f}, "
           f"last frame drawn {frame.shape}")
+    if "pos_err" in info:   # a closed-loop env: the filter's pose error after the last frame
+        print(f"final pose error {info['pos_err']:.3f} m, {info['rot_err_deg']:.2f} deg, NEES {info['nees']:.1f}")
     env.close()
 
 
 if __name__ == "__main__":
-    main(*sys.argv[1:2])
+    main(*sys.argv[1:3])

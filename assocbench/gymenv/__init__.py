@@ -1,4 +1,6 @@
-"""Gymnasium environments: ``gymnasium.make("assocbench/Room-v0")`` and one id per shipped scene."""
+"""Gymnasium environments: ``gymnasium.make("assocbench/Room-v0")`` and one id per shipped scene
+(open loop: the belief is sampled around the truth), and ``assocbench/RoomLoop-v0`` and friends
+(closed loop: the belief is a filter updated with the agent's own actions)."""
 
 from __future__ import annotations
 
@@ -6,17 +8,22 @@ import gymnasium as gym
 
 from .actions import action_mask, sample_mask, sample_valid_action
 from .env import AssociationEnv, classical_action
+from .loop_env import LoopAssociationEnv
 
 ENV_IDS = {"Room": "room", "Checkerboard": "checkerboard", "Corridor": "corridor"}
 
 
 def register_envs() -> None:
-    """Register ``assocbench/<Scene>-v0`` for every shipped scene (idempotent)."""
+    """Register ``assocbench/<Scene>-v0`` and ``assocbench/<Scene>Loop-v0`` for every shipped
+    scene (idempotent)."""
+    entry_points = {"": "assocbench.gymenv.env:AssociationEnv",
+                    "Loop": "assocbench.gymenv.loop_env:LoopAssociationEnv"}
     for name, scene in ENV_IDS.items():
-        env_id = f"assocbench/{name}-v0"
-        if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point="assocbench.gymenv.env:AssociationEnv", kwargs={"scene": scene})
+        for suffix, entry_point in entry_points.items():
+            env_id = f"assocbench/{name}{suffix}-v0"
+            if env_id not in gym.registry:
+                gym.register(id=env_id, entry_point=entry_point, kwargs={"scene": scene})
 
 
-__all__ = ["AssociationEnv", "ENV_IDS", "action_mask", "classical_action", "register_envs", "sample_mask",
-           "sample_valid_action"]
+__all__ = ["AssociationEnv", "ENV_IDS", "LoopAssociationEnv", "action_mask", "classical_action", "register_envs",
+           "sample_mask", "sample_valid_action"]

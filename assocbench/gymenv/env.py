@@ -47,7 +47,7 @@ from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..belief.camera_belief import make_problem
 from ..errors import UserError
-from ..harness.config import merge, run_spec
+from ..harness.config import RunSpec, merge, run_spec
 from ..scoring.metrics import score_frame, unscored_frame
 from ..sim.sequence import Sequence, load_sequence
 from .actions import action_mask
@@ -91,9 +91,7 @@ class AssociationEnv(gym.Env):
             raise UserError(f"invalid_action must be 'penalize' or 'raise', got {invalid_action!r}")
         self.invalid_action = invalid_action
         self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config)
-        from ..sim.scene import load_scene
-
-        n_max = len(load_scene(spec.sequence.scene).landmarks)
+        n_max = self._landmark_slots(spec)
         m_max = spec.sequence.detector.max_features + spec.belief.clutter
         self.max_landmarks, self.max_features = n_max, m_max
         self.render_mode = render_mode
@@ -147,10 +145,11 @@ class AssociationEnv(gym.Env):
                 raise
             metrics = unscored_frame(self._problem, self._truth)
             reward, info = -float(self._problem.n), {"invalid_action": str(exc)}
+            info.update(self._apply(None, str(exc)))
             association = np.full(self._problem.n, NO_MATCH)
         else:
             metrics = score_frame(self._problem, self._truth, association)
-            reward, info = float(metrics["tp"] - metrics["fp"]), {}
+            reward, info = float(metrics["tp"] - metrics["fp"]), self._apply(association, "")
         self._last = (self._frame, self._problem, association)
         info.update(step_metrics=metrics, scored_frame=self._frame)
         self._frame += 1
@@ -162,8 +161,19 @@ class AssociationEnv(gym.Env):
     def _over(self) -> bool:
         return self._frame >= len(self._seq)
 
+    def _landmark_slots(self, spec: RunSpec) -> int:
+        """N, the candidate slots: every landmark of the scene."""
+        from ..sim.scene import load_scene
+
+        return len(load_scene(spec.sequence.scene).landmarks)
+
     def _load_frame(self) -> None:
         self._problem, self._truth = make_problem(self._seq, self._frame, self._belief, self._seed)
+
+    def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
+        """Act on the current frame's answer (None: refused with ``error``) before the next frame
+        loads; the open loop's frames do not depend on it. Returns extra step ``info``."""
+        return {}
 
     def _check_action(self, action) -> np.ndarray:
         a = np.asarray(action)

@@ -16,8 +16,8 @@ from collections.abc import Callable, Iterator
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..association.problem import NO_MATCH
-from ..belief.camera_belief import BeliefConfig
+from ..association.problem import NO_MATCH, Problem
+from ..belief.camera_belief import BeliefConfig, FrameTruth
 from ..estimators.base import FrameData
 from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
@@ -66,6 +66,7 @@ class ClosedLoop:
         self.filter = make_estimator(seq, est, belief, seed)
         self.truth = MapTruth()
         self.in_map = None
+        self._pending: tuple | None = None   # frame begun, not finished: (k, problem, truth, data, labels)
         if est.mode == "localisation":
             self.in_map = np.zeros(len(seq.landmarks), bool)
             self.in_map[self.filter.book.ids] = True
@@ -74,6 +75,12 @@ class ClosedLoop:
 
     def frame(self, k: int, decide: Callable) -> dict:
         """Run frame ``k``: ``decide(problem, truth) -> (association | None, runtime, info, error)``."""
+        problem, truth = self.begin(k)
+        return self.finish(*decide(problem, truth))
+
+    def begin(self, k: int) -> tuple[Problem, FrameTruth]:
+        """First half of frame ``k``: predict with odometry (k > 0), then frame ``k``'s problem
+        from the filter and its truth. ``finish`` applies an answer to it; frames go in order."""
         if k > 0:
             self.filter.predict(odometry(self.seq.rotations, self.seq.positions, k, self.est, self.seed))
         data, labels = camera_frame(self.seq, k, self.belief, self.est, self.seed, self.in_map)
@@ -81,11 +88,20 @@ class ClosedLoop:
         ids = problem.landmark_ids
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
         truth = loop_truth(ids, self.truth, labels, visible)
-        association, runtime, info, error = decide(problem, truth)
+        self._pending = (k, problem, truth, data, labels)
+        return problem, truth
+
+    def finish(self, association: np.ndarray | None, runtime: float = 0.0, info: dict | None = None,
+               error: str = "") -> dict:
+        """Second half: update with ``association`` (None: the frame failed with ``error`` and the
+        filter only predicts through it) and return the frame's record."""
+        if self._pending is None:
+            raise RuntimeError("ClosedLoop.finish without a frame begun: call begin(k) first")
+        (k, problem, truth, data, labels), self._pending = self._pending, None
         if association is None:   # the filter only predicts through a failed frame
             record = failed_record(k, problem, truth, error, runtime)
         else:
-            record = self._apply(k, problem, truth, association, data, labels, runtime, info)
+            record = self._apply(k, problem, truth, association, data, labels, runtime, dict(info or {}))
         return record | self._state_columns(k)
 
     def _apply(self, k, problem, truth, association, data, labels, runtime, info) -> dict:
