@@ -38,8 +38,8 @@ TOPVIEW_LEGEND = (
                      draw.dot(img, p, CONFIRMED_COLOR, 2, halo=None)), "map, confirmed (3 sigma)"),
     (lambda img, p: (draw.ellipse(img, p, np.eye(2) * 4, TENTATIVE_COLOR),
                      draw.dot(img, p, TENTATIVE_COLOR, 2, halo=None)), "map, tentative (3 sigma)"),
-    (lambda img, p: cv2.line(img, (p[0] - 8, p[1]), (p[0] + 8, p[1]), TRUE_COLOR, 2, cv2.LINE_AA), "true path"),
-    (lambda img, p: cv2.line(img, (p[0] - 8, p[1]), (p[0] + 8, p[1]), EST_COLOR, 2, cv2.LINE_AA), "estimated path"),
+    (lambda img, p: cv2.line(img, (p[0] - 8, p[1]), (p[0] + 8, p[1]), TRUE_COLOR, 3, cv2.LINE_AA), "true path, camera"),
+    (lambda img, p: cv2.line(img, (p[0] - 8, p[1]), (p[0] + 8, p[1]), EST_COLOR, 1, cv2.LINE_AA), "estimate"),
 )
 
 
@@ -193,8 +193,8 @@ def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, la
     for c in T(landmarks_true):
         draw.dot(img, c, LANDMARK_COLOR, 1, halo=None)
     _map(img, T, map_means, map_covs, confirmed)
-    _path(img, T(true_p), TRUE_COLOR, 2)
-    _path(img, T(est_p), EST_COLOR, 2)
+    _path(img, T(true_p), TRUE_COLOR, 3)   # wide under thin: both show where they coincide
+    _path(img, T(est_p), EST_COLOR, 1)
     if len(true_p):
         _camera(img, T, true_p[-1], true_R, TRUE_COLOR, 7)   # the larger ring, under the estimate's
     if len(est_p):
