@@ -165,6 +165,32 @@ def _map(img: np.ndarray, T: WorldToPixel, means: np.ndarray, covs: np.ndarray, 
             draw.dot(img, uv[j], color, 2, halo=None)
 
 
+def _text_width(h: int, w: int) -> int:
+    """Width whose ``draw.text_scale`` sizes this picture's words: at most 4/3 of the height, so a
+    wide top view (a corridor) writes as small as the 4:3 camera frame beside it."""
+    return min(w, int(round(4 * h / 3)))
+
+
+def _key(img: np.ndarray, points: list[np.ndarray]) -> None:
+    """The key in the corner (bottom left, bottom right, top right: the title holds the top left)
+    covering the fewest ``points`` (k, 2 pixels), sized and written as on a ``_text_width`` wide
+    image (``draw.legend`` sizes its words by the width of the image it is given)."""
+    h, w = img.shape[:2]
+    vw = _text_width(h, w)
+    box = draw.legend_box(img[:, :vw], TOPVIEW_LEGEND)   # for its size only
+    if box is None:
+        return
+    bw, bh = box[2] - box[0], box[3] - box[1]
+    pts = np.vstack(points) if points else np.zeros((0, 2))
+
+    def covered(c):
+        return int(np.sum((pts[:, 0] >= c[0]) & (pts[:, 0] <= c[0] + bw) & (pts[:, 1] >= c[1]) & (pts[:, 1] <= c[1] + bh)))
+
+    x, y = min([(4, h - 4 - bh), (w - 4 - bw, h - 4 - bh), (w - 4 - bw, 4)], key=covered)
+    x0 = 0 if x + bw <= vw else w - vw   # the text-width view that holds the box (a view: draws on img)
+    draw.legend(img[:, x0:x0 + vw], TOPVIEW_LEGEND, (x - x0, y, x - x0 + bw, y + bh))
+
+
 def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, landmarks_true: np.ndarray,
              map_means: np.ndarray, map_covs: np.ndarray, confirmed: np.ndarray, size: tuple[int, int] = (480, 480),
              bounds: Bounds | None = None, true_R: np.ndarray | None = None, title: str = "") -> np.ndarray:
@@ -181,15 +207,15 @@ def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, la
     map_means = np.asarray(map_means, float).reshape(-1, 3)
     map_covs = np.asarray(map_covs, float).reshape(-1, 3, 3)
     img = np.full((h, w, 3), BACKGROUND, np.uint8)
-    y = draw.label(img, title) if title else 4
+    left = img[:, :_text_width(h, w)]   # a view: words sized as on the camera frame
+    y = draw.label(left, title) if title else 4
     # the header (title, scale bar) is kept clear of the map: the world is fitted below it
-    header = y + 2 * cv2.getTextSize("0", draw.FONT, draw.text_scale(img), 1)[0][1] + 16
+    header = y + 2 * cv2.getTextSize("0", draw.FONT, draw.text_scale(left), 1)[0][1] + 16
     T = WorldToPixel.fit(bounds or view_bounds(true_p, landmarks_true), (h, w), top=header)
-    bar = nice_length(0.25 * w / T.scale)
+    bar = nice_length(0.25 * left.shape[1] / T.scale)
     _grid(img, T, bar, header)
-    y = _scale_bar(img, T, bar, y)
-    points = [T(p) for p in (true_p, est_p, landmarks_true, map_means) if len(p)]
-    draw.legend(img, TOPVIEW_LEGEND, draw.legend_box(img, TOPVIEW_LEGEND, np.vstack(points) if points else None))
+    y = _scale_bar(left, T, bar, y)
+    _key(img, [T(p) for p in (true_p, est_p, landmarks_true, map_means) if len(p)])
     for c in T(landmarks_true):
         draw.dot(img, c, LANDMARK_COLOR, 1, halo=None)
     _map(img, T, map_means, map_covs, confirmed)
@@ -201,5 +227,5 @@ def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, la
         _camera(img, T, est_p[-1], est_R, EST_COLOR, 4)
         u, v = T(est_p[-1:])[0]
         if np.all(np.isfinite(est_p[-1])) and not (0 <= u < w and 0 <= v < h):
-            draw.label(img, "estimated camera outside the view", (4, y + 2), background=(200, 0, 0))
+            draw.label(left, "estimated camera outside the view", (4, y + 2), background=(200, 0, 0))
     return img
