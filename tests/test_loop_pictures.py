@@ -84,6 +84,16 @@ def test_top_view_handles_an_empty_map_and_bad_covariances():
     assert img.shape == (240, 320, 3)
 
 
+@pytest.mark.parametrize("kwargs,needle", [({"size": (0, 10)}, "size"), ({"bounds": (1.0, 1.0, 0.0, 2.0)}, "bounds"),
+                                           ({"confirmed": np.ones(2, bool)}, "2 confirmed flags")])
+def test_top_view_refuses_bad_input_in_one_line(kwargs, needle):
+    from assocbench.errors import UserError
+
+    args = {"map_means": np.zeros((1, 3)), "map_covs": np.eye(3)[None], "confirmed": np.ones(1, bool)} | kwargs
+    with pytest.raises(UserError, match=needle):
+        top_view(path_at(0.0), path_at(0.0), None, np.zeros((0, 3)), **args)
+
+
 def test_view_bounds_hold_every_point_with_a_margin():
     b = topview.view_bounds(path_at(0.0), np.array([[3.0, -4.0, 0.0], [np.nan, 0, 0]]))
     assert b[0] < -1.0 and b[1] > 3.0 and b[2] < -4.0 and b[3] > 0.0

@@ -24,7 +24,8 @@ from ..viz.video import check_fps, check_video_path, write_video
 from .common import add_run_options, check_output_file
 
 NAME = "render"
-HELP = "write a video (.mp4 or .gif) of a run with the association drawn on every frame"
+HELP = ("write a video (.mp4 or .gif) of a run with the association drawn on every frame; with --loop, "
+        "beside a top view of the trajectories and the map")
 REPLAY_TOLERANCE_M = 1e-6   # the replayed filter must put the camera where the run did
 
 

@@ -18,6 +18,7 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
+from ..errors import UserError
 from . import draw
 
 TRUE_COLOR, EST_COLOR = (20, 20, 20), (220, 30, 30)
@@ -191,6 +192,19 @@ def _key(img: np.ndarray, points: list[np.ndarray]) -> None:
     draw.legend(img[:, x0:x0 + vw], TOPVIEW_LEGEND, (x - x0, y, x - x0 + bw, y + bh))
 
 
+def _check(size: tuple[int, int], bounds: Bounds | None, n: tuple[int, int, int]) -> None:
+    """One line naming what is wrong: a size without pixels, an empty or non-finite box, a map whose
+    means, covariances and confirmed flags disagree in number."""
+    if min(size) < 1:
+        raise UserError(f"top view size must be (height, width) of at least 1 pixel each, got {size}")
+    if bounds is not None and not (np.all(np.isfinite(bounds)) and bounds[1] > bounds[0] and bounds[3] > bounds[2]):
+        raise UserError(f"top view bounds must be finite (x_min, x_max, y_min, y_max) with x_min < x_max and "
+                        f"y_min < y_max, got {bounds}")
+    if len(set(n)) > 1:
+        raise UserError(f"top view map: {n[0]} means, {n[1]} covariances and {n[2]} confirmed flags; give one "
+                        f"of each per landmark")
+
+
 def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, landmarks_true: np.ndarray,
              map_means: np.ndarray, map_covs: np.ndarray, confirmed: np.ndarray, size: tuple[int, int] = (480, 480),
              bounds: Bounds | None = None, true_R: np.ndarray | None = None, title: str = "") -> np.ndarray:
@@ -206,6 +220,7 @@ def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, la
     landmarks_true = np.asarray(landmarks_true, float).reshape(-1, 3)
     map_means = np.asarray(map_means, float).reshape(-1, 3)
     map_covs = np.asarray(map_covs, float).reshape(-1, 3, 3)
+    _check((h, w), bounds, (len(map_means), len(map_covs), len(np.atleast_1d(confirmed))))
     img = np.full((h, w, 3), BACKGROUND, np.uint8)
     left = img[:, :_text_width(h, w)]   # a view: words sized as on the camera frame
     y = draw.label(left, title) if title else 4
