@@ -1,0 +1,231 @@
+"""The closed-loop leaderboard's figures, as matplotlib figures (no pyplot state, as ``viz.plots``).
+
+- ``ate_figure``: ATE (m) per method per scenario, bars with ± std over seeds; ``oracle`` (the
+  true association, the loop's reference) hatched and named "oracle (truth)".
+- ``nees_figure``: pose NEES over time, median over seeds per method, log y, against the per-frame
+  χ²₆ band (95 % two-sided, shaded) and its 99.9 % bound (dashed).
+- ``map_figure``: one run's top view per method: trajectories, and the map where it is given.
+
+Save them with ``viz.plots.save_figure``. Methods keep ``viz.plots.method_styles``' colours.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Mapping, Sequence
+
+import numpy as np
+import pandas as pd
+from scipy.stats import chi2
+
+from .plots import method_styles
+
+ORACLE = "oracle"               # harness.config.ORACLE; viz does not import the harness
+ORACLE_LABEL = "oracle (truth)"
+POSE_DOF = 6                    # NEES of a 6-DoF pose error
+BAND = (0.025, 0.975)           # two-sided 95 % per frame
+BOUND = 0.999                   # harness divergence test's level
+LOG_RATIO = 20.0                # a panel whose ATEs span more than this ratio gets a log axis
+
+
+def readable_log_axis(ax) -> None:
+    """A log y axis ticked at 1, 2, 5 × 10ᵏ and labelled in plain numbers (not 3×10¹)."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+
+    ax.set_yscale("log")
+    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    ax.yaxis.set_minor_formatter(NullFormatter())
+
+
+def method_order(methods) -> list[str]:
+    """``oracle`` first (the reference), then the others by name."""
+    names = sorted(set(methods))
+    return ([ORACLE] if ORACLE in names else []) + [m for m in names if m != ORACLE]
+
+
+def label(method: str) -> str:
+    return ORACLE_LABEL if method == ORACLE else method
+
+
+def scenario_grid(scenarios, scenes: Sequence[str] | None = None,
+                  difficulties: Sequence[str] | None = None) -> tuple[list[str], list[str]]:
+    """Rows (scenes) and columns (difficulties) of ``scene/difficulty`` names: the orders given, or
+    the order of first appearance (pass ``harness.leaderboard._grid``'s for easy, medium, hard)."""
+    parts = [s.rpartition("/") for s in dict.fromkeys(scenarios)]
+    scenes = list(scenes) if scenes is not None else list(dict.fromkeys(p[0] for p in parts))
+    difficulties = list(difficulties) if difficulties is not None else list(dict.fromkeys(p[2] for p in parts))
+    return scenes, difficulties
+
+
+def _panels(scenarios, scenes, difficulties, width: float, height: float):
+    """A figure with a row per scene and a column per difficulty; ``{scenario: ax}`` (unused panels off)."""
+    from matplotlib.figure import Figure
+
+    scenes, difficulties = scenario_grid(scenarios, scenes, difficulties)
+    fig = Figure(figsize=(width * len(difficulties), height * len(scenes)))
+    axes = fig.subplots(len(scenes), len(difficulties), squeeze=False)
+    for ax in axes.flat:
+        ax.axis("off")
+    out = {}
+    for scenario in dict.fromkeys(scenarios):
+        scene, _, difficulty = scenario.rpartition("/")
+        ax = axes[scenes.index(scene), difficulties.index(difficulty)]
+        ax.axis("on")
+        out[scenario] = ax
+    return fig, out
+
+
+def _bar_style(method: str, styles: dict) -> dict:
+    """Filled bars in the method's colour; the oracle hatched on white, so it reads as a reference."""
+    if method == ORACLE:
+        return {"facecolor": "white", "edgecolor": "0.3", "hatch": "///", "linewidth": 1.0}
+    return {"facecolor": styles[method]["color"], "edgecolor": "none", "alpha": 0.85}
+
+
+def _ate_panel(ax, sub: pd.DataFrame, order: list[str], styles: dict, title: str) -> None:
+    """One scenario: a bar per method (in ``order``) at its mean ATE, ± std over seeds."""
+    rows = sub.set_index("method")
+    for x, method in enumerate(order):
+        if method not in rows.index:
+            continue
+        mean, std = float(rows.at[method, "ate_rmse"]), float(rows.at[method, "ate_rmse_std"])
+        if not np.isfinite(mean):
+            ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=7, color="0.4")
+            continue
+        ax.bar(x, mean, 0.75, yerr=std if np.isfinite(std) else None, capsize=3,
+               error_kw={"elinewidth": 0.9, "ecolor": "0.2"}, **_bar_style(method, styles))
+    values = sub["ate_rmse"].to_numpy(float)
+    positive = values[np.isfinite(values) & (values > 0)]
+    if len(positive) > 1 and positive.max() > LOG_RATIO * positive.min():
+        readable_log_axis(ax)   # a diverged method would flatten the others' bars to nothing
+    ax.set_xticks(range(len(order)), [label(m) for m in order], rotation=40, ha="right", fontsize=8)
+    ax.set(title=title, ylabel="ATE (m)")
+    ax.grid(axis="y", alpha=0.3, which="both")
+
+
+def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None):
+    """ATE RMSE (m) of each method in each scenario (``scenario`` = ``scene/difficulty``,
+    ``method``, ``ate_rmse``, ``ate_rmse_std``: mean and std over seeds): a row of panels per
+    scene, a column per difficulty, a bar per method with ± std error bars. ``oracle`` is hatched
+    and labelled "oracle (truth)": the filter fed the true association, the floor the others chase."""
+    from matplotlib.patches import Patch
+
+    order = method_order(table["method"])
+    styles = method_styles(table["method"])
+    fig, axes = _panels(table["scenario"], scenes, difficulties, max(3.2, 0.45 * len(order) + 1.2), 3.4)
+    for scenario, ax in axes.items():
+        _ate_panel(ax, table[table["scenario"] == scenario], order, styles, scenario)
+    handles = [Patch(label=label(m), **_bar_style(m, styles)) for m in order]
+    fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 6), frameon=False, fontsize=8)
+    fig.text(0.5, 0.005, "absolute trajectory error (RMSE of the camera position, no alignment)\nbars: mean over "
+             f"seeds, whiskers: ± std; a panel spanning more than {LOG_RATIO:g}x is drawn on a log axis",
+             ha="center", va="bottom", fontsize=7)
+    fig.tight_layout(rect=(0, 0.3 / fig.get_figheight(), 1, 1 - 0.5 / fig.get_figheight()))
+    return fig
+
+
+def nees_band(dof: int = POSE_DOF) -> tuple[float, float, float]:
+    """(χ²_dof(0.025), χ²_dof(0.975), χ²_dof(0.999)): a consistent filter's NEES lies in the first
+    two 95 % of the time, frame by frame, and above the third 0.1 % of the time."""
+    return float(chi2.ppf(BAND[0], dof)), float(chi2.ppf(BAND[1], dof)), float(chi2.ppf(BOUND, dof))
+
+
+def median_over_seeds(frames: pd.DataFrame) -> pd.DataFrame:
+    """Per ``method`` and ``frame``: the median ``nees`` over seeds (NaN frames, such as slam's
+    frame 0 that has no pose covariance, left out)."""
+    finite = frames[np.isfinite(frames["nees"].to_numpy(float))]
+    return finite.groupby(["method", "frame"], as_index=False)["nees"].median()
+
+
+def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None):
+    """Pose NEES against frame (``scenario``, ``method``, ``seed``, ``frame``, ``nees`` per row): a
+    panel per scenario, a line per method (median over seeds), log y; shaded: the per-frame
+    two-sided 95 % band of χ²₆, [χ²₆(0.025), χ²₆(0.975)] = [1.24, 14.4]; dashed: χ²₆(0.999) = 22.5.
+    A line above the band says the filter is overconfident (its covariance too small)."""
+    from matplotlib.lines import Line2D
+    from matplotlib.patches import Patch
+
+    lo, hi, bound = nees_band()
+    order = method_order(frames["method"])
+    styles = method_styles(frames["method"])
+    fig, axes = _panels(frames["scenario"], scenes, difficulties, 4.4, 3.3)
+    for scenario, ax in axes.items():
+        med = median_over_seeds(frames[frames["scenario"] == scenario])
+        ax.axhspan(lo, hi, color="0.85", zorder=0)
+        ax.axhline(bound, color="0.3", ls="--", lw=1.0)
+        for method in order:
+            m = med[med["method"] == method]
+            if len(m):
+                ax.plot(m["frame"], np.maximum(m["nees"], 1e-3), color=styles[method]["color"], lw=1.4,
+                        ls=":" if method == ORACLE else "-")
+        ax.set(title=scenario, xlabel="frame", ylabel="pose NEES")
+        readable_log_axis(ax)
+        ax.grid(alpha=0.3, which="both")
+    handles = [Line2D([], [], color=styles[m]["color"], lw=1.4, ls=":" if m == ORACLE else "-", label=label(m))
+               for m in order]
+    handles += [Patch(color="0.85", label="per-frame 95 % band of $\\chi^2_6$"),
+                Line2D([], [], color="0.3", ls="--", label="$\\chi^2_6$(0.999)")]
+    fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 5), frameon=False, fontsize=8)
+    fig.text(0.5, 0.005, "median over seeds per frame; above the band: overconfident, below: conservative",
+             ha="center", va="bottom", fontsize=7)
+    fig.tight_layout(rect=(0, 0.03, 1, 1 - 0.55 / fig.get_figheight()))
+    return fig
+
+
+def _map_limits(frames: pd.DataFrame, landmarks, maps) -> tuple[tuple[float, float], tuple[float, float]]:
+    """x and y limits holding every finite point drawn, with a 5 % margin (at least 0.1 m)."""
+    xy = [frames[["true_x", "true_y"]].to_numpy(float), frames[["est_x", "est_y"]].to_numpy(float)]
+    xy += [np.asarray(a, float)[:, :2] for a in ([landmarks] if landmarks is not None else [])
+           + list((maps or {}).values()) if len(a)]
+    pts = np.vstack(xy)
+    pts = pts[np.all(np.isfinite(pts), axis=1)]
+    if not len(pts):
+        return (-1.0, 1.0), (-1.0, 1.0)
+    lo, hi = pts.min(axis=0), pts.max(axis=0)
+    pad = np.maximum(0.05 * (hi - lo), 0.1)
+    return (lo[0] - pad[0], hi[0] + pad[0]), (lo[1] - pad[1], hi[1] + pad[1])
+
+
+def _map_panel(ax, run: pd.DataFrame, landmarks, means, color, limits) -> None:
+    """One method's run: true landmarks, its final map, the true path (thick) and its estimate (thin)."""
+    if landmarks is not None and len(landmarks):
+        ax.plot(np.asarray(landmarks)[:, 0], np.asarray(landmarks)[:, 1], ".", color="0.6", ms=3)
+    if means is not None and len(means):
+        ax.plot(np.asarray(means)[:, 0], np.asarray(means)[:, 1], "+", color=color, ms=4, mew=0.8)
+    ax.plot(run["true_x"], run["true_y"], "-", color="0.1", lw=2.2)
+    ax.plot(run["est_x"], run["est_y"], "-", color=color, lw=1.0)
+    ax.set(xlim=limits[0], ylim=limits[1], xlabel="x (m)", ylabel="y (m)")
+    ax.set_aspect("equal", adjustable="box")
+    ax.grid(alpha=0.3)
+
+
+def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
+               maps: Mapping[str, np.ndarray] | None = None, title: str = ""):
+    """Top view (x–y, metres, equal axes) of one run per method, a panel each.
+
+    frames: per-frame rows of one scenario and one seed with ``method``, ``frame``, ``true_x``,
+    ``true_y``, ``est_x``, ``est_y`` (a closed-loop ``frames.csv``, as the leaderboard stores it);
+    landmarks: the true landmarks (L, 2+), grey; maps: per method its final estimated landmark
+    means (N, 2+). ``frames.csv`` does not record the map, so without ``maps`` the panels show the
+    trajectories only, and the figure says so."""
+    from matplotlib.figure import Figure
+
+    order = method_order(frames["method"])
+    styles = method_styles(frames["method"])
+    cols = min(max(len(order), 1), 4)
+    rows = max(-(-len(order) // cols), 1)
+    fig = Figure(figsize=(3.4 * cols, 3.5 * rows + 0.5))
+    axes = fig.subplots(rows, cols, squeeze=False)
+    for ax in axes.flat[len(order):]:
+        ax.axis("off")
+    limits = _map_limits(frames, landmarks, maps)   # one box for every panel, so they compare
+    for ax, method in zip(axes.flat, order):
+        _map_panel(ax, frames[frames["method"] == method].sort_values("frame"), landmarks,
+                   None if maps is None else maps.get(method), styles[method]["color"], limits)
+        ax.set_title(label(method), fontsize=9)
+    what = "thick black: true path; thin: estimate" + ("; grey dots: true landmarks" if landmarks is not None else "")
+    what += "; +: final map" if maps is not None else "; map not recorded (trajectories only)"
+    fig.suptitle(title, fontsize=10)
+    fig.text(0.5, 0.005, what, ha="center", va="bottom", fontsize=7)
+    fig.tight_layout(rect=(0, 0.03, 1, 1 if not title else 0.95))
+    return fig
