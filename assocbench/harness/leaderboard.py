@@ -146,4 +146,25 @@ def write_leaderboard(summaries: pd.DataFrame, frames: pd.DataFrame, out: Path) 
     write_text(paths["md"], (loop_markdown if loop else to_markdown)(table, difficulties))
     plot_precision_recall(table, paths["pr"], difficulties)
     plot_runtime(frames, paths["runtime"])
+    if loop:
+        paths |= write_loop_plots(table, frames, out, difficulties)
+    return paths
+
+
+def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, difficulties: Sequence[str]) -> dict:
+    """A closed-loop suite's figures: ATE per method per scenario, NEES over time against its
+    χ² band, and the top view of one run per method (the first scene at its last difficulty, the
+    lowest seed): ``leaderboard_ate.png``, ``leaderboard_nees.png``, ``leaderboard_map.png``."""
+    from ..sim.scene import load_scene
+    from ..viz.loop_plots import ate_figure, map_figure, nees_figure
+
+    scenes, columns = _grid(table, difficulties)
+    paths = {k: out / f"leaderboard_{k}.png" for k in ("ate", "nees", "map")}
+    save_figure(ate_figure(table, scenes, columns), paths["ate"])
+    save_figure(nees_figure(frames, scenes, columns), paths["nees"])
+    scenario = f"{scenes[0]}/{columns[-1]}"
+    one = frames[(frames["scenario"] == scenario) & (frames["seed"] == frames["seed"].min())]
+    scene = one["scene"].iloc[0] if len(one) else scenes[0]
+    save_figure(map_figure(one, load_scene(scene).landmarks, title=f"{scenario} seed {one['seed'].min()}"),
+                paths["map"])
     return paths
