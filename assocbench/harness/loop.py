@@ -34,8 +34,9 @@ from .runner import WARM_UP, _build, call_method, failed_record, warm_up
 def camera_frame(seq: Sequence, k: int, belief: BeliefConfig, est: EstimatorConfig, seed: int,
                  in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
     """Frame ``k``'s measurements (features plus N(0, σ_pixel²) when ``est.pixel_noise``, then
-    ``belief.clutter`` uniform clutter features with no depth) and their labels (landmark index; -1 for texture corners, clutter, and landmarks
-    outside the map in localisation). The measured depth is the rendered one plus N(0, σ_z(z)²)."""
+    ``belief.clutter`` uniform clutter features with no depth) and their labels (landmark index;
+    -1 for texture corners, clutter, and landmarks outside the map in localisation). The measured
+    depth is the rendered one plus N(0, σ_z(z)²)."""
     rng = np.random.default_rng([seed, k, 101])
     features, labels = seq.features[k], seq.labels[k]
     clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (belief.clutter, 2))
