@@ -7,7 +7,6 @@ import tempfile
 from pathlib import Path
 
 from ..harness.check import baseline_table, check_tolerance, compare, read_baseline, write_baseline
-from ..errors import UserError
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table
@@ -21,7 +20,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--suite", help="suite YAML or shipped suite name (default: both shipped CI suites, "
                    "configs/ci.yaml and the closed loop's configs/loop_ci.yaml)")
     p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
-                   "results/baseline_<suite>.csv for another suite)")
+                   "results/baseline_<suite>.csv for another suite; without --suite it is the ci suite's)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
     p.add_argument("--update", action="store_true", help="rewrite the baseline from this run")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
@@ -37,9 +36,10 @@ def default_baseline(suite_name: str) -> Path:
 
 
 def main(args: argparse.Namespace) -> int:
-    if args.suite is None and args.baseline is not None:
-        raise UserError("--baseline names one suite's baseline: give --suite too")
-    suites = [args.suite] if args.suite else list(DEFAULT_SUITES)
+    if args.suite:
+        suites = [args.suite]
+    else:   # --baseline alone names the ci suite's baseline, as it always did
+        suites = ["ci"] if args.baseline is not None else list(DEFAULT_SUITES)
     loaded = [load_suite(resolve_suite(s)) for s in suites]   # every suite checked before any runs
     return max(check_suite(suite, args) for suite in loaded)
 
