@@ -6,6 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..errors import UserError
 from ..validation import in_range, one_of, validate_fields
 
 MODES = ("localisation", "slam")
@@ -52,6 +53,9 @@ class EstimatorConfig:
 
     def __post_init__(self) -> None:
         validate_fields(self, "estimator")
+        if self.init == "triangulation":   # refused rather than silently initialising from depth
+            raise UserError("estimator.init: triangulation is not wired into the filter yet (the DLT and its "
+                            "covariance are in estimators/triangulation.py); use init: depth")
 
     @property
     def odometry_covariance(self) -> np.ndarray:
