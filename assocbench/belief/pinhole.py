@@ -38,8 +38,13 @@ def predict_bundle(R: np.ndarray, p: np.ndarray, landmarks: np.ndarray,
     return h, J_pose, J_l, z
 
 
-def perturb_pose(R: np.ndarray, p: np.ndarray, dp: np.ndarray, dtheta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``(R Exp(δθ), p + δp)``: the pose perturbation the Jacobians are taken with."""
+def exp_so3(v: np.ndarray) -> np.ndarray:
+    """Rotation matrix ``Exp(v)`` of a rotation vector (3,)."""
     from scipy.spatial.transform import Rotation
 
-    return R @ Rotation.from_rotvec(dtheta).as_matrix(), p + dp
+    return Rotation.from_rotvec(v).as_matrix()
+
+
+def perturb_pose(R: np.ndarray, p: np.ndarray, dp: np.ndarray, dtheta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(R Exp(δθ), p + δp)``: the pose perturbation the Jacobians are taken with."""
+    return R @ exp_so3(dtheta), p + dp

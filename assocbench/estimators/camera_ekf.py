@@ -18,21 +18,15 @@ with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a 
 from __future__ import annotations
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..association.problem import Problem
-from ..belief.pinhole import predict_bundle, skew
+from ..belief.pinhole import exp_so3, predict_bundle, skew
 from ..sim.camera import Intrinsics
 from .base import CONFIRMED, Estimator, FrameData, LandmarkBook, Motion, UpdateReport
 from .config import EstimatorConfig
 from .ekf_core import augment, joseph_update, propagate_pose, remove
 
 POSE = np.arange(6)
-
-
-def exp_so3(v: np.ndarray) -> np.ndarray:
-    """Rotation matrix ``Exp(v)`` of a rotation vector."""
-    return Rotation.from_rotvec(v).as_matrix()
 
 
 class CameraEKF(Estimator):

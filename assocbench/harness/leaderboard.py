@@ -53,23 +53,32 @@ def loop_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
              "in the loop; *duplicates / false landmarks / map RMSE*: the final map's (slam mode).",
              f"**{ORACLE_LABEL}** is the true association, available only to the harness: the best the estimator",
              "can do, not a method.", ""]
+    def cells(r: pd.Series) -> list[str]:
+        out = [_cell(r, col) for col, _ in LOOP_MD_COLUMNS[1:]]
+        out[2] += f" [{r['anees_lo']:.2f}, {r['anees_hi']:.2f}]" if pd.notna(r["anees"]) else ""
+        return out + [f"{int(r['diverged'])}/{int(r['seeds'])}", f"{int(r['failures'])}/{int(r['frames'])}"]
+
+    headers = [h for _, h in LOOP_MD_COLUMNS] + ["diverged", "failed"]
+    return "\n".join(lines + scenario_tables(table, difficulties, headers, cells))
+
+
+def scenario_tables(table: pd.DataFrame, difficulties: Sequence[str], headers: list[str], cells) -> list[str]:
+    """Markdown lines of one table per scenario (scene, then difficulty order), rows in ``table``'s
+    order: the method's name (``oracle`` marked as the truth, **not ok** where its status is not)
+    and ``cells(row)``; the reasons a row is not ok follow its table."""
+    lines = []
     table = order_scenarios(table, difficulties)
     for scenario in table["scenario"].unique():
-        rows = table[table["scenario"] == scenario]
-        lines += [f"## {scenario}", "", "| " + " | ".join(h for _, h in LOOP_MD_COLUMNS) + " | diverged | failed |",
-                  "|" + "---|" * (len(LOOP_MD_COLUMNS) + 2)]
+        lines += [f"## {scenario}", "", "| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
         notes = []
-        for _, r in rows.iterrows():
+        for _, r in table[table["scenario"] == scenario].iterrows():
             name = f"**{ORACLE_LABEL}**" if r["method"] == "oracle" else str(r["method"])
             if r.get("status", "ok") != "ok":
                 name += " **not ok**"
                 notes.append(f"- {r['method']}: {r['status']}")
-            cells = [name] + [_cell(r, col) for col, _ in LOOP_MD_COLUMNS[1:]]
-            cells[3] += f" [{r['anees_lo']:.2f}, {r['anees_hi']:.2f}]" if pd.notna(r["anees"]) else ""
-            cells += [f"{int(r['diverged'])}/{int(r['seeds'])}", f"{int(r['failures'])}/{int(r['frames'])}"]
-            lines.append("| " + " | ".join(cells) + " |")
+            lines.append("| " + " | ".join([name] + cells(r)) + " |")
         lines += [""] + (notes + [""] if notes else [])
-    return "\n".join(lines)
+    return lines
 
 
 def _cell(r: pd.Series, col: str) -> str:
@@ -92,24 +101,12 @@ def to_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
              "*true mass*: for soft associators (JPDA), the mean probability put on each candidate's true outcome.",
              "A method marked **not ok** has numbers that cannot be trusted (failed frames, no candidates or nothing",
              "associated in some seed's run); the reason follows the table.", ""]
-    table = order_scenarios(table, difficulties)
-    for scenario in table["scenario"].unique():
-        rows = table[table["scenario"] == scenario]
-        lines += [f"## {scenario}", "", "| " + " | ".join(h for _, h in MD_COLUMNS) + " | timed out | failed |",
-                  "|" + "---|" * (len(MD_COLUMNS) + 2)]
-        notes = []
-        for _, r in rows.iterrows():
-            ok = r.get("status", "ok") == "ok"
-            cells = [str(r["method"]) if ok else f"{r['method']} **not ok**"]
-            if not ok:
-                notes.append(f"- {r['method']}: {r['status']}")
-            for col, _ in MD_COLUMNS[1:]:
-                digits = 2 if col in ("surprisal_gap", "runtime_median_ms") else 3
-                cells.append("n/a" if pd.isna(r[col]) else f"{r[col]:.{digits}f} ± {r[col + '_std']:.{digits}f}")
-            cells += [f"{int(r['timed_out'])}/{int(r['frames'])}", f"{int(r['failures'])}/{int(r['frames'])}"]
-            lines.append("| " + " | ".join(cells) + " |")
-        lines += [""] + (notes + [""] if notes else [])
-    return "\n".join(lines)
+    def cells(r: pd.Series) -> list[str]:
+        return [_cell(r, col) for col, _ in MD_COLUMNS[1:]] + [f"{int(r['timed_out'])}/{int(r['frames'])}",
+                                                               f"{int(r['failures'])}/{int(r['frames'])}"]
+
+    headers = [h for _, h in MD_COLUMNS] + ["timed out", "failed"]
+    return "\n".join(lines + scenario_tables(table, difficulties, headers, cells))
 
 
 def _grid(table: pd.DataFrame, difficulties: Sequence[str]) -> tuple[list[str], list[str]]:

@@ -132,6 +132,16 @@ class ClosedLoop:
                 "nees": nees, "tentative": int(len(f.book) - np.sum(f.book.confirmed)), **quality}
 
 
+def recorded_answer(recorded, k: int) -> tuple:
+    """Frame ``k``'s answer in a recorded run (``recorded[k] = (association, error)``), as a
+    ``decide`` returns it: the association, or a failure when an error was recorded or nothing was
+    (the filter then only predicts through the frame, as it did when the run was recorded)."""
+    association, error = recorded.get(k, (None, "not recorded"))
+    if error or association is None:
+        return None, 0.0, {}, error or "not recorded"
+    return np.asarray(association, dtype=np.int64), 0.0, {}, ""
+
+
 def loop_records(seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed: int, method: str, params: dict,
                  time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
                  on_call: Callable[[int, float], None] = lambda k, limit: None,
@@ -152,8 +162,7 @@ def loop_records(seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed
     for k in range(len(seq)):
         def decide(problem, truth, k=k):
             if k < first:
-                assoc, error = replay.get(k, (None, "not replayed"))
-                return (None, 0.0, {}, error) if error else (np.asarray(assoc, dtype=np.int64), 0.0, {}, "")
+                return recorded_answer(replay, k)
             if k in faults:
                 return None, faults[k][1], {}, faults[k][0]
             if method == ORACLE:

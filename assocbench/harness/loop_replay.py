@@ -18,7 +18,7 @@ import numpy as np
 from ..association.problem import Problem
 from ..sim.sequence import Sequence
 from .config import RunSpec
-from .loop import ClosedLoop
+from .loop import ClosedLoop, recorded_answer
 
 
 @dataclass(frozen=True)
@@ -54,18 +54,11 @@ def replay_loop(spec: RunSpec, seq: Sequence, recorded: Mapping[int, tuple[Seq[i
     (association, error)``; a frame missing from ``recorded`` is replayed as failed."""
     loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
     for k in range(len(seq)):
-        association, error = recorded.get(k, (None, "not recorded"))
-        seen: dict = {}
-
-        def decide(problem, truth):
-            seen["problem"] = problem
-            if error or association is None:   # as sandbox's resume: a failed frame updates nothing
-                return None, 0.0, {}, error or "not recorded"
-            return np.asarray(association, dtype=np.int64), 0.0, {}, ""
-
-        record = loop.frame(k, decide)
-        problem = seen["problem"]
+        problem, _ = loop.begin(k)
+        answer = recorded_answer(recorded, k)
+        record = loop.finish(*answer)
+        association = recorded.get(k, (None, ""))[0]   # drawn even when the frame failed after it
         shown = np.full(problem.n, -1, np.int64) if association is None else np.asarray(association, np.int64)
         f, means = loop.filter, loop.filter.landmarks
-        yield LoopFrame(k, problem, shown, error or ("" if association is not None else "not recorded"), record,
+        yield LoopFrame(k, problem, shown, answer[3], record,
                         f.R.copy(), f.p.copy(), means, landmark_blocks(f.covariance, len(means)), f.book.confirmed)

@@ -26,7 +26,7 @@ def loop_summary(frames: pd.DataFrame) -> dict:
     if not len(frames):
         return {c: float("nan") for c in LOOP_COLUMNS}
     nees = frames["nees"].to_numpy(dtype=float)
-    excluded = [k for k in range(len(nees)) if k == 0 and not np.isfinite(nees[k])]
+    excluded = [0] if not np.isfinite(nees[0]) else []   # slam's first pose has no covariance
     counted = len(nees) - len(excluded)
     lo, hi = anees_band(counted) if counted else (float("nan"), float("nan"))
     last = frames.iloc[-1]

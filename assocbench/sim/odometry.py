@@ -11,6 +11,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..belief.pinhole import exp_so3
 from ..estimators.base import Motion
 from ..estimators.config import EstimatorConfig
 
@@ -27,6 +28,6 @@ def odometry(rotations: np.ndarray, positions: np.ndarray, k: int, cfg: Estimato
     scale = cfg.odometry_miscalibration
     noise_p = rng.normal(0.0, 1.0, 3) * cfg.odometry_sigma_translation * scale
     noise_theta = rng.normal(0.0, 1.0, 3) * np.deg2rad(cfg.odometry_sigma_rotation) * scale
-    dR = Rotation.from_rotvec(inc[3:]).as_matrix() @ Rotation.from_rotvec(noise_theta).as_matrix()
+    dR = exp_so3(inc[3:]) @ exp_so3(noise_theta)
     measured = np.concatenate([inc[:3] + noise_p, Rotation.from_matrix(dR).as_rotvec()])
     return Motion(measured, cfg.odometry_covariance)
