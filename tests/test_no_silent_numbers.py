@@ -283,3 +283,26 @@ def test_a_leaderboard_row_counts_failed_frames_over_all_seeds():
 def test_a_folder_given_as_config_is_named_as_a_folder(tmp_path):
     with pytest.raises(UserError, match="is a folder; pass a YAML file"):
         read_yaml(tmp_path)
+
+
+def test_a_row_that_is_not_ok_never_ranks_first():
+    """Sorted by F1 (or a loop's ATE), a run with failed frames still goes below every ok row."""
+    from assocbench.scoring.aggregate import leaderboard_table
+
+    rows = [{"scenario": "room/easy", "method": m, "seed": 0, "precision": p, "recall": p, "f1": p, "perfect": p,
+             "surprisal_gap": 0.0, "runtime_median_ms": 1.0, "frames": 10, "failures": f, "timed_out": 0,
+             "status": "ok" if not f else f"{f}/10 frames failed"}
+            for m, p, f in (("broken", 1.0, 3), ("good", 0.9, 0), ("fair", 0.8, 0))]
+    table = leaderboard_table(pd.DataFrame(rows))
+    assert list(table["method"]) == ["good", "fair", "broken"]
+    loop = pd.DataFrame(rows).assign(ate_rmse=[0.01, 0.05, 0.09], rot_rmse_deg=0.1, anees=6.0, anees_lo=5.0,
+                                     anees_hi=7.0, diverged_at=-1, map_size=5, duplicates=0, false_landmarks=0,
+                                     map_rmse=0.01, new_landmarks=0, no_depth=0)
+    assert list(leaderboard_table(loop)["method"]) == ["good", "fair", "broken"]
+
+
+def test_settings_in_scientific_notation_are_numbers():
+    """YAML 1.1 reads 5e-1 as a string; settings read it as the number people meant."""
+    from assocbench.harness.config import parse_sets
+
+    assert parse_sets(["a=5e-1", "b=-2E-3", "c=1e300", "d=abc"]) == {"a": 0.5, "b": -0.002, "c": 1e300, "d": "abc"}

@@ -7,6 +7,7 @@ stage (``DetectorConfig``, ``TruthConfig``, ``BeliefConfig``); unknown keys are 
 from __future__ import annotations
 
 import copy
+import re
 import difflib
 from dataclasses import asdict, dataclass
 from importlib import resources
@@ -67,6 +68,15 @@ class _UniqueKeyLoader(yaml.SafeLoader):
         return super().construct_mapping(node, deep)
 
 
+# YAML 1.1 (PyYAML) reads 5e-1 or 1e-3 as strings: it wants a dot and a signed exponent. Floats
+# people type in settings are read as floats here, in files and in --set alike.
+_FLOAT = re.compile(r"""^[-+]?(?:[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?
+                    |[0-9][0-9_]*[eE][-+]?[0-9]+
+                    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
+                    |\.(?:inf|Inf|INF))$|^\.(?:nan|NaN|NAN)$""", re.X)
+_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+
+
 def read_yaml(path: str | Path) -> dict:
     """Parse a YAML mapping, or raise a one-line ``UserError`` (duplicate keys included)."""
     path = Path(path)
@@ -119,7 +129,7 @@ def parse_sets(items: list[str] | None) -> dict:
         if not sep or not key.strip():
             raise UserError(f"--set expects key=value, got {item!r}")
         try:
-            value = yaml.safe_load(raw)
+            value = yaml.load(raw, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader
         except yaml.YAMLError:
             value = raw
         node = out

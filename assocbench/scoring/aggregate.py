@@ -92,7 +92,8 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
 
 
 def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
-    """Mean and std over seeds of each method × scenario, sorted by scenario then F1 (best first);
+    """Mean and std over seeds of each method × scenario, sorted by scenario, rows that are not ok
+    last, then F1 (best first);
     a closed-loop suite's by ATE (lowest first), with ``diverged`` the number of seeds that did.
     A NaN in any seed makes the mean NaN (it is not skipped), and ``status`` is ``ok`` only when
     every seed's run was."""
@@ -114,10 +115,12 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     if loop:
         table["diverged"] = grouped["diverged"].sum().astype(int)
         table[["anees_lo", "anees_hi"]] = grouped[["anees_lo", "anees_hi"]].mean()
-        table = table.reset_index().sort_values(["scenario", "ate_rmse", "method"], ascending=[True, True, True])
+        table = table.reset_index().assign(_bad=lambda t: t["status"] != OK)
+        table = table.sort_values(["scenario", "_bad", "ate_rmse", "method"]).drop(columns="_bad")
         return table.reset_index(drop=True)
-    table = table.reset_index().sort_values(["scenario", "f1", "precision", "method"],
-                                            ascending=[True, False, False, True])
+    table = table.reset_index().assign(_bad=lambda t: t["status"] != OK)   # a run not ok never ranks first
+    table = table.sort_values(["scenario", "_bad", "f1", "precision", "method"],
+                              ascending=[True, True, False, False, True]).drop(columns="_bad")
     return table.reset_index(drop=True)
 
 
