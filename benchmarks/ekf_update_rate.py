@@ -9,8 +9,8 @@ paired with features at their predicted pixels plus 1 px noise. Columns (calls p
 * ``update``: ``CameraEKF.update`` (Joseph update + error-state injection + bookkeeping) on a
   filter restored, untimed, before each call;
 * ``frame``: the whole frame, ``predict`` (odometry) + ``problem`` + ``update``;
-* ``joseph``: ``ekf_core.joseph_update`` alone; ``before``: the same expansion written out
-  plainly, ``P − K Uᵀ − U Kᵀ + K S Kᵀ`` with ``cho_factor``/``cho_solve``, then ``½ (P' + P'ᵀ)``;
+* ``joseph``: ``ekf_core.joseph_update`` alone; ``before``: the expansion it replaced,
+  ``P − K Uᵀ − U Kᵀ + K S Kᵀ`` with ``cho_factor``/``cho_solve``, then ``½ (P' + P'ᵀ)``;
 * ``textbook``: ``P' = (I − K H) P (I − K H)ᵀ + K R Kᵀ`` with the dense n × n ``I − K H``, the
   full-width H and an explicit ``S⁻¹`` (``K = P Hᵀ S⁻¹``), same H, ν and R;
 * ``update ÷ textbook`` and ``joseph ÷ textbook``: ratios taken within each repeat (the
