@@ -53,7 +53,8 @@ def joseph_update(P: np.ndarray, H: np.ndarray, cols: np.ndarray, innovation: np
     product with (I − KH) (O(n³)), computes one triangle only (n²k multiply-adds, half of what
     the products K Uᵀ and K (S Kᵀ) cost) and leaves P' exactly symmetric, with one n × n copy and
     no other n × n temporary; with ``overwrite`` (and a C-ordered float64 P) P' is written over
-    P, with none (P need not be C-ordered: another layout is copied, and the result is right). Returns ``(δx, P')``; raises ``NotPositiveDefinite`` when S is not (P untouched)."""
+    P, with none (P need not be C-ordered: another layout is copied, and the result is right).
+    Returns ``(δx, P')``; raises ``NotPositiveDefinite`` when S is not (P untouched)."""
     U = P[:, cols] @ H.T
     S = H @ U[cols] + R
     S = 0.5 * (S + S.T)
