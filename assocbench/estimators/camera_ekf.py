@@ -14,7 +14,10 @@ with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a 
 * RGB-D initialisation: ``l = p̂ + R̂ r_c`` with ``r_c = z [(u−c_x)/f, (v−c_y)/f, 1]``:
   ``∂l/∂δp = I``, ``∂l/∂δθ = −R̂[r_c]×``, ``∂l/∂(u, v, z) = R̂ [[z/f, 0, (u−c_x)/f], [0, z/f, (v−c_y)/f], [0, 0, 1]]``.
 * Two-view initialisation (``init: triangulation``): ``two_view_init`` (DLT of a feature left
-  unassociated in an earlier frame and one in this frame; augmented like the RGB-D landmark).
+  unassociated in an earlier frame and one in this frame). While views of frame j wait, a clone
+  of its pose sits after the landmarks in P (corrected by updates, folded like the pose), and
+  the landmark is augmented w.r.t. the current pose and that clone; ``covariance`` leaves the
+  clones out.
 """
 
 from __future__ import annotations
@@ -247,7 +250,8 @@ class CameraEKF(Estimator):
 
     def _initialise_two_view(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
         """Landmarks from waiting views paired with ``features`` (``two_view_init``), appended with
-        the Jacobian w.r.t. the current pose and the previous pose's covariance in M."""
+        the Jacobians w.r.t. the current pose and the clone of the first view's pose (the pixels
+        are the measurement); then the clones follow the waiting views."""
         made = []
         for lm, i in self._two_view.step(self.frame, frame.z, frame.R, features, self.R, self.p, self._clone_poses,
                                          self._with_clone, max(self._room(frame, features), 0)):

@@ -119,7 +119,7 @@ def min_parallax_deg(sigma_px: float, f: float) -> float:
     return max(MIN_PARALLAX_DEG, float(np.degrees(np.sqrt(2.0) * sigma_px / (MAX_PIXEL_SPREAD * f))))
 
 
-def depth_spread(landmark: "TwoViewLandmark", P_ss: np.ndarray, R: np.ndarray, p: np.ndarray) -> float:
+def depth_spread(landmark: TwoViewLandmark, P_ss: np.ndarray, R: np.ndarray, p: np.ndarray) -> float:
     """σ of the landmark's depth ``z = e₃ᵀ Rᵀ (l − p)`` in the current camera ``(R, p)`` over z.
     With ``l`` = point + ``J_s e_s + J_u n`` (``e_s`` = [current pose, first pose] errors of
     covariance ``P_ss`` (12, 12), n the pixels') and ``δz = g (δl − δp) + e₃ᵀ [r_c]× δθ``,
