@@ -9,8 +9,8 @@ paired with features at their predicted pixels plus 1 px noise. Columns (calls p
 * ``update``: ``CameraEKF.update`` (Joseph update + error-state injection + bookkeeping) on a
   filter restored, untimed, before each call;
 * ``frame``: the whole frame, ``predict`` (odometry) + ``problem`` + ``update``;
-* ``joseph``: ``ekf_core.joseph_update`` alone; ``before``: the same expansion written out
-  plainly, ``P − K Uᵀ − U Kᵀ + K S Kᵀ`` with ``cho_factor``/``cho_solve``, then ``½ (P' + P'ᵀ)``;
+* ``joseph``: ``ekf_core.joseph_update`` alone; ``before``: the expansion it replaced,
+  ``P − K Uᵀ − U Kᵀ + K S Kᵀ`` with ``cho_factor``/``cho_solve``, then ``½ (P' + P'ᵀ)``;
 * ``textbook``: ``P' = (I − K H) P (I − K H)ᵀ + K R Kᵀ`` with the dense n × n ``I − K H``, the
   full-width H and an explicit ``S⁻¹`` (``K = P Hᵀ S⁻¹``), same H, ν and R;
 * ``update ÷ textbook`` and ``joseph ÷ textbook``: ratios taken within each repeat (the
@@ -129,7 +129,8 @@ def rates(fns: dict[str, tuple[Callable, Callable]], calls: int, repeats: int) -
     return out
 
 
-def same_posterior(P: np.ndarray, H: np.ndarray, cols: np.ndarray, nu: np.ndarray, R: np.ndarray) -> tuple[float, float]:
+def same_posterior(P: np.ndarray, H: np.ndarray, cols: np.ndarray, nu: np.ndarray,
+                   R: np.ndarray) -> tuple[float, float]:
     """max |P'_joseph − P'_textbook| and max |P'_textbook| (δx asserted equal)."""
     H_full = np.zeros((len(H), len(P)))
     H_full[:, cols] = H
@@ -170,7 +171,8 @@ def measure(n_lm: int, n_pair: int, in_view: float, calls: int, repeats: int) ->
                  "textbook": (lambda P: textbook_joseph(P, H_full, nu, R), lambda: P)}, calls, repeats)
     diff, scale = same_posterior(P, H, cols, nu, R)
     med = {name: float(np.median(v)) for name, v in got.items()}
-    return [n_lm, n_pair, len(association), *(f"{med[k]:.0f}" for k in ("update", "frame", "joseph", "before", "textbook")),
+    names = ("update", "frame", "joseph", "before", "textbook")
+    return [n_lm, n_pair, len(association), *(f"{med[k]:.0f}" for k in names),
             f"{np.median(got['update'] / got['textbook']):.1f}x", f"{np.median(got['joseph'] / got['textbook']):.1f}x",
             f"{np.median(got['joseph'] / got['before']):.1f}x", f"{diff:.1e}", f"{diff / scale:.1e}"]
 

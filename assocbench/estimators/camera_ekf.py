@@ -13,9 +13,16 @@ with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a 
   the reset Jacobian ``G_r = I − ½[δθ]×``.
 * RGB-D initialisation: ``l = p̂ + R̂ r_c`` with ``r_c = z [(u−c_x)/f, (v−c_y)/f, 1]``:
   ``∂l/∂δp = I``, ``∂l/∂δθ = −R̂[r_c]×``, ``∂l/∂(u, v, z) = R̂ [[z/f, 0, (u−c_x)/f], [0, z/f, (v−c_y)/f], [0, 0, 1]]``.
+* Two-view initialisation (``init: triangulation``): ``two_view_init`` (DLT of a feature left
+  unassociated in an earlier frame and one in this frame). While views of frame j wait, a clone
+  of its pose sits after the landmarks in P (corrected by updates, folded like the pose), and
+  the landmark is augmented w.r.t. the current pose and that clone; ``covariance`` leaves the
+  clones out.
 """
 
 from __future__ import annotations
+
+import math
 
 import numpy as np
 
@@ -25,6 +32,7 @@ from ..sim.camera import Intrinsics
 from .base import CONFIRMED, Estimator, FrameData, LandmarkBook, Motion, UpdateReport
 from .config import EstimatorConfig
 from .ekf_core import augment, joseph_update, propagate_pose, remove
+from .two_view_init import TwoViewInitialiser
 
 POSE = np.arange(6)
 
@@ -48,6 +56,11 @@ class CameraEKF(Estimator):
         self.next_id = int(max(ids, default=-1)) + 1
         self.frame = 0
         self._last: tuple | None = None   # (candidate rows, h, J_pose, J_l, frame data) of the last problem
+        self._two_view = (TwoViewInitialiser(K, np.deg2rad(cfg.odometry_sigma_rotation))
+                          if cfg.mode == "slam" and cfg.init == "triangulation" else None)
+        self.first_sighting: dict[int, tuple[int, int]] = {}   # two-view map id -> (frame, feature) of its first view
+        self._clones: list[int] = []   # frames whose pose is cloned after the landmarks in P (two_view_init)
+        self._clone_poses: dict[int, tuple[np.ndarray, np.ndarray]] = {}   # their nominal (R, p)
 
     # ---------------------------------------------------------------- the interface
 
@@ -60,7 +73,7 @@ class CameraEKF(Estimator):
         F[3:, 3:] = dR.T
         G = np.zeros((6, 6))
         G[:3, :3], G[3:, 3:] = self.R, np.eye(3)
-        self.P = propagate_pose(self.P, F, G @ motion.covariance @ G.T)
+        self.P = propagate_pose(self.P, F, G @ motion.covariance @ G.T, overwrite=True)
         self.p = self.p + self.R @ dp
         self.R = self.R @ dR
         self.frame += 1
@@ -87,7 +100,7 @@ class CameraEKF(Estimator):
             cols = self._columns(rows[paired])
             nu = (frame.z[a[paired]] - h[paired]).ravel()
             R = _block_diag(frame.R[a[paired]])
-            dx, self.P = joseph_update(self.P, H, cols, nu, R)
+            dx, self.P = joseph_update(self.P, H, cols, nu, R, overwrite=True)
             self._inject(dx)
         confirmed = self._count_observations(rows, a)
         removed = self._drop_tentative(rows, a)
@@ -97,11 +110,13 @@ class CameraEKF(Estimator):
         """RGB-D: a landmark from each feature with a valid depth, in the given order, while the
         frame paired fewer than ``target_paired`` features (at most the shortfall), at most
         ``max_new_per_frame`` per frame and ``max_landmarks`` in the map. Features without a
-        positive finite depth are skipped (the caller counts them)."""
+        positive finite depth are skipped (the caller counts them). ``init: triangulation``: the
+        same caps, landmarks from two views instead (``two_view_init``; depth is not used)."""
+        if self._two_view is not None:
+            return self._initialise_two_view(frame, features)
         if self.cfg.mode != "slam" or frame.depth is None:
             return []
-        shortfall = self.cfg.target_paired - (len(frame.z) - len(features))
-        room = min(shortfall, self.cfg.max_new_per_frame, self.cfg.max_landmarks - len(self.book))
+        room = self._room(frame, features)
         made = []
         for i in features:
             if len(made) >= room:
@@ -122,7 +137,8 @@ class CameraEKF(Estimator):
 
     @property
     def covariance(self) -> np.ndarray:
-        return self.P.copy()
+        m = 6 + 3 * len(self._L)   # without the two-view initialiser's pose clones
+        return self.P[:m, :m].copy()
 
     @property
     def normals(self) -> np.ndarray:
@@ -150,8 +166,8 @@ class CameraEKF(Estimator):
         k = len(J_l)
         H = np.zeros((2 * k, 6 + 3 * k))
         H[:, :6] = J_pose.reshape(2 * k, 6)
-        for j in range(k):
-            H[2 * j:2 * j + 2, 6 + 3 * j:9 + 3 * j] = J_l[j]
+        j = np.arange(k)
+        H[:, 6:].reshape(k, 2, k, 3)[j, :, j, :] = J_l   # the (2, 3) blocks on the diagonal
         return H
 
     @staticmethod
@@ -161,13 +177,24 @@ class CameraEKF(Estimator):
         return np.concatenate([POSE, lm]).astype(np.int64)
 
     def _inject(self, dx: np.ndarray) -> None:
-        """Fold the error-state correction into the nominal state and reset δθ to zero."""
+        """Fold the error-state correction into the nominal state (pose clones included) and
+        reset each δθ to zero."""
         self.p = self.p + dx[:3]
         self.R = self.R @ exp_so3(dx[3:6])
-        self._L = self._L + dx[6:].reshape(-1, 3)
-        G = np.eye(3) - 0.5 * skew(dx[3:6][None])[0]
-        self.P[3:6, :] = G @ self.P[3:6, :]
-        self.P[:, 3:6] = self.P[:, 3:6] @ G.T
+        n = 6 + 3 * len(self._L)
+        self._L = self._L + dx[6:n].reshape(-1, 3)
+        self._reset_theta(3, dx[3:6])
+        for c, frame in enumerate(self._clones):
+            o = n + 6 * c
+            R_c, p_c = self._clone_poses[frame]
+            self._clone_poses[frame] = (R_c @ exp_so3(dx[o + 3:o + 6]), p_c + dx[o:o + 3])
+            self._reset_theta(o + 3, dx[o + 3:o + 6])
+
+    def _reset_theta(self, o: int, dtheta: np.ndarray) -> None:
+        """Map the θ rows and columns ``o:o+3`` of P by the reset Jacobian ``G_r = I − ½[δθ]×``."""
+        G = np.eye(3) - 0.5 * skew(dtheta[None])[0]
+        self.P[o:o + 3, :] = G @ self.P[o:o + 3, :]
+        self.P[:, o:o + 3] = self.P[:, o:o + 3] @ G.T
 
     def _count_observations(self, rows: np.ndarray, a: np.ndarray) -> tuple[int, ...]:
         confirmed = []
@@ -197,6 +224,51 @@ class CameraEKF(Estimator):
         self.book.keep(keep)
         return removed
 
+    def _room(self, frame: FrameData, features: np.ndarray) -> int:
+        """How many landmarks this frame may make: the shortfall against ``target_paired`` (the
+        features not in ``features`` were paired), ``max_new_per_frame``, ``max_landmarks``."""
+        shortfall = self.cfg.target_paired - (len(frame.z) - len(features))
+        return min(shortfall, self.cfg.max_new_per_frame, self.cfg.max_landmarks - len(self.book))
+
+    def _initialise_two_view(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
+        """Landmarks from waiting views paired with ``features`` (``two_view_init``), appended with
+        the Jacobians w.r.t. the current pose and the clone of the first view's pose (the pixels
+        are the measurement); then the clones follow the waiting views."""
+        made = []
+        for lm, i in self._two_view.step(self.frame, frame.z, frame.R, features, self.R, self.p, self._clone_poses,
+                                         self._with_clone, max(self._room(frame, features), 0)):
+            cols = np.concatenate([POSE, self._clone_columns(lm.first.frame)])
+            map_id = self._append_landmark(lm.point, np.hstack([lm.J_current, lm.J_first]), lm.J_px, lm.M_px, cols)
+            self.first_sighting[map_id] = (lm.first.frame, lm.first.feature)
+            made.append((map_id, i))
+        self._sync_clones()
+        return made
+
+    def _clone_columns(self, frame: int) -> np.ndarray:
+        """State columns of the clone of ``frame``'s pose (after the landmarks, in ``_clones`` order)."""
+        o = 6 + 3 * len(self._L) + 6 * self._clones.index(frame)
+        return np.arange(o, o + 6)
+
+    def _with_clone(self, frame: int) -> np.ndarray:
+        """Joint covariance (12, 12) of the current pose and the clone of ``frame``'s."""
+        cols = np.concatenate([POSE, self._clone_columns(frame)])
+        return self.P[np.ix_(cols, cols)]
+
+    def _sync_clones(self) -> None:
+        """Marginalise the clones no waiting view needs; clone the current pose (``augment`` with
+        Jacobian I and no measurement: P_cc = P_ξξ, P_cx = P_ξ·) if this frame's views wait."""
+        needed = self._two_view.frames
+        gone = [c for c in self._clones if c not in needed]
+        if gone:
+            self.P = remove(self.P, np.concatenate([self._clone_columns(c) for c in gone]))
+            self._clones = [c for c in self._clones if c in needed]
+            for c in gone:
+                del self._clone_poses[c]
+        if self.frame in needed and self.frame not in self._clones:
+            self.P = augment(self.P, np.eye(6), POSE, np.zeros((6, 1)), np.zeros((1, 1)))
+            self._clones.append(self.frame)
+            self._clone_poses[self.frame] = (self.R.copy(), self.p.copy())
+
     def _add_from_depth(self, uv: np.ndarray, z: float, R_uv: np.ndarray) -> int:
         """Append the landmark back-projected from pixel ``uv`` at depth ``z`` (module docstring)."""
         f, cx, cy = self.K.f, self.K.cx, self.K.cy
@@ -207,7 +279,18 @@ class CameraEKF(Estimator):
         M = np.zeros((3, 3))
         M[:2, :2] = R_uv
         M[2, 2] = float(self.cfg.depth_std(z)) ** 2
-        self.P = augment(self.P, J_state, POSE, J_meas, M)
+        return self._append_landmark(landmark, J_state, J_meas, M)
+
+    def _append_landmark(self, landmark: np.ndarray, J_state: np.ndarray, J_meas: np.ndarray, M: np.ndarray,
+                         state_cols: np.ndarray = POSE) -> int:
+        """Append ``landmark`` with ``ekf_core.augment`` (Jacobian ``J_state`` w.r.t. the state
+        columns ``state_cols``, ``J_meas`` w.r.t. a measurement of covariance ``M``), in front of
+        any pose clones; tentative unless ``confirm_after`` is 1."""
+        self.P = augment(self.P, J_state, state_cols, J_meas, M)
+        if self._clones:   # the clones stay last: move the new rows in front of them
+            n, N = 6 + 3 * len(self._L), len(self.P)
+            order = np.r_[0:n, N - 3:N, n:N - 3]
+            self.P = self.P[np.ix_(order, order)]
         self._L = np.vstack([self._L, landmark])
         to_cam = self.p - landmark
         self._normals = np.vstack([self._normals, to_cam / np.linalg.norm(to_cam)])
@@ -221,6 +304,6 @@ def _block_diag(blocks: np.ndarray) -> np.ndarray:
     """Block-diagonal matrix of k (d, d) blocks."""
     k, d, _ = blocks.shape
     out = np.zeros((k * d, k * d))
-    for j in range(k):
-        out[j * d:(j + 1) * d, j * d:(j + 1) * d] = blocks[j]
+    j = np.arange(k)
+    out.reshape(k, d, k, d)[j, :, j, :] = blocks
     return out

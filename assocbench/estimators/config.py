@@ -6,7 +6,6 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..errors import UserError
 from ..validation import in_range, one_of, validate_fields
 
 MODES = ("localisation", "slam")
@@ -24,7 +23,8 @@ class EstimatorConfig:
         noise per frame (m, deg); the filter reports Q = diag(σ_t² I₃, σ_r² I₃).
     odometry_miscalibration: k; the actual odometry noise is drawn with k σ while σ is reported.
     init: how ``slam`` makes a landmark: ``depth`` (RGB-D: the rendered depth at the feature plus
-        noise) or ``triangulation`` (two views, DLT).
+        noise) or ``triangulation`` (two views, DLT, the first view's pose cloned in the state
+        while it waits: ``two_view_init``; the depth is not used).
     depth_sigma / depth_sigma_quadratic: RGB-D depth noise σ_z(z) = σ₀ + k z² (m, 1/m).
     confirm_after: a new landmark is tentative until observed this many times (its first included).
     drop_after: a tentative landmark predicted in view and left unassociated this many times is removed.
@@ -53,9 +53,6 @@ class EstimatorConfig:
 
     def __post_init__(self) -> None:
         validate_fields(self, "estimator")
-        if self.init == "triangulation":   # refused rather than silently initialising from depth
-            raise UserError("estimator.init: triangulation is not wired into the filter yet (the DLT and its "
-                            "covariance are in estimators/triangulation.py); use init: depth")
 
     @property
     def odometry_covariance(self) -> np.ndarray:

@@ -7,23 +7,27 @@ algebra lives here; each track's filter supplies its motion and measurement Jaco
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
+from scipy.linalg.blas import dsyr2k
+from scipy.linalg.lapack import dpotrs
 
 
 class NotPositiveDefinite(ArithmeticError):
     """An innovation covariance that is not positive definite (the update is refused)."""
 
 
-def propagate_pose(P: np.ndarray, F: np.ndarray, GQG: np.ndarray) -> np.ndarray:
+def propagate_pose(P: np.ndarray, F: np.ndarray, GQG: np.ndarray, overwrite: bool = False) -> np.ndarray:
     """Prediction of a static map: with ``ξ' = f(ξ, u)`` and ``F = ∂f/∂ξ``,
 
         P_ξξ' = F P_ξξ Fᵀ + G Q Gᵀ,   P_ξL' = F P_ξL,   P_LL' = P_LL
 
     (landmarks do not move). ``GQG`` is the motion noise already mapped into the pose's
-    coordinates. Works in place on a copy; costs O(q² N)."""
+    coordinates. Works on a copy, or on ``P`` itself with ``overwrite`` (a filter that replaces
+    its P saves the O(N²) copy; the rest costs O(q² N))."""
     q = len(F)
-    out = P.copy()
+    out = P if overwrite else P.copy()
     out[:q, :q] = F @ P[:q, :q] @ F.T + GQG
     out[:q, q:] = F @ P[:q, q:]
     out[q:, :q] = out[:q, q:].T
@@ -31,31 +35,63 @@ def propagate_pose(P: np.ndarray, F: np.ndarray, GQG: np.ndarray) -> np.ndarray:
 
 
 def joseph_update(P: np.ndarray, H: np.ndarray, cols: np.ndarray, innovation: np.ndarray,
-                  R: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+                  R: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndarray]:
     """EKF update in Joseph form with a sparse measurement Jacobian.
 
     ``H`` (k, c) holds the nonzero columns ``cols`` of the full Jacobian (pose and the paired
     landmarks only). With ``U = P Hᵀ`` (n, k), ``S = H P Hᵀ + R = L Lᵀ`` and ``K = U S⁻¹``
     (two triangular solves with L, never an inverse):
 
-        δx = K ν,   P' = (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K Uᵀ − U Kᵀ + K S Kᵀ.
+        δx = K ν,   P' = (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K Uᵀ − U Kᵀ + K S Kᵀ
+                                                     = P + K Mᵀ + M Kᵀ,   M = ½ K S − U.
 
     The Joseph form is the sum of two positive semidefinite terms, and its error is second order
     in an error of K (the short form P − KUᵀ is first order), which matters when the gain comes
-    from a covariance that rounding has already touched. Expanding it as above avoids the dense
-    n × n product with (I − KH), so an update costs O(n² k) like the short form. Returns
-    ``(δx, P')``; raises ``NotPositiveDefinite`` when S is not."""
+    from a covariance that rounding has already touched. Both expansions above are that same
+    polynomial in the computed K (``K S`` is not replaced by ``U``), so the property is kept.
+    The last one is a symmetric rank-2k update (BLAS ``syr2k``): it avoids the dense n × n
+    product with (I − KH) (O(n³)), computes one triangle only (n²k multiply-adds, half of what
+    the products K Uᵀ and K (S Kᵀ) cost) and leaves P' exactly symmetric, with one n × n copy and
+    no other n × n temporary; with ``overwrite`` (and a C-ordered float64 P) P' is written over
+    P, with none (P need not be C-ordered: another layout is copied, and the result is right).
+    Returns ``(δx, P')``; raises ``NotPositiveDefinite`` when S is not (P untouched)."""
     U = P[:, cols] @ H.T
     S = H @ U[cols] + R
     S = 0.5 * (S + S.T)
+    if not np.all(np.isfinite(S)):
+        raise NotPositiveDefinite("innovation covariance is not positive definite (it has NaN or inf entries)")
     try:
-        factor = cho_factor(S, lower=True, check_finite=True)
-    except (np.linalg.LinAlgError, ValueError) as exc:
+        L = np.linalg.cholesky(S)
+    except np.linalg.LinAlgError as exc:
         raise NotPositiveDefinite(f"innovation covariance is not positive definite ({exc})") from None
-    K = cho_solve(factor, U.T).T
-    KU = K @ U.T
-    P_new = P - KU - KU.T + K @ S @ K.T
-    return K @ innovation, 0.5 * (P_new + P_new.T)
+    Kt, info = dpotrs(L, U.T, lower=1)   # Kᵀ = S⁻¹ Uᵀ: L Lᵀ Kᵀ = Uᵀ, two triangular solves
+    if info != 0:
+        raise NotPositiveDefinite(f"innovation covariance is not positive definite (potrs info {info})")
+    K = Kt.T
+    M = 0.5 * (K @ S) - U
+    # P is symmetric, so its transpose is the column-major array BLAS wants (no copy). syr2k
+    # writes the column-major lower triangle, which is the row-major upper one of P'.
+    P_new = dsyr2k(1.0, K, M, beta=1.0, c=P.T, trans=0, lower=1, overwrite_c=overwrite).T
+    return K @ innovation, mirror_upper(P_new)
+
+
+def mirror_upper(C: np.ndarray, block: int = 64) -> np.ndarray:
+    """Copy the upper triangle of square ``C`` onto its lower one, in place, by blocks of
+    ``block`` rows (a transposed read of a whole matrix strides through memory; a block stays in
+    cache). Returns ``C``."""
+    n = len(C)
+    for i in range(0, n, block):
+        C[i:i + block, :i] = C[:i, i:i + block].T
+        D = C[i:i + block, i:i + block]
+        lo = _strict_lower(len(D))
+        D[lo] = D.T[lo]
+    return C
+
+
+@lru_cache(maxsize=8)
+def _strict_lower(b: int) -> tuple[np.ndarray, np.ndarray]:
+    """Indices of the strictly lower triangle of a b × b block (cached: the same few sizes recur)."""
+    return np.tril_indices(b, -1)
 
 
 def augment(P: np.ndarray, J_state: np.ndarray, state_cols: np.ndarray, J_meas: np.ndarray,

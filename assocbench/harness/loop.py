@@ -68,6 +68,7 @@ class ClosedLoop:
         self.truth = MapTruth()
         self.in_map = None
         self._pending: tuple | None = None   # frame begun, not finished: (k, problem, truth, data, labels)
+        self._labels: dict[int, np.ndarray] = {}   # each frame's feature labels (two-view landmarks' truth)
         if est.mode == "localisation":
             self.in_map = np.zeros(len(seq.landmarks), bool)
             self.in_map[self.filter.book.ids] = True
@@ -90,6 +91,7 @@ class ClosedLoop:
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
         truth = loop_truth(ids, self.truth, labels, visible)
         self._pending = (k, problem, truth, data, labels)
+        self._labels[k] = labels
         return problem, truth
 
     def finish(self, association: np.ndarray | None, runtime: float = 0.0, info: dict | None = None,
@@ -118,9 +120,19 @@ class ClosedLoop:
         free = np.array([i for i in range(len(data.z)) if i not in used], dtype=np.int64)
         made = self.filter.initialise(data, free)
         for map_id, i in made:
-            self.truth.tie(map_id, labels[i])
+            self.truth.tie(map_id, self._made_label(map_id, labels[i]))
         no_depth = int(np.sum(~np.isfinite(data.depth[free]) | (data.depth[free] <= 0))) if data.depth is not None else 0
         return record | {"new_landmarks": len(made), "no_depth": no_depth}
+
+    def _made_label(self, map_id: int, label: int) -> int:
+        """The landmark a new map entry truly is: its feature's ``label``; for one triangulated from
+        two views (``first_sighting``), that label only if the earlier view's feature images the
+        same landmark (a point triangulated from two landmarks' features is neither: false)."""
+        first = getattr(self.filter, "first_sighting", {}).get(map_id)
+        if first is None:
+            return int(label)
+        frame, feature = first
+        return int(label) if self._labels[frame][feature] == label else NO_MATCH
 
     def _state_columns(self, k: int) -> dict:
         f, seq = self.filter, self.seq
