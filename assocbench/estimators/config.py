@@ -9,6 +9,7 @@ import numpy as np
 from ..validation import in_range, one_of, validate_fields
 
 MODES = ("localisation", "slam")
+ESTIMATOR_NAMES = ("ekf", "isam2")
 INITIALISERS = ("depth", "triangulation")
 
 
@@ -16,7 +17,8 @@ INITIALISERS = ("depth", "triangulation")
 class EstimatorConfig:
     """How the closed loop estimates.
 
-    name: the estimator (``ekf``: camera EKF-SLAM).
+    name: the estimator: ``ekf`` (the EKF of the scene's track: camera or planar EKF-SLAM) or
+        ``isam2`` (planar track: a GTSAM iSAM2 factor graph; needs the ``gtsam`` extra).
     mode: ``localisation`` (the map's landmarks start at the belief's sampled estimate and are
         refined) or ``slam`` (the map starts empty; unassociated features become landmarks).
     odometry_sigma_translation / odometry_sigma_rotation: σ per axis of the odometry increment's
@@ -36,7 +38,7 @@ class EstimatorConfig:
         false leaves the detector's error alone (the filter is then conservative).
     """
 
-    name: str = field(default="ekf", metadata=one_of("ekf"))
+    name: str = field(default="ekf", metadata=one_of(*ESTIMATOR_NAMES))
     mode: str = field(default="localisation", metadata=one_of(*MODES))
     odometry_sigma_translation: float = field(default=0.01, metadata=in_range(0, 10))
     odometry_sigma_rotation: float = field(default=0.2, metadata=in_range(0, 90))
@@ -59,6 +61,12 @@ class EstimatorConfig:
         """Q (6, 6) of the increment ``[δp, δθ]`` reported to the filter, rotation in radians."""
         return np.diag([self.odometry_sigma_translation ** 2] * 3
                        + [np.deg2rad(self.odometry_sigma_rotation) ** 2] * 3)
+
+    @property
+    def planar_odometry_covariance(self) -> np.ndarray:
+        """Q (3, 3) of a planar increment ``[Δx, Δy, Δθ]`` reported to the filter: diag(σ_t², σ_t², σ_r²),
+        heading in radians."""
+        return np.diag([self.odometry_sigma_translation ** 2] * 2 + [np.deg2rad(self.odometry_sigma_rotation) ** 2])
 
     def depth_std(self, z: np.ndarray) -> np.ndarray:
         """σ_z(z) = σ₀ + k z² (a structured-light sensor's axial noise grows with depth squared)."""
