@@ -17,11 +17,12 @@ from .jpda import JPDA
 from .lsa import LSA
 from .ml import ML
 from .mnn import MNN
+from .naive import Naive
 from .rjc import RJC
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive)}
 
 
 def _load_spec(spec: str) -> type[Associator]:
