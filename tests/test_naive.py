@@ -21,8 +21,8 @@ def test_threshold_is_a_mahalanobis_distance_in_sigma_units():
 
 
 def test_the_first_feature_wins_a_landmark_even_when_a_later_one_is_closer():
-    """Feature 0 at 2 σ takes the landmark; feature 1 at 0.1 σ finds it taken (a global method would
+    """Feature 0 at 2 σ takes the landmark; feature 1 at 0.1 σ finds it taken (Mahalanobis nearest neighbour would
     pair feature 1). That order dependence is what the project's naive method does."""
     p = _problem([[2.0, 0.0], [0.1, 0.0]], [[0.0, 0.0]])
     assert make_associator("naive").associate(p).tolist() == [0]
-    assert make_associator("lsa").associate(p).tolist() == [1]
+    assert make_associator("mnn").associate(p).tolist() == [1]
