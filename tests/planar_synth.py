@@ -66,6 +66,10 @@ def synth_world(steps: int = 500, seed: int = 0, radius: float = 6.0, laps: floa
 
 def true_association(problem_ids: np.ndarray, tie: dict[int, int], labels: np.ndarray) -> np.ndarray:
     """The true association of a problem: for each candidate (map id, tied to post ``tie[id]``) the
-    measurement of that post, or -1."""
+    measurement of that post, or -1. A post with several map entries (a duplicate) pairs with the
+    oldest (lowest map id) only, as ``harness.loop_truth`` does."""
     where = {int(p): i for i, p in enumerate(labels)}
-    return np.array([where.get(tie.get(int(m), -2), -1) for m in problem_ids], dtype=np.int64)
+    out = np.full(len(problem_ids), -1, dtype=np.int64)
+    for j in np.argsort(problem_ids, kind="stable"):
+        out[j] = where.pop(tie.get(int(problem_ids[j]), -2), -1)
+    return out

@@ -20,6 +20,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..association.problem import Problem
+from .config import EstimatorConfig
 
 TENTATIVE, CONFIRMED = 0, 1
 
@@ -73,10 +74,42 @@ class LandmarkBook:
             values = getattr(self, name)
             setattr(self, name, [values[r] for r in rows])
 
+    def observe(self, rows: np.ndarray, association: np.ndarray, confirm_after: int) -> tuple[int, ...]:
+        """Count an observation of each entry ``rows[j]`` paired (``association[j] ≥ 0``); a
+        tentative one observed ``confirm_after`` times is confirmed. Returns the confirmed map ids."""
+        confirmed = []
+        for r, f in zip(rows, association):
+            if f < 0:
+                continue
+            self.observed[r] += 1
+            if self.status[r] != CONFIRMED and self.observed[r] >= confirm_after:
+                self.status[r] = CONFIRMED
+                confirmed.append(self.ids[r])
+        return tuple(confirmed)
+
+    def miss(self, rows: np.ndarray, association: np.ndarray, drop_after: int) -> list[int]:
+        """Count a miss of each tentative entry ``rows[j]`` left unassociated; return the entries
+        missed ``drop_after`` times (the caller removes them from its state, then calls ``keep``)."""
+        gone = []
+        for r, f in zip(rows, association):
+            if f < 0 and self.status[r] != CONFIRMED:
+                self.missed[r] += 1
+                if self.missed[r] >= drop_after:
+                    gone.append(int(r))
+        return gone
+
     @property
     def confirmed(self) -> np.ndarray:
         """Mask of confirmed entries."""
         return np.array(self.status, dtype=int) == CONFIRMED
+
+
+def creation_room(cfg: EstimatorConfig, measured: int, unassociated: int, map_size: int) -> int:
+    """How many landmarks a frame may make (slam): the shortfall against ``cfg.target_paired``
+    (``measured − unassociated`` features were paired), at most ``cfg.max_new_per_frame`` and the
+    room left under ``cfg.max_landmarks``; zero or negative means none."""
+    shortfall = cfg.target_paired - (measured - unassociated)
+    return min(shortfall, cfg.max_new_per_frame, cfg.max_landmarks - map_size)
 
 
 @dataclass(frozen=True)

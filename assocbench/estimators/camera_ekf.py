@@ -29,9 +29,9 @@ import numpy as np
 from ..association.problem import Problem
 from ..belief.pinhole import exp_so3, predict_bundle, skew
 from ..sim.camera import Intrinsics
-from .base import CONFIRMED, Estimator, FrameData, LandmarkBook, Motion, UpdateReport
+from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from .config import EstimatorConfig
-from .ekf_core import augment, joseph_update, propagate_pose, remove
+from .ekf_core import augment, block_diag, bundle_jacobian, joseph_update, propagate_pose, remove, state_columns
 from .two_view_init import TwoViewInitialiser
 
 POSE = np.arange(6)
@@ -99,7 +99,7 @@ class CameraEKF(Estimator):
             H = self._bundle_jacobian(J_pose[paired], J_l[paired])
             cols = self._columns(rows[paired])
             nu = (frame.z[a[paired]] - h[paired]).ravel()
-            R = _block_diag(frame.R[a[paired]])
+            R = block_diag(frame.R[a[paired]])
             dx, self.P = joseph_update(self.P, H, cols, nu, R, overwrite=True)
             self._inject(dx)
         confirmed = self._count_observations(rows, a)
@@ -163,18 +163,12 @@ class CameraEKF(Estimator):
     @staticmethod
     def _bundle_jacobian(J_pose: np.ndarray, J_l: np.ndarray) -> np.ndarray:
         """H (2k, 6 + 3k) of k predictions over [pose, their landmarks] (block diagonal in the landmarks)."""
-        k = len(J_l)
-        H = np.zeros((2 * k, 6 + 3 * k))
-        H[:, :6] = J_pose.reshape(2 * k, 6)
-        j = np.arange(k)
-        H[:, 6:].reshape(k, 2, k, 3)[j, :, j, :] = J_l   # the (2, 3) blocks on the diagonal
-        return H
+        return bundle_jacobian(J_pose, J_l)
 
     @staticmethod
     def _columns(rows: np.ndarray) -> np.ndarray:
         """State columns of the pose and landmarks ``rows``."""
-        lm = (6 + 3 * np.asarray(rows)[:, None] + np.arange(3)).ravel()
-        return np.concatenate([POSE, lm]).astype(np.int64)
+        return state_columns(6, 3, rows)
 
     def _inject(self, dx: np.ndarray) -> None:
         """Fold the error-state correction into the nominal state (pose clones included) and
@@ -197,24 +191,11 @@ class CameraEKF(Estimator):
         self.P[:, o:o + 3] = self.P[:, o:o + 3] @ G.T
 
     def _count_observations(self, rows: np.ndarray, a: np.ndarray) -> tuple[int, ...]:
-        confirmed = []
-        for r, f in zip(rows, a):
-            if f < 0:
-                continue
-            self.book.observed[r] += 1
-            if self.book.status[r] != CONFIRMED and self.book.observed[r] >= self.cfg.confirm_after:
-                self.book.status[r] = CONFIRMED
-                confirmed.append(self.book.ids[r])
-        return tuple(confirmed)
+        return self.book.observe(rows, a, self.cfg.confirm_after)
 
     def _drop_tentative(self, rows: np.ndarray, a: np.ndarray) -> tuple[int, ...]:
         """Count misses of tentative candidates left unassociated; remove those missed too often."""
-        gone = []
-        for r, f in zip(rows, a):
-            if f < 0 and self.book.status[r] != CONFIRMED:
-                self.book.missed[r] += 1
-                if self.book.missed[r] >= self.cfg.drop_after:
-                    gone.append(int(r))
+        gone = self.book.miss(rows, a, self.cfg.drop_after)
         if not gone:
             return ()
         removed = tuple(self.book.ids[r] for r in gone)
@@ -227,8 +208,7 @@ class CameraEKF(Estimator):
     def _room(self, frame: FrameData, features: np.ndarray) -> int:
         """How many landmarks this frame may make: the shortfall against ``target_paired`` (the
         features not in ``features`` were paired), ``max_new_per_frame``, ``max_landmarks``."""
-        shortfall = self.cfg.target_paired - (len(frame.z) - len(features))
-        return min(shortfall, self.cfg.max_new_per_frame, self.cfg.max_landmarks - len(self.book))
+        return creation_room(self.cfg, len(frame.z), len(features), len(self.book))
 
     def _initialise_two_view(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
         """Landmarks from waiting views paired with ``features`` (``two_view_init``), appended with
@@ -299,11 +279,3 @@ class CameraEKF(Estimator):
         self.book.add(map_id, self.frame, confirmed=self.cfg.confirm_after <= 1)
         return map_id
 
-
-def _block_diag(blocks: np.ndarray) -> np.ndarray:
-    """Block-diagonal matrix of k (d, d) blocks."""
-    k, d, _ = blocks.shape
-    out = np.zeros((k * d, k * d))
-    j = np.arange(k)
-    out.reshape(k, d, k, d)[j, :, j, :] = blocks
-    return out

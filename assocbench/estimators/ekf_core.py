@@ -112,6 +112,34 @@ def augment(P: np.ndarray, J_state: np.ndarray, state_cols: np.ndarray, J_meas: 
     return out
 
 
+def bundle_jacobian(J_pose: np.ndarray, J_l: np.ndarray) -> np.ndarray:
+    """H (d·k, q + s·k) of k predictions over ``[pose, their landmarks]``: ``J_pose`` (k, d, q)
+    stacked in the pose columns, ``J_l`` (k, d, s) on the block diagonal of the landmark columns
+    (prediction j depends on landmark j only)."""
+    k, d, q = J_pose.shape
+    s = J_l.shape[2]
+    H = np.zeros((d * k, q + s * k))
+    H[:, :q] = J_pose.reshape(d * k, q)
+    j = np.arange(k)
+    H[:, q:].reshape(k, d, k, s)[j, :, j, :] = J_l   # the (d, s) blocks on the diagonal
+    return H
+
+
+def state_columns(q: int, s: int, rows: np.ndarray) -> np.ndarray:
+    """State columns of the pose (``0..q-1``) and the landmarks ``rows`` (``s`` each, after the pose)."""
+    lm = (q + s * np.asarray(rows, dtype=np.int64)[:, None] + np.arange(s)).ravel()
+    return np.concatenate([np.arange(q), lm]).astype(np.int64)
+
+
+def block_diag(blocks: np.ndarray) -> np.ndarray:
+    """Block-diagonal matrix of k (d, d) blocks."""
+    k, d, _ = blocks.shape
+    out = np.zeros((k * d, k * d))
+    j = np.arange(k)
+    out.reshape(k, d, k, d)[j, :, j, :] = blocks
+    return out
+
+
 def remove(P: np.ndarray, cols: np.ndarray) -> np.ndarray:
     """P without the rows and columns ``cols`` (marginalising landmarks out of a Gaussian)."""
     keep = np.setdiff1d(np.arange(len(P)), cols)
