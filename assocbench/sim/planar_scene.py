@@ -1,0 +1,117 @@
+"""Load a planar scene: a shipped name (``park``) or an MJCF path whose posts are cylinder geoms
+named ``lm*``, all of one radius.
+
+The camera track marks landmarks with ``lm*`` *sites*, the planar track with ``lm*`` *geoms*
+(the posts themselves): ``scene_track`` tells them apart from the parsed MJCF without compiling
+it. Every geom is static (no robot body): the lidar's rays start at the pose, at its height.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
+from ..errors import UserError
+from .scene import LANDMARK_PREFIX, Scene, _mjcf_error, resolve_scene_path
+
+import mujoco  # noqa: E402
+
+RADIUS_TOLERANCE = 1e-6   # m: posts whose radii differ by more than this are not identical
+
+
+@dataclass
+class PlanarScene:
+    """A compiled planar scene and its posts (indices follow ``post_names``)."""
+
+    name: str
+    path: Path
+    model: "mujoco.MjModel"
+    data: "mujoco.MjData"
+    posts: np.ndarray          # (L, 2) world centres
+    post_names: list[str]
+    post_radius: float
+    post_geom_ids: np.ndarray  # (L,) geom id of each post
+
+    digest = Scene.digest      # the MJCF text and its neighbouring files (only ``path`` is read)
+
+    def clearance(self, xy: np.ndarray) -> np.ndarray:
+        """Distance (n,) from points (n, 2) to the nearest obstacle's footprint (the horizontal
+        section of every box, cylinder, sphere or capsule that rises above the floor; 0 inside)."""
+        xy = np.atleast_2d(np.asarray(xy, float))
+        best = np.full(len(xy), np.inf)
+        m, d = self.model, self.data
+        for g in range(m.ngeom):
+            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE or d.geom_xpos[g, 2] + m.geom_rbound[g] <= 0.01:
+                continue   # the floor and anything sunk in it
+            best = np.minimum(best, _footprint_distance(m.geom_type[g], m.geom_size[g], d.geom_xpos[g, :2],
+                                                        d.geom_xmat[g].reshape(3, 3)[:2, :2], xy))
+        return best
+
+
+def _footprint_distance(kind: int, size: np.ndarray, centre: np.ndarray, rot: np.ndarray,
+                        xy: np.ndarray) -> np.ndarray:
+    """Distance from points to one geom's footprint, the geom standing upright: a box's
+    rectangle ``|q| ≤ (sx, sy)`` with ``q = R_xyᵀ (p − c)``, a disc of radius ``size[0]`` else."""
+    q = (xy - centre) @ rot
+    if kind == mujoco.mjtGeom.mjGEOM_BOX:
+        return np.linalg.norm(np.maximum(np.abs(q) - size[:2], 0.0), axis=1)
+    return np.maximum(np.linalg.norm(q, axis=1) - size[0], 0.0)
+
+
+def _named(items, prefix: str) -> list:
+    return [x for x in items if x.name.startswith(prefix)]
+
+
+def scene_track(scene: str | Path) -> str:
+    """``"planar"`` when the MJCF has geoms named ``lm*`` and no sites named ``lm*``, else
+    ``"camera"`` (parsed, not compiled)."""
+    path = resolve_scene_path(scene)
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except (ValueError, RuntimeError) as exc:
+        raise _mjcf_error(path, exc) from None
+    planar = _named(spec.geoms, LANDMARK_PREFIX) and not _named(spec.sites, LANDMARK_PREFIX)
+    return "planar" if planar else "camera"
+
+
+def _post_ids(model: "mujoco.MjModel", path: Path) -> np.ndarray:
+    """Geom ids of the ``lm*`` geoms, checked: cylinders, one radius (one-line errors)."""
+    names = [model.geom(i).name for i in range(model.ngeom)]
+    ids = np.array([i for i, n in enumerate(names) if n.startswith(LANDMARK_PREFIX)], dtype=int)
+    if not len(ids):
+        raise UserError(f"MJCF {path} has no posts: add cylinder geoms named lm0, lm1... of one radius")
+    bad = [names[i] for i in ids if model.geom_type[i] != mujoco.mjtGeom.mjGEOM_CYLINDER]
+    if bad:
+        raise UserError(f"MJCF {path}: posts must be cylinders, but {', '.join(bad[:5])} "
+                        f"{'is not' if len(bad) == 1 else 'are not'} (make them type=\"cylinder\" or rename them)")
+    radii = model.geom_size[ids, 0]
+    if np.ptp(radii) > RADIUS_TOLERANCE:
+        shown = ", ".join(f"{r:g}" for r in np.unique(np.round(radii, 6))[:5])
+        raise UserError(f"MJCF {path}: posts must share one radius, found radii {shown} m (rename the "
+                        f"odd ones so they do not start with 'lm': they become clutter)")
+    return ids
+
+
+def load_planar_scene(scene: str | Path) -> PlanarScene:
+    """Compile a planar scene and extract its ``lm*`` cylinder posts."""
+    path = resolve_scene_path(scene)
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except (ValueError, RuntimeError) as exc:
+        raise _mjcf_error(path, exc) from None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ids = _post_ids(model, path)
+    return PlanarScene(
+        name=path.stem,
+        path=path,
+        model=model,
+        data=data,
+        posts=data.geom_xpos[ids, :2].copy(),
+        post_names=[model.geom(i).name for i in ids],
+        post_radius=float(model.geom_size[ids[0], 0]),
+        post_geom_ids=ids,
+    )

@@ -1,0 +1,179 @@
+"""Scripted robot paths for the planar track: closed loops, driven at constant speed.
+
+A path is a closed curve ``c(t)``, ``t ∈ [0, 2π)``, sampled densely and re-parametrised by arc
+length ``s``; frame ``k`` of ``N`` sits at ``s_k = (start + laps · k / N) · L`` (``L``: one lap),
+so the robot drives ``laps`` laps at the constant step ``laps · L / N`` and comes back to where
+it started: every landmark seen at the start is revisited after a long excursion. The heading
+is the tangent's direction, ``θ = atan2(ċ_y, ċ_x)`` (the robot drives forwards).
+
+Shipped scenes have their own loop (``park``: a wavy ring through the posts, ``post_grid``: a
+rounded square through the grid's gaps, ``colonnade``: down the corridor and back); a user MJCF
+gets an ellipse around the posts' centroid, the largest of a few sizes that keeps ``CLEARANCE``
+from every obstacle, or a one-line error when none fits.
+"""
+
+from __future__ import annotations
+
+from typing import TYPE_CHECKING, Callable
+
+import numpy as np
+
+from ..errors import UserError
+from ..validation import check_number
+
+if TYPE_CHECKING:
+    from .planar_scene import PlanarScene
+
+CLEARANCE = 0.5      # m from the robot's centre to any obstacle's footprint (a 0.3 m robot + margin)
+DENSE = 4000         # samples of one lap before re-parametrising by arc length
+
+Curve = Callable[[np.ndarray], np.ndarray]   # t (M,) -> points (M, 2)
+
+
+def park_curve(t: np.ndarray) -> np.ndarray:
+    """A wavy ring ``ρ(t) = 6 + 1.5 sin 3t`` (4.5 to 7.5 m from the park's centre), ~42 m a lap."""
+    rho = 6.0 + 1.5 * np.sin(3.0 * t)
+    return np.column_stack([rho * np.cos(t), rho * np.sin(t)])
+
+
+def rounded_rectangle(half_x: float, half_y: float, corner: float) -> Curve:
+    """A rectangle of half sizes ``half_x × half_y`` centred at the origin, corners rounded with
+    radius ``corner``, traversed counter-clockwise from ``(half_x, 0)``; ``t`` is spread in
+    proportion to arc length."""
+    sx, sy = half_x - corner, half_y - corner
+    legs = np.array([2 * sy, np.pi * corner / 2, 2 * sx, np.pi * corner / 2] * 2)
+    ends = np.cumsum(legs)
+
+    def curve(t: np.ndarray) -> np.ndarray:
+        s = (np.asarray(t) / (2 * np.pi) * ends[-1] + sy) % ends[-1]   # start mid right side
+        out = np.empty((len(s), 2))
+        for i, (x0, y0, dx, dy, arc) in enumerate(_rect_pieces(sx, sy, corner)):
+            lo = ends[i - 1] if i else 0.0
+            m = (s >= lo) & (s <= ends[i])
+            u = s[m] - lo
+            if arc is None:
+                out[m] = np.column_stack([x0 + dx * u, y0 + dy * u])
+            else:
+                a = arc + u / corner
+                out[m] = np.column_stack([x0 + corner * np.cos(a), y0 + corner * np.sin(a)])
+        return out
+
+    return curve
+
+
+def _rect_pieces(sx: float, sy: float, c: float) -> list[tuple]:
+    """Straight legs ``(x0, y0, dx, dy, None)`` and corner arcs ``(cx, cy, 0, 0, a0)`` of a
+    rectangle with corners of radius ``c`` centred at ``(±sx, ±sy)``, counter-clockwise from
+    the lower end of its right side."""
+    h = np.pi / 2
+    return [(sx + c, -sy, 0, 1, None), (sx, sy, 0, 0, 0.0), (sx, sy + c, -1, 0, None), (-sx, sy, 0, 0, h),
+            (-sx - c, sy, 0, -1, None), (-sx, -sy, 0, 0, 2 * h), (-sx, -sy - c, 1, 0, None),
+            (sx, -sy, 0, 0, 3 * h)]
+
+
+def _shift_x(curve: Curve, dx: float) -> Curve:
+    return lambda t: curve(t) + np.array([dx, 0.0])
+
+
+# Paths of the shipped scenes (the scene generator keeps every obstacle CLEARANCE away from them)
+SCENE_PATHS: dict[str, Curve] = {
+    "park": park_curve,
+    "post_grid": rounded_rectangle(4.0, 4.0, 1.0),            # through the gaps at x, y = ±4
+    "colonnade": _shift_x(rounded_rectangle(11.6, 0.6, 0.6), 11.0),  # lanes y = ±0.6, x 0..22
+}
+DEFAULT_LAPS = {"park": 2, "post_grid": 2, "colonnade": 1}
+# colonnade starts at x = 0 on the lower lane heading +x (the lap starts mid right U-turn)
+DEFAULT_START = {"colonnade": (22.0 + 1.5 * np.pi * 0.6) / (44.0 + 2 * np.pi * 0.6)}
+TRAJECTORIES = ("loop", "ellipse")   # loop: the scene's own path; ellipse: around the posts
+PARAMS = {"loop": ("laps", "start"), "ellipse": ("laps", "start", "scale")}
+
+
+def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.ndarray:
+    """Poses (frames, 3) at equal arc-length steps along ``laps`` laps of a closed ``curve``
+    from the fraction ``start`` of a lap: ``s_k = (start + laps k / N) L``, ``θ_k`` the tangent."""
+    t = np.linspace(0.0, 2 * np.pi, DENSE + 1)
+    pts = curve(t)
+    seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
+    s = np.concatenate([[0.0], np.cumsum(seg)])
+    length = s[-1]
+    heading = np.unwrap(np.arctan2(*np.diff(pts, axis=0).T[::-1]))
+    mid = (s[:-1] + s[1:]) / 2
+    sk = ((start + laps * np.arange(frames) / frames) % 1.0) * length
+    x, y = np.interp(sk, s, pts[:, 0]), np.interp(sk, s, pts[:, 1])
+    th = np.interp(sk, mid, heading)
+    return np.column_stack([x, y, wrap(th)])
+
+
+def wrap(angle: np.ndarray) -> np.ndarray:
+    """Angle wrapped to (−π, π]."""
+    a = np.mod(np.asarray(angle) + np.pi, 2 * np.pi) - np.pi
+    return np.where(a == -np.pi, np.pi, a)
+
+
+def ellipse_curve(scene: "PlanarScene", scale: float, shift: np.ndarray = np.zeros(2)) -> Curve:
+    """Ellipse around the posts' centroid (moved by ``shift`` × the semi-axes, along them) on
+    their principal axes, semi-axes ``scale ×`` the posts' spread (√2 × the standard deviation
+    along each axis, at least 0.7 m)."""
+    centre = scene.posts.mean(axis=0)
+    cov = np.cov((scene.posts - centre).T) if len(scene.posts) > 1 else np.eye(2)
+    w, v = np.linalg.eigh(np.atleast_2d(cov))
+    axes = scale * np.sqrt(2 * np.maximum(w, 0.25))
+    centre = centre + v @ (axes * shift)
+    return lambda t: centre + (np.column_stack([axes[0] * np.cos(t), axes[1] * np.sin(t)]) @ v.T)
+
+
+SHIFTS = sorted(((a, b) for a in np.linspace(-0.3, 0.3, 5) for b in np.linspace(-0.3, 0.3, 5)),
+                key=lambda ab: (np.hypot(*ab), ab))
+
+
+def default_ellipse(scene: "PlanarScene", laps: float, frames: int, start: float) -> np.ndarray:
+    """The first ellipse, largest scale (1.2 down to 0.3) and smallest shift first, whose path
+    keeps ``CLEARANCE`` from every obstacle; a one-line error when none does."""
+    for scale in np.linspace(1.2, 0.3, 10):
+        for shift in SHIFTS:
+            curve = ellipse_curve(scene, scale, np.array(shift))
+            if scene.clearance(curve(np.linspace(0, 2 * np.pi, 400))).min() >= CLEARANCE:
+                return resample(curve, laps, frames, start)
+    raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the posts keeps "
+                    f"{CLEARANCE} m from every obstacle; give the posts room or use a shipped scene")
+
+
+def _params(name: str, params: dict) -> tuple[float, float, float]:
+    """(laps, start, scale) from user parameters, each checked (one-line errors)."""
+    for key in params:
+        if key not in PARAMS[name]:
+            raise UserError(f"trajectory {name!r} takes no parameter {key!r}; it takes {', '.join(PARAMS[name])}")
+    laps = check_number(params.get("laps", 1), "trajectory_params.laps", lo=0, hi=100, lo_open=True)
+    start = check_number(params.get("start", 0.0), "trajectory_params.start", lo=0, hi=1, hi_open=True)
+    scale = check_number(params.get("scale", 1.0), "trajectory_params.scale", lo=0, hi=10, lo_open=True)
+    return float(laps), float(start), float(scale)
+
+
+def planar_trajectory(scene: "PlanarScene", name: str | None, frames: int, seed: int = 0, **params) -> np.ndarray:
+    """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
+    default there) or ``ellipse`` (around the posts, the default for a user MJCF). The path is
+    fixed: ``seed`` is accepted for the common signature and changes nothing."""
+    del seed
+    own = scene.name in SCENE_PATHS and scene.path.parent == _shipped_dir()
+    name = name or ("loop" if own else "ellipse")
+    if name not in TRAJECTORIES:
+        raise UserError(f"unknown planar trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
+    if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
+        raise UserError(f"frames must be a positive integer, got {frames!r}")
+    defaults = {"laps": DEFAULT_LAPS.get(scene.name, 1), "start": DEFAULT_START.get(scene.name, 0.0)} if own else {}
+    params = defaults | params
+    laps, start, scale = _params(name, params)
+    if name == "loop":
+        if not own:
+            raise UserError(f"scene {scene.name!r} has no scripted loop: use trajectory 'ellipse' "
+                            f"(loops exist for {', '.join(SCENE_PATHS)})")
+        return resample(SCENE_PATHS[scene.name], laps, frames, start)
+    if "scale" in params:
+        return resample(ellipse_curve(scene, scale), laps, frames, start)
+    return default_ellipse(scene, laps, frames, start)
+
+
+def _shipped_dir():
+    from .scene import shipped_scenes
+
+    return next(iter(shipped_scenes().values())).parent
