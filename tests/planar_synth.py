@@ -9,6 +9,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from assocbench.belief.range_bearing import predict, wrap
+from assocbench.belief.se2 import between, compose  # noqa: F401  (compose: for the tests that import it here)
 from assocbench.estimators.base import FrameData, Motion
 
 
@@ -21,19 +22,6 @@ class SynthWorld:
     motions: list[Motion]      # motions[k]: odometry from k−1 to k (motions[0] unused)
     max_range: float
     fov: float
-
-
-def compose(pose: np.ndarray, inc: np.ndarray) -> np.ndarray:
-    """``pose ⊕ inc``: move by ``inc = (Δx, Δy, Δθ)`` given in ``pose``'s frame."""
-    c, s = np.cos(pose[2]), np.sin(pose[2])
-    return np.array([pose[0] + c * inc[0] - s * inc[1], pose[1] + s * inc[0] + c * inc[1], wrap(pose[2] + inc[2])])
-
-
-def between(p0: np.ndarray, p1: np.ndarray) -> np.ndarray:
-    """The increment taking ``p0`` to ``p1`` in ``p0``'s frame."""
-    c, s = np.cos(p0[2]), np.sin(p0[2])
-    d = p1[:2] - p0[:2]
-    return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], wrap(p1[2] - p0[2])])
 
 
 def synth_world(steps: int = 500, seed: int = 0, radius: float = 6.0, laps: float = 2.0, max_range: float = 5.0,

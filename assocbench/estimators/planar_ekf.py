@@ -27,6 +27,7 @@ import numpy as np
 
 from ..association.problem import Problem
 from ..belief.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
+from ..belief.se2 import compose
 from ..errors import UserError
 from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from .config import EstimatorConfig
@@ -68,8 +69,7 @@ class PlanarEKF(Estimator):
         G = np.eye(3)
         G[:2, :2] = [[c, -s], [s, c]]
         self.P = propagate_pose(self.P, F, G @ Q @ G.T, overwrite=True)
-        self._x = np.array([self._x[0] + c * inc[0] - s * inc[1], self._x[1] + s * inc[0] + c * inc[1],
-                            wrap(self._x[2] + inc[2])])
+        self._x = compose(self._x, inc)
         self.frame += 1
 
     def problem(self, frame: FrameData) -> Problem:

@@ -5,12 +5,10 @@ from __future__ import annotations
 import numpy as np
 
 from ..belief.camera_belief import BeliefConfig, map_mask, sample_estimate
+from ..belief.planar_belief import map_covariance, planar_pose_covariance, sample_planar_estimate
 from ..errors import UserError
-from ..sim.sequence import Sequence
 from .camera_ekf import CameraEKF
-from .config import EstimatorConfig
-
-ESTIMATORS = ("ekf",)
+from .config import ESTIMATOR_NAMES, EstimatorConfig
 
 
 def initial_landmark_covariance(n: int, belief: BeliefConfig) -> np.ndarray:
@@ -21,15 +19,19 @@ def initial_landmark_covariance(n: int, belief: BeliefConfig) -> np.ndarray:
     return cov
 
 
-def make_estimator(seq: Sequence, cfg: EstimatorConfig, belief: BeliefConfig, seed: int) -> CameraEKF:
+def make_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
     """The estimator at frame 0.
 
     ``localisation``: pose and the mapped landmarks (``belief.map_fraction``) start at the open
     loop's sampled estimate of frame 0 (truth plus an error from ``k² Σ``) with Σ reported.
     ``slam``: the pose starts at the true first pose with zero covariance (it fixes the gauge,
     as every SLAM system's first frame does) and the map is empty; frame 0's features make it."""
-    if cfg.name not in ESTIMATORS:
-        raise UserError(f"unknown estimator {cfg.name!r}: choose one of {', '.join(ESTIMATORS)}")
+    if cfg.name not in ESTIMATOR_NAMES:
+        raise UserError(f"unknown estimator {cfg.name!r}: choose one of {', '.join(ESTIMATOR_NAMES)}")
+    if getattr(seq, "track", "camera") == "planar":
+        return make_planar_estimator(seq, cfg, belief, seed)
+    if cfg.name != "ekf":
+        raise UserError(f"estimator.name {cfg.name} serves the planar track only; the camera track's estimator is ekf")
     R0, p0 = seq.rotations[0], seq.positions[0]
     if cfg.mode == "slam":
         return CameraEKF(seq.K, cfg, R0, p0, np.zeros((6, 6)), np.zeros((0, 3)), np.zeros((0, 3)),
@@ -41,3 +43,22 @@ def make_estimator(seq: Sequence, cfg: EstimatorConfig, belief: BeliefConfig, se
     P[:6, :6] = belief.pose_covariance
     P[6:, 6:] = initial_landmark_covariance(len(ids), belief)
     return CameraEKF(seq.K, cfg, R_hat, p_hat, P, l_hat[ids], seq.normals[ids], ids, belief.max_view_angle)
+
+
+def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
+    """The planar estimator (``ekf``: ``PlanarEKF``; ``isam2``: ``PlanarISAM2``, which needs gtsam) at
+    frame 0, started as ``make_estimator`` says, in the plane: ``slam`` from the true first pose
+    with zero covariance and no map; ``localisation`` from the sampled pose and mapped posts
+    (``belief.map_fraction``) with Σ = blockdiag(Σ_pose, Σ_L) reported."""
+    if cfg.name == "isam2":
+        from .planar_isam2 import PlanarISAM2 as cls
+    else:
+        from .planar_ekf import PlanarEKF as cls
+    if cfg.mode == "slam":
+        return cls(cfg, seq.poses[0], np.zeros((3, 3)), np.zeros((0, 2)), np.zeros(0, np.int64), seq.max_range, seq.fov)
+    pose_hat, map_hat = sample_planar_estimate(seq.poses[0], seq.posts, belief, np.random.default_rng([seed, 0, 505]))
+    ids = np.flatnonzero(map_mask(len(seq.posts), belief, seed))
+    P = np.zeros((3 + 2 * len(ids),) * 2)
+    P[:3, :3] = planar_pose_covariance(belief)
+    P[3:, 3:] = map_covariance(len(ids), belief)
+    return cls(cfg, pose_hat, P, map_hat[ids], ids, seq.max_range, seq.fov)

@@ -20,6 +20,10 @@ from ..belief.camera_belief import BeliefConfig
 from ..errors import UserError
 from ..estimators.config import EstimatorConfig
 from ..sim.detect import DetectorConfig
+from ..sim.lidar import LidarConfig
+from ..sim.planar_scene import scene_track
+from ..sim.planar_sequence import PlanarSequenceSpec
+from ..sim.post_detect import PostDetectorConfig
 from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
 from ..sim.sequence import SequenceSpec
 from ..sim.trajectory import check_trajectory_params
@@ -36,6 +40,8 @@ DEFAULTS: dict = {
     "msaa": None,
     "detector": asdict(DetectorConfig()),
     "truth": asdict(TruthConfig()),
+    "lidar": asdict(LidarConfig()),
+    "posts": asdict(PostDetectorConfig()),
     "belief": asdict(BeliefConfig()),
     "loop": False,
     "estimator": asdict(EstimatorConfig()),
@@ -152,7 +158,7 @@ def load_run_config(config: str | Path | None = None, sets: list[str] | None = N
 class RunSpec:
     """A fully resolved run: which sequence, which belief, which method."""
 
-    sequence: SequenceSpec
+    sequence: SequenceSpec | PlanarSequenceSpec   # the scene's track: camera or planar
     belief: BeliefConfig
     seed: int
     method: str
@@ -224,6 +230,19 @@ def run_spec(cfg: dict) -> RunSpec:
     if not isinstance(cfg["loop"], bool):
         raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
     estimator = _typed(EstimatorConfig, cfg["estimator"], "estimator")
+    seq = (planar_sequence_spec if scene_track(cfg["scene"]) == "planar" else camera_sequence_spec)(cfg, estimator)
+    params = _mapping(cfg, "params")
+    check_method(cfg["method"], params, cfg["loop"])
+    return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
+                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator)
+
+
+def camera_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> SequenceSpec:
+    """The camera track's sequence: rendered frames, detected corners (``resolution``, ``msaa``,
+    ``detector``, ``truth``); RGB-D depth at each feature for the closed loop's slam mode."""
+    if estimator.name != "ekf":
+        raise UserError(f"estimator.name {estimator.name} serves the planar track only; scene {cfg['scene']!r} is a "
+                        "camera scene, whose estimator is ekf")
     res = cfg["resolution"]
     seq = SequenceSpec(
         scene=cfg["scene"], trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
@@ -233,10 +252,18 @@ def run_spec(cfg: dict) -> RunSpec:
         feature_depth=cfg["loop"] and estimator.mode == "slam",   # RGB-D, and the truth of texture corners
     )
     check_trajectory_params(seq.resolved_trajectory(), seq.trajectory_params)
-    params = _mapping(cfg, "params")
-    check_method(cfg["method"], params, cfg["loop"])
-    return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
-                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator)
+    return seq
+
+
+def planar_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> PlanarSequenceSpec:
+    """The planar track's sequence: lidar scans along the scene's path, posts detected in them
+    (``lidar``, ``posts``); the camera settings (resolution, detector, truth) do not apply."""
+    seq = PlanarSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
+                             trajectory_params=_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
+                             seed=cfg["seed"], lidar=_typed(LidarConfig, cfg["lidar"], "lidar"),
+                             posts=_typed(PostDetectorConfig, cfg["posts"], "posts"))
+    seq.check()
+    return seq
 
 
 def check_method(method: str, params: dict, loop: bool) -> None:

@@ -11,52 +11,22 @@ worker that resumes after a killed call rebuilds the same filter without calling
 
 from __future__ import annotations
 
+import json
 from collections.abc import Callable, Iterator
 
 import numpy as np
-from scipy.spatial.transform import Rotation
 
 from ..association.problem import NO_MATCH, Problem
 from ..belief.camera_belief import BeliefConfig, FrameTruth
-from ..estimators.base import FrameData
 from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
 from ..estimators.registry import make_estimator
 from ..scoring.metrics import score_frame, true_mass
-from ..scoring.trajectory import pose_error, pose_nees
-from ..sim.odometry import odometry
 from ..sim.sequence import Sequence
 from .config import ORACLE
-from .loop_truth import MapTruth, loop_truth, map_quality
+from .loop_sensors import loop_sensor
+from .loop_truth import MapTruth, RevisitCounter, loop_truth, map_quality
 from .runner import WARM_UP, _build, call_method, failed_record, warm_up
-
-
-def camera_frame(seq: Sequence, k: int, belief: BeliefConfig, est: EstimatorConfig, seed: int,
-                 in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
-    """Frame ``k``'s measurements (features plus N(0, σ_pixel²) when ``est.pixel_noise``, then
-    ``belief.clutter`` uniform clutter features with no depth) and their labels (landmark index;
-    -1 for texture corners, clutter, and landmarks outside the map in localisation). The measured
-    depth is the rendered one plus N(0, σ_z(z)²)."""
-    rng = np.random.default_rng([seed, k, 101])
-    features, labels = seq.features[k], seq.labels[k]
-    clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (belief.clutter, 2))
-    if est.pixel_noise:   # drawn after labelling: a truth gate must not truncate the noise
-        features = features + rng.normal(0.0, belief.sigma_pixel, features.shape)
-    z = np.vstack([features, clutter])
-    if in_map is not None:
-        labels = np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH)
-    labels = np.concatenate([labels, np.full(belief.clutter, NO_MATCH)]).astype(np.int64)
-    true_depth = np.concatenate([seq.depths[k] if seq.depths is not None else np.full(len(features), np.nan),
-                                 np.full(belief.clutter, np.nan)])
-    noisy = true_depth + rng.normal(0.0, 1.0, len(z)) * est.depth_std(np.nan_to_num(true_depth))
-    R = np.repeat((belief.sigma_pixel ** 2 * np.eye(2))[None], len(z), axis=0)
-    return FrameData(z, R, noisy if seq.depths is not None else None), labels
-
-
-def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
-    """``{prefix}x … {prefix}qw``: a pose as TUM's position and scalar-last quaternion."""
-    q = Rotation.from_matrix(R).as_quat()
-    return {f"{prefix}{k}": float(v) for k, v in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), (*p, *q))}
 
 
 class ClosedLoop:
@@ -65,6 +35,8 @@ class ClosedLoop:
     def __init__(self, seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
         self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
         self.filter = make_estimator(seq, est, belief, seed)
+        self.sensor = loop_sensor(seq, belief, est, seed)
+        self.revisits = RevisitCounter()
         self.truth = MapTruth()
         self.in_map = None
         self._pending: tuple | None = None   # frame begun, not finished: (k, problem, truth, data, labels)
@@ -84,8 +56,8 @@ class ClosedLoop:
         """First half of frame ``k``: predict with odometry (k > 0), then frame ``k``'s problem
         from the filter and its truth. ``finish`` applies an answer to it; frames go in order."""
         if k > 0:
-            self.filter.predict(odometry(self.seq.rotations, self.seq.positions, k, self.est, self.seed))
-        data, labels = camera_frame(self.seq, k, self.belief, self.est, self.seed, self.in_map)
+            self.filter.predict(self.sensor.motion(k))
+        data, labels = self.sensor.frame(k, self.in_map)
         problem = self.filter.problem(data)
         ids = problem.landmark_ids
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
@@ -101,11 +73,13 @@ class ClosedLoop:
         if self._pending is None:
             raise RuntimeError("ClosedLoop.finish without a frame begun: call begin(k) first")
         (k, problem, truth, data, labels), self._pending = self._pending, None
+        born = dict(zip(self.filter.book.ids, self.filter.book.born))   # before this frame's new entries
+        closures = self.revisits.count(k, labels, problem.landmark_ids, association, self.truth, born)
         if association is None:   # the filter only predicts through a failed frame
             record = failed_record(k, problem, truth, error, runtime)
         else:
             record = self._apply(k, problem, truth, association, data, labels, runtime, dict(info or {}))
-        return record | self._state_columns(k)
+        return record | closures | self._state_columns(k)
 
     def _apply(self, k, problem, truth, association, data, labels, runtime, info) -> dict:
         marginals = info.pop("marginals", None)
@@ -135,13 +109,13 @@ class ClosedLoop:
         return int(label) if self._labels[frame][feature] == label else NO_MATCH
 
     def _state_columns(self, k: int) -> dict:
-        f, seq = self.filter, self.seq
-        err = pose_error(seq.rotations[k], seq.positions[k], f.R, f.p)
-        nees = pose_nees(err, f.pose_covariance) if np.any(f.pose_covariance) else float("nan")
-        quality = map_quality(f.book.ids, f.book.confirmed, f.landmarks, self.truth, seq.landmarks)
-        return {**pose_columns("est_", f.R, f.p), **pose_columns("true_", seq.rotations[k], seq.positions[k]),
-                "pos_err": float(np.linalg.norm(err[:3])), "rot_err_deg": float(np.rad2deg(np.linalg.norm(err[3:]))),
-                "nees": nees, "tentative": int(len(f.book) - np.sum(f.book.confirmed)), **quality}
+        f = self.filter
+        quality = map_quality(f.book.ids, f.book.confirmed, f.landmarks, self.truth, self.seq.landmarks)
+        out = {**self.sensor.state_columns(f, k), "tentative": int(len(f.book) - np.sum(f.book.confirmed)), **quality}
+        if k == len(self.seq) - 1:   # the final map, for the figures (frames.csv records no other)
+            xy = np.asarray(f.landmarks)[f.book.confirmed][:, :2] if len(f.book) else np.zeros((0, 2))
+            out["final_map"] = json.dumps(np.round(xy, 4).tolist())
+        return out
 
 
 def recorded_answer(recorded, k: int) -> tuple:

@@ -55,3 +55,36 @@ def map_quality(map_ids: list[int], confirmed: np.ndarray, estimates: np.ndarray
     return {"map_size": int(len(labels)), "duplicates": int(tied.sum() - len(np.unique(labels[tied]))),
             "false_landmarks": int((~tied).sum()),
             "map_rmse": float(np.sqrt(np.mean(errors ** 2))) if len(errors) else float("nan")}
+
+
+REVISIT_GAP = 50   # frames without a measurement of a landmark after which measuring it again is a revisit
+
+
+@dataclass
+class RevisitCounter:
+    """Loop closures, from the truth of the measurements (the same opportunities for every method).
+
+    A landmark measured in frame k whose previous true measurement was at least ``REVISIT_GAP``
+    frames earlier is a *revisit*; the method *closes the loop* when it pairs that measurement
+    with a map entry tied to that landmark and made no later than that previous measurement (an
+    entry made during the revisit is a duplicate, not a closure)."""
+
+    last: dict[int, int] = field(default_factory=dict)   # landmark -> frame of its last true measurement
+
+    def count(self, k: int, labels: np.ndarray, map_ids: np.ndarray, association: np.ndarray | None,
+              truth: MapTruth, born: dict[int, int]) -> dict[str, int]:
+        """``{"revisits", "loop_closures"}`` of frame ``k`` (``labels`` (m,) each feature's landmark or
+        -1; ``association`` (n,) over ``map_ids``, None for a failed frame); then remember frame k."""
+        paired = {} if association is None else {int(i): int(map_ids[j]) for j, i in enumerate(association) if i >= 0}
+        revisits = closures = 0
+        for i, lm in enumerate(labels):
+            lm = int(lm)
+            if lm < 0:
+                continue
+            previous = self.last.get(lm)
+            if previous is not None and k - previous >= REVISIT_GAP:
+                revisits += 1
+                m = paired.get(i)
+                closures += int(m is not None and truth.label.get(m) == lm and born.get(m, k) <= previous)
+            self.last[lm] = k
+        return {"revisits": revisits, "loop_closures": closures}

@@ -3,7 +3,9 @@
 A suite file has the keys ``base`` (a run config applied to every run), ``scenes``,
 ``difficulties`` (name -> run-config overrides, e.g. ``{belief: {sigma_rotation: 2}}``),
 ``methods`` (names, or mappings ``{name, method, params}`` so a label can point at a plugin),
-``seeds``, and optionally ``tolerance`` (for ``check``) and ``description``.
+``seeds``, and optionally ``tolerance`` (for ``check``), ``description`` and ``backends``
+(name -> run-config overrides, e.g. ``{isam2: {estimator: {name: isam2}}}``): each difficulty
+is then run once per back end, as the difficulty ``<difficulty>-<backend>``.
 """
 
 from __future__ import annotations
@@ -20,7 +22,8 @@ from ..fingerprint import class_digest, package_digest
 from ..validation import check_number
 from .config import DEFAULTS, check_method, merge, read_yaml, run_spec
 
-SUITE_KEYS = ("description", "base", "scenes", "difficulties", "methods", "seeds", "tolerance", "ate_tolerance")
+SUITE_KEYS = ("description", "base", "scenes", "difficulties", "backends", "methods", "seeds", "tolerance",
+              "ate_tolerance")
 
 
 @dataclass(frozen=True)
@@ -121,8 +124,11 @@ def load_suite(path: str | Path) -> Suite:
     scenes = _list(raw, "scenes", [base["scene"]], str(path))
     difficulties = raw.get("difficulties") or {"default": {}}
     seeds = _list(raw, "seeds", [base["seed"]], str(path))
-    if not isinstance(difficulties, dict) or not all(isinstance(v or {}, dict) for v in difficulties.values()):
-        raise UserError(f"'difficulties' in {path} must map names to run-config overrides")
+    for key in ("difficulties", "backends"):
+        value = raw.get(key) or {}
+        if not isinstance(value, dict) or not all(isinstance(v or {}, dict) for v in value.values()):
+            raise UserError(f"'{key}' in {path} must map names to run-config overrides")
+    difficulties = _crossed(difficulties, raw.get("backends") or {})
     for seed in seeds:
         check_number(seed, f"seeds entry in {path}", integer=True, lo=0, hi=2**32 - 1)
     if not all(isinstance(sc, str) for sc in scenes):
@@ -130,8 +136,8 @@ def load_suite(path: str | Path) -> Suite:
     _refuse_duplicates(seeds, "seeds", str(path), "list each seed once")
     _refuse_duplicates(scenes, "scenes", str(path), "list each scene once")
     methods = _methods(raw.get("methods"), str(path))
-    loop = base.get("loop") is True or any(isinstance(o, dict) and o.get("loop") is True
-                                          for o in difficulties.values() if o)
+    parts = [p for o in difficulties.values() for p in (o if isinstance(o, list) else [o])]
+    loop = base.get("loop") is True or any(isinstance(p, dict) and p.get("loop") is True for p in parts)
     for m in methods:
         check_method(m.method, m.params, loop)   # unknown methods, broken plugins, bad parameters: now
     tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)
@@ -140,13 +146,27 @@ def load_suite(path: str | Path) -> Suite:
         for seed in seeds:
             runs = []
             for name, override in difficulties.items():
-                cfg = merge(merge(base, override or {}, f"{path} difficulty {name}"),
-                            {"scene": scene, "seed": seed}, str(path))
+                cfg = base
+                for part in override if isinstance(override, list) else [override]:
+                    cfg = merge(cfg, part or {}, f"{path} difficulty {name}")
+                cfg = merge(cfg, {"scene": scene, "seed": seed}, str(path))
                 run_spec(cfg)  # validate now
                 runs.append((str(name), cfg))
             jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
     ate_tolerance = check_number(raw.get("ate_tolerance", 0.01), f"ate_tolerance in {path}", lo=0)
     return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance))
+
+
+def _crossed(difficulties: dict, backends: dict) -> dict:
+    """Each difficulty once per back end, as ``<difficulty>-<backend>`` with both overrides (the
+    back end's last); the difficulties themselves when no back end is named."""
+    if not backends:
+        return difficulties
+    out = {}
+    for name, override in difficulties.items():
+        for backend, extra in backends.items():
+            out[f"{name}-{backend}"] = [override or {}, extra or {}]
+    return out
 
 
 def resolve_suite(name: str) -> Path:

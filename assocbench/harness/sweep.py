@@ -24,7 +24,8 @@ from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
-LOOP_FRAME_COLUMNS = ("pos_err", "rot_err_deg", "nees", "est_x", "est_y", "true_x", "true_y")   # for its plots
+LOOP_FRAME_COLUMNS = ("pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "true_x", "true_y",
+                      "odo_x", "odo_y", "final_map")   # for its plots
 
 
 def job_task(job: Job, cache_dir: str | None = None) -> Task:

@@ -3,11 +3,13 @@
 ate_rmse (m) and rot_rmse_deg: RMSE of the position and rotation errors over all frames, no
 alignment (``evo_ape tum truth.txt estimate.txt`` gives the same); anees: mean pose NEES over the
 frames with a pose covariance (slam's frame 0 has none), with the two-sided 95 % band
-``[anees_lo, anees_hi] = χ²_{6N}(0.025, 0.975) / N``. The band assumes independent frames; the
+``[anees_lo, anees_hi] = χ²_{qN}(0.025, 0.975) / N`` with q the pose's degrees of freedom (the
+frames' ``nees_dof``: 6 for the camera track, 3 for the planar one). The band assumes independent frames; the
 frames of one run are correlated (the same map error steers them all), so one run's ANEES
 scatters more widely than the band says. diverged_at: the first frame whose NEES stays above
-χ²_6(0.999) for 5 frames, -1 for never. Map figures are the last frame's: confirmed landmarks,
-duplicates, false landmarks and map_rmse (m) of the entries tied to a landmark.
+χ²_q(0.999) for 5 frames, -1 for never. Map figures are the last frame's: confirmed landmarks,
+duplicates, false landmarks and map_rmse (m) of the entries tied to a landmark. ``revisits`` and
+``loop_closures`` are summed over frames (``harness.loop_truth.RevisitCounter``).
 """
 
 from __future__ import annotations
@@ -18,7 +20,7 @@ import pandas as pd
 from .trajectory import anees, anees_band, divergence_frame
 
 LOOP_COLUMNS = ("ate_rmse", "rot_rmse_deg", "anees", "anees_lo", "anees_hi", "diverged_at", "map_size",
-                "duplicates", "false_landmarks", "map_rmse", "new_landmarks", "no_depth")
+                "duplicates", "false_landmarks", "map_rmse", "new_landmarks", "no_depth", "revisits", "loop_closures")
 
 
 def loop_summary(frames: pd.DataFrame) -> dict:
@@ -28,17 +30,20 @@ def loop_summary(frames: pd.DataFrame) -> dict:
     nees = frames["nees"].to_numpy(dtype=float)
     excluded = [0] if not np.isfinite(nees[0]) else []   # slam's first pose has no covariance
     counted = len(nees) - len(excluded)
-    lo, hi = anees_band(counted) if counted else (float("nan"), float("nan"))
+    dof = int(frames["nees_dof"].iloc[0]) if "nees_dof" in frames else 6
+    lo, hi = anees_band(counted, dof) if counted else (float("nan"), float("nan"))
     last = frames.iloc[-1]
     return {
         "ate_rmse": float(np.sqrt(np.mean(frames["pos_err"].to_numpy(dtype=float) ** 2))),
         "rot_rmse_deg": float(np.sqrt(np.mean(frames["rot_err_deg"].to_numpy(dtype=float) ** 2))),
         "anees": anees(nees, exclude=excluded) if counted else float("nan"), "anees_lo": lo, "anees_hi": hi,
-        "diverged_at": int(divergence_frame(np.nan_to_num(nees, nan=0.0))),
+        "diverged_at": int(divergence_frame(np.nan_to_num(nees, nan=0.0), dof)),
         "map_size": int(last["map_size"]), "duplicates": int(last["duplicates"]),
         "false_landmarks": int(last["false_landmarks"]), "map_rmse": float(last["map_rmse"]),
         "new_landmarks": int(frames.get("new_landmarks", pd.Series(0)).fillna(0).sum()),
         "no_depth": int(frames.get("no_depth", pd.Series(0)).fillna(0).sum()),
+        "revisits": int(frames.get("revisits", pd.Series(0)).fillna(0).sum()),
+        "loop_closures": int(frames.get("loop_closures", pd.Series(0)).fillna(0).sum()),
     }
 
 

@@ -32,7 +32,8 @@ from scipy.stats import chi2
 from ..atomic import OUTPUT_FILE, Role, write_text
 from ..errors import UserError
 
-POSE_DOF = 6
+POSE_DOF = 6      # a 3-D pose error [δp, δθ]
+PLANAR_DOF = 3    # a planar one [δx, δy, δθ]
 _ROTATION_TOL = 1e-6      # ‖RᵀR − I‖_max and |det R − 1| accepted as a rotation in a TUM file
 _SYMMETRY_TOL = 1e-6      # relative asymmetry of a covariance accepted as rounding
 
@@ -106,15 +107,16 @@ def pose_nees(error6: np.ndarray, cov6: np.ndarray) -> float:
 
         NEES = eᵀ P⁻¹ e = ‖L⁻¹ e‖²,
 
-    χ²_6-distributed for a consistent filter. NaN when ``e`` or ``P`` holds a NaN or ``P`` is
+    χ²_q-distributed for a consistent filter: q = 6 for a 3-D pose ``[δp, δθ]``, 3 for a planar
+    one ``[δx, δy, δθ]`` (the error and covariance must agree). NaN when ``e`` or ``P`` holds a NaN or ``P`` is
     not positive definite, numerically: a Cholesky pivot ``L_ii ≤ sqrt(ε · max|P|)`` (a zero
     covariance, e.g. the first SLAM frame, or one singular to machine precision). Raises
     ``UserError`` for wrong shapes or a ``P`` that is not symmetric (beyond rounding)."""
     e = np.asarray(error6, dtype=np.float64)
     P = np.asarray(cov6, dtype=np.float64)
-    if e.shape != (POSE_DOF,) or P.shape != (POSE_DOF, POSE_DOF):
-        raise UserError(f"pose NEES needs an error of shape (6,) and a covariance of shape (6, 6), "
-                        f"got {e.shape} and {P.shape}")
+    if e.shape not in ((POSE_DOF,), (PLANAR_DOF,)) or P.shape != (len(e), len(e)):
+        raise UserError(f"pose NEES needs an error of shape (6,) and a covariance of shape (6, 6) (planar: (3,) "
+                        f"and (3, 3)), got {e.shape} and {P.shape}")
     if not (np.isfinite(e).all() and np.isfinite(P).all()):
         return float("nan")
     scale = np.abs(P).max()

@@ -13,16 +13,15 @@ from __future__ import annotations
 
 import numpy as np
 
+from ..belief.range_bearing import predict, wrap
 from .lidar import LidarConfig, cast
 from .planar_scene import PlanarScene
-from .planar_trajectory import wrap
 from .post_detect import Detections
 
 
 def true_range_bearing(scene: PlanarScene, pose: np.ndarray) -> np.ndarray:
-    """``(r, φ)`` (L, 2) of every post's centre seen from ``pose``."""
-    d = scene.posts - np.asarray(pose[:2])
-    return np.column_stack([np.hypot(d[:, 0], d[:, 1]), wrap(np.arctan2(d[:, 1], d[:, 0]) - pose[2])])
+    """``(r, φ)`` (L, 2) of every post's centre seen from ``pose`` (``belief.range_bearing.predict``)."""
+    return predict(np.asarray(pose, dtype=np.float64), scene.posts)
 
 
 def geometric_visible(scene: PlanarScene, pose: np.ndarray, cfg: LidarConfig) -> np.ndarray:

@@ -12,6 +12,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..belief.pinhole import exp_so3
+from ..belief.range_bearing import wrap
+from ..belief.se2 import between
 from ..estimators.base import Motion
 from ..estimators.config import EstimatorConfig
 
@@ -33,26 +35,12 @@ def odometry(rotations: np.ndarray, positions: np.ndarray, k: int, cfg: Estimato
     return Motion(measured, cfg.odometry_covariance)
 
 
-def true_planar_increment(pose0: np.ndarray, pose1: np.ndarray) -> np.ndarray:
-    """``(Δx, Δy, Δθ)`` taking planar pose 0 to pose 1 in pose 0's frame:
-    ``(Δx, Δy) = R(θ₀)ᵀ (p₁ − p₀)``, ``Δθ = wrap(θ₁ − θ₀)``."""
-    c, s = np.cos(pose0[2]), np.sin(pose0[2])
-    dx, dy = pose1[0] - pose0[0], pose1[1] - pose0[1]
-    return np.array([c * dx + s * dy, -s * dx + c * dy, _wrap(pose1[2] - pose0[2])])
-
-
 def planar_odometry(poses: np.ndarray, k: int, cfg: EstimatorConfig, seed: int) -> Motion:
     """The measured planar increment from frame ``k − 1`` to ``k``: the true one plus
     ``k_m (σ_t n_x, σ_t n_y, σ_θ n_θ)``, ``n ~ N(0, I₃)`` (``k_m``: miscalibration), and the
     covariance the filter is told, ``diag(σ_t², σ_t², σ_θ²)`` (σ_θ in radians)."""
     rng = np.random.default_rng([seed, k, 404])
     sigma = np.array([cfg.odometry_sigma_translation] * 2 + [np.deg2rad(cfg.odometry_sigma_rotation)])
-    inc = true_planar_increment(poses[k - 1], poses[k]) + rng.normal(0.0, 1.0, 3) * sigma * cfg.odometry_miscalibration
-    inc[2] = _wrap(inc[2])
+    inc = between(poses[k - 1], poses[k]) + rng.normal(0.0, 1.0, 3) * sigma * cfg.odometry_miscalibration
+    inc[2] = wrap(inc[2])
     return Motion(inc, np.diag(sigma ** 2))
-
-
-def _wrap(angle: float) -> float:
-    """Angle wrapped to (−π, π]."""
-    a = (angle + np.pi) % (2 * np.pi) - np.pi
-    return float(np.pi if a == -np.pi else a)

@@ -15,7 +15,8 @@ import numpy as np
 from .geometric_sensor import geometric_detections
 from .lidar import LidarConfig, Scan, scan
 from .planar_scene import PlanarScene, load_planar_scene
-from .planar_trajectory import planar_trajectory
+from .planar_trajectory import planar_trajectory, scripted
+from .scene import resolve_scene_path
 from .post_detect import PostDetectorConfig, detect_posts, label_detections
 
 
@@ -32,6 +33,17 @@ class PlanarSequenceSpec:
     posts: PostDetectorConfig = field(default_factory=PostDetectorConfig)
     keep_scans: bool = False
 
+    def resolved_trajectory(self) -> str:
+        """The trajectory's name: the given one, else the scene's default (``loop`` for a shipped
+        scene, ``ellipse`` for a user MJCF)."""
+        return self.trajectory or ("loop" if scripted(resolve_scene_path(self.scene)) else "ellipse")
+
+    def check(self) -> None:
+        """Refuse a bad scene (no posts, posts of two radii), trajectory or trajectory parameter now,
+        with one line, before anything runs (a scene loads in milliseconds; the path is cheap)."""
+        planar_trajectory(load_planar_scene(self.scene), self.trajectory, min(self.frames, 2), self.seed,
+                          **self.trajectory_params)
+
 
 @dataclass
 class PlanarSequence:
@@ -46,7 +58,11 @@ class PlanarSequence:
     R: list[np.ndarray]           # N x (m_k, 2, 2)
     labels: list[np.ndarray]      # N x (m_k,) post index or -1
     visible: np.ndarray           # (N, L) truly detectable
+    max_range: float = 10.0       # the lidar's: candidates are predicted within range and field of view
+    fov: float = 2 * np.pi        # rad
+    nominal_R: np.ndarray = field(default_factory=lambda: np.diag([1e-4, 1e-4]))   # what a clutter detection reports
     scans: list[Scan] | None = None
+    track = "planar"
 
     def __len__(self) -> int:
         return len(self.poses)
@@ -101,5 +117,8 @@ def make_planar_sequence(spec: PlanarSequenceSpec, scene: PlanarScene | None = N
         Rs.append(det.R)
         labels.append(lab)
         scans.append(s)
+    lidar = spec.lidar
+    nominal = np.diag([lidar.sigma_range ** 2, np.deg2rad(lidar.sigma_bearing_deg) ** 2])
     return PlanarSequence(scene.name, scene.posts.copy(), list(scene.post_names), scene.post_radius, poses,
-                          zs, Rs, labels, visible, scans if spec.keep_scans else None)
+                          zs, Rs, labels, visible, lidar.max_range, np.deg2rad(lidar.fov_deg), nominal,
+                          scans if spec.keep_scans else None)

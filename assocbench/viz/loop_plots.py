@@ -193,6 +193,8 @@ def _map_panel(ax, run: pd.DataFrame, landmarks, means, color, limits) -> None:
     if means is not None and len(means):
         ax.plot(np.asarray(means)[:, 0], np.asarray(means)[:, 1], "+", color=color, ms=4, mew=0.8)
     ax.plot(run["true_x"], run["true_y"], "-", color="0.1", lw=2.2)
+    if "odo_x" in run and np.isfinite(run["odo_x"].to_numpy(dtype=float)).any():   # planar: odometry alone
+        ax.plot(run["odo_x"], run["odo_y"], "--", color="0.45", lw=0.9)
     ax.plot(run["est_x"], run["est_y"], "-", color=color, lw=1.0)
     ax.set(xlim=limits[0], ylim=limits[1], xlabel="x (m)", ylabel="y (m)")
     ax.set_aspect("equal", adjustable="box")
@@ -224,6 +226,8 @@ def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
                    None if maps is None else maps.get(method), styles[method]["color"], limits)
         ax.set_title(label(method), fontsize=9)
     what = "thick black: true path; thin: estimate" + ("; grey dots: true landmarks" if landmarks is not None else "")
+    if "odo_x" in frames and np.isfinite(frames["odo_x"].to_numpy(dtype=float)).any():
+        what += "; dashed: odometry alone"
     what += "; +: final map" if maps is not None else "; map not recorded (trajectories only)"
     fig.suptitle(title, fontsize=10)
     fig.text(0.5, 0.005, what, ha="center", va="bottom", fontsize=7)

@@ -1,0 +1,96 @@
+"""Belief of the planar track (open loop): estimate = truth + error drawn from the reported Σ.
+
+The same knobs as the camera track's ``BeliefConfig``, read in the plane: the robot pose
+``(x, y, θ)`` has Σ_pose = diag(σ_p², σ_p², σ_θ²); the posts' map has
+``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₂)``; the actual error is drawn from ``k² Σ``. Candidates are the
+mapped posts the estimate predicts within the lidar's range and field of view; the joint
+prediction covariance is ``P = H Σ Hᵀ`` with the range-bearing Jacobians
+(``belief.range_bearing``). Measurements are the frame's post detections (with the noise the
+detector reports) plus ``clutter`` detections drawn uniformly over range × bearing.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..association.problem import NO_MATCH, Problem
+from .camera_belief import BeliefConfig, FrameTruth, map_mask, true_association
+from .range_bearing import ANGULAR, jacobians, predict, wrap
+
+RANGE_MARGIN = 1.05   # candidates out to 5 % beyond max range: a post the estimate puts just outside may be seen
+
+
+def planar_pose_covariance(cfg: BeliefConfig) -> np.ndarray:
+    """Σ_pose (3, 3) of ``(x, y, θ)``, heading in radians."""
+    return np.diag([cfg.sigma_position ** 2] * 2 + [np.deg2rad(cfg.sigma_rotation) ** 2])
+
+
+def map_covariance(n: int, cfg: BeliefConfig) -> np.ndarray:
+    """Σ_L (2n, 2n) = σ_l² I + σ_c² (11ᵀ ⊗ I₂)."""
+    cov = cfg.sigma_landmark ** 2 * np.eye(2 * n)
+    if cfg.sigma_common > 0:
+        cov += cfg.sigma_common ** 2 * np.kron(np.ones((n, n)), np.eye(2))
+    return cov
+
+
+def sample_planar_estimate(pose: np.ndarray, posts: np.ndarray, cfg: BeliefConfig,
+                           rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray]:
+    """``(pose estimate (3,), map estimate (L, 2))``: truth plus an error drawn from ``k² Σ``."""
+    k = cfg.miscalibration
+    e_pose = rng.normal(0.0, 1.0, 3) * np.sqrt(np.diag(planar_pose_covariance(cfg))) * k
+    e_map = rng.normal(0.0, cfg.sigma_landmark * k, posts.shape) + rng.normal(0.0, cfg.sigma_common * k, 2)
+    est = np.asarray(pose, dtype=np.float64) + e_pose
+    est[2] = wrap(est[2])
+    return est, posts + e_map
+
+
+def in_sensor_view(zhat: np.ndarray, max_range: float, fov: float) -> np.ndarray:
+    """Predictions inside the sensor's range (with ``RANGE_MARGIN``) and field of view (n,)."""
+    return (zhat[:, 0] <= RANGE_MARGIN * max_range) & (np.abs(zhat[:, 1]) <= fov / 2 + 1e-12)
+
+
+def joint_prediction_covariance(H_pose: np.ndarray, H_l: np.ndarray, Sigma_pose: np.ndarray,
+                                cfg: BeliefConfig) -> np.ndarray:
+    """``P = H Σ Hᵀ`` (2n, 2n) over the pose and the candidates' landmarks, with Σ's structure:
+    the pose block, independent landmarks and the common-mode term."""
+    n = len(H_l)
+    Hp = H_pose.reshape(2 * n, 3)
+    P = Hp @ Sigma_pose @ Hp.T
+    idx = np.arange(n)
+    P.reshape(n, 2, n, 2)[idx, :, idx, :] += cfg.sigma_landmark ** 2 * np.einsum("nab,ncb->nac", H_l, H_l)
+    if cfg.sigma_common > 0:
+        G = H_l.reshape(2 * n, 2)
+        P += cfg.sigma_common ** 2 * G @ G.T
+    return 0.5 * (P + P.T)
+
+
+def clutter_detections(rng: np.random.Generator, count: int, R: np.ndarray, max_range: float,
+                       fov: float) -> tuple[np.ndarray, np.ndarray]:
+    """``count`` false detections uniform over ``[0, max_range] × [−fov/2, fov/2]`` with the noise
+    ``R`` (2, 2) the detector would report."""
+    z = np.column_stack([rng.uniform(0.0, max_range, count), rng.uniform(-fov / 2, fov / 2, count)])
+    return z, np.repeat(np.asarray(R, dtype=np.float64)[None], count, axis=0)
+
+
+def nominal_noise(R_frame: np.ndarray, fallback: np.ndarray) -> np.ndarray:
+    """The noise a clutter detection reports: the median of the frame's (element-wise), else ``fallback``."""
+    return np.median(R_frame, axis=0) if len(R_frame) else fallback
+
+
+def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
+    """The open-loop association problem of one planar frame and its truth (``seq``: a
+    ``PlanarSequence``; its ``max_range`` and ``fov`` bound the candidates)."""
+    rng = np.random.default_rng([seed, frame, 101])
+    pose_hat, map_hat = sample_planar_estimate(seq.poses[frame], seq.posts, cfg, rng)
+    in_map = map_mask(len(seq.posts), cfg, seed)
+    zhat = predict(pose_hat, map_hat)
+    cand = np.flatnonzero(in_map & in_sensor_view(zhat, seq.max_range, seq.fov))
+    H_pose, H_l = jacobians(pose_hat, map_hat[cand])
+    z, R, labels = seq.z[frame], seq.R[frame], seq.labels[frame]
+    cz, cR = clutter_detections(rng, cfg.clutter, nominal_noise(R, seq.nominal_R), seq.max_range, seq.fov)
+    feature_labels = np.concatenate([np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH),
+                                     np.full(cfg.clutter, NO_MATCH)]).astype(np.int64)
+    problem = Problem(z=np.vstack([z.reshape(-1, 2), cz]), R=np.concatenate([R.reshape(-1, 2, 2), cR]),
+                      zhat=zhat[cand], P=joint_prediction_covariance(H_pose, H_l, planar_pose_covariance(cfg), cfg),
+                      landmark_ids=cand, volume=seq.max_range * seq.fov, angular=ANGULAR)
+    return problem, FrameTruth(feature_labels, true_association(feature_labels, cand), seq.visible[frame][cand])

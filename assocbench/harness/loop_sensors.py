@@ -1,0 +1,119 @@
+"""What the closed loop reads from a sequence, per track: a frame's measurements and their truth
+labels, the odometry between frames, and the pose columns of a frame's record.
+
+The camera track measures pixels (plus RGB-D depth) and moves in 3-D (6-dof pose error); the
+planar track measures post ranges and bearings and moves in the plane (3-dof pose error
+``[δx, δy, δθ]``). ``ClosedLoop`` calls these through ``loop_sensor(seq, ...)`` and never asks
+which track it runs.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from scipy.spatial.transform import Rotation
+
+from ..association.problem import NO_MATCH
+from ..belief.camera_belief import BeliefConfig
+from ..belief.planar_belief import clutter_detections, nominal_noise
+from ..belief.range_bearing import pose_error as planar_pose_error
+from ..belief.se2 import compose
+from ..estimators.base import FrameData, Motion
+from ..estimators.config import EstimatorConfig
+from ..scoring.trajectory import pose_error, pose_nees
+from ..sim.odometry import odometry, planar_odometry
+
+
+def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
+    """``{prefix}x … {prefix}qw``: a pose as TUM's position and scalar-last quaternion."""
+    q = Rotation.from_matrix(R).as_quat()
+    return {f"{prefix}{k}": float(v) for k, v in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), (*p, *q))}
+
+
+def _nees(error: np.ndarray, cov: np.ndarray) -> float:
+    """Pose NEES, NaN while the pose covariance is zero (slam's first frame fixes the gauge)."""
+    return pose_nees(error, cov) if np.any(cov) else float("nan")
+
+
+def with_clutter_labels(labels: np.ndarray, clutter: int, in_map: np.ndarray | None) -> np.ndarray:
+    """Feature labels for the loop's truth: the sensor's label (-1 for look-alikes), -1 for a
+    landmark outside the map in localisation, then -1 for each clutter feature."""
+    if in_map is not None:
+        labels = np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH)
+    return np.concatenate([labels, np.full(clutter, NO_MATCH)]).astype(np.int64)
+
+
+class CameraSensor:
+    """The camera track: pixels (+ RGB-D depth), 6-dof odometry and pose error."""
+
+    nees_dof = 6
+
+    def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
+        self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
+
+    def motion(self, k: int) -> Motion:
+        return odometry(self.seq.rotations, self.seq.positions, k, self.est, self.seed)
+
+    def frame(self, k: int, in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
+        """Frame ``k``'s features plus N(0, σ_pixel²) when ``est.pixel_noise`` (drawn after labelling:
+        a truth gate must not truncate the noise), then ``belief.clutter`` uniform clutter features
+        with no depth; the measured depth is the rendered one plus N(0, σ_z(z)²)."""
+        seq, belief, est = self.seq, self.belief, self.est
+        rng = np.random.default_rng([self.seed, k, 101])
+        features = seq.features[k]
+        clutter = rng.uniform([-0.5, -0.5], [seq.K.width - 0.5, seq.K.height - 0.5], (belief.clutter, 2))
+        if est.pixel_noise:
+            features = features + rng.normal(0.0, belief.sigma_pixel, features.shape)
+        z = np.vstack([features, clutter])
+        true_depth = np.concatenate([seq.depths[k] if seq.depths is not None else np.full(len(features), np.nan),
+                                     np.full(belief.clutter, np.nan)])
+        noisy = true_depth + rng.normal(0.0, 1.0, len(z)) * est.depth_std(np.nan_to_num(true_depth))
+        R = np.repeat((belief.sigma_pixel ** 2 * np.eye(2))[None], len(z), axis=0)
+        labels = with_clutter_labels(seq.labels[k], belief.clutter, in_map)
+        return FrameData(z, R, noisy if seq.depths is not None else None), labels
+
+    def state_columns(self, f, k: int) -> dict:
+        seq = self.seq
+        err = pose_error(seq.rotations[k], seq.positions[k], f.R, f.p)
+        return {**pose_columns("est_", f.R, f.p), **pose_columns("true_", seq.rotations[k], seq.positions[k]),
+                "pos_err": float(np.linalg.norm(err[:3])), "rot_err_deg": float(np.rad2deg(np.linalg.norm(err[3:]))),
+                "nees": _nees(err, f.pose_covariance), "nees_dof": self.nees_dof}
+
+
+class PlanarSensor:
+    """The planar track: post detections (range, bearing) plus clutter, planar odometry, 3-dof
+    pose error ``[δx, δy, δθ]``."""
+
+    nees_dof = 3
+
+    def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
+        self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
+        self.dead_reckoning = np.array(seq.poses[0], dtype=np.float64)   # odometry alone, for the figures
+
+    def motion(self, k: int) -> Motion:
+        motion = planar_odometry(self.seq.poses, k, self.est, self.seed)
+        self.dead_reckoning = compose(self.dead_reckoning, motion.increment)
+        return motion
+
+    def frame(self, k: int, in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
+        """Frame ``k``'s post detections (their noise is the lidar's, already in them) and
+        ``belief.clutter`` false detections uniform over range × bearing."""
+        seq = self.seq
+        rng = np.random.default_rng([self.seed, k, 101])
+        R = seq.R[k].reshape(-1, 2, 2)
+        cz, cR = clutter_detections(rng, self.belief.clutter, nominal_noise(R, seq.nominal_R), seq.max_range, seq.fov)
+        data = FrameData(np.vstack([seq.z[k].reshape(-1, 2), cz]), np.concatenate([R, cR]))
+        return data, with_clutter_labels(seq.labels[k], self.belief.clutter, in_map)
+
+    def state_columns(self, f, k: int) -> dict:
+        seq = self.seq
+        err = planar_pose_error(seq.poses[k], f.pose)
+        return {**pose_columns("est_", f.R, f.p), **pose_columns("true_", seq.rotations[k], seq.positions[k]),
+                "pos_err": float(np.linalg.norm(err[:2])), "rot_err_deg": float(np.rad2deg(abs(err[2]))),
+                "nees": _nees(err, f.pose_covariance), "nees_dof": self.nees_dof,
+                "odo_x": float(self.dead_reckoning[0]), "odo_y": float(self.dead_reckoning[1])}
+
+
+def loop_sensor(seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> CameraSensor | PlanarSensor:
+    """The sensor side of ``seq``'s track."""
+    cls = PlanarSensor if getattr(seq, "track", "camera") == "planar" else CameraSensor
+    return cls(seq, belief, est, seed)
