@@ -5,7 +5,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..harness.config import load_run_config, run_spec
+from ..harness.config import camera_only, load_run_config, run_spec
 from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
 from ..viz.truth_frame import draw_truth_frame, render_truth_frame
 from .common import add_run_options, check_output_file, resolution
@@ -26,7 +26,7 @@ def main(args: argparse.Namespace) -> int:
     output = check_output_file(Path(args.output), check_image_path)   # before rendering: no time wasted
     cfg = load_run_config(args.config, args.sets, scene=args.scene, trajectory=args.trajectory,
                           frames=args.frames, seed=args.seed, resolution=resolution(args.resolution))
-    spec = run_spec(cfg).sequence
+    spec = camera_only(run_spec(cfg), "frame").sequence
     tf = render_truth_frame(spec, args.index)
     title = f"{spec.scene} {spec.resolved_trajectory()} frame {args.index}"
     write_image(output, draw_truth_frame(tf, title))

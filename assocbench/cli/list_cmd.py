@@ -21,11 +21,15 @@ def _first_line(text: str | None) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..sim.planar_scenegen import PLANAR_SCENES
     from ..sim.scenegen import SCENES
+
+    described = SCENES | PLANAR_SCENES
 
     sections = {
         "methods": available(),
-        "scenes": {name: _first_line(SCENES[name].__doc__) if name in SCENES else str(path)
+        "scenes": {name: ("[planar] " if name in PLANAR_SCENES else "[camera] ")
+                   + (_first_line(described[name].__doc__) if name in described else str(path))
                    for name, path in shipped_scenes().items()},
         "trajectories": {name: _first_line(fn.__doc__) for name, fn in TRAJECTORIES.items()},
     }

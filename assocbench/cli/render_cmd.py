@@ -12,7 +12,7 @@ import pandas as pd
 from tqdm import tqdm
 
 from ..belief.camera_belief import make_problem
-from ..harness.config import RunSpec, load_run_config, run_spec
+from ..harness.config import RunSpec, camera_only, load_run_config, run_spec
 from ..harness.loop_replay import replay_loop
 from ..harness.runner import execute
 from ..sim.render import FrameRenderer
@@ -96,7 +96,7 @@ def main(args: argparse.Namespace) -> int:
     fps = check_fps(args.fps)
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
-    spec = run_spec(cfg)
+    spec = camera_only(run_spec(cfg), "render")
     records, _ = execute(spec, associations=True)
     seq = load_sequence(spec.sequence)   # cached by execute: nothing is rendered twice
     failures = [f"frame {r.frame}: {r.error}" for r in records.itertuples() if r.error]

@@ -266,6 +266,15 @@ def planar_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> PlanarSequenc
     return seq
 
 
+def camera_only(spec: RunSpec, what: str) -> RunSpec:
+    """``spec``, or a one-line error when its scene is a planar one and ``what`` serves the camera
+    track only (rendered pictures, the Gymnasium envs)."""
+    if isinstance(spec.sequence, PlanarSequenceSpec):
+        raise UserError(f"{what} serves the camera track; scene {spec.sequence.scene!r} is a planar one (lidar and "
+                        "posts): run it with `assocbench run` or `leaderboard --suite planar`, whose figures show it")
+    return spec
+
+
 def check_method(method: str, params: dict, loop: bool) -> None:
     """Refuse an unknown method or bad parameters now (built once and thrown away). ``oracle``
     (the true association) exists only in the closed loop, as its reference row."""

@@ -118,7 +118,8 @@ def load_scene(scene: str | Path) -> Scene:
     idx = [i for i, n in enumerate(names) if n.startswith(LANDMARK_PREFIX)]
     if not idx:
         raise UserError(
-            f"MJCF {path} has no landmarks: add <site name=\"lm0\" .../> at each X-junction (names start with 'lm')"
+            f"MJCF {path} has no landmarks: add <site name=\"lm0\" .../> at each X-junction (camera track), or make "
+            f"posts cylinder geoms named lm0, lm1... of one radius (planar track)"
         )
     normals, inferred = landmark_normals(spec, model, data, idx, path.stem)
     return Scene(
