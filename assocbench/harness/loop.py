@@ -16,6 +16,7 @@ from collections.abc import Callable, Iterator
 
 import numpy as np
 
+from ..association.compatibility import pairwise_nis
 from ..association.problem import NO_MATCH, Problem
 from ..belief.camera_belief import BeliefConfig, FrameTruth
 from ..estimators.config import EstimatorConfig
@@ -90,8 +91,7 @@ class ClosedLoop:
             self.filter.update(association)
         except NotPositiveDefinite as exc:
             return record | {"error": f"FilterUpdate: {exc}"}
-        used = set(association[association >= 0].tolist())
-        free = np.array([i for i in range(len(data.z)) if i not in used], dtype=np.int64)
+        free = new_landmark_features(problem, association, self.est.new_landmark_gate)
         made = self.filter.initialise(data, free)
         for map_id, i in made:
             self.truth.tie(map_id, self._made_label(map_id, labels[i]))
@@ -116,6 +116,17 @@ class ClosedLoop:
             xy = np.asarray(f.landmarks)[f.book.confirmed][:, :2] if len(f.book) else np.zeros((0, 2))
             out["final_map"] = json.dumps(np.round(xy, 4).tolist())
         return out
+
+
+def new_landmark_features(problem: Problem, association: np.ndarray, gate: float) -> np.ndarray:
+    """Indices of the features a slam filter may make landmarks of: those left unassociated whose
+    Mahalanobis distance ``√(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)`` to every candidate j exceeds ``gate``
+    (``estimator.new_landmark_gate``; 0: every unassociated feature)."""
+    free = np.setdiff1d(np.arange(problem.m), association[association >= 0])
+    if gate <= 0 or problem.n == 0 or not len(free):
+        return free.astype(np.int64)
+    nis, _ = pairwise_nis(problem)
+    return free[nis[free].min(axis=1) > gate ** 2].astype(np.int64)
 
 
 def recorded_answer(recorded, k: int) -> tuple:
