@@ -190,6 +190,9 @@ def test_dropped_tentative_landmark_leaves_the_graph():
     assert report.removed == (map_id,) and len(est.book) == 0 and est.landmarks.shape == (0, 2)
     assert not est.isam.valueExists(gtsam.symbol("l", map_id))
     assert est.isam.getFactorsUnsafe().nrFactors() == factors + 2 - 1   # two odometry factors in, one measurement out
+    by_isam2 = est.joint_covariance(np.zeros(0, np.int64))   # the graph with a removed factor's empty slot
+    est.joint = "elimination"
+    np.testing.assert_allclose(est.joint_covariance(np.zeros(0, np.int64)), by_isam2, rtol=1e-9)
 
 
 @needs_gtsam
@@ -240,3 +243,14 @@ def test_bad_frame_motion_and_association():
     est.problem(FrameData(np.ones((1, 2)), np.eye(2)[None]))
     with pytest.raises(UserError, match="association"):
         est.update(np.array([0, 1]))
+
+
+@needs_gtsam
+def test_joint_by_elimination_is_isam2s_query():
+    """The two ways of getting the joint marginal (iSAM2's query, the constrained elimination of
+    the linearised graph) give the same matrix."""
+    est = small_run()
+    rows = np.arange(6)
+    by_isam2 = est.joint_covariance(rows)
+    est.joint = "elimination"
+    np.testing.assert_allclose(est.joint_covariance(rows), by_isam2, rtol=0, atol=1e-10 * np.abs(by_isam2).max())

@@ -42,6 +42,7 @@ RELINEARIZE_THRESHOLD = 0.01   # iSAM2 relinearises a variable whose delta excee
 RELINEARIZE_SKIP = 1           # ... checked at every update (GTSAM's default: every 10th)
 RANGE_MARGIN = 0.05            # candidates up to (1 + this)·max_range ...
 BEARING_MARGIN = np.deg2rad(2.0)   # ... and fov/2 + this: a post just past the edge is offered, not missed
+JOINT_QUERIES = ("isam2", "elimination")   # how joint_covariance gets Σ_t (see there)
 
 
 def import_gtsam():
@@ -70,8 +71,13 @@ class PlanarISAM2(Estimator):
     """iSAM2 smoother of a planar robot and point landmarks (see the module docstring)."""
 
     def __init__(self, cfg: EstimatorConfig, pose: np.ndarray, P: np.ndarray, landmarks: np.ndarray,
-                 ids: np.ndarray, max_range: float, fov: float) -> None:
+                 ids: np.ndarray, max_range: float, fov: float, joint: str = "isam2") -> None:
+        """``joint``: how the problem's joint marginal is computed, ``isam2`` or ``elimination``
+        (``joint_covariance``)."""
         self._g = gtsam = import_gtsam()
+        if joint not in JOINT_QUERIES:
+            raise UserError(f"joint must be one of {', '.join(JOINT_QUERIES)}, got {joint!r}")
+        self.joint = joint
         pose, P, landmarks, ids = _checked_start(pose, P, landmarks, ids, max_range, fov)
         self.cfg, self.max_range, self.fov = cfg, float(max_range), float(fov)
         params = gtsam.ISAM2Params()
@@ -113,8 +119,8 @@ class PlanarISAM2(Estimator):
 
     def problem(self, frame: FrameData) -> Problem:
         """Candidates predicted within ``(1 + RANGE_MARGIN)·max_range`` and ``fov/2 + BEARING_MARGIN``;
-        ``P = H Σ_w Hᵀ`` with ``Σ_w = T Σ_t Tᵀ`` and ``Σ_t`` iSAM2's joint marginal of ``X(k)`` and
-        the candidates' ``L``."""
+        ``P = H Σ_w Hᵀ`` with ``Σ_w = T Σ_t Tᵀ`` and ``Σ_t`` the joint marginal of ``X(k)`` and the
+        candidates' ``L`` (``joint_covariance``)."""
         z, R = _checked_frame(frame)
         pose, L = self.pose, self._L   # flushes
         zhat = predict(pose, L)
@@ -216,13 +222,33 @@ class PlanarISAM2(Estimator):
         return np.array([_pose_array(est.atPose2(self._key_x(k))) for k in range(self.frame + 1)])
 
     def joint_covariance(self, rows: np.ndarray) -> np.ndarray:
-        """``T Σ_t Tᵀ`` (3 + 2n)²: iSAM2's joint marginal of ``X(k)`` and the landmarks ``rows``
-        (book order), mapped to world coordinates."""
+        """``T Σ_t Tᵀ`` (3 + 2n)²: the joint marginal of ``X(k)`` and the landmarks ``rows`` (book
+        order) at iSAM2's linearisation point, mapped to world coordinates.
+
+        ``joint = "isam2"`` asks ``ISAM2.jointMarginalCovariance`` (Bayes-tree shortcuts): 0.1 ms
+        on the test world's 500-pose graph, but 185 ms on one state of benchmarks/isam2_rate.py
+        (200 landmarks; even a two-pose query: its slow path is the Bayes tree's, not the number
+        of keys). ``joint = "elimination"`` eliminates the graph linearised there with those keys
+        last (``marginalMultifrontalBayesNet``), leaving ``R`` (upper triangular, ``Σ_t⁻¹ = RᵀR``)
+        over them, so ``Σ_t = R⁻¹R⁻ᵀ`` by one triangular solve: O(graph) every call (3, 20,
+        65 ms at 50, 200, 500 landmarks in the benchmark), never pathological. Both give the
+        same matrix to rounding; ``marginalCovariance`` per key is cheap but not joint."""
         self._flush()
         keys = [self._key_x(self.frame)] + [self._key_l(self.book.ids[r]) for r in rows]
-        Sigma = self.isam.jointMarginalCovariance(keys).fullMatrix()
+        if self.joint == "isam2":
+            Sigma = self.isam.jointMarginalCovariance(keys).fullMatrix()
+        else:
+            Sigma = self._joint_by_elimination(keys)
         T = tangent_to_world(self._theta_lin(), len(rows))
         return T @ Sigma @ T.T
+
+    def _joint_by_elimination(self, keys: list[int]) -> np.ndarray:
+        """Σ_t over ``keys`` from the linearised graph eliminated with ``keys`` last (``joint_covariance``)."""
+        from scipy.linalg import solve_triangular
+        linear = self.isam.getFactorsUnsafe().linearize(self.isam.getLinearizationPoint())
+        R, _ = linear.marginalMultifrontalBayesNet(self._g.Ordering(keys)).matrix()
+        R_inv = solve_triangular(R, np.eye(len(R)))
+        return R_inv @ R_inv.T
 
     def _theta_lin(self) -> float:
         """Heading of ``X(k)``'s linearisation point: iSAM2's Σ_t is over the tangent there
