@@ -146,7 +146,8 @@ def test_prediction_covariance_in_world_coordinates():
     """From P = 0 one increment gives the EKF's ``G Q Gᵀ`` with ``G = blockdiag(R(θ), 1)``: the
     body-frame Pose2 tangent is mapped to world [x, y, θ]."""
     cfg = EstimatorConfig(name="isam2", mode="slam")
-    est = PlanarISAM2(cfg, np.array([1.0, 2.0, 0.8]), np.zeros((3, 3)), np.zeros((0, 2)), np.zeros(0, np.int64), 5.0, np.pi)
+    est = PlanarISAM2(cfg, np.array([1.0, 2.0, 0.8]), np.zeros((3, 3)), np.zeros((0, 2)), np.zeros(0, np.int64),
+                      5.0, np.pi)
     Q = np.diag([0.01, 0.02, 0.03]) ** 2
     est.predict(Motion(np.array([0.3, 0.1, 0.2]), Q))
     G = tangent_to_world(0.8, 0)

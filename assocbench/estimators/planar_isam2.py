@@ -91,7 +91,7 @@ class PlanarISAM2(Estimator):
         self.frame = 0
         self._factors_of: dict[int, list[int]] = {}   # map id -> indices of its factors in iSAM2's graph
         self._pending = (gtsam.NonlinearFactorGraph(), gtsam.Values(), [], [])   # factors, values, owners, removals
-        self._last: tuple | None = None               # (candidate rows, frame data, strictly in view) of the last problem
+        self._last: tuple | None = None   # (candidate rows, frame data, strictly in view) of the last problem
         self._pose, self._L = np.array(pose), np.array(landmarks)
         self._add_priors(pose, P, landmarks, ids)
         self._flush()
@@ -135,7 +135,8 @@ class PlanarISAM2(Estimator):
             P = H @ Sigma @ H.T
             P = 0.5 * (P + P.T)
         self._last = (rows, FrameData(z, R, frame.depth), strict)
-        return Problem(z=z, R=R, zhat=zhat[rows], P=P, landmark_ids=np.array([self.book.ids[r] for r in rows], np.int64),
+        ids = np.array([self.book.ids[r] for r in rows], np.int64)
+        return Problem(z=z, R=R, zhat=zhat[rows], P=P, landmark_ids=ids,
                        volume=self.max_range * self.fov, angular=ANGULAR)
 
     def update(self, association: np.ndarray) -> UpdateReport:
@@ -226,12 +227,13 @@ class PlanarISAM2(Estimator):
         order) at iSAM2's linearisation point, mapped to world coordinates.
 
         ``joint = "isam2"`` asks ``ISAM2.jointMarginalCovariance`` (Bayes-tree shortcuts): 0.1 ms
-        on the test world's 500-pose graph, but 185 ms on one state of benchmarks/isam2_rate.py
-        (200 landmarks; even a two-pose query: its slow path is the Bayes tree's, not the number
-        of keys). ``joint = "elimination"`` eliminates the graph linearised there with those keys
-        last (``marginalMultifrontalBayesNet``), leaving ``R`` (upper triangular, ``Σ_t⁻¹ = RᵀR``)
-        over them, so ``Σ_t = R⁻¹R⁻ᵀ`` by one triangular solve: O(graph) every call (3, 20,
-        65 ms at 50, 200, 500 landmarks in the benchmark), never pathological. Both give the
+        on the test world's 500-pose graph, 0.5 and 17 ms at 50 and 500 landmarks in
+        benchmarks/isam2_rate.py, but 59 ms (median) at 200, 185 ms on one state (even a query of
+        two poses: its slow path is the Bayes tree's, not the number of keys). ``joint =
+        "elimination"`` eliminates the graph linearised there with those keys last
+        (``marginalMultifrontalBayesNet``), leaving ``R`` (upper triangular, ``Σ_t⁻¹ = RᵀR``) over
+        them, so ``Σ_t = R⁻¹R⁻ᵀ`` by one triangular solve: O(graph) every call (2.4, 16, 59 ms
+        at 50, 200, 500 landmarks), never pathological. Both give the
         same matrix to rounding; ``marginalCovariance`` per key is cheap but not joint."""
         self._flush()
         keys = [self._key_x(self.frame)] + [self._key_l(self.book.ids[r]) for r in rows]
@@ -391,8 +393,10 @@ def _checked_start(pose, P, landmarks, ids, max_range, fov) -> tuple:
 
 
 def _checked_frame(frame: FrameData) -> tuple[np.ndarray, np.ndarray]:
-    z = np.asarray(frame.z, dtype=float).reshape(-1, 2) if np.size(frame.z) == 0 else np.asarray(frame.z, dtype=float)
-    R = np.asarray(frame.R, dtype=float).reshape(-1, 2, 2) if np.size(frame.R) == 0 else np.asarray(frame.R, dtype=float)
+    z, R = np.asarray(frame.z, dtype=float), np.asarray(frame.R, dtype=float)
+    if z.size == 0 and R.size == 0:   # no detections: any empty shape will do
+        z, R = z.reshape(0, 2), R.reshape(0, 2, 2)
     if z.ndim != 2 or z.shape[1] != 2 or R.shape != (len(z), 2, 2):
-        raise UserError(f"a planar frame needs z (m, 2) = (range, bearing) and R (m, 2, 2), got {z.shape} and {R.shape}")
+        raise UserError(f"a planar frame needs z (m, 2) = (range, bearing) and R (m, 2, 2), "
+                        f"got {z.shape} and {R.shape}")
     return z, R
