@@ -115,6 +115,9 @@ class ClosedLoop:
         if k == len(self.seq) - 1:   # the final map, for the figures (frames.csv records no other)
             xy = np.asarray(f.landmarks)[f.book.confirmed][:, :2] if len(f.book) else np.zeros((0, 2))
             out["final_map"] = json.dumps(np.round(xy, 4).tolist())
+            if hasattr(f, "trajectory"):   # a smoother: its final estimate of every pose, not each frame's
+                err = f.trajectory[:, :2] - self.seq.positions[:len(f.trajectory), :2]
+                out["ate_smoothed"] = float(np.sqrt(np.mean(np.sum(err ** 2, axis=1))))
         return out
 
 

@@ -102,7 +102,7 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
     if loop:   # a closed-loop suite: the trajectory, consistency and map columns too
         metrics += [c for c in LOOP_COLUMNS if c not in ("anees_lo", "anees_hi", "diverged_at")]
         summaries = summaries.assign(diverged=(summaries["diverged_at"] >= 0).astype(float))
-    optional = list(REPORTED_METRICS) + (["revisits", "loop_closures"] if loop else [])   # older results lack them
+    optional = list(REPORTED_METRICS) + (["revisits", "loop_closures", "ate_smoothed"] if loop else [])   # older results lack them
     summaries = summaries.assign(**{c: np.nan for c in optional if c not in summaries})
     grouped = summaries.groupby(["scenario", "method"], sort=True)
     mean = grouped[metrics].agg(lambda col: col.mean(skipna=False))

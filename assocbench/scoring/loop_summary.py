@@ -1,9 +1,11 @@
 """Summary of a closed-loop run from its per-frame records (``harness.loop``).
 
 ate_rmse (m) and rot_rmse_deg: RMSE of the position and rotation errors over all frames, no
-alignment (``evo_ape tum truth.txt estimate.txt`` gives the same); anees: mean pose NEES over the
-frames with a pose covariance (slam's frame 0 has none), with the two-sided 95 % band
-``[anees_lo, anees_hi] = χ²_{qN}(0.025, 0.975) / N`` with q the pose's degrees of freedom (the
+alignment (``evo_ape tum truth.txt estimate.txt`` gives the same), each frame's pose as the
+estimator had it then; ate_smoothed (m): the ATE of a smoother's final estimate of every pose
+(iSAM2; a filter revises no past pose, so its ate_smoothed is its ate_rmse); anees: mean pose
+NEES over the frames with a pose covariance (slam's frame 0 has none), with the two-sided 95 %
+band ``[anees_lo, anees_hi] = χ²_{qN}(0.025, 0.975) / N``, q the pose's degrees of freedom (the
 frames' ``nees_dof``: 6 for the camera track, 3 for the planar one). The band assumes independent frames; the
 frames of one run are correlated (the same map error steers them all), so one run's ANEES
 scatters more widely than the band says. diverged_at: the first frame whose NEES stays above
@@ -19,7 +21,7 @@ import pandas as pd
 
 from .trajectory import anees, anees_band, divergence_frame
 
-LOOP_COLUMNS = ("ate_rmse", "rot_rmse_deg", "anees", "anees_lo", "anees_hi", "diverged_at", "map_size",
+LOOP_COLUMNS = ("ate_rmse", "ate_smoothed", "rot_rmse_deg", "anees", "anees_lo", "anees_hi", "diverged_at", "map_size",
                 "duplicates", "false_landmarks", "map_rmse", "new_landmarks", "no_depth", "revisits", "loop_closures")
 
 
@@ -33,8 +35,10 @@ def loop_summary(frames: pd.DataFrame) -> dict:
     dof = int(frames["nees_dof"].iloc[0]) if "nees_dof" in frames else 6
     lo, hi = anees_band(counted, dof) if counted else (float("nan"), float("nan"))
     last = frames.iloc[-1]
+    ate = float(np.sqrt(np.mean(frames["pos_err"].to_numpy(dtype=float) ** 2)))
     return {
-        "ate_rmse": float(np.sqrt(np.mean(frames["pos_err"].to_numpy(dtype=float) ** 2))),
+        "ate_rmse": ate,
+        "ate_smoothed": _smoothed(frames, ate),
         "rot_rmse_deg": float(np.sqrt(np.mean(frames["rot_err_deg"].to_numpy(dtype=float) ** 2))),
         "anees": anees(nees, exclude=excluded) if counted else float("nan"), "anees_lo": lo, "anees_hi": hi,
         "diverged_at": int(divergence_frame(np.nan_to_num(nees, nan=0.0), dof)),
@@ -45,6 +49,13 @@ def loop_summary(frames: pd.DataFrame) -> dict:
         "revisits": int(frames.get("revisits", pd.Series(0)).fillna(0).sum()),
         "loop_closures": int(frames.get("loop_closures", pd.Series(0)).fillna(0).sum()),
     }
+
+
+def _smoothed(frames: pd.DataFrame, ate: float) -> float:
+    """ATE of a smoother's final trajectory (its last frame's ``ate_smoothed``); a filter does not
+    revise past poses, so its smoothed ATE is its ATE."""
+    value = frames["ate_smoothed"].iloc[-1] if "ate_smoothed" in frames else float("nan")
+    return float(value) if np.isfinite(value) else ate
 
 
 def loop_status(frames: pd.DataFrame) -> list[str]:

@@ -117,7 +117,7 @@ def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficu
         _ate_panel(ax, table[table["scenario"] == scenario], order, styles, scenario)
     handles = [Patch(label=label(m), **_bar_style(m, styles)) for m in order]
     fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 6), frameon=False, fontsize=8)
-    fig.text(0.5, 0.005, "absolute trajectory error (RMSE of the camera position, no alignment)\nbars: mean over "
+    fig.text(0.5, 0.005, "absolute trajectory error (RMSE of the position, no alignment)\nbars: mean over "
              f"seeds, whiskers: ± std; a panel spanning more than {LOG_RATIO:g}x is drawn on a log axis",
              ha="center", va="bottom", fontsize=7)
     fig.tight_layout(rect=(0, 0.3 / fig.get_figheight(), 1, 1 - 0.5 / fig.get_figheight()))
@@ -140,12 +140,15 @@ def median_over_seeds(frames: pd.DataFrame) -> pd.DataFrame:
 def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None):
     """Pose NEES against frame (``scenario``, ``method``, ``seed``, ``frame``, ``nees`` per row): a
     panel per scenario, a line per method (median over seeds), log y; shaded: the per-frame
-    two-sided 95 % band of χ²₆, [χ²₆(0.025), χ²₆(0.975)] = [1.24, 14.4]; dashed: χ²₆(0.999) = 22.5.
+    two-sided 95 % band of χ²_q, q the frames' ``nees_dof`` (6: [1.24, 14.4], dashed χ²₆(0.999) = 22.5;
+    planar 3: [0.22, 9.35], dashed 16.3).
     A line above the band says the filter is overconfident (its covariance too small)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
-    lo, hi, bound = nees_band()
+    dof = int(frames["nees_dof"].dropna().iloc[0]) if "nees_dof" in frames and frames["nees_dof"].notna().any() \
+        else POSE_DOF   # 3 for a planar pose, 6 for the camera's (frames written before nees_dof: 6)
+    lo, hi, bound = nees_band(dof)
     order = method_order(frames["method"])
     styles = method_styles(frames["method"])
     fig, axes = _panels(frames["scenario"], scenes, difficulties, 4.4, 3.3)
@@ -163,8 +166,8 @@ def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, diffi
         ax.grid(alpha=0.3, which="both")
     handles = [Line2D([], [], color=styles[m]["color"], lw=1.4, ls=":" if m == ORACLE else "-", label=label(m))
                for m in order]
-    handles += [Patch(color="0.85", label="per-frame 95 % band of $\\chi^2_6$"),
-                Line2D([], [], color="0.3", ls="--", label="$\\chi^2_6$(0.999)")]
+    handles += [Patch(color="0.85", label=f"per-frame 95 % band of $\\chi^2_{dof}$"),
+                Line2D([], [], color="0.3", ls="--", label=f"$\\chi^2_{dof}$(0.999)")]
     fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 5), frameon=False, fontsize=8)
     fig.text(0.5, 0.005, "median over seeds per frame; above the band: overconfident, below: conservative",
              ha="center", va="bottom", fontsize=7)
