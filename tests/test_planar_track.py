@@ -76,7 +76,7 @@ def test_the_planar_suite_crosses_difficulties_with_back_ends():
 
 @pytest.mark.parametrize("args,needles", [
     (["--set", "lidar.beams=0"], ["lidar.beams must be an integer"]),
-    (["--set", "lidar.sigma_range=-0.01"], ["lidar.sigma_range must be a finite number in [0, 10]"]),
+    (["--set", "lidar.sigma_range=-0.01"], ["lidar.sigma_range must be a finite number in (0, 10]"]),
     (["--loop", "--set", "estimator.name=fastslam"], ["estimator.name must be one of ekf, isam2"]),
     (["--set", "posts.max_rms=0"], ["posts.max_rms"]),
     (["--trajectory", "circle"], ["unknown planar trajectory 'circle'"]),
@@ -103,3 +103,28 @@ def test_isam2_on_a_camera_scene_and_render_on_a_planar_one_are_refused(capsys, 
     assert "serves the planar track only" in capsys.readouterr().err
     assert main(["render", "--scene", "park", "--out", str(tmp_path / "v.gif")]) == 2
     assert "serves the camera track" in capsys.readouterr().err
+
+
+def test_frames_without_detections_are_scored_not_crashed(tmp_path):
+    """The scan plane above the posts (height 2 m, posts 1 m tall): candidates but no detection in
+    any frame. Each frame is scored (no pairing, nothing to recall), and the run's status says
+    nothing was associated, so it cannot look good."""
+    assert main(["run", "--method", "jcbb", "--scene", "park", "--frames", "5", "--set", "lidar.height=2",
+                 "--out", str(tmp_path), "--format", "csv"]) == 1
+    row, frames = pd.read_csv(tmp_path / "summary.csv").iloc[0], pd.read_csv(tmp_path / "frames.csv")
+    assert row["status"] == "nothing associated"
+    assert (frames["n"] > 0).all() and (frames["m"] == 0).all() and (frames["tp"] + frames["fp"] == 0).all()
+
+
+def test_a_scene_with_both_landmark_kinds_is_refused(capsys, tmp_path):
+    scene = tmp_path / "mixed.xml"
+    scene.write_text('<mujoco><worldbody><geom name="lm0" type="cylinder" size="0.1 0.5" pos="2 0 0.5"/>'
+                     '<site name="lm1" pos="0 3 1"/></worldbody></mujoco>')
+    assert main(["run", "--method", "jcbb", "--scene", str(scene), "--out", str(tmp_path / "o")]) == 2
+    assert "belongs to one track" in capsys.readouterr().err
+
+
+@pytest.mark.parametrize("setting", ["lidar.sigma_range=0", "lidar.sigma_bearing_deg=0", "posts.min_points=2"])
+def test_settings_that_make_a_singular_or_unchecked_fit_are_refused(capsys, tmp_path, setting):
+    assert main(["run", "--method", "jcbb", "--scene", "park", "--set", setting, "--out", str(tmp_path / "o")]) == 2
+    assert setting.split("=")[0] in capsys.readouterr().err

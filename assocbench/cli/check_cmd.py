@@ -48,7 +48,7 @@ def check_suite(suite, args: argparse.Namespace) -> int:
     """Run one suite and compare it with its baseline (or rewrite the baseline): exit status."""
     tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
     baseline_path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
-    baseline = None if args.update else read_baseline(baseline_path)
+    baseline = None if args.update else read_baseline(baseline_path, suite.name)
     if args.update:
         check_output_folder(baseline_path.parent, "--baseline")   # before the suite runs, not after
     with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run

@@ -17,7 +17,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def _first_line(text: str | None) -> str:
-    return (text or "").strip().splitlines()[0] if text and text.strip() else ""
+    """The docstring's first paragraph on one line."""
+    return " ".join((text or "").strip().split("\n\n")[0].split())
 
 
 def main(args: argparse.Namespace) -> int:
@@ -31,13 +32,17 @@ def main(args: argparse.Namespace) -> int:
         "scenes": {name: ("[planar] " if name in PLANAR_SCENES else "[camera] ")
                    + (_first_line(described[name].__doc__) if name in described else str(path))
                    for name, path in shipped_scenes().items()},
-        "trajectories": {name: _first_line(fn.__doc__) for name, fn in TRAJECTORIES.items()},
+        "trajectories": [(name, "[camera] " + _first_line(fn.__doc__)) for name, fn in TRAJECTORIES.items()]
+        + [("loop", "[planar] a shipped planar scene's own path (laps, start), its default"),
+           ("ellipse", "[planar] an ellipse around the posts clear of every obstacle (laps, start, scale), "
+                       "a user MJCF's default")],
     }
     for title, items in sections.items():
         if args.what and args.what != title:
             continue
         print(f"{title}:")
-        width = max(len(k) for k in items)
-        for name, line in items.items():
+        rows = list(items.items()) if isinstance(items, dict) else items
+        width = max(len(k) for k, _ in rows)
+        for name, line in rows:
             print(f"  {name:<{width}}  {line}")
     return 0

@@ -35,7 +35,8 @@ class EstimatorConfig:
     max_new_per_frame / max_landmarks: caps on landmark creation, so the state stays tractable.
     new_landmark_gate: a feature left unassociated makes a landmark only when its Mahalanobis
         distance (σ units, ``√NIS`` against ``P_jj + R_i``) to every candidate of the frame exceeds
-        this; 0 makes one of every unassociated feature. A feature near a landmark that the method
+        this; 0 makes one of every unassociated feature; null (the default) is the track's choice:
+        0 for the camera track, 4 for the planar one. A feature near a landmark that the method
         did not pair is more likely that landmark than a new one (the usual SLAM practice; without
         it a strict gate turns its misses into duplicates).
     pixel_noise: add N(0, σ_pixel² I) to every feature after its truth is labelled, so the R the
@@ -56,7 +57,7 @@ class EstimatorConfig:
     target_paired: int = field(default=15, metadata=in_range(0, 1000))
     max_new_per_frame: int = field(default=10, metadata=in_range(0, 1000))
     max_landmarks: int = field(default=300, metadata=in_range(1, 5000))
-    new_landmark_gate: float = field(default=0.0, metadata=in_range(0, 1000))
+    new_landmark_gate: float | None = field(default=None, metadata=in_range(0, 1000))
     pixel_noise: bool = True
 
     def __post_init__(self) -> None:

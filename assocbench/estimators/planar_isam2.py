@@ -50,7 +50,8 @@ def import_gtsam():
     try:
         import gtsam
     except ImportError:
-        raise UserError("estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]'") from None
+        raise UserError("estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]' "
+                        "(from a clone: pip install '.[gtsam]')") from None
     return gtsam
 
 

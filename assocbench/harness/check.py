@@ -28,11 +28,13 @@ def check_tolerance(value, where: str = "--tolerance") -> float:
     return float(check_number(value, where, lo=0))
 
 
-def read_baseline(path: Path) -> pd.DataFrame:
+def read_baseline(path: Path, suite: str = "ci") -> pd.DataFrame:
     """The baseline CSV (``scenario, method`` and the accuracy metrics in [0, 1]), or a one-line
     error: a missing, empty, truncated or non-numeric baseline cannot vouch for anything."""
     if not path.is_file():
-        raise UserError(f"baseline {path} not found: create it with `assocbench check --update`")
+        how = "" if suite == "ci" else f" --suite {suite}"
+        raise UserError(f"baseline {path} not found (run check from the repository root, or create it with "
+                        f"`assocbench check{how} --update`)")
     try:
         base = pd.read_csv(path, dtype={"scenario": str, "method": str})
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:

@@ -91,7 +91,8 @@ class ClosedLoop:
             self.filter.update(association)
         except NotPositiveDefinite as exc:
             return record | {"error": f"FilterUpdate: {exc}"}
-        free = new_landmark_features(problem, association, self.est.new_landmark_gate)
+        gate = self.est.new_landmark_gate
+        free = new_landmark_features(problem, association, self.sensor.new_landmark_gate if gate is None else gate)
         made = self.filter.initialise(data, free)
         for map_id, i in made:
             self.truth.tie(map_id, self._made_label(map_id, labels[i]))

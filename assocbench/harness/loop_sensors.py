@@ -46,6 +46,7 @@ class CameraSensor:
     """The camera track: pixels (+ RGB-D depth), 6-dof odometry and pose error."""
 
     nees_dof = 6
+    new_landmark_gate = 0.0   # estimator.new_landmark_gate's default here: every unassociated feature
 
     def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
         self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
@@ -84,6 +85,7 @@ class PlanarSensor:
     pose error ``[δx, δy, δθ]``."""
 
     nees_dof = 3
+    new_landmark_gate = 4.0   # σ: without it a strict gate's misses become duplicates (30 for JCBB on the park)
 
     def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
         self.seq, self.belief, self.est, self.seed = seq, belief, est, seed

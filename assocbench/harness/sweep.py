@@ -71,7 +71,8 @@ def _dask_client(address: str | None):
     try:
         from dask.distributed import Client
     except ImportError:
-        raise UserError("the dask executor needs the optional extra: pip install 'assocbench[dask]'") from None
+        raise UserError("the dask executor needs the optional extra: pip install 'assocbench[dask]' "
+                        "(from a clone: pip install '.[dask]')") from None
     if not address:
         raise UserError("--executor dask needs --address tcp://scheduler:8786")
     try:

@@ -32,7 +32,8 @@ def score_frame(problem: Problem, truth: FrameTruth, association: np.ndarray) ->
     tp = int(np.sum(paired & (a == t)))
     fp = int(np.sum(paired & (a != t)))
     fn = int(np.sum((t >= 0) & (a != t)))
-    clutter = int(np.sum(paired & (a != t) & (truth.feature_labels[np.maximum(a, 0)] == NO_MATCH)))
+    wrong = paired & (a != t)   # a frame with no feature has no pairing to look up
+    clutter = int(np.sum(truth.feature_labels[a[wrong]] == NO_MATCH)) if wrong.any() else 0
     s, compatible = joint_verdict(problem, a, JC_CONFIDENCE)
     return {
         "n": problem.n, "m": problem.m, "n_true": int(np.sum(t >= 0)),

@@ -40,8 +40,8 @@ class LidarConfig:
     beams: int = field(default=720, metadata=in_range(1, 100000))
     fov_deg: float = field(default=360.0, metadata=in_range(0, 360, lo_open=True))
     max_range: float = field(default=10.0, metadata=in_range(0, 1000, lo_open=True))
-    sigma_range: float = field(default=0.01, metadata=in_range(0, 10))
-    sigma_bearing_deg: float = field(default=0.5, metadata=in_range(0, 180))
+    sigma_range: float = field(default=0.01, metadata=in_range(0, 10, lo_open=True))        # 0: a singular R
+    sigma_bearing_deg: float = field(default=0.5, metadata=in_range(0, 180, lo_open=True))
     dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True))
     height: float = field(default=0.5, metadata=in_range(0, 100, lo_open=True))
 

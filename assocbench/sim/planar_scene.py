@@ -67,14 +67,17 @@ def _named(items, prefix: str) -> list:
 
 def scene_track(scene: str | Path) -> str:
     """``"planar"`` when the MJCF has geoms named ``lm*`` and no sites named ``lm*``, else
-    ``"camera"`` (parsed, not compiled)."""
+    ``"camera"`` (parsed, not compiled); a one-line error when it has both."""
     path = resolve_scene_path(scene)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except (ValueError, RuntimeError) as exc:
         raise _mjcf_error(path, exc) from None
-    planar = _named(spec.geoms, LANDMARK_PREFIX) and not _named(spec.sites, LANDMARK_PREFIX)
-    return "planar" if planar else "camera"
+    posts, sites = _named(spec.geoms, LANDMARK_PREFIX), _named(spec.sites, LANDMARK_PREFIX)
+    if posts and sites:
+        raise UserError(f"MJCF {path} has both lm* sites (camera landmarks) and lm* geoms (planar posts): a scene "
+                        "belongs to one track; rename one kind (e.g. the posts' geoms to post*, or the sites)")
+    return "planar" if posts else "camera"
 
 
 def _post_ids(model: "mujoco.MjModel", path: Path) -> np.ndarray:

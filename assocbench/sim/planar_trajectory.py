@@ -131,7 +131,9 @@ def default_ellipse(scene: "PlanarScene", laps: float, frames: int, start: float
             if scene.clearance(curve(np.linspace(0, 2 * np.pi, 400))).min() >= CLEARANCE:
                 return resample(curve, laps, frames, start)
     raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the posts keeps "
-                    f"{CLEARANCE} m from every obstacle; give the posts room or use a shipped scene")
+                    f"{CLEARANCE} m from every obstacle; "
+                    + ("use trajectory 'loop', the scene's own path" if scripted(scene.path)
+                       else "give the posts room or use a shipped scene"))
 
 
 def _params(name: str, params: dict) -> tuple[float, float, float]:
@@ -159,7 +161,7 @@ def planar_trajectory(scene: "PlanarScene", name: str | None, frames: int, seed:
     # the robot's speed is the scene's (its laps in FULL_RUN frames: 0.10-0.17 m a frame), so a
     # short run drives part of the loop rather than the whole loop in strides odometry cannot follow
     laps = DEFAULT_LAPS.get(scene.name, 1) * min(1.0, frames / FULL_RUN)
-    defaults = {"laps": laps, "start": DEFAULT_START.get(scene.name, 0.0)} if own else {}
+    defaults = {"laps": laps, "start": DEFAULT_START.get(scene.name, 0.0)} if own else {"laps": laps}
     params = defaults | params
     laps, start, scale = _params(name, params)
     if name == "loop":
@@ -168,7 +170,11 @@ def planar_trajectory(scene: "PlanarScene", name: str | None, frames: int, seed:
                             f"(loops exist for {', '.join(SCENE_PATHS)})")
         return resample(SCENE_PATHS[scene.name], laps, frames, start)
     if "scale" in params:
-        return resample(ellipse_curve(scene, scale), laps, frames, start)
+        curve = ellipse_curve(scene, scale)
+        if scene.clearance(curve(np.linspace(0, 2 * np.pi, 400))).min() < CLEARANCE:
+            raise UserError(f"trajectory_params.scale {scale} drives the robot within {CLEARANCE} m of an obstacle in "
+                            f"{scene.path.name}; pick another scale or leave it out (the default ellipse keeps clear)")
+        return resample(curve, laps, frames, start)
     return default_ellipse(scene, laps, frames, start)
 
 

@@ -47,7 +47,7 @@ class PostDetectorConfig:
     detection's beams that must hit one post for the detection to be labelled with it.
     """
 
-    min_points: int = field(default=4, metadata=in_range(2, 10000))
+    min_points: int = field(default=4, metadata=in_range(3, 10000))   # 2 points fit any circle: no residual
     gap: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
     max_rms: float = field(default=0.03, metadata=in_range(0, 10, lo_open=True))
     min_share: float = field(default=0.8, metadata=in_range(0.5, 1, lo_open=True))
