@@ -71,16 +71,22 @@ def map_mask(n_landmarks: int, cfg: BeliefConfig, seed: int) -> np.ndarray:
 
 
 def bundle_covariance(J_pose: np.ndarray, J_l: np.ndarray, cfg: BeliefConfig) -> np.ndarray:
-    """``P = J Σ Jᵀ`` (2n, 2n) exploiting Σ's structure: pose block, independent landmarks and a
-    common-mode landmark term."""
-    n = len(J_l)
-    Jp = J_pose.reshape(2 * n, 6)
-    P = Jp @ cfg.pose_covariance @ Jp.T
+    """``P = J Σ Jᵀ`` (2n, 2n) of the camera's 6-dof pose and 3-D landmarks (``prediction_covariance``)."""
+    return prediction_covariance(J_pose, J_l, cfg.pose_covariance, cfg)
+
+
+def prediction_covariance(J_pose: np.ndarray, J_l: np.ndarray, Sigma_pose: np.ndarray, cfg: BeliefConfig) -> np.ndarray:
+    """``P = J Σ Jᵀ`` (nd, nd) for ``J_pose`` (n, d, q) and ``J_l`` (n, d, s), exploiting Σ's
+    structure: the pose block ``Sigma_pose`` (q, q), independent landmarks ``σ_l² I`` and the
+    common-mode term ``σ_c² (11ᵀ ⊗ I_s)``; any track's dimensions."""
+    n, d, s = J_l.shape
+    Jp = J_pose.reshape(d * n, J_pose.shape[2])
+    P = Jp @ Sigma_pose @ Jp.T
     block = cfg.sigma_landmark**2 * np.einsum("nab,ncb->nac", J_l, J_l)
     idx = np.arange(n)
-    P.reshape(n, 2, n, 2)[idx, :, idx, :] += block
+    P.reshape(n, d, n, d)[idx, :, idx, :] += block
     if cfg.sigma_common > 0:
-        G = J_l.reshape(2 * n, 3)
+        G = J_l.reshape(d * n, s)
         P += cfg.sigma_common**2 * G @ G.T
     return 0.5 * (P + P.T)
 

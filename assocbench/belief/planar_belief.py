@@ -14,7 +14,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..association.problem import NO_MATCH, Problem
-from .camera_belief import BeliefConfig, FrameTruth, map_mask, true_association
+from .camera_belief import BeliefConfig, FrameTruth, map_mask, prediction_covariance, true_association
 from .range_bearing import ANGULAR, jacobians, predict, wrap
 
 RANGE_MARGIN = 1.05   # candidates out to 5 % beyond max range: a post the estimate puts just outside may be seen
@@ -25,11 +25,12 @@ def planar_pose_covariance(cfg: BeliefConfig) -> np.ndarray:
     return np.diag([cfg.sigma_position ** 2] * 2 + [np.deg2rad(cfg.sigma_rotation) ** 2])
 
 
-def map_covariance(n: int, cfg: BeliefConfig) -> np.ndarray:
-    """Σ_L (2n, 2n) = σ_l² I + σ_c² (11ᵀ ⊗ I₂)."""
-    cov = cfg.sigma_landmark ** 2 * np.eye(2 * n)
+def map_covariance(n: int, cfg: BeliefConfig, dim: int = 2) -> np.ndarray:
+    """Σ_L (dim·n, dim·n) = σ_l² I + σ_c² (11ᵀ ⊗ I_dim): the map covariance the sampled belief
+    reports (dim 2 for posts, 3 for the camera track's landmarks)."""
+    cov = cfg.sigma_landmark ** 2 * np.eye(dim * n)
     if cfg.sigma_common > 0:
-        cov += cfg.sigma_common ** 2 * np.kron(np.ones((n, n)), np.eye(2))
+        cov += cfg.sigma_common ** 2 * np.kron(np.ones((n, n)), np.eye(dim))
     return cov
 
 
@@ -47,21 +48,6 @@ def sample_planar_estimate(pose: np.ndarray, posts: np.ndarray, cfg: BeliefConfi
 def in_sensor_view(zhat: np.ndarray, max_range: float, fov: float) -> np.ndarray:
     """Predictions inside the sensor's range (with ``RANGE_MARGIN``) and field of view (n,)."""
     return (zhat[:, 0] <= RANGE_MARGIN * max_range) & (np.abs(zhat[:, 1]) <= fov / 2 + 1e-12)
-
-
-def joint_prediction_covariance(H_pose: np.ndarray, H_l: np.ndarray, Sigma_pose: np.ndarray,
-                                cfg: BeliefConfig) -> np.ndarray:
-    """``P = H Σ Hᵀ`` (2n, 2n) over the pose and the candidates' landmarks, with Σ's structure:
-    the pose block, independent landmarks and the common-mode term."""
-    n = len(H_l)
-    Hp = H_pose.reshape(2 * n, 3)
-    P = Hp @ Sigma_pose @ Hp.T
-    idx = np.arange(n)
-    P.reshape(n, 2, n, 2)[idx, :, idx, :] += cfg.sigma_landmark ** 2 * np.einsum("nab,ncb->nac", H_l, H_l)
-    if cfg.sigma_common > 0:
-        G = H_l.reshape(2 * n, 2)
-        P += cfg.sigma_common ** 2 * G @ G.T
-    return 0.5 * (P + P.T)
 
 
 def clutter_detections(rng: np.random.Generator, count: int, R: np.ndarray, max_range: float,
@@ -91,6 +77,6 @@ def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[
     feature_labels = np.concatenate([np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH),
                                      np.full(cfg.clutter, NO_MATCH)]).astype(np.int64)
     problem = Problem(z=np.vstack([z.reshape(-1, 2), cz]), R=np.concatenate([R.reshape(-1, 2, 2), cR]),
-                      zhat=zhat[cand], P=joint_prediction_covariance(H_pose, H_l, planar_pose_covariance(cfg), cfg),
+                      zhat=zhat[cand], P=prediction_covariance(H_pose, H_l, planar_pose_covariance(cfg), cfg),
                       landmark_ids=cand, volume=seq.max_range * seq.fov, angular=ANGULAR)
     return problem, FrameTruth(feature_labels, true_association(feature_labels, cand), seq.visible[frame][cand])

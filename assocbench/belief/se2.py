@@ -20,3 +20,19 @@ def between(pose0: np.ndarray, pose1: np.ndarray) -> np.ndarray:
     c, s = np.cos(pose0[2]), np.sin(pose0[2])
     d = np.asarray(pose1[:2], dtype=np.float64) - pose0[:2]
     return np.array([c * d[0] + s * d[1], -s * d[0] + c * d[1], float(wrap(pose1[2] - pose0[2]))])
+
+
+def rot2(theta: float) -> np.ndarray:
+    """``R(θ) = [[cos θ, −sin θ], [sin θ, cos θ]]`` (2, 2)."""
+    c, s = np.cos(theta), np.sin(theta)
+    return np.array([[c, -s], [s, c]])
+
+
+def rz(theta: np.ndarray | float) -> np.ndarray:
+    """Headings as 3-D rotations about z, ``Rz(θ)``: (3, 3), or (N, 3, 3) for N headings (the
+    planar track's poses for code that writes 3-D ones: TUM files, pose columns)."""
+    t = np.asarray(theta, dtype=np.float64)
+    out = np.zeros(t.shape + (3, 3))
+    c, s = np.cos(t), np.sin(t)
+    out[..., 0, 0], out[..., 0, 1], out[..., 1, 0], out[..., 1, 1], out[..., 2, 2] = c, -s, s, c, 1.0
+    return out

@@ -27,7 +27,7 @@ import numpy as np
 
 from ..association.problem import Problem
 from ..belief.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
-from ..belief.se2 import compose
+from ..belief.se2 import compose, rz
 from ..errors import UserError
 from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from .config import EstimatorConfig
@@ -155,8 +155,7 @@ class PlanarEKF(Estimator):
     @property
     def R(self) -> np.ndarray:
         """The pose's rotation as a 3-D one, ``Rz(θ)`` (for code that writes 3-D poses)."""
-        c, s = math.cos(self._x[2]), math.sin(self._x[2])
-        return np.array([[c, -s, 0.0], [s, c, 0.0], [0.0, 0.0, 1.0]])
+        return rz(self._x[2])
 
     @property
     def p(self) -> np.ndarray:

@@ -33,6 +33,7 @@ import numpy as np
 
 from ..association.problem import Problem
 from ..belief.range_bearing import ANGULAR, inverse, jacobians, predict
+from ..belief.se2 import rot2, rz
 from ..errors import UserError
 from .base import CONFIRMED, Estimator, FrameData, LandmarkBook, Motion, UpdateReport
 from .config import EstimatorConfig
@@ -53,12 +54,6 @@ def import_gtsam():
         raise UserError("estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]' "
                         "(from a clone: pip install '.[gtsam]')") from None
     return gtsam
-
-
-def rot2(theta: float) -> np.ndarray:
-    """R(θ) (2, 2)."""
-    c, s = np.cos(theta), np.sin(theta)
-    return np.array([[c, -s], [s, c]])
 
 
 def tangent_to_world(theta: float, n_points: int) -> np.ndarray:
@@ -189,9 +184,7 @@ class PlanarISAM2(Estimator):
     @property
     def R(self) -> np.ndarray:
         """Rz(θ) (3, 3) of the current pose."""
-        R = np.eye(3)
-        R[:2, :2] = rot2(self.pose[2])
-        return R
+        return rz(self.pose[2])
 
     @property
     def p(self) -> np.ndarray:

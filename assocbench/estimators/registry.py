@@ -11,14 +11,6 @@ from .camera_ekf import CameraEKF
 from .config import ESTIMATOR_NAMES, EstimatorConfig
 
 
-def initial_landmark_covariance(n: int, belief: BeliefConfig) -> np.ndarray:
-    """Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₃), the map covariance the sampled belief reports (3n, 3n)."""
-    cov = belief.sigma_landmark ** 2 * np.eye(3 * n)
-    if belief.sigma_common > 0:
-        cov += belief.sigma_common ** 2 * np.kron(np.ones((n, n)), np.eye(3))
-    return cov
-
-
 def make_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
     """The estimator at frame 0.
 
@@ -41,7 +33,7 @@ def make_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
     ids = np.flatnonzero(map_mask(len(seq.landmarks), belief, seed))
     P = np.zeros((6 + 3 * len(ids),) * 2)
     P[:6, :6] = belief.pose_covariance
-    P[6:, 6:] = initial_landmark_covariance(len(ids), belief)
+    P[6:, 6:] = map_covariance(len(ids), belief, dim=3)
     return CameraEKF(seq.K, cfg, R_hat, p_hat, P, l_hat[ids], seq.normals[ids], ids, belief.max_view_angle)
 
 

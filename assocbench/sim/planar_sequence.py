@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ..belief.se2 import rz
 from .geometric_sensor import geometric_detections
 from .lidar import LidarConfig, Scan, scan
 from .planar_scene import PlanarScene, load_planar_scene
@@ -74,10 +75,7 @@ class PlanarSequence:
     @property
     def rotations(self) -> np.ndarray:
         """(N, 3, 3) ``Rz(θ)``: the poses as 3-D rotations (for TUM files and 3-D metrics)."""
-        c, s = np.cos(self.poses[:, 2]), np.sin(self.poses[:, 2])
-        out = np.zeros((len(self.poses), 3, 3))
-        out[:, 0, 0], out[:, 0, 1], out[:, 1, 0], out[:, 1, 1], out[:, 2, 2] = c, -s, s, c, 1.0
-        return out
+        return rz(self.poses[:, 2])
 
     @property
     def positions(self) -> np.ndarray:
