@@ -8,7 +8,7 @@ is the tangent's direction, ``θ = atan2(ċ_y, ċ_x)`` (the robot drives forward
 
 Shipped scenes have their own loop (``park``: a wavy ring through the posts, ``post_grid``: a
 rounded square through the grid's gaps, ``colonnade``: down the corridor and back); a user MJCF
-gets an ellipse around the posts' centroid, the largest of a few sizes that keeps ``CLEARANCE``
+gets an ellipse around the posts' centroid (a lines scene: its wall faces' midpoints), the largest of a few sizes that keeps ``CLEARANCE``
 from every obstacle, or a one-line error when none fits.
 """
 
@@ -23,6 +23,7 @@ from ..belief.range_bearing import wrap
 from ..validation import check_number
 
 if TYPE_CHECKING:
+    from .line_scene import LineScene
     from .planar_scene import PlanarScene
 
 CLEARANCE = 0.5      # m from the robot's centre to any obstacle's footprint (a 0.3 m robot + margin)
@@ -106,12 +107,14 @@ def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.n
     return np.column_stack([x, y, wrap(th)])
 
 
-def ellipse_curve(scene: "PlanarScene", scale: float, shift: np.ndarray = np.zeros(2)) -> Curve:
-    """Ellipse around the posts' centroid (moved by ``shift`` × the semi-axes, along them) on
-    their principal axes, semi-axes ``scale ×`` the posts' spread (√2 × the standard deviation
-    along each axis, at least 0.7 m)."""
-    centre = scene.posts.mean(axis=0)
-    cov = np.cov((scene.posts - centre).T) if len(scene.posts) > 1 else np.eye(2)
+def ellipse_curve(scene: "PlanarScene | LineScene", scale: float, shift: np.ndarray = np.zeros(2)) -> Curve:
+    """Ellipse around the scene's anchors' centroid (moved by ``shift`` × the semi-axes, along
+    them) on their principal axes, semi-axes ``scale ×`` the anchors' spread (√2 × the standard
+    deviation along each axis, at least 0.7 m). Anchors: a planar scene's posts, a lines scene's
+    wall-face midpoints."""
+    anchors = scene.anchors
+    centre = anchors.mean(axis=0)
+    cov = np.cov((anchors - centre).T) if len(anchors) > 1 else np.eye(2)
     w, v = np.linalg.eigh(np.atleast_2d(cov))
     axes = scale * np.sqrt(2 * np.maximum(w, 0.25))
     centre = centre + v @ (axes * shift)
@@ -122,7 +125,7 @@ SHIFTS = sorted(((a, b) for a in np.linspace(-0.3, 0.3, 5) for b in np.linspace(
                 key=lambda ab: (np.hypot(*ab), ab))
 
 
-def default_ellipse(scene: "PlanarScene", laps: float, frames: int, start: float) -> np.ndarray:
+def default_ellipse(scene: "PlanarScene | LineScene", laps: float, frames: int, start: float) -> np.ndarray:
     """The first ellipse, largest scale (1.2 down to 0.3) and smallest shift first, whose path
     keeps ``CLEARANCE`` from every obstacle; a one-line error when none does."""
     for scale in np.linspace(1.2, 0.3, 10):
@@ -130,10 +133,15 @@ def default_ellipse(scene: "PlanarScene", laps: float, frames: int, start: float
             curve = ellipse_curve(scene, scale, np.array(shift))
             if scene.clearance(curve(np.linspace(0, 2 * np.pi, 400))).min() >= CLEARANCE:
                 return resample(curve, laps, frames, start)
-    raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the posts keeps "
+    raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the {_what(scene)} keeps "
                     f"{CLEARANCE} m from every obstacle; "
                     + ("use trajectory 'loop', the scene's own path" if scripted(scene.path)
-                       else "give the posts room or use a shipped scene"))
+                       else f"give the {_what(scene)} room or use a shipped scene"))
+
+
+def _what(scene) -> str:
+    """What a scene's anchors are, for messages."""
+    return "posts" if hasattr(scene, "posts") else "walls"
 
 
 def _params(name: str, params: dict) -> tuple[float, float, float]:
@@ -147,7 +155,7 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
     return float(laps), float(start), float(scale)
 
 
-def planar_trajectory(scene: "PlanarScene", name: str | None, frames: int, seed: int = 0, **params) -> np.ndarray:
+def planar_trajectory(scene: "PlanarScene | LineScene", name: str | None, frames: int, seed: int = 0, **params) -> np.ndarray:
     """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
     default there) or ``ellipse`` (around the posts, the default for a user MJCF). The path is
     fixed: ``seed`` is accepted for the common signature and changes nothing."""
