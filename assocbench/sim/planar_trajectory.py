@@ -73,6 +73,47 @@ def _rect_pieces(sx: float, sy: float, c: float) -> list[tuple]:
             (sx, -sy, 0, 0, 3 * h)]
 
 
+def rounded_polygon(vertices: list[tuple[float, float]], radius: float) -> Curve:
+    """The closed polygon through ``vertices`` with each corner replaced by a circular arc of
+    ``radius`` tangent to both legs (it starts ``radius · tan(φ/2)`` before the corner, ``φ``: the
+    turn), traversed in vertex order from the middle of the first leg; ``t`` is spread in
+    proportion to arc length. Raises ValueError when a leg is too short for its two arcs."""
+    v = np.asarray(vertices, float)
+    d = np.roll(v, -1, axis=0) - v                               # leg i: vertex i -> i + 1
+    legs = np.linalg.norm(d, axis=1)
+    u = d / legs[:, None]
+    u_in = np.roll(u, 1, axis=0)                                 # the leg arriving at vertex i
+    turn = np.arctan2(u_in[:, 0] * u[:, 1] - u_in[:, 1] * u[:, 0], np.einsum("ij,ij->i", u_in, u))
+    cut = radius * np.tan(np.abs(turn) / 2)
+    if np.any(legs < cut + np.roll(cut, -1) + 1e-9):
+        raise ValueError("rounded_polygon: a leg is shorter than its corners' arcs (smaller radius or longer legs)")
+    pieces = []   # (length, point(u) for u in [0, length])
+    for i in range(len(v)):
+        a = v[i] - u_in[i] * cut[i]
+        side = np.sign(turn[i]) or 1.0
+        centre = a + side * radius * np.array([-u_in[i, 1], u_in[i, 0]])
+        a0 = np.arctan2(*(a - centre)[::-1])
+        pieces.append((radius * abs(turn[i]), lambda w, c=centre, a0=a0, s=side: c + radius * np.column_stack(
+            [np.cos(a0 + s * w / radius), np.sin(a0 + s * w / radius)])))
+        b = v[i] + u[i] * cut[i]
+        pieces.append((legs[i] - cut[i] - cut[(i + 1) % len(v)], lambda w, b=b, e=u[i]: b + w[:, None] * e))
+    pieces = pieces[1:] + pieces[:1]
+    lengths = np.array([p[0] for p in pieces])
+    ends = np.cumsum(lengths)
+    offset = lengths[0] / 2                                        # start mid first leg
+
+    def curve(t: np.ndarray) -> np.ndarray:
+        s = (np.asarray(t) / (2 * np.pi) * ends[-1] + offset) % ends[-1]
+        k = np.minimum(np.searchsorted(ends, s, side="right"), len(pieces) - 1)
+        out = np.empty((len(s), 2))
+        for i in np.unique(k):
+            m = k == i
+            out[m] = pieces[i][1](s[m] - (ends[i] - lengths[i]))
+        return out
+
+    return curve
+
+
 def _shift_x(curve: Curve, dx: float) -> Curve:
     return lambda t: curve(t) + np.array([dx, 0.0])
 
@@ -82,11 +123,19 @@ SCENE_PATHS: dict[str, Curve] = {
     "park": park_curve,
     "post_grid": rounded_rectangle(4.0, 4.0, 1.0),            # through the gaps at x, y = ±4
     "colonnade": _shift_x(rounded_rectangle(11.6, 0.6, 0.6), 11.0),  # lanes y = ±0.6, x 0..22
+    # lines track: through the office's four rooms and doors, down the hallway and back, around
+    # the furnished room's table
+    "office": rounded_polygon([(0.5, -2.5), (-4.7, -2.5), (-4.7, -0.9), (-3.0, -0.9), (-3.0, 2.0), (-4.5, 3.6),
+                               (0.0, 3.0), (3.5, 3.0), (3.5, -1.0), (5.0, -3.7)], 0.6),
+    "hallway": rounded_rectangle(14.0, 0.4, 0.4),              # lanes y = ±0.4, x −14..14
+    "furnished": rounded_rectangle(2.3, 1.6, 0.8),
 }
-DEFAULT_LAPS = {"park": 2, "post_grid": 2, "colonnade": 1}
+DEFAULT_LAPS = {"park": 2, "post_grid": 2, "colonnade": 1, "office": 2, "hallway": 1, "furnished": 4}
 FULL_RUN = 500   # frames in which a shipped path's default laps are driven; fewer frames drive part of it
 # colonnade starts at x = 0 on the lower lane heading +x (the lap starts mid right U-turn)
-DEFAULT_START = {"colonnade": (22.0 + 1.5 * np.pi * 0.6) / (44.0 + 2 * np.pi * 0.6)}
+# the hallway starts at its west end on the lower lane heading +x
+DEFAULT_START = {"colonnade": (22.0 + 1.5 * np.pi * 0.6) / (44.0 + 2 * np.pi * 0.6),
+                 "hallway": (27.2 + 1.5 * np.pi * 0.4) / (54.4 + 2 * np.pi * 0.4)}
 TRAJECTORIES = ("loop", "ellipse")   # loop: the scene's own path; ellipse: around the posts
 PARAMS = {"loop": ("laps", "start"), "ellipse": ("laps", "start", "scale")}
 
