@@ -129,7 +129,8 @@ def test_user_room_gets_a_collision_free_ellipse(tmp_path):
 
 @pytest.mark.parametrize("geoms,message", [
     (box("wall", 0, 0, 1, 1), "has no map walls: add upright box geoms named lw0"),
-    ('<geom name="lw0" type="cylinder" pos="1 0 0.5" size="0.2 0.5"/>', "map walls must be boxes, but lw0 is a cylinder"),
+    ('<geom name="lw0" type="cylinder" pos="1 0 0.5" size="0.2 0.5"/>',
+     "map walls must be boxes, but lw0 is a cylinder"),
     (box("lw0", 0, 0, 1, 0.0005), "map wall lw0 has a half-size of 0.0005 m, below 1 mm"),
     (box("lw0", 0, 0, 1, 0), "lw0.*a wall needs a positive half-size on every axis"),
     ('<geom name="lw0" type="box" pos="0 0 0.6" euler="20 0 0" size="1 0.1 0.6"/>', "map wall lw0 is tilted"),
@@ -149,7 +150,8 @@ def test_box_turned_onto_its_side_is_still_upright(tmp_path):
                                [(-np.pi / 2, 0.15), (0.0, 1.0), (0.0, 3.0), (np.pi / 2, 0.15)], atol=1e-9)
 
 
-@pytest.mark.parametrize("extra", ['<site name="lm0" pos="0 0 1"/>', '<geom name="lm0" type="cylinder" size="0.1 0.5"/>'])
+@pytest.mark.parametrize("extra", ['<site name="lm0" pos="0 0 1"/>',
+                                   '<geom name="lm0" type="cylinder" size="0.1 0.5"/>'])
 def test_walls_and_landmarks_in_one_scene_are_refused(tmp_path, extra):
     path = write_mjcf(tmp_path, box("lw0", 3, 0, 1, 0.1) + extra)
     with pytest.raises(UserError, match="both lw\\* geoms .* and lm\\*") as err:

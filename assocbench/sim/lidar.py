@@ -89,7 +89,8 @@ class Scan:
         return self.ranges[:, None] * np.column_stack([np.cos(self.angles), np.sin(self.angles)])
 
 
-def cast(scene: "PlanarScene | LineScene", origin: np.ndarray, world_angles: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
+def cast(scene: "PlanarScene | LineScene", origin: np.ndarray, world_angles: np.ndarray,
+         cutoff: float) -> tuple[np.ndarray, np.ndarray]:
     """True distances (k,) (``inf``: nothing within ``cutoff``) and hit geom ids (k,) (−1) of
     horizontal rays from ``origin`` (3,) at ``world_angles`` (k,): one ``mj_multiRay`` call
     (its cutoff skips geoms whose bounds lie beyond it, not every hit beyond it)."""

@@ -66,8 +66,9 @@ def scene_track(scene: str | Path) -> str:
         raise UserError(f"MJCF {path} has both lm* sites (camera landmarks) and lm* geoms (planar posts): a scene "
                         "belongs to one track; rename one kind (e.g. the posts' geoms to post*, or the sites)")
     if walls and (posts or sites):
-        raise UserError(f"MJCF {path} has both lw* geoms (map walls, lines track) and lm* {'geoms' if posts else 'sites'}"
-                        f" (landmarks): a scene belongs to one track; rename one kind (e.g. the walls to wall*)")
+        kind = "geoms" if posts else "sites"
+        raise UserError(f"MJCF {path} has both lw* geoms (map walls, lines track) and lm* {kind} (landmarks): a scene "
+                        f"belongs to one track; rename one kind (e.g. the walls to wall*)")
     return "lines" if walls else "planar" if posts else "camera"
 
 

@@ -7,9 +7,11 @@ it started: every landmark seen at the start is revisited after a long excursion
 is the tangent's direction, ``θ = atan2(ċ_y, ċ_x)`` (the robot drives forwards).
 
 Shipped scenes have their own loop (``park``: a wavy ring through the posts, ``post_grid``: a
-rounded square through the grid's gaps, ``colonnade``: down the corridor and back); a user MJCF
-gets an ellipse around the posts' centroid (a lines scene: its wall faces' midpoints), the largest of a few sizes that keeps ``CLEARANCE``
-from every obstacle, or a one-line error when none fits.
+rounded square through the grid's gaps, ``colonnade``: down the corridor and back; the lines
+track's ``office``: through every room and door, ``hallway``: down the corridor and back,
+``furnished``: around the table); a user MJCF gets an ellipse around the posts' centroid (a lines
+scene: its wall faces' midpoints), the largest of a few sizes that keeps ``CLEARANCE`` from every
+obstacle, or a one-line error when none fits.
 """
 
 from __future__ import annotations
@@ -204,7 +206,8 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
     return float(laps), float(start), float(scale)
 
 
-def planar_trajectory(scene: "PlanarScene | LineScene", name: str | None, frames: int, seed: int = 0, **params) -> np.ndarray:
+def planar_trajectory(scene: "PlanarScene | LineScene", name: str | None, frames: int, seed: int = 0,
+                      **params) -> np.ndarray:
     """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
     default there) or ``ellipse`` (around the posts, the default for a user MJCF). The path is
     fixed: ``seed`` is accepted for the common signature and changes nothing."""
