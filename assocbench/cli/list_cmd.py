@@ -22,20 +22,22 @@ def _first_line(text: str | None) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..sim.line_scenegen import LINE_SCENES
     from ..sim.planar_scenegen import PLANAR_SCENES
     from ..sim.scenegen import SCENES
 
-    described = SCENES | PLANAR_SCENES
+    described = SCENES | PLANAR_SCENES | LINE_SCENES
+    track = {name: "planar" for name in PLANAR_SCENES} | {name: "lines" for name in LINE_SCENES}
 
     sections = {
         "methods": available(),
-        "scenes": {name: ("[planar] " if name in PLANAR_SCENES else "[camera] ")
+        "scenes": {name: f"[{track.get(name, 'camera')}] "
                    + (_first_line(described[name].__doc__) if name in described else str(path))
                    for name, path in shipped_scenes().items()},
         "trajectories": [(name, "[camera] " + _first_line(fn.__doc__)) for name, fn in TRAJECTORIES.items()]
-        + [("loop", "[planar] a shipped planar scene's own path (laps, start), its default"),
-           ("ellipse", "[planar] an ellipse around the posts clear of every obstacle (laps, start, scale), "
-                       "a user MJCF's default")],
+        + [("loop", "[planar, lines] a shipped planar or lines scene's own path (laps, start), its default"),
+           ("ellipse", "[planar, lines] an ellipse around the posts (lines: the wall faces) clear of every obstacle "
+                       "(laps, start, scale), a user MJCF's default")],
     }
     for title, items in sections.items():
         if args.what and args.what != title:

@@ -11,12 +11,16 @@ beyond it, or, with probability ``dropout``, at random.
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
 
 import numpy as np
 
 from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..validation import in_range, one_of, validate_fields
 from .planar_scene import PlanarScene
+
+if TYPE_CHECKING:
+    from .line_scene import LineScene
 
 import mujoco  # noqa: E402
 
@@ -70,20 +74,23 @@ class LidarConfig:
 
 @dataclass
 class Scan:
-    """One scan. ``geom`` is the truth: the geom each beam's ray meets first within
-    ``max_range`` (−1: none), kept even where the return dropped out."""
+    """One scan. ``geom`` and ``distance`` are the truth: the geom each beam's ray meets first
+    within ``max_range`` (−1: none) and how far (``inf``: none), kept even where the return
+    dropped out; ``distance`` is None for scans made without it."""
 
     angles: np.ndarray   # (B,) robot frame (rad)
     ranges: np.ndarray   # (B,) measured (m), NaN: no return
     geom: np.ndarray     # (B,) int, hit geom id or -1
     full_circle: bool = True   # the beams cover 360° (beam B−1 neighbours beam 0)
+    distance: np.ndarray | None = None   # (B,) true distance d_i (m), inf: no hit within max_range
 
     def points(self) -> np.ndarray:
         """Hit points (B, 2) in the robot frame, ``r_i (cos α_i, sin α_i)`` (NaN without return)."""
         return self.ranges[:, None] * np.column_stack([np.cos(self.angles), np.sin(self.angles)])
 
 
-def cast(scene: PlanarScene, origin: np.ndarray, world_angles: np.ndarray, cutoff: float) -> tuple[np.ndarray, np.ndarray]:
+def cast(scene: "PlanarScene | LineScene", origin: np.ndarray, world_angles: np.ndarray,
+         cutoff: float) -> tuple[np.ndarray, np.ndarray]:
     """True distances (k,) (``inf``: nothing within ``cutoff``) and hit geom ids (k,) (−1) of
     horizontal rays from ``origin`` (3,) at ``world_angles`` (k,): one ``mj_multiRay`` call
     (its cutoff skips geoms whose bounds lie beyond it, not every hit beyond it)."""
@@ -96,7 +103,7 @@ def cast(scene: PlanarScene, origin: np.ndarray, world_angles: np.ndarray, cutof
     return np.where(beyond, np.inf, dist), np.where(beyond, -1, geom)
 
 
-def scan(scene: PlanarScene, pose: np.ndarray, cfg: LidarConfig, rng: np.random.Generator) -> Scan:
+def scan(scene: "PlanarScene | LineScene", pose: np.ndarray, cfg: LidarConfig, rng: np.random.Generator) -> Scan:
     """Scan from ``pose = (x, y, θ)``: ``r_i = d_i + ε_i`` or NaN (no hit, beyond range, dropout).
     The generator draws B normals then B uniforms whatever the scene, so frames stay aligned."""
     angles = cfg.angles()
@@ -106,4 +113,4 @@ def scan(scene: PlanarScene, pose: np.ndarray, cfg: LidarConfig, rng: np.random.
     dropped = rng.random(len(angles)) < cfg.dropout
     ranges = dist + noise
     ranges[dropped | ~(ranges <= cfg.max_range)] = np.nan   # ~(<=) also catches inf
-    return Scan(angles, ranges, geom.astype(int), cfg.full_circle)
+    return Scan(angles, ranges, geom.astype(int), cfg.full_circle, dist)

@@ -2,7 +2,8 @@
 named ``lm*``, all of one radius.
 
 The camera track marks landmarks with ``lm*`` *sites*, the planar track with ``lm*`` *geoms*
-(the posts themselves): ``scene_track`` tells them apart from the parsed MJCF without compiling
+(the posts themselves), the lines track its map walls with ``lw*`` box geoms (``line_scene``):
+``scene_track`` tells them apart from the parsed MJCF without compiling
 it. Every geom is static (no robot body): the lidar's rays start at the pose, at its height.
 """
 
@@ -15,7 +16,8 @@ import numpy as np
 
 from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
-from .scene import LANDMARK_PREFIX, Scene, _mjcf_error, resolve_scene_path
+from . import footprint
+from .scene import LANDMARK_PREFIX, WALL_PREFIX, Scene, _mjcf_error, resolve_scene_path
 
 import mujoco  # noqa: E402
 
@@ -37,28 +39,12 @@ class PlanarScene:
 
     digest = Scene.digest      # the MJCF text and its neighbouring files (only ``path`` is read)
 
-    def clearance(self, xy: np.ndarray) -> np.ndarray:
-        """Distance (n,) from points (n, 2) to the nearest obstacle's footprint (the horizontal
-        section of every box, cylinder, sphere or capsule that rises above the floor; 0 inside)."""
-        xy = np.atleast_2d(np.asarray(xy, float))
-        best = np.full(len(xy), np.inf)
-        m, d = self.model, self.data
-        for g in range(m.ngeom):
-            if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_PLANE or d.geom_xpos[g, 2] + m.geom_rbound[g] <= 0.01:
-                continue   # the floor and anything sunk in it
-            best = np.minimum(best, _footprint_distance(m.geom_type[g], m.geom_size[g], d.geom_xpos[g, :2],
-                                                        d.geom_xmat[g].reshape(3, 3)[:2, :2], xy))
-        return best
+    clearance = footprint.clearance   # distance (n,) from points (n, 2) to the nearest obstacle
 
-
-def _footprint_distance(kind: int, size: np.ndarray, centre: np.ndarray, rot: np.ndarray,
-                        xy: np.ndarray) -> np.ndarray:
-    """Distance from points to one geom's footprint, the geom standing upright: a box's
-    rectangle ``|q| ≤ (sx, sy)`` with ``q = R_xyᵀ (p − c)``, a disc of radius ``size[0]`` else."""
-    q = (xy - centre) @ rot
-    if kind == mujoco.mjtGeom.mjGEOM_BOX:
-        return np.linalg.norm(np.maximum(np.abs(q) - size[:2], 0.0), axis=1)
-    return np.maximum(np.linalg.norm(q, axis=1) - size[0], 0.0)
+    @property
+    def anchors(self) -> np.ndarray:
+        """(L, 2) the points the default ellipse is built around: the posts."""
+        return self.posts
 
 
 def _named(items, prefix: str) -> list:
@@ -66,18 +52,24 @@ def _named(items, prefix: str) -> list:
 
 
 def scene_track(scene: str | Path) -> str:
-    """``"planar"`` when the MJCF has geoms named ``lm*`` and no sites named ``lm*``, else
-    ``"camera"`` (parsed, not compiled); a one-line error when it has both."""
+    """The track of a scene, from the parsed MJCF (not compiled): ``"lines"`` when it has geoms
+    named ``lw*`` (map walls) and nothing named ``lm*``, ``"planar"`` when it has geoms named
+    ``lm*`` (posts) and no sites named ``lm*``, else ``"camera"``; a one-line error for a mix."""
     path = resolve_scene_path(scene)
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except (ValueError, RuntimeError) as exc:
         raise _mjcf_error(path, exc) from None
     posts, sites = _named(spec.geoms, LANDMARK_PREFIX), _named(spec.sites, LANDMARK_PREFIX)
+    walls = _named(spec.geoms, WALL_PREFIX)
     if posts and sites:
         raise UserError(f"MJCF {path} has both lm* sites (camera landmarks) and lm* geoms (planar posts): a scene "
                         "belongs to one track; rename one kind (e.g. the posts' geoms to post*, or the sites)")
-    return "planar" if posts else "camera"
+    if walls and (posts or sites):
+        kind = "geoms" if posts else "sites"
+        raise UserError(f"MJCF {path} has both lw* geoms (map walls, lines track) and lm* {kind} (landmarks): a scene "
+                        f"belongs to one track; rename one kind (e.g. the walls to wall*)")
+    return "lines" if walls else "planar" if posts else "camera"
 
 
 def _post_ids(model: "mujoco.MjModel", path: Path) -> np.ndarray:

@@ -7,9 +7,11 @@ it started: every landmark seen at the start is revisited after a long excursion
 is the tangent's direction, ``θ = atan2(ċ_y, ċ_x)`` (the robot drives forwards).
 
 Shipped scenes have their own loop (``park``: a wavy ring through the posts, ``post_grid``: a
-rounded square through the grid's gaps, ``colonnade``: down the corridor and back); a user MJCF
-gets an ellipse around the posts' centroid, the largest of a few sizes that keeps ``CLEARANCE``
-from every obstacle, or a one-line error when none fits.
+rounded square through the grid's gaps, ``colonnade``: down the corridor and back; the lines
+track's ``office``: through every room and door, ``hallway``: down the corridor and back,
+``furnished``: around the table); a user MJCF gets an ellipse around the posts' centroid (a lines
+scene: its wall faces' midpoints), the largest of a few sizes that keeps ``CLEARANCE`` from every
+obstacle, or a one-line error when none fits.
 """
 
 from __future__ import annotations
@@ -23,6 +25,7 @@ from ..belief.range_bearing import wrap
 from ..validation import check_number
 
 if TYPE_CHECKING:
+    from .line_scene import LineScene
     from .planar_scene import PlanarScene
 
 CLEARANCE = 0.5      # m from the robot's centre to any obstacle's footprint (a 0.3 m robot + margin)
@@ -72,6 +75,47 @@ def _rect_pieces(sx: float, sy: float, c: float) -> list[tuple]:
             (sx, -sy, 0, 0, 3 * h)]
 
 
+def rounded_polygon(vertices: list[tuple[float, float]], radius: float) -> Curve:
+    """The closed polygon through ``vertices`` with each corner replaced by a circular arc of
+    ``radius`` tangent to both legs (it starts ``radius · tan(φ/2)`` before the corner, ``φ``: the
+    turn), traversed in vertex order from the middle of the first leg; ``t`` is spread in
+    proportion to arc length. Raises ValueError when a leg is too short for its two arcs."""
+    v = np.asarray(vertices, float)
+    d = np.roll(v, -1, axis=0) - v                               # leg i: vertex i -> i + 1
+    legs = np.linalg.norm(d, axis=1)
+    u = d / legs[:, None]
+    u_in = np.roll(u, 1, axis=0)                                 # the leg arriving at vertex i
+    turn = np.arctan2(u_in[:, 0] * u[:, 1] - u_in[:, 1] * u[:, 0], np.einsum("ij,ij->i", u_in, u))
+    cut = radius * np.tan(np.abs(turn) / 2)
+    if np.any(legs < cut + np.roll(cut, -1) + 1e-9):
+        raise ValueError("rounded_polygon: a leg is shorter than its corners' arcs (smaller radius or longer legs)")
+    pieces = []   # (length, point(u) for u in [0, length])
+    for i in range(len(v)):
+        a = v[i] - u_in[i] * cut[i]
+        side = np.sign(turn[i]) or 1.0
+        centre = a + side * radius * np.array([-u_in[i, 1], u_in[i, 0]])
+        a0 = np.arctan2(*(a - centre)[::-1])
+        pieces.append((radius * abs(turn[i]), lambda w, c=centre, a0=a0, s=side: c + radius * np.column_stack(
+            [np.cos(a0 + s * w / radius), np.sin(a0 + s * w / radius)])))
+        b = v[i] + u[i] * cut[i]
+        pieces.append((legs[i] - cut[i] - cut[(i + 1) % len(v)], lambda w, b=b, e=u[i]: b + w[:, None] * e))
+    pieces = pieces[1:] + pieces[:1]
+    lengths = np.array([p[0] for p in pieces])
+    ends = np.cumsum(lengths)
+    offset = lengths[0] / 2                                        # start mid first leg
+
+    def curve(t: np.ndarray) -> np.ndarray:
+        s = (np.asarray(t) / (2 * np.pi) * ends[-1] + offset) % ends[-1]
+        k = np.minimum(np.searchsorted(ends, s, side="right"), len(pieces) - 1)
+        out = np.empty((len(s), 2))
+        for i in np.unique(k):
+            m = k == i
+            out[m] = pieces[i][1](s[m] - (ends[i] - lengths[i]))
+        return out
+
+    return curve
+
+
 def _shift_x(curve: Curve, dx: float) -> Curve:
     return lambda t: curve(t) + np.array([dx, 0.0])
 
@@ -81,11 +125,19 @@ SCENE_PATHS: dict[str, Curve] = {
     "park": park_curve,
     "post_grid": rounded_rectangle(4.0, 4.0, 1.0),            # through the gaps at x, y = ±4
     "colonnade": _shift_x(rounded_rectangle(11.6, 0.6, 0.6), 11.0),  # lanes y = ±0.6, x 0..22
+    # lines track: through the office's four rooms and doors, down the hallway and back, around
+    # the furnished room's table
+    "office": rounded_polygon([(0.5, -2.5), (-4.7, -2.5), (-4.7, -0.9), (-3.0, -0.9), (-3.0, 2.0), (-4.5, 3.6),
+                               (0.0, 3.0), (3.5, 3.0), (3.5, -1.0), (5.0, -3.7)], 0.6),
+    "hallway": rounded_rectangle(14.0, 0.4, 0.4),              # lanes y = ±0.4, x −14..14
+    "furnished": rounded_rectangle(2.3, 1.6, 0.8),
 }
-DEFAULT_LAPS = {"park": 2, "post_grid": 2, "colonnade": 1}
+DEFAULT_LAPS = {"park": 2, "post_grid": 2, "colonnade": 1, "office": 2, "hallway": 1, "furnished": 4}
 FULL_RUN = 500   # frames in which a shipped path's default laps are driven; fewer frames drive part of it
 # colonnade starts at x = 0 on the lower lane heading +x (the lap starts mid right U-turn)
-DEFAULT_START = {"colonnade": (22.0 + 1.5 * np.pi * 0.6) / (44.0 + 2 * np.pi * 0.6)}
+# the hallway starts at its west end on the lower lane heading +x
+DEFAULT_START = {"colonnade": (22.0 + 1.5 * np.pi * 0.6) / (44.0 + 2 * np.pi * 0.6),
+                 "hallway": (27.2 + 1.5 * np.pi * 0.4) / (54.4 + 2 * np.pi * 0.4)}
 TRAJECTORIES = ("loop", "ellipse")   # loop: the scene's own path; ellipse: around the posts
 PARAMS = {"loop": ("laps", "start"), "ellipse": ("laps", "start", "scale")}
 
@@ -106,12 +158,14 @@ def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.n
     return np.column_stack([x, y, wrap(th)])
 
 
-def ellipse_curve(scene: "PlanarScene", scale: float, shift: np.ndarray = np.zeros(2)) -> Curve:
-    """Ellipse around the posts' centroid (moved by ``shift`` × the semi-axes, along them) on
-    their principal axes, semi-axes ``scale ×`` the posts' spread (√2 × the standard deviation
-    along each axis, at least 0.7 m)."""
-    centre = scene.posts.mean(axis=0)
-    cov = np.cov((scene.posts - centre).T) if len(scene.posts) > 1 else np.eye(2)
+def ellipse_curve(scene: "PlanarScene | LineScene", scale: float, shift: np.ndarray = np.zeros(2)) -> Curve:
+    """Ellipse around the scene's anchors' centroid (moved by ``shift`` × the semi-axes, along
+    them) on their principal axes, semi-axes ``scale ×`` the anchors' spread (√2 × the standard
+    deviation along each axis, at least 0.7 m). Anchors: a planar scene's posts, a lines scene's
+    wall-face midpoints."""
+    anchors = scene.anchors
+    centre = anchors.mean(axis=0)
+    cov = np.cov((anchors - centre).T) if len(anchors) > 1 else np.eye(2)
     w, v = np.linalg.eigh(np.atleast_2d(cov))
     axes = scale * np.sqrt(2 * np.maximum(w, 0.25))
     centre = centre + v @ (axes * shift)
@@ -122,7 +176,7 @@ SHIFTS = sorted(((a, b) for a in np.linspace(-0.3, 0.3, 5) for b in np.linspace(
                 key=lambda ab: (np.hypot(*ab), ab))
 
 
-def default_ellipse(scene: "PlanarScene", laps: float, frames: int, start: float) -> np.ndarray:
+def default_ellipse(scene: "PlanarScene | LineScene", laps: float, frames: int, start: float) -> np.ndarray:
     """The first ellipse, largest scale (1.2 down to 0.3) and smallest shift first, whose path
     keeps ``CLEARANCE`` from every obstacle; a one-line error when none does."""
     for scale in np.linspace(1.2, 0.3, 10):
@@ -130,10 +184,15 @@ def default_ellipse(scene: "PlanarScene", laps: float, frames: int, start: float
             curve = ellipse_curve(scene, scale, np.array(shift))
             if scene.clearance(curve(np.linspace(0, 2 * np.pi, 400))).min() >= CLEARANCE:
                 return resample(curve, laps, frames, start)
-    raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the posts keeps "
+    raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the {_what(scene)} keeps "
                     f"{CLEARANCE} m from every obstacle; "
                     + ("use trajectory 'loop', the scene's own path" if scripted(scene.path)
-                       else "give the posts room or use a shipped scene"))
+                       else f"give the {_what(scene)} room or use a shipped scene"))
+
+
+def _what(scene) -> str:
+    """What a scene's anchors are, for messages."""
+    return "posts" if hasattr(scene, "posts") else "walls"
 
 
 def _params(name: str, params: dict) -> tuple[float, float, float]:
@@ -147,7 +206,8 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
     return float(laps), float(start), float(scale)
 
 
-def planar_trajectory(scene: "PlanarScene", name: str | None, frames: int, seed: int = 0, **params) -> np.ndarray:
+def planar_trajectory(scene: "PlanarScene | LineScene", name: str | None, frames: int, seed: int = 0,
+                      **params) -> np.ndarray:
     """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
     default there) or ``ellipse`` (around the posts, the default for a user MJCF). The path is
     fixed: ``seed`` is accepted for the common signature and changes nothing."""

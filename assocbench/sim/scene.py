@@ -24,6 +24,7 @@ import mujoco  # noqa: E402
 
 CAMERA_NAME = "assocbench_eye"
 LANDMARK_PREFIX = "lm"
+WALL_PREFIX = "lw"        # the lines track's map walls: box geoms named lw*
 
 
 def shipped_scenes() -> dict[str, Path]:

@@ -1,0 +1,218 @@
+"""Load a lines scene: a shipped name (``office``) or an MJCF path whose map walls are upright box
+geoms named ``lw*``; which map line each lidar beam truly hits.
+
+A wall contributes its four vertical side faces. Face ``f`` of a box with centre ``c``,
+horizontal unit axes ``u, v`` and half sizes ``a, b`` lies on the line of points ``p`` with
+``n·p = n·p_f`` (``n = ±u`` or ``±v``, ``p_f = c + a n`` or ``c + b n``); in the world it is
+``(α_w, r_w) = (atan2(n_y, n_x), n·p_f)``, flipped to ``(α_w + π, −r_w)`` when ``r_w < 0`` so that
+``r_w ≥ 0`` about the origin. Faces on one infinite line (``|Δα| < 1e-6`` rad and ``|Δr| < 1e-4``
+m) are one map line with several segments: the (α, r) model cannot tell them apart.
+
+Faces shorter than ``MIN_FACE_LENGTH`` (a wall's 10 cm end, a door jamb) are no map lines of their
+own (no extractor keeps a segment that short at its default ``min_length``); they join a map line
+they lie on, else their beams are labelled −1 like clutter. Every geom not named ``lw*`` is clutter.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+import numpy as np
+
+from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
+from ..belief.range_bearing import wrap
+from ..errors import UserError
+from . import footprint
+from .scene import WALL_PREFIX, Scene, _mjcf_error, resolve_scene_path
+
+import mujoco  # noqa: E402
+
+if TYPE_CHECKING:
+    from .lidar import Scan
+
+MIN_HALF_SIZE = 1e-3      # m: a wall thinner, shorter or lower than 2 mm is refused (faces need a length)
+MIN_FACE_LENGTH = 0.2     # m: shorter faces are no map line of their own (the extractor's min_length is 0.3)
+ALPHA_TOL = 1e-6          # rad: faces on one line ...
+R_TOL = 1e-4              # m: ... are one map line
+VERTICAL_TOL = 1e-6       # |R_z,k| ≥ 1 − this: box axis k is vertical
+
+
+@dataclass
+class Wall:
+    """One ``lw*`` box seen from above: centre, horizontal unit axes ``u, v``, half sizes ``a, b``."""
+
+    geom: int
+    centre: np.ndarray   # (2,)
+    axes: np.ndarray     # (2, 2) rows u, v
+    half: np.ndarray     # (2,) a, b
+
+    def faces(self) -> list[tuple[np.ndarray, np.ndarray, float]]:
+        """The four side faces ``(normal, centre, half length)`` in the order +u, −u, +v, −v."""
+        out = []
+        for k in (0, 1):
+            for sign in (1.0, -1.0):
+                n = sign * self.axes[k]
+                out.append((n, self.centre + self.half[k] * n, float(self.half[1 - k])))
+        return out
+
+    def face_of(self, p: np.ndarray) -> np.ndarray:
+        """Index (n,) of the face nearest each point (n, 2) on the box's boundary, in its frame:
+        ``q = (u·(p − c), v·(p − c))``, argmin of ``|q_u ∓ a|, |q_v ∓ b|``."""
+        q = (p - self.centre) @ self.axes.T
+        gaps = np.column_stack([np.abs(q[:, 0] - self.half[0]), np.abs(q[:, 0] + self.half[0]),
+                                np.abs(q[:, 1] - self.half[1]), np.abs(q[:, 1] + self.half[1])])
+        return np.argmin(gaps, axis=1)
+
+
+@dataclass
+class LineScene:
+    """A compiled lines scene and its map: lines, their segments (the faces) and the walls."""
+
+    name: str
+    path: Path
+    model: "mujoco.MjModel"
+    data: "mujoco.MjData"
+    lines: np.ndarray          # (K, 2) world (α_w, r_w), α_w in [−π, π), r_w ≥ 0
+    segments: np.ndarray       # (S, 2, 2) world end points of each mapped face
+    segment_line: np.ndarray   # (S,) index into lines
+    segment_geom: np.ndarray   # (S,) geom id of the wall the face belongs to
+    walls: list[Wall]          # the lw* boxes, in geom order
+    face_line: np.ndarray      # (W, 4) map line of each wall's faces (+u, −u, +v, −v), −1: too short
+
+    digest = Scene.digest              # the MJCF text and its neighbouring files (only ``path`` is read)
+    clearance = footprint.clearance    # distance (n,) from points (n, 2) to the nearest obstacle
+
+    @property
+    def anchors(self) -> np.ndarray:
+        """(S, 2) the points the default ellipse is built around: the mapped faces' midpoints."""
+        return self.segments.mean(axis=1)
+
+
+def face_line(normal: np.ndarray, point: np.ndarray) -> np.ndarray:
+    """World ``(α, r)`` of the line through ``point`` with unit ``normal``: ``r = n·p``, flipped to
+    ``(α + π, −r)`` when negative, α wrapped to [−π, π)."""
+    alpha, r = float(np.arctan2(normal[1], normal[0])), float(normal @ point)
+    if r < 0:
+        alpha, r = alpha + np.pi, -r
+    return np.array([float(wrap(alpha)), r])
+
+
+def same_line(a: np.ndarray, b: np.ndarray) -> bool:
+    """Whether two ``(α, r)`` lines coincide (tolerances ``ALPHA_TOL``, ``R_TOL``); near the origin
+    ``(α, r)`` and ``(α + π, −r)`` are one line, so both are tried."""
+    d = float(wrap(a[0] - b[0]))
+    return (abs(d) < ALPHA_TOL and abs(a[1] - b[1]) < R_TOL) or \
+        (abs(float(wrap(d - np.pi))) < ALPHA_TOL and a[1] + b[1] < R_TOL)
+
+
+def _wall(model: "mujoco.MjModel", data: "mujoco.MjData", g: int, path: Path) -> Wall:
+    """The ``lw*`` geom ``g`` as an upright box (one-line errors: not a box, tilted, degenerate)."""
+    name = model.geom(g).name
+    if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
+        kind = mujoco.mjtGeom(model.geom_type[g]).name.removeprefix("mjGEOM_").lower()
+        raise UserError(f"MJCF {path}: map walls must be boxes, but {name} is a {kind} (make it type=\"box\" or "
+                        f"rename it so it does not start with 'lw': it becomes clutter)")
+    size = model.geom_size[g]
+    if size.min() < MIN_HALF_SIZE:
+        raise UserError(f"MJCF {path}: map wall {name} has a half-size of {size.min():g} m, below "
+                        f"{MIN_HALF_SIZE * 1e3:g} mm: give it a length, thickness and height "
+                        f"(size=\"half_length half_thickness half_height\") or remove it")
+    rot = data.geom_xmat[g].reshape(3, 3)
+    vertical = np.flatnonzero(np.abs(rot[2]) >= 1 - VERTICAL_TOL)
+    if not len(vertical):
+        raise UserError(f"MJCF {path}: map wall {name} is tilted (no box axis is vertical): rotate walls about "
+                        f"z only (euler=\"0 0 yaw\") or rename it so it does not start with 'lw'")
+    i, j = [k for k in range(3) if k != vertical[0]]
+    axes = rot[:2, [i, j]].T
+    return Wall(g, data.geom_xpos[g, :2].copy(), axes / np.linalg.norm(axes, axis=1, keepdims=True),
+                size[[i, j]].copy())
+
+
+def build_map(walls: list[Wall]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Map lines from the walls' faces: long faces first (each a new line unless it lies on one),
+    then short faces join a line they lie on or stay unmapped. Returns lines (K, 2), segments
+    (S, 2, 2), segment_line (S,), segment_geom (S,), face_line (W, 4)."""
+    lines: list[np.ndarray] = []
+    face_to_line = -np.ones((len(walls), 4), int)
+    faces = [(w, f, *face) for w, wall in enumerate(walls) for f, face in enumerate(wall.faces())]
+    for long_pass in (True, False):
+        for w, f, n, p, half in faces:
+            if (2 * half >= MIN_FACE_LENGTH) != long_pass:
+                continue
+            line = face_line(n, p)
+            k = next((i for i, other in enumerate(lines) if same_line(line, other)), -1)
+            if k < 0 and long_pass:
+                lines.append(line)
+                k = len(lines) - 1
+            face_to_line[w, f] = k
+    segs, seg_line, seg_geom = [], [], []
+    for w, f, n, p, half in faces:
+        if face_to_line[w, f] >= 0:
+            t = np.array([-n[1], n[0]]) * half
+            segs.append([p - t, p + t])
+            seg_line.append(face_to_line[w, f])
+            seg_geom.append(walls[w].geom)
+    return (np.array(lines).reshape(-1, 2), np.array(segs).reshape(-1, 2, 2), np.array(seg_line, int),
+            np.array(seg_geom, int), face_to_line)
+
+
+def load_line_scene(scene: str | Path) -> LineScene:
+    """Compile a lines scene and build its map from the ``lw*`` box walls (one-line errors)."""
+    path = resolve_scene_path(scene)
+    try:
+        model = mujoco.MjModel.from_xml_path(str(path))
+    except (ValueError, RuntimeError) as exc:
+        err = _mjcf_error(path, exc)
+        if "size" in str(err) and "must be positive" in str(err):
+            err = UserError(f"{err} (a wall needs a positive half-size on every axis: "
+                            f"size=\"half_length half_thickness half_height\")")
+        raise err from None
+    data = mujoco.MjData(model)
+    mujoco.mj_forward(model, data)
+    ids = [g for g in range(model.ngeom) if model.geom(g).name.startswith(WALL_PREFIX)]
+    if not ids:
+        raise UserError(f"MJCF {path} has no map walls: add upright box geoms named lw0, lw1... (their vertical "
+                        f"side faces become the map's lines)")
+    walls = [_wall(model, data, g, path) for g in ids]
+    lines, segments, segment_line, segment_geom, face_to_line = build_map(walls)
+    if not len(lines):
+        raise UserError(f"MJCF {path}: no wall face is {MIN_FACE_LENGTH} m long or longer, so the map has no "
+                        f"lines: make the lw* walls longer")
+    return LineScene(path.stem, path, model, data, lines, segments, segment_line, segment_geom, walls, face_to_line)
+
+
+def beam_lines(scene: LineScene, scan: "Scan", pose: np.ndarray) -> np.ndarray:
+    """(B,) the map line each beam truly hits, −1 for none (no hit, clutter, an unmapped face).
+    The true hit point ``p_i = (x, y) + d_i (cos(θ + α_i), sin(θ + α_i))`` uses the true distance
+    ``d_i`` (``scan.distance``, else one ray against the hit wall alone) and belongs to the face
+    of the wall ``scan.geom[i]`` nearest it in the box's frame (``Wall.face_of``)."""
+    labels = -np.ones(len(scan.angles), int)
+    row = -np.ones(scene.model.ngeom + 1, int)           # geom id -> wall index; geom −1 -> last slot
+    row[[w.geom for w in scene.walls]] = np.arange(len(scene.walls))
+    wall_of = row[scan.geom]
+    for w in np.unique(wall_of[wall_of >= 0]):
+        beams = np.flatnonzero(wall_of == w)
+        heading = pose[2] + scan.angles[beams]
+        d = scan.distance[beams] if scan.distance is not None else _distance_to(scene, scene.walls[w], pose, heading)
+        p = pose[:2] + d[:, None] * np.column_stack([np.cos(heading), np.sin(heading)])
+        labels[beams] = scene.face_line[w, scene.walls[w].face_of(p)]
+    return labels
+
+
+def _distance_to(scene: LineScene, wall: Wall, pose: np.ndarray, heading: np.ndarray) -> np.ndarray:
+    """True distances (k,) along horizontal rays from the pose to one wall alone (mid-height:
+    an upright box is met at the same distance at any height it spans)."""
+    g, m, d = wall.geom, scene.model, scene.data
+    origin = np.array([pose[0], pose[1], d.geom_xpos[g, 2]])
+    return np.array([mujoco.mju_rayGeom(d.geom_xpos[g], d.geom_xmat[g], m.geom_size[g], origin,
+                                        np.array([np.cos(h), np.sin(h), 0.0]), int(m.geom_type[g]))
+                     for h in heading])
+
+
+def visible_lines(beam_line_labels: np.ndarray, n_lines: int, min_points: int) -> np.ndarray:
+    """(K,) bool: at least ``min_points`` beams truly hit the map line within range (dropped
+    returns included: a wall the sensor failed to see still counts as extractable)."""
+    labels = np.asarray(beam_line_labels, int)
+    return np.bincount(labels[labels >= 0], minlength=n_lines)[:n_lines] >= min_points
