@@ -75,7 +75,7 @@ class LineExtractorConfig:
     split_distance: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
     max_rms: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
     merge_chi2: float = field(default=13.8, metadata=in_range(0, 1e6))
-    merge_gap: float = field(default=1.0, metadata=in_range(0, 1000))
+    merge_gap: float = field(default=2.0, metadata=in_range(0, 1000))
     ransac_iterations: int = field(default=100, metadata=in_range(1, 100000))
     inlier_distance: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
     max_lines: int = field(default=30, metadata=in_range(1, 10000))
