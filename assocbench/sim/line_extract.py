@@ -41,12 +41,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from ..belief.range_bearing import wrap
 from ..errors import UserError
 from ..validation import check_number, in_range, one_of, validate_fields
 from .lidar import Scan
-from .polar_fit import group_covariance, line_from_sums, point_terms
+from .polar_fit import group_fits, line_from_sums, point_terms
 
 METHODS = ("polar", "split_merge", "ransac")
 TRIM_SIGMAS = 3.0        # an end point farther than this from its segment's fit is trimmed
@@ -130,10 +131,11 @@ class _Points:
     rho: np.ndarray
     beta: np.ndarray
     p: np.ndarray
+    terms: np.ndarray     # (n, 6) the fit's per-point terms (uniform weights)
     full_circle: bool
 
     def take(self, idx: np.ndarray) -> "_Points":
-        return _Points(self.beam[idx], self.rho[idx], self.beta[idx], self.p[idx], self.full_circle)
+        return _Points(self.beam[idx], self.rho[idx], self.beta[idx], self.p[idx], self.terms[idx], self.full_circle)
 
 
 def _apart(pts: _Points, i: np.ndarray, j: np.ndarray, th: _Thresholds) -> np.ndarray:
@@ -165,24 +167,39 @@ def _chains(pts: _Points, th: _Thresholds) -> tuple[_Points, np.ndarray, bool]:
     return pts.take(order), np.flatnonzero(brk[order]), False
 
 
-def _iepf(p: np.ndarray, a: int, b: int, split: float, min_points: int, out: list) -> None:
-    """Iterative end-point fit of points ``p[a:b]``: split at the point farthest from the chord
-    while that distance exceeds ``split``; pieces too short to split usefully are kept as they are."""
-    stack = [(a, b)]
-    while stack:
-        i, j = stack.pop()
-        if j - i < max(min_points, 3):
-            out.append((i, j))
-            continue
-        q = p[i:j] - p[i]
-        chord = p[j - 1] - p[i]
-        length = np.hypot(*chord)
-        dist = np.abs(q[:, 0] * chord[1] - q[:, 1] * chord[0]) / length if length > 1e-9 else np.hypot(q[:, 0], q[:, 1])
-        k = int(np.argmax(dist))
-        if dist[k] <= split or k == 0 or k == j - i - 1:
-            out.append((i, j))
-        else:
-            stack += [(i + k, j), (i, i + k)]
+@njit(cache=True)
+def _iepf(p: np.ndarray, bounds: np.ndarray, split: float, smallest: int) -> np.ndarray:
+    """Iterative end-point fit of the chains ``p[bounds[c]:bounds[c+1]]``: split at the point
+    farthest from the chord while that distance exceeds ``split``; pieces with fewer than
+    ``smallest`` points are not split further. Returns the pieces (k, 2) ``[a, b)`` in order.
+    (Compiled: a Python loop over pieces with numpy on each slice cost 0.2 ms a scan.)"""
+    out = np.empty((len(p), 2), np.int64)
+    stack = np.empty((len(p) + 2, 2), np.int64)
+    k = 0
+    for c in range(len(bounds) - 1):
+        top = 0
+        stack[0, 0], stack[0, 1] = bounds[c], bounds[c + 1]
+        top = 1
+        while top:
+            top -= 1
+            i, j = stack[top, 0], stack[top, 1]
+            best, at = -1.0, i
+            if j - i >= smallest:
+                cx, cy = p[j - 1, 0] - p[i, 0], p[j - 1, 1] - p[i, 1]
+                length = np.hypot(cx, cy)
+                for q in range(i + 1, j - 1):
+                    qx, qy = p[q, 0] - p[i, 0], p[q, 1] - p[i, 1]
+                    d = abs(qx * cy - qy * cx) / length if length > 1e-9 else np.hypot(qx, qy)
+                    if d > best:
+                        best, at = d, q
+            if best > split:
+                stack[top, 0], stack[top, 1] = at, j          # right piece popped after the left one
+                stack[top + 1, 0], stack[top + 1, 1] = i, at
+                top += 2
+            else:
+                out[k, 0], out[k, 1] = i, j
+                k += 1
+    return out[:k]
 
 
 def _trim(pts: _Points, cs: np.ndarray, seg: np.ndarray, gate: float, min_points: int) -> np.ndarray:
@@ -213,6 +230,7 @@ class _Fits:
     cov: np.ndarray
     rms: np.ndarray
     worst: np.ndarray
+    ends: np.ndarray      # (k, 2, 2) extreme points along each line, projected on it
 
 
 def _fit_groups(pts: _Points, groups: list[np.ndarray], sigma: float) -> _Fits:
@@ -220,25 +238,12 @@ def _fit_groups(pts: _Points, groups: list[np.ndarray], sigma: float) -> _Fits:
     idx = np.concatenate(groups)
     size = np.array([len(g) for g in groups])
     starts = np.cumsum(size) - size
-    rho, beta = pts.rho[idx], pts.beta[idx]
-    sums = np.add.reduceat(point_terms(rho, beta, 1.0), starts, axis=0)
-    alpha, r, _ = line_from_sums(sums)
-    ones = np.ones(len(idx))
-    cov, d = group_covariance(rho, beta, ones, sigma ** 2 * ones, 0 * ones, alpha, r, starts)
-    rms = np.sqrt(np.add.reduceat(d * d, starts) / size)
-    return _Fits(alpha, r, cov, rms, np.maximum.reduceat(np.abs(d), starts))
-
-
-def _group_ends(pts: _Points, groups: list[np.ndarray], alpha: np.ndarray, r: np.ndarray) -> np.ndarray:
-    """End points (k, 2, 2) of each group: its extreme points along its line, projected on the line."""
-    idx = np.concatenate(groups)
-    size = np.array([len(g) for g in groups])
-    starts = np.cumsum(size) - size
+    alpha, r, _ = line_from_sums(np.add.reduceat(pts.terms[idx], starts, axis=0))
+    cov, _, st = group_fits(pts.rho[idx], pts.beta[idx], 1.0, sigma ** 2, 0.0, alpha, r, starts)
     n = np.column_stack([np.cos(alpha), np.sin(alpha)])
     tang = np.column_stack([-n[:, 1], n[:, 0]])
-    t = np.einsum("ij,ij->i", pts.p[idx], np.repeat(tang, size, axis=0))
-    lo, hi = np.minimum.reduceat(t, starts), np.maximum.reduceat(t, starts)
-    return (r[:, None] * n)[:, None, :] + np.stack([lo, hi], axis=1)[:, :, None] * tang[:, None, :]
+    ends = (r[:, None] * n)[:, None, :] + st[:, 2:4, None] * tang[:, None, :]   # extreme points, projected
+    return _Fits(alpha, r, cov, st[:, 0], st[:, 1], ends)
 
 
 def _finish(pts: _Points, groups: list[np.ndarray], th: _Thresholds, cfg: LineExtractorConfig,
@@ -252,7 +257,7 @@ def _finish(pts: _Points, groups: list[np.ndarray], th: _Thresholds, cfg: LineEx
         f = _fit_groups(pts, groups, th.sigma)
     if not groups:
         return LineDetections.empty()
-    ends = _group_ends(pts, groups, f.alpha, f.r)
+    ends = f.ends
     keep = (f.rms <= th.rms) & (np.linalg.norm(ends[:, 1] - ends[:, 0], axis=1) >= cfg.min_length)
     keep &= np.isfinite(f.cov).all(axis=(1, 2))
     beams = [np.sort(pts.beam[g]) for g, k in zip(groups, keep) if k]
@@ -273,11 +278,9 @@ def _split_merge(pts: _Points, th: _Thresholds, cfg: LineExtractorConfig, rng) -
     if closed:   # read from the farthest point; the first cut is at the point farthest from it
         k = int(np.argmax(np.linalg.norm(pts.p - pts.p[0], axis=1)))
         bounds = np.array([0, k, n]) if 0 < k < n else bounds
-    seg: list[tuple[int, int]] = []
-    for a, b in zip(bounds[:-1], bounds[1:]):
-        _iepf(pts.p, int(a), int(b), th.split, cfg.min_points, seg)
-    cs = np.vstack([np.zeros(6), np.cumsum(point_terms(pts.rho, pts.beta, 1.0), axis=0)])
-    seg_arr = _trim(pts, cs, np.array(seg, int).reshape(-1, 2), TRIM_SIGMAS * th.sigma, cfg.min_points)
+    seg = _iepf(np.ascontiguousarray(pts.p), bounds.astype(np.int64), th.split, max(cfg.min_points, 3))
+    cs = np.vstack([np.zeros(6), np.cumsum(pts.terms, axis=0)])
+    seg_arr = _trim(pts, cs, seg, TRIM_SIGMAS * th.sigma, cfg.min_points)
     groups = [np.arange(a, b) for a, b in seg_arr]
     if not groups:
         return LineDetections.empty()
@@ -293,7 +296,7 @@ def _pair_tests(pts: _Points, groups: list[np.ndarray], f: _Fits, th: _Threshold
     C = f.cov[:, None] + f.cov[None]
     det = C[..., 0, 0] * C[..., 1, 1] - C[..., 0, 1] ** 2
     chi2 = (C[..., 1, 1] * v[..., 0] ** 2 - 2 * C[..., 0, 1] * v[..., 0] * v[..., 1] + C[..., 0, 0] * v[..., 1] ** 2) / det
-    ends = _group_ends(pts, groups, f.alpha, f.r)   # (k, 2, 2)
+    ends = f.ends   # (k, 2, 2)
     gap = np.linalg.norm(ends[:, None, :, None] - ends[None, :, None, :], axis=-1).min(axis=(2, 3))
     bad = (chi2 > cfg.merge_chi2) | (gap > cfg.merge_gap) | np.tri(k, dtype=bool)
     return np.where(bad, np.inf, chi2)
@@ -320,7 +323,7 @@ def _merge(pts: _Points, groups: list[np.ndarray], th: _Thresholds,
             continue
         keep = [q for q in range(len(groups)) if q not in (i, j)]
         groups = [groups[q] for q in keep] + [g]
-        f = _Fits(*(np.concatenate([getattr(f, a)[keep], getattr(m, a)]) for a in ("alpha", "r", "cov", "rms", "worst")))
+        f = _Fits(*(np.concatenate([getattr(f, a)[keep], getattr(m, a)]) for a in ("alpha", "r", "cov", "rms", "worst", "ends")))
         refused = {(a - (a > i) - (a > j), b - (b > i) - (b > j)) for a, b in refused if i not in (a, b) and j not in (a, b)}
     return groups, f
 
@@ -354,8 +357,7 @@ def _ransac(pts: _Points, th: _Thresholds, cfg: LineExtractorConfig, rng: np.ran
         nrm = np.column_stack([-d[:, 1], d[:, 0]]) / np.maximum(np.linalg.norm(d, axis=1), 1e-12)[:, None]
         dist = np.abs(P @ nrm.T - np.einsum("ij,ij->i", P[i], nrm))       # (m, hypotheses)
         inl = dist[:, int(np.argmax((dist < th.inlier).sum(axis=0)))] < th.inlier
-        sums = point_terms(pts.rho[left[inl]], pts.beta[left[inl]], 1.0).sum(axis=0)
-        alpha, r, _ = line_from_sums(sums)   # refit, then re-select the inliers once
+        alpha, r, _ = line_from_sums(pts.terms[left[inl]].sum(axis=0))   # refit, then re-select the inliers once
         inl = np.abs(pts.rho[left] * np.cos(pts.beta[left] - alpha) - r) < th.inlier
         pieces = _pieces(pts, left[inl], th)
         good = [q for q in pieces if len(q) >= cfg.min_points][: cfg.max_lines - len(lines)]
@@ -382,7 +384,8 @@ def extract_lines(scan: Scan, sigma_range: float, cfg: LineExtractorConfig,
         return LineDetections.empty()
     step = float(np.abs(wrap(angles[1] - angles[0]))) if len(angles) > 1 else 0.0
     rho, beta = ranges[beam], angles[beam]
-    pts = _Points(beam, rho, beta, rho[:, None] * np.column_stack([np.cos(beta), np.sin(beta)]), bool(scan.full_circle))
+    p = rho[:, None] * np.column_stack([np.cos(beta), np.sin(beta)])
+    pts = _Points(beam, rho, beta, p, point_terms(rho, beta, 1.0), bool(scan.full_circle))
     return _METHODS[cfg.method](pts, _thresholds(cfg, sigma, step), cfg, rng if rng is not None else np.random.default_rng(0))
 
 

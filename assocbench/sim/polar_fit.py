@@ -35,10 +35,10 @@ hence ``Σ = H⁻¹ (B_ρ diag(σ_ρ²) B_ρᵀ + B_β diag(σ_β²) B_βᵀ) H�
 from __future__ import annotations
 
 import numpy as np
+from numba import njit
 
 from ..belief.range_bearing import wrap
 from ..errors import UserError
-from .post_detect import chol2, inverse_chol2
 
 N_SUMS = 6   # Σw, Σwρcosβ, Σwρsinβ, Σwρ²cos2β, Σwρ²sin2β, Σwρ²
 
@@ -64,29 +64,64 @@ def line_from_sums(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     return alpha, np.abs(r), cost
 
 
-def group_covariance(rho: np.ndarray, beta: np.ndarray, w: np.ndarray, var_rho: np.ndarray, var_beta: np.ndarray,
-                     alpha: np.ndarray, r: np.ndarray, starts: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+@njit(cache=True)
+def _covariance_kernel(rho, beta, w, var_rho, var_beta, alpha, r, starts):
+    """Loop form of ``group_covariance`` (compiled: per-group numpy calls cost tens of µs each in
+    split-and-merge); also each group's RMS and largest |d| and its range of ``a = ρ sin(β − α)``
+    (the along-line coordinate of its points)."""
+    n, k = len(rho), len(starts)
+    cov, d = np.empty((k, 2, 2)), np.empty(n)
+    stats = np.empty((k, 4))   # rms, max |d|, min a, max a
+    for g in range(k):
+        lo, hi = starts[g], starts[g + 1] if g + 1 < k else n
+        h11 = h12 = h22 = m11 = m12 = m22 = sq = worst = 0.0
+        amin, amax = np.inf, -np.inf
+        for i in range(lo, hi):
+            c, s = np.cos(beta[i] - alpha[g]), np.sin(beta[i] - alpha[g])
+            a = rho[i] * s
+            di = rho[i] * c - r[g]
+            d[i] = di
+            wi = w[i]
+            h11 += wi * (a * a - di * rho[i] * c)
+            h12 -= wi * a
+            h22 += wi
+            b1, b2 = wi * (c * a + di * s), -wi * c                   # ∂g/∂ρ_i / 2
+            e1, e2 = wi * (di * rho[i] * c - a * a), wi * a           # ∂g/∂β_i / 2
+            m11 += var_rho[i] * b1 * b1 + var_beta[i] * e1 * e1
+            m12 += var_rho[i] * b1 * b2 + var_beta[i] * e1 * e2
+            m22 += var_rho[i] * b2 * b2 + var_beta[i] * e2 * e2
+            sq += di * di
+            worst = max(worst, abs(di))
+            amin, amax = min(amin, a), max(amax, a)
+        l11 = np.sqrt(max(h11, 1e-300))                               # H/2 = L Lᵀ
+        l21 = h12 / l11
+        l22 = np.sqrt(max(h22 - l21 * l21, 1e-300))
+        i11, i22 = 1.0 / l11, 1.0 / l22
+        i21 = -l21 * i11 * i22                                        # L⁻¹ = [[i11, 0], [i21, i22]]
+        q11, q12, q22 = i11 * i11 + i21 * i21, i21 * i22, i22 * i22   # (H/2)⁻¹ = L⁻ᵀ L⁻¹
+        t11, t12 = q11 * m11 + q12 * m12, q11 * m12 + q12 * m22       # (H/2)⁻¹ M
+        t21, t22 = q12 * m11 + q22 * m12, q12 * m12 + q22 * m22
+        cov[g, 0, 0] = t11 * q11 + t12 * q12
+        cov[g, 0, 1] = cov[g, 1, 0] = 0.5 * (t11 * q12 + t12 * q22 + t21 * q11 + t22 * q12)
+        cov[g, 1, 1] = t21 * q12 + t22 * q22
+        stats[g, 0], stats[g, 1] = np.sqrt(sq / max(hi - lo, 1)), worst
+        stats[g, 2], stats[g, 3] = amin, amax
+    return cov, d, stats
+
+
+def group_fits(rho: np.ndarray, beta: np.ndarray, w: np.ndarray | float, var_rho: np.ndarray | float,
+               var_beta: np.ndarray | float, alpha: np.ndarray, r: np.ndarray,
+               starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """Covariances (k, 2, 2) of the fits ``(α, r)`` (k,) of k groups of points, stored one group
-    after another from the indices ``starts`` on, and the orthogonal distances ``d`` (n,) of the
-    points (see the module docstring: ``Σ = H⁻¹ M H⁻¹`` with ``H⁻¹`` from a 2×2 Cholesky factor)."""
-    count = np.diff(np.append(starts, len(rho)))
-    lab = np.repeat(np.arange(len(starts)), count)
-    al, rl = alpha[lab], r[lab]
-    c, s = np.cos(beta - al), np.sin(beta - al)
-    a = rho * s
-    d = rho * c - rl
-    b1, b2 = w * (c * a + d * s), -w * c              # ∂g/∂ρ_i / 2
-    e1, e2 = w * (d * rho * c - a * a), w * a         # ∂g/∂β_i / 2
-    terms = np.column_stack([w * (a * a - d * rho * c), -w * a, w,
-                             var_rho * b1 * b1 + var_beta * e1 * e1,
-                             var_rho * b1 * b2 + var_beta * e1 * e2,
-                             var_rho * b2 * b2 + var_beta * e2 * e2])
-    h11, h12, h22, m11, m12, m22 = np.add.reduceat(terms, starts, axis=0).T
-    Hi = inverse_chol2(*chol2(h11, h12, h22))
-    M = np.empty_like(Hi)
-    M[:, 0, 0], M[:, 0, 1], M[:, 1, 0], M[:, 1, 1] = m11, m12, m12, m22
-    cov = Hi @ M @ Hi
-    return 0.5 * (cov + cov.transpose(0, 2, 1)), d
+    after another from the indices ``starts`` on (see the module docstring: ``Σ = H⁻¹ M H⁻¹``
+    with ``H⁻¹`` from a 2×2 Cholesky factor), the orthogonal distances ``d`` (n,) of the points
+    and per group (k, 4): RMS of d, largest |d|, least and largest ``ρ sin(β − α)`` (the
+    along-line coordinate). ``w``, ``var_rho``, ``var_beta``: per point (n,) or one for all."""
+    def per_point(x):
+        return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), np.shape(rho)))
+    return _covariance_kernel(np.ascontiguousarray(rho, float), np.ascontiguousarray(beta, float), per_point(w),
+                              per_point(var_rho), per_point(var_beta), np.asarray(alpha, float),
+                              np.asarray(r, float), np.asarray(starts, np.int64))
 
 
 def fit_polar_line(rho: np.ndarray, beta: np.ndarray, sigma_rho: np.ndarray | float,
@@ -110,5 +145,5 @@ def fit_polar_line(rho: np.ndarray, beta: np.ndarray, sigma_rho: np.ndarray | fl
     rho, beta, sr, sb = rho[ok], beta[ok], sr[ok], sb[ok]
     w = 1.0 / sr ** 2
     alpha, r, _ = line_from_sums(point_terms(rho, beta, w).sum(axis=0))
-    cov, _ = group_covariance(rho, beta, w, sr ** 2, sb ** 2, np.atleast_1d(alpha), np.atleast_1d(r), np.zeros(1, int))
+    cov, _, _ = group_fits(rho, beta, w, sr ** 2, sb ** 2, np.atleast_1d(alpha), np.atleast_1d(r), np.zeros(1, int))
     return float(alpha), float(r), cov[0]
