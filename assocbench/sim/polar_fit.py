@@ -66,7 +66,7 @@ def line_from_sums(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 @njit(cache=True)
 def _covariance_kernel(rho, beta, w, var_rho, var_beta, alpha, r, starts):
-    """Loop form of ``group_covariance`` (compiled: per-group numpy calls cost tens of µs each in
+    """Loop form of ``group_fits`` (compiled: per-group numpy calls cost tens of µs each in
     split-and-merge); also each group's RMS and largest |d| and its range of ``a = ρ sin(β − α)``
     (the along-line coordinate of its points)."""
     n, k = len(rho), len(starts)
