@@ -194,3 +194,25 @@ def test_bad_frame_or_association_is_a_user_error():
     ekf.problem(seq.frame(0))
     with pytest.raises(UserError, match="association"):
         ekf.update(np.zeros(1, dtype=int))
+
+
+def test_closed_loop_on_the_lines_track():
+    """``ClosedLoop`` dispatches seq.track "lines" to ``LinesSensor`` and ``LineEKF``: frames carry the
+    extracted lines then ``belief.clutter`` clutter lines (labelled −1), odometry is planar, and MNN
+    in the loop on the room (seed 0, 3 clutter lines per frame) stays consistent: measured ANEES
+    2.95 over 200 frames (single-run band (2.67, 3.35) for independent frames), ATE 8.7 mm."""
+    from assocbench.harness.loop import loop_records
+    from assocbench.harness.loop_sensors import LinesSensor, loop_sensor
+
+    seq = line_seq(STEPS, seed=0)
+    sensor = loop_sensor(seq, BeliefConfig(clutter=3), EstimatorConfig(), 0)
+    assert isinstance(sensor, LinesSensor) and sensor.nees_dof == 3
+    data, labels = sensor.frame(4, None)
+    m = len(seq.z[4])
+    assert data.z.shape == (m + 3, 2) and labels[:m].tolist() == seq.labels[4].tolist() and np.all(labels[m:] == -1)
+    assert np.all((data.z[m:, 0] >= -np.pi) & (data.z[m:, 0] < np.pi)) and np.all(data.z[m:, 1] <= seq.max_range)
+    records = list(loop_records(seq, BeliefConfig(clutter=3), EstimatorConfig(), 0, "mnn", {}))
+    nees = np.array([r["nees"] for r in records])
+    err = np.array([r["pos_err"] for r in records])
+    assert all(r["error"] == "" for r in records) and records[0]["nees_dof"] == 3
+    assert 2.0 < nees.mean() < 4.0 and np.sqrt(np.mean(err ** 2)) < 0.02
