@@ -176,7 +176,8 @@ def test_slam_or_isam2_on_the_lines_track_is_a_user_error():
 
 @pytest.mark.parametrize("change, message", [
     (dict(pose=np.zeros(2)), "pose"), (dict(P=np.eye(4)), "P must be"), (dict(ids=[0, 0]), "ids"),
-    (dict(ids=[9]), "ids"), (dict(segment_line=[0, 9]), "segment_line"), (dict(segment_normal=np.zeros((1, 2))), "normal"),
+    (dict(ids=[9]), "ids"), (dict(segment_line=[0, 9]), "segment_line"),
+    (dict(segment_normal=np.zeros((1, 2))), "normal"),
     (dict(max_range=0.0), "max_range"), (dict(fov=7.0), "fov"), (dict(lines=[[0.0, -1.0], [1.0, 2.0]]), "r_w >= 0")])
 def test_bad_constructor_input_is_a_user_error(change, message):
     args = dict(cfg=EstimatorConfig(), pose=np.zeros(3), P=np.eye(3), lines=[[0.0, 1.0], [1.0, 2.0]],
