@@ -64,7 +64,8 @@ def warm_up(associator) -> None:
 def frame_problems(seq: Sequence, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
     """The problem and truth of every frame (open loop: the sampled belief of the scene's track);
     built once and shared by every method of a sweep."""
-    make = {"planar": make_planar_problem, "lines": make_line_problem}.get(getattr(seq, "track", "camera"), make_problem)
+    track = getattr(seq, "track", "camera")
+    make = {"planar": make_planar_problem, "lines": make_line_problem}.get(track, make_problem)
     return [make(seq, k, belief, seed) for k in range(len(seq))]
 
 
