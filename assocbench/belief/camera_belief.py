@@ -138,3 +138,11 @@ def true_association(feature_labels: np.ndarray, candidates: np.ndarray) -> np.n
     for c, lm in enumerate(candidates):
         out[c] = where.get(int(lm), NO_MATCH)
     return out
+
+
+def with_clutter_labels(labels: np.ndarray, clutter: int, in_map: np.ndarray | None) -> np.ndarray:
+    """Feature labels of a frame's truth (open and closed loop, every track): the sensor's label (-1 for look-alikes), -1 for a
+    landmark outside the map in localisation, then -1 for each clutter feature."""
+    if in_map is not None:
+        labels = np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH)
+    return np.concatenate([labels, np.full(clutter, NO_MATCH)]).astype(np.int64)

@@ -7,7 +7,7 @@ State ``x = [x, y, θ, l₁x, l₁y, …, l_Nx, l_Ny]`` with additive world-fram
   ``x' = x + c Δx − s Δy``, ``y' = y + s Δx + c Δy``, ``θ' = wrap(θ + Δθ)`` (c, s of θ);
   ``F = ∂x'/∂pose = [[1, 0, −s Δx − c Δy], [0, 1, c Δx − s Δy], [0, 0, 1]]``,
   ``G = ∂x'/∂Δ = blockdiag(R(θ), 1)``; ``P' = F P Fᵀ + G Q Gᵀ`` on the pose block, ``F P`` on
-  the pose-landmark cross terms (``ekf_core.propagate_pose``).
+  the pose-landmark cross terms (``planar_pose.motion_step``, shared with ``LineEKF``).
 * Measurement ``z = (r, φ) = h(x, l)`` (``belief.range_bearing``), the bearing's innovation
   wrapped, Joseph update (``ekf_core.joseph_update``).
 * New landmark ``l = g(x, z)`` with ``P_ll = G_x P_xx G_xᵀ + G_z R G_zᵀ`` (``ekf_core.augment``).
@@ -21,23 +21,21 @@ never drops a landmark the sensor could not have seen.
 
 from __future__ import annotations
 
-import math
-
 import numpy as np
 
 from ..association.problem import Problem
 from ..belief.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
-from ..belief.se2 import compose, rz
 from ..errors import UserError
 from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from .config import EstimatorConfig
-from .ekf_core import augment, block_diag, bundle_jacobian, joseph_update, propagate_pose, remove, state_columns
+from .ekf_core import augment, block_diag, bundle_jacobian, joseph_update, remove, state_columns
+from .planar_pose import PlanarPoseViews, motion_step
 
 POSE = np.arange(3)
 MARGIN_SIGMAS = 3.0   # candidate bounds widened by this many σ of the predicted range / bearing
 
 
-class PlanarEKF(Estimator):
+class PlanarEKF(PlanarPoseViews, Estimator):
     """EKF-SLAM of a planar robot with range-bearing point landmarks (module docstring)."""
 
     def __init__(self, cfg: EstimatorConfig, pose: np.ndarray, P: np.ndarray, landmarks: np.ndarray,
@@ -58,18 +56,8 @@ class PlanarEKF(Estimator):
     # ---------------------------------------------------------------- the interface
 
     def predict(self, motion: Motion) -> None:
-        """``x' = x ⊕ Δ``; ``P' = F P Fᵀ + G Q Gᵀ`` on the pose block (module docstring)."""
-        inc, Q = np.asarray(motion.increment, dtype=float), np.asarray(motion.covariance, dtype=float)
-        if inc.shape != (3,) or Q.shape != (3, 3):
-            raise UserError(f"planar odometry needs an increment (3,) and covariance (3, 3), got {inc.shape} and "
-                            f"{Q.shape}; build it with sim.odometry.planar_odometry")
-        c, s = math.cos(self._x[2]), math.sin(self._x[2])
-        F = np.eye(3)
-        F[0, 2], F[1, 2] = -s * inc[0] - c * inc[1], c * inc[0] - s * inc[1]
-        G = np.eye(3)
-        G[:2, :2] = [[c, -s], [s, c]]
-        self.P = propagate_pose(self.P, F, G @ Q @ G.T, overwrite=True)
-        self._x = compose(self._x, inc)
+        """``x' = x ⊕ Δ``; ``P' = F P Fᵀ + G Q Gᵀ`` on the pose block (``planar_pose.motion_step``)."""
+        self._x, self.P = motion_step(self._x, self.P, motion)
         self.frame += 1
 
     def problem(self, frame: FrameData) -> Problem:
@@ -135,32 +123,12 @@ class PlanarEKF(Estimator):
     # ---------------------------------------------------------------- the state
 
     @property
-    def pose(self) -> np.ndarray:
-        """``[x, y, θ]`` (3,)."""
-        return self._x.copy()
-
-    @property
-    def pose_covariance(self) -> np.ndarray:
-        """Covariance (3, 3) of the world-frame pose error ``[δx, δy, δθ]``."""
-        return self.P[:3, :3].copy()
-
-    @property
     def landmarks(self) -> np.ndarray:
         return self._L.copy()
 
     @property
     def covariance(self) -> np.ndarray:
         return self.P.copy()
-
-    @property
-    def R(self) -> np.ndarray:
-        """The pose's rotation as a 3-D one, ``Rz(θ)`` (for code that writes 3-D poses)."""
-        return rz(self._x[2])
-
-    @property
-    def p(self) -> np.ndarray:
-        """The pose's position as a 3-D one, ``(x, y, 0)``."""
-        return np.array([self._x[0], self._x[1], 0.0])
 
     # ---------------------------------------------------------------- helpers
 

@@ -5,6 +5,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..belief.camera_belief import BeliefConfig, map_mask, sample_estimate
+from ..belief.line_belief import sample_line_pose
 from ..belief.planar_belief import map_covariance, planar_pose_covariance, sample_planar_estimate
 from ..errors import UserError
 from .camera_ekf import CameraEKF
@@ -22,6 +23,8 @@ def make_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
         raise UserError(f"unknown estimator {cfg.name!r}: choose one of {', '.join(ESTIMATOR_NAMES)}")
     if getattr(seq, "track", "camera") == "planar":
         return make_planar_estimator(seq, cfg, belief, seed)
+    if getattr(seq, "track", "camera") == "lines":
+        return make_line_estimator(seq, cfg, belief, seed)
     if cfg.name != "ekf":
         raise UserError(f"estimator.name {cfg.name} serves the planar track only; the camera track's estimator is ekf")
     R0, p0 = seq.rotations[0], seq.positions[0]
@@ -54,3 +57,18 @@ def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed:
     P[:3, :3] = planar_pose_covariance(belief)
     P[3:, 3:] = map_covariance(len(ids), belief)
     return cls(cfg, pose_hat, P, map_hat[ids], ids, seq.max_range, seq.fov)
+
+
+def make_line_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
+    """The lines track's ``LineEKF`` at frame 0: localisation only (the map of walls is known
+    exactly), from the sampled pose with Σ_pose reported, on the mapped lines
+    (``belief.map_fraction``). ``slam`` or ``isam2`` is a ``UserError`` naming what to use."""
+    from .line_ekf import NOT_ISAM2, NOT_SLAM, LineEKF
+    if cfg.name != "ekf":
+        raise UserError(NOT_ISAM2)
+    if cfg.mode != "localisation":
+        raise UserError(NOT_SLAM)
+    pose_hat = sample_line_pose(seq.poses[0], belief, np.random.default_rng([seed, 0, 505]))
+    ids = np.flatnonzero(map_mask(len(seq.lines), belief, seed))
+    return LineEKF(cfg, pose_hat, planar_pose_covariance(belief), seq.lines, seq.segments, seq.segment_line,
+                   seq.segment_normal, ids, seq.max_range, seq.fov)

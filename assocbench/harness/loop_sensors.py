@@ -3,7 +3,8 @@ labels, the odometry between frames, and the pose columns of a frame's record.
 
 The camera track measures pixels (plus RGB-D depth) and moves in 3-D (6-dof pose error); the
 planar track measures post ranges and bearings and moves in the plane (3-dof pose error
-``[δx, δy, δθ]``). ``ClosedLoop`` calls these through ``loop_sensor(seq, ...)`` and never asks
+``[δx, δy, δθ]``); the lines track is the planar one with wall lines ``(α, r)`` for posts.
+``ClosedLoop`` calls these through ``loop_sensor(seq, ...)`` and never asks
 which track it runs.
 """
 
@@ -13,7 +14,8 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..association.problem import NO_MATCH
-from ..belief.camera_belief import BeliefConfig
+from ..belief.camera_belief import BeliefConfig, with_clutter_labels
+from ..belief.line_belief import clutter_lines
 from ..belief.planar_belief import clutter_detections, nominal_noise
 from ..belief.range_bearing import pose_error as planar_pose_error
 from ..belief.se2 import compose
@@ -32,14 +34,6 @@ def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
 def _nees(error: np.ndarray, cov: np.ndarray) -> float:
     """Pose NEES, NaN while the pose covariance is zero (slam's first frame fixes the gauge)."""
     return pose_nees(error, cov) if np.any(cov) else float("nan")
-
-
-def with_clutter_labels(labels: np.ndarray, clutter: int, in_map: np.ndarray | None) -> np.ndarray:
-    """Feature labels for the loop's truth: the sensor's label (-1 for look-alikes), -1 for a
-    landmark outside the map in localisation, then -1 for each clutter feature."""
-    if in_map is not None:
-        labels = np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH)
-    return np.concatenate([labels, np.full(clutter, NO_MATCH)]).astype(np.int64)
 
 
 class CameraSensor:
@@ -86,6 +80,7 @@ class PlanarSensor:
 
     nees_dof = 3
     new_landmark_gate = 4.0   # σ: without it a strict gate's misses become duplicates (30 for JCBB on the park)
+    clutter = staticmethod(clutter_detections)   # false detections (range, bearing) uniform over the sensor's view
 
     def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
         self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
@@ -97,12 +92,12 @@ class PlanarSensor:
         return motion
 
     def frame(self, k: int, in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
-        """Frame ``k``'s post detections (their noise is the lidar's, already in them) and
-        ``belief.clutter`` false detections uniform over range × bearing."""
+        """Frame ``k``'s detections (their noise is the sensor's, already in them) and
+        ``belief.clutter`` false detections (``clutter``: uniform over the measurement space)."""
         seq = self.seq
         rng = np.random.default_rng([self.seed, k, 101])
         R = seq.R[k].reshape(-1, 2, 2)
-        cz, cR = clutter_detections(rng, self.belief.clutter, nominal_noise(R, seq.nominal_R), seq.max_range, seq.fov)
+        cz, cR = self.clutter(rng, self.belief.clutter, nominal_noise(R, seq.nominal_R), seq.max_range, seq.fov)
         data = FrameData(np.vstack([seq.z[k].reshape(-1, 2), cz]), np.concatenate([R, cR]))
         return data, with_clutter_labels(seq.labels[k], self.belief.clutter, in_map)
 
@@ -115,7 +110,18 @@ class PlanarSensor:
                 "odo_x": float(self.dead_reckoning[0]), "odo_y": float(self.dead_reckoning[1])}
 
 
+class LinesSensor(PlanarSensor):
+    """The lines track: extracted wall lines ``(α, r)`` (their covariance is the extractor's) plus
+    clutter lines uniform over α × r, planar odometry, 3-dof pose error: the planar sensor with
+    lines for posts. Localisation only (the map is known), so no new-landmark gate applies."""
+
+    new_landmark_gate = 0.0   # unused: the lines track makes no landmarks
+    clutter = staticmethod(clutter_lines)
+
+
+SENSORS = {"planar": PlanarSensor, "lines": LinesSensor}
+
+
 def loop_sensor(seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> CameraSensor | PlanarSensor:
     """The sensor side of ``seq``'s track."""
-    cls = PlanarSensor if getattr(seq, "track", "camera") == "planar" else CameraSensor
-    return cls(seq, belief, est, seed)
+    return SENSORS.get(getattr(seq, "track", "camera"), CameraSensor)(seq, belief, est, seed)

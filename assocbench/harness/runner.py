@@ -21,6 +21,7 @@ import pandas as pd
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig, FrameTruth, make_problem
+from ..belief.line_belief import make_line_problem
 from ..belief.planar_belief import make_planar_problem
 from ..errors import UserError
 from ..scoring.aggregate import summarize
@@ -63,7 +64,8 @@ def warm_up(associator) -> None:
 def frame_problems(seq: Sequence, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
     """The problem and truth of every frame (open loop: the sampled belief of the scene's track);
     built once and shared by every method of a sweep."""
-    make = make_planar_problem if getattr(seq, "track", "camera") == "planar" else make_problem
+    track = getattr(seq, "track", "camera")
+    make = {"planar": make_planar_problem, "lines": make_line_problem}.get(track, make_problem)
     return [make(seq, k, belief, seed) for k in range(len(seq))]
 
 
