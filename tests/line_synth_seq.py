@@ -79,6 +79,7 @@ class LineSeq:
     fov: float
     nominal_R: np.ndarray
     motions: list[Motion] = field(default_factory=list)
+    final_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # no scan: the top view draws segments only
     track: str = "lines"
 
     def __len__(self) -> int:

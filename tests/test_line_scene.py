@@ -46,6 +46,10 @@ def test_rotated_box_faces_are_hand_computed_lines(tmp_path):
     np.testing.assert_allclose(sorted(map(tuple, ends)), sorted([tuple(c + u + 0.15 * v), tuple(c + u - 0.15 * v)]),
                                atol=1e-9)
     np.testing.assert_array_equal(scene.segment_line, [0, 1, 2, 3])
+    # outward normals: +u, −u, +v, −v, each pointing from the box's centre through its face
+    np.testing.assert_allclose(scene.segment_normal, [u, -u, v, -v], atol=1e-12)
+    mid = scene.segments.mean(axis=1)
+    assert np.all(np.einsum("ij,ij->i", mid - c, scene.segment_normal) > 0)
 
 
 def test_collinear_faces_are_one_line_with_several_segments(tmp_path):

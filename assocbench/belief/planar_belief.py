@@ -59,8 +59,16 @@ def clutter_detections(rng: np.random.Generator, count: int, R: np.ndarray, max_
 
 
 def nominal_noise(R_frame: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    """The noise a clutter detection reports: the median of the frame's (element-wise), else ``fallback``."""
-    return np.median(R_frame, axis=0) if len(R_frame) else fallback
+    """The noise a clutter detection reports: the median of the frame's (element-wise), else
+    ``fallback``. An element-wise median of correlated covariances (a line's α and r) need not be
+    positive definite; then the frame's own covariance of median log-determinant is used."""
+    if not len(R_frame):
+        return fallback
+    median = np.median(R_frame, axis=0)
+    if np.linalg.eigvalsh(median).min() > 0:
+        return median
+    logdet = np.linalg.slogdet(R_frame)[1]
+    return np.asarray(R_frame[np.argsort(logdet)[len(logdet) // 2]])
 
 
 def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:

@@ -17,8 +17,9 @@ HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML or shipped suite name (default: the three shipped CI suites, "
-                   "configs/ci.yaml, the closed loop's configs/loop_ci.yaml and the planar track's configs/planar_ci.yaml)")
+    p.add_argument("--suite", help="suite YAML or shipped suite name (default: the four shipped CI suites, "
+                   "configs/ci.yaml, the closed loop's configs/loop_ci.yaml, the planar track's configs/planar_ci.yaml "
+                   "and the lines track's configs/lines_ci.yaml)")
     p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
                    "results/baseline_<suite>.csv for another suite; without --suite it is the ci suite's)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
@@ -27,7 +28,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-DEFAULT_SUITES = ("ci", "loop_ci", "planar_ci")
+DEFAULT_SUITES = ("ci", "loop_ci", "planar_ci", "lines_ci")
 
 
 def default_baseline(suite_name: str) -> Path:

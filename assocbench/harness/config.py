@@ -21,6 +21,8 @@ from ..errors import UserError
 from ..estimators.config import EstimatorConfig
 from ..sim.detect import DetectorConfig
 from ..sim.lidar import LidarConfig
+from ..sim.line_extract import LineExtractorConfig
+from ..sim.line_sequence import LineSequenceSpec
 from ..sim.planar_scene import scene_track
 from ..sim.planar_sequence import PlanarSequenceSpec
 from ..sim.post_detect import PostDetectorConfig
@@ -42,6 +44,7 @@ DEFAULTS: dict = {
     "truth": asdict(TruthConfig()),
     "lidar": asdict(LidarConfig()),
     "posts": asdict(PostDetectorConfig()),
+    "lines": asdict(LineExtractorConfig()),
     "belief": asdict(BeliefConfig()),
     "loop": False,
     "estimator": asdict(EstimatorConfig()),
@@ -158,7 +161,7 @@ def load_run_config(config: str | Path | None = None, sets: list[str] | None = N
 class RunSpec:
     """A fully resolved run: which sequence, which belief, which method."""
 
-    sequence: SequenceSpec | PlanarSequenceSpec   # the scene's track: camera or planar
+    sequence: SequenceSpec | PlanarSequenceSpec | LineSequenceSpec   # the scene's track: camera, planar or lines
     belief: BeliefConfig
     seed: int
     method: str
@@ -230,7 +233,7 @@ def run_spec(cfg: dict) -> RunSpec:
     if not isinstance(cfg["loop"], bool):
         raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
     estimator = _typed(EstimatorConfig, cfg["estimator"], "estimator")
-    seq = (planar_sequence_spec if scene_track(cfg["scene"]) == "planar" else camera_sequence_spec)(cfg, estimator)
+    seq = TRACK_SPECS[scene_track(cfg["scene"])](cfg, estimator)
     params = _mapping(cfg, "params")
     check_method(cfg["method"], params, cfg["loop"])
     return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
@@ -266,12 +269,35 @@ def planar_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> PlanarSequenc
     return seq
 
 
+def line_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> LineSequenceSpec:
+    """The lines track's sequence: lidar scans along the scene's path, wall lines extracted from
+    them (``lidar``, ``lines``); its estimator is the EKF localisation on the known map."""
+    if estimator.name != "ekf" or estimator.mode != "localisation":
+        raise UserError(f"scene {cfg['scene']!r} is a lines scene, whose estimator is the EKF localisation on the "
+                        f"known map: set estimator.name: ekf and estimator.mode: localisation (got "
+                        f"{estimator.name}, {estimator.mode})")
+    seq = LineSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
+                           trajectory_params=_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
+                           seed=cfg["seed"], lidar=_typed(LidarConfig, cfg["lidar"], "lidar"),
+                           lines=_typed(LineExtractorConfig, cfg["lines"], "lines"))
+    if seq.lidar.mode != "lidar":
+        raise UserError(f"lidar.mode {seq.lidar.mode} serves the planar track's posts; lines are extracted from "
+                        "ray-cast scans: set lidar.mode: lidar")
+    seq.check()
+    return seq
+
+
+TRACK_SPECS = {"camera": camera_sequence_spec, "planar": planar_sequence_spec, "lines": line_sequence_spec}
+
+
 def camera_only(spec: RunSpec, what: str) -> RunSpec:
-    """``spec``, or a one-line error when its scene is a planar one and ``what`` serves the camera
-    track only (rendered pictures, the Gymnasium envs)."""
-    if isinstance(spec.sequence, PlanarSequenceSpec):
-        raise UserError(f"{what} serves the camera track; scene {spec.sequence.scene!r} is a planar one (lidar and "
-                        "posts): run it with `assocbench run` or `leaderboard --suite planar`, whose figures show it")
+    """``spec``, or a one-line error when its scene is a lidar one (planar or lines) and ``what``
+    serves the camera track only (rendered pictures, the Gymnasium envs)."""
+    if isinstance(spec.sequence, (PlanarSequenceSpec, LineSequenceSpec)):
+        track = "planar" if isinstance(spec.sequence, PlanarSequenceSpec) else "lines"
+        raise UserError(f"{what} serves the camera track; scene {spec.sequence.scene!r} is a {track} one (lidar "
+                        f"scans): run it with `assocbench run` or `leaderboard --suite {track}`, whose "
+                        "figures show it")
     return spec
 
 

@@ -180,13 +180,20 @@ def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, diffi
 def map_view(frames: pd.DataFrame, scene: str, difficulty: str):
     """The top view of every method's run on ``scene/difficulty`` at the lowest seed: true path,
     odometry alone (planar), each estimate and final map over the true landmarks."""
+    from ..sim.planar_scene import scene_track
     from ..viz.loop_plots import map_figure
 
     scenario = f"{scene}/{difficulty}"
     one = frames[frames["scenario"] == scenario]
     one = one[one["seed"] == one["seed"].min()]
     name = one["scene"].iloc[0] if len(one) else scene
-    return map_figure(one, scene_landmarks(name), final_maps(one), title=f"{scenario} seed {one['seed'].min()}")
+    title = f"{scenario} seed {one['seed'].min()}"
+    if scene_track(name) == "lines":   # walls, not points: the map's faces and each method's last scan
+        from ..sim.line_scene import load_line_scene
+        from ..viz.line_plots import line_map_figure, snapshots
+
+        return line_map_figure(one, load_line_scene(name).segments, snapshots(one), title=title)
+    return map_figure(one, scene_landmarks(name), final_maps(one), title=title)
 
 
 def scene_landmarks(scene: str) -> np.ndarray:

@@ -91,6 +91,9 @@ class ClosedLoop:
             self.filter.update(association)
         except NotPositiveDefinite as exc:
             return record | {"error": f"FilterUpdate: {exc}"}
+        snapshot = getattr(self.sensor, "snapshot", None)   # the last frame as the figures draw it (lines)
+        if snapshot is not None and k == len(self.seq) - 1:
+            record["final_scan"] = snapshot(k, self.filter.pose, problem, association, labels)
         gate = self.est.new_landmark_gate
         free = new_landmark_features(problem, association, self.sensor.new_landmark_gate if gate is None else gate)
         made = self.filter.initialise(data, free)

@@ -23,6 +23,7 @@ from ..estimators.base import FrameData, Motion
 from ..estimators.config import EstimatorConfig
 from ..scoring.trajectory import pose_error, pose_nees
 from ..sim.odometry import odometry, planar_odometry
+from ..viz.line_plots import segment_status, snapshot_json
 
 
 def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
@@ -117,6 +118,13 @@ class LinesSensor(PlanarSensor):
 
     new_landmark_gate = 0.0   # unused: the lines track makes no landmarks
     clutter = staticmethod(clutter_lines)
+
+    def snapshot(self, k: int, pose: np.ndarray, problem, association: np.ndarray, labels: np.ndarray) -> str:
+        """The last frame for the top view (``viz.line_plots``): the scan's points, the extracted
+        segments and what the method did with each, to be drawn at the estimated ``pose``."""
+        m = len(self.seq.z[k])   # the extracted lines; the clutter lines after them have no segment
+        status = segment_status(labels, problem.landmark_ids, association, m)
+        return snapshot_json(pose, self.seq.final_points, self.seq.endpoints[k], status)
 
 
 SENSORS = {"planar": PlanarSensor, "lines": LinesSensor}

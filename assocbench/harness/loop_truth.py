@@ -31,16 +31,22 @@ class MapTruth:
 
 def loop_truth(map_ids: np.ndarray, truth: MapTruth, labels: np.ndarray, visible: np.ndarray) -> FrameTruth:
     """Truth of a closed-loop problem: the feature truly imaging each candidate's landmark, one-to-one,
-    older map entries first (a duplicate made later truly pairs with nothing). ``labels`` (m,) is
+    older map entries first (a duplicate made later truly pairs with nothing); when several
+    features image one landmark (the last is the truth's), each is labelled with its entry. ``labels`` (m,) is
     each feature's landmark or -1; ``visible`` (n,)."""
     association = np.full(len(map_ids), NO_MATCH, dtype=np.int64)
-    feature_of = {int(lm): i for i, lm in enumerate(labels) if lm >= 0}
+    feature_labels = np.full(len(labels), NO_MATCH, dtype=np.int64)
+    features_of: dict[int, list[int]] = {}
+    for i, lm in enumerate(labels):
+        if lm >= 0:
+            features_of.setdefault(int(lm), []).append(i)
     for c in np.argsort(map_ids, kind="stable"):
         label = truth.label[int(map_ids[c])]
-        if label >= 0 and label in feature_of:
-            association[c] = feature_of.pop(label)
-    feature_labels = np.full(len(labels), NO_MATCH, dtype=np.int64)
-    feature_labels[association[association >= 0]] = map_ids[association >= 0]
+        if label >= 0 and label in features_of:
+            features = features_of.pop(label)
+            association[c] = features[-1]
+            # every feature of the landmark names the entry: two pieces of one wall both pair right
+            feature_labels[features] = map_ids[c]
     return FrameTruth(feature_labels, association, visible)
 
 

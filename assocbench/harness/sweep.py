@@ -25,7 +25,7 @@ from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
 LOOP_FRAME_COLUMNS = ("pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "true_x", "true_y",
-                      "odo_x", "odo_y", "final_map")   # for its plots
+                      "odo_x", "odo_y", "final_map", "final_scan")   # for its plots
 
 
 def job_task(job: Job, cache_dir: str | None = None) -> Task:

@@ -2,8 +2,12 @@
 
 With ``a`` the returned and ``t`` the true association (feature index per candidate or -1):
 
-* TP: ``a_j >= 0`` and ``a_j = t_j``;   FP: ``a_j >= 0`` and ``a_j != t_j``;
-  FN: ``t_j >= 0`` and ``a_j != t_j``.
+* TP: ``a_j >= 0`` and ``a_j ≡ t_j``;   FP: ``a_j >= 0`` and not ``a_j ≡ t_j``;
+  FN: ``t_j >= 0`` and not ``a_j ≡ t_j``. ``a_j ≡ t_j`` when they are the same feature, or
+  when ``t_j >= 0`` and both features carry the same truth label: two features can image one
+  landmark (two extracted pieces of one wall's line, split by an occluder), and pairing either
+  is right. The camera and post tracks label at most one feature per landmark, so for them
+  ``≡`` is ``=``.
 * clutter_accepted: FPs whose feature images no mapped landmark (a distractor or clutter).
 * missed_true: candidates with a true feature that were left unassociated.
 * surprisal / surprisal_true: ``s(a)`` and ``s(t)``; their difference says whether the
@@ -29,19 +33,29 @@ def score_frame(problem: Problem, truth: FrameTruth, association: np.ndarray) ->
     """Counts and surprisal of one frame (see module docstring)."""
     a, t = association, truth.association
     paired = a >= 0
-    tp = int(np.sum(paired & (a == t)))
-    fp = int(np.sum(paired & (a != t)))
-    fn = int(np.sum((t >= 0) & (a != t)))
-    wrong = paired & (a != t)   # a frame with no feature has no pairing to look up
+    right = paired & same_feature(a, t, truth.feature_labels)
+    tp = int(np.sum(right))
+    fp = int(np.sum(paired & ~right))
+    fn = int(np.sum((t >= 0) & ~right))
+    wrong = paired & ~right   # a frame with no feature has no pairing to look up
     clutter = int(np.sum(truth.feature_labels[a[wrong]] == NO_MATCH)) if wrong.any() else 0
     s, compatible = joint_verdict(problem, a, JC_CONFIDENCE)
     return {
         "n": problem.n, "m": problem.m, "n_true": int(np.sum(t >= 0)),
         "tp": tp, "fp": fp, "fn": fn, "clutter_accepted": clutter,
         "missed_true": int(np.sum((t >= 0) & ~paired)),
-        "perfect": bool(np.array_equal(a, t)),
+        "perfect": bool(np.all(right | (~paired & (t < 0)))),
         "surprisal": s, "surprisal_true": surprisal(problem, t), "jointly_compatible": compatible,
     }
+
+
+def same_feature(a: np.ndarray, t: np.ndarray, labels: np.ndarray) -> np.ndarray:
+    """(n,) ``a_j ≡ t_j`` (module docstring): the same feature, or two features with one truth label."""
+    both = (a >= 0) & (t >= 0)
+    same_label = np.zeros(len(a), bool)
+    if both.any():
+        same_label[both] = labels[a[both]] == labels[t[both]]
+    return (a == t) | same_label
 
 
 def unscored_frame(problem: Problem, truth: FrameTruth) -> dict[str, float]:

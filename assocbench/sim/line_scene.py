@@ -78,6 +78,7 @@ class LineScene:
     segments: np.ndarray       # (S, 2, 2) world end points of each mapped face
     segment_line: np.ndarray   # (S,) index into lines
     segment_geom: np.ndarray   # (S,) geom id of the wall the face belongs to
+    segment_normal: np.ndarray # (S, 2) each face's outward unit normal: it is seen from that side only
     walls: list[Wall]          # the lw* boxes, in geom order
     face_line: np.ndarray      # (W, 4) map line of each wall's faces (+u, −u, +v, −v), −1: too short
 
@@ -130,10 +131,10 @@ def _wall(model: "mujoco.MjModel", data: "mujoco.MjData", g: int, path: Path) ->
                 size[[i, j]].copy())
 
 
-def build_map(walls: list[Wall]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+def build_map(walls: list[Wall]) -> tuple[np.ndarray, ...]:
     """Map lines from the walls' faces: long faces first (each a new line unless it lies on one),
     then short faces join a line they lie on or stay unmapped. Returns lines (K, 2), segments
-    (S, 2, 2), segment_line (S,), segment_geom (S,), face_line (W, 4)."""
+    (S, 2, 2), segment_line (S,), segment_geom (S,), face_line (W, 4), segment_normal (S, 2)."""
     lines: list[np.ndarray] = []
     face_to_line = -np.ones((len(walls), 4), int)
     faces = [(w, f, *face) for w, wall in enumerate(walls) for f, face in enumerate(wall.faces())]
@@ -147,15 +148,16 @@ def build_map(walls: list[Wall]) -> tuple[np.ndarray, np.ndarray, np.ndarray, np
                 lines.append(line)
                 k = len(lines) - 1
             face_to_line[w, f] = k
-    segs, seg_line, seg_geom = [], [], []
+    segs, seg_line, seg_geom, normals = [], [], [], []
     for w, f, n, p, half in faces:
         if face_to_line[w, f] >= 0:
             t = np.array([-n[1], n[0]]) * half
             segs.append([p - t, p + t])
             seg_line.append(face_to_line[w, f])
             seg_geom.append(walls[w].geom)
+            normals.append(n)
     return (np.array(lines).reshape(-1, 2), np.array(segs).reshape(-1, 2, 2), np.array(seg_line, int),
-            np.array(seg_geom, int), face_to_line)
+            np.array(seg_geom, int), face_to_line, np.array(normals, float).reshape(-1, 2))
 
 
 def load_line_scene(scene: str | Path) -> LineScene:
@@ -176,11 +178,12 @@ def load_line_scene(scene: str | Path) -> LineScene:
         raise UserError(f"MJCF {path} has no map walls: add upright box geoms named lw0, lw1... (their vertical "
                         f"side faces become the map's lines)")
     walls = [_wall(model, data, g, path) for g in ids]
-    lines, segments, segment_line, segment_geom, face_to_line = build_map(walls)
+    lines, segments, segment_line, segment_geom, face_to_line, normals = build_map(walls)
     if not len(lines):
         raise UserError(f"MJCF {path}: no wall face is {MIN_FACE_LENGTH} m long or longer, so the map has no "
                         f"lines: make the lw* walls longer")
-    return LineScene(path.stem, path, model, data, lines, segments, segment_line, segment_geom, walls, face_to_line)
+    return LineScene(path.stem, path, model, data, lines, segments, segment_line, segment_geom, normals, walls,
+                     face_to_line)
 
 
 def beam_lines(scene: LineScene, scan: "Scan", pose: np.ndarray) -> np.ndarray:

@@ -30,6 +30,7 @@ from ..fingerprint import package_digest
 from .camera import Intrinsics
 from .detect import DetectorConfig, detect
 from .planar_sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
+from .line_sequence import LineSequence, LineSequenceSpec, make_line_sequence
 from .render import FrameRenderer
 from .scene import Scene, load_scene, resolve_scene_path
 from .trajectory import TRAJECTORIES, make_trajectory, rig_for
@@ -262,13 +263,15 @@ def _cached(path: Path, key: str, spec: SequenceSpec) -> Sequence | None:
     return None
 
 
-def load_sequence(spec: SequenceSpec | PlanarSequenceSpec, cache_dir: Path | None = None,
-                  use_cache: bool = True) -> Sequence | PlanarSequence:
+def load_sequence(spec: SequenceSpec | PlanarSequenceSpec | LineSequenceSpec, cache_dir: Path | None = None,
+                  use_cache: bool = True) -> Sequence | PlanarSequence | LineSequence:
     """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
     A damaged cache entry, or one that is not this spec's sequence, is rendered again. A planar
-    spec's sequence is made afresh (lidar scans take a fraction of a millisecond: no cache)."""
+    or lines spec's sequence is made afresh (lidar scans take a fraction of a millisecond: no cache)."""
     if isinstance(spec, PlanarSequenceSpec):
         return make_planar_sequence(spec)
+    if isinstance(spec, LineSequenceSpec):
+        return make_line_sequence(spec)
     scene = load_scene(spec.scene)
     key = spec.key(scene)
     path = Path(cache_dir or default_cache_dir()) / "sequences" / f"{key}.npz"
