@@ -24,7 +24,7 @@ import time
 from pathlib import Path
 from typing import Callable, Iterable
 
-_state = {"active": False, "started": None, "noted": False, "what": ""}
+_state = {"active": False, "started": None, "noted": False, "what": "", "expect": 30}
 
 
 def install() -> None:
@@ -60,12 +60,12 @@ def install() -> None:
     Cache.load_overload, Cache.save_overload = load_overload, save_overload
 
 
-def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels") -> float | None:
+def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels", expect_s: float = 30) -> float | None:
     """Run ``calls``; if a kernel compiles meanwhile, print ``compiling <what> (...)...`` at
     the first one, a dot per kernel and ``done in N s`` at the end. Returns the seconds spent
     compiling, ``None`` when everything came from the cache. A call's error is left to the
-    real call to report."""
-    _state.update(active=True, started=None, what=what)
+    real call to report. ``expect_s``: about how long a cold compile takes, for the note."""
+    _state.update(active=True, started=None, what=what, expect=expect_s)
     try:
         for call in calls:
             try:
@@ -86,7 +86,7 @@ def _compiling(cache) -> None:
     if _state["active"]:
         if _state["started"] is None:
             _state["started"] = time.perf_counter()
-            print(f"assocbench: compiling {_state['what']} (first run in this environment, ~30 s) ",
+            print(f"assocbench: compiling {_state['what']} (first run in this environment, ~{_state['expect']:.0f} s) ",
                   end="", file=sys.stderr, flush=True)
         print(".", end="", file=sys.stderr, flush=True)
     elif not _state["noted"] and _module(cache).startswith("assocbench"):

@@ -206,10 +206,10 @@ def test_split_merge_merges_across_an_occluder():
     scan, beam_labels = synth_scan(world, pose)
     pieces = np.flatnonzero(np.diff(np.flatnonzero(beam_labels == 1)) > 1)
     assert len(pieces) == 1                                  # the wall is seen in two pieces
-    det = extract_lines(scan, 0.01, LineExtractorConfig())
+    det = extract_lines(scan, 0.01, LineExtractorConfig(min_points=8))   # 360 beams: a piece has ~10
     labels = label_lines(det, beam_labels, 0.8)
     assert (labels == 1).sum() == 1
-    ransac = extract_lines(scan, 0.01, LineExtractorConfig(method="ransac"))
+    ransac = extract_lines(scan, 0.01, LineExtractorConfig(method="ransac", min_points=8))
     assert (label_lines(ransac, beam_labels, 0.8) == 1).sum() == 2   # one line per contiguous piece
 
 

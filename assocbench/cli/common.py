@@ -19,15 +19,16 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     """The flags that pick a sequence and a belief (see configs/default.yaml)."""
     p.add_argument("--scene", help="shipped scene name or path to an MJCF file")
     p.add_argument("--trajectory", help="camera: circle | line | figure-eight | loop | waypoints | mjcf-cameras; "
-                   "planar: loop | ellipse (assocbench list trajectories)")
+                   "planar and lines: loop | ellipse (assocbench list trajectories)")
     p.add_argument("--frames", type=int, help="number of frames")
     p.add_argument("--seed", type=int, help="seed of trajectory jitter, belief errors and clutter")
     p.add_argument("--config", help="YAML run config (default: the shipped configs/default.yaml)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="sets",
                    help="override a config key, e.g. --set belief.sigma_rotation=2 (repeatable)")
     p.add_argument("--loop", action="store_true", default=None,
-                   help="closed loop: the belief is the estimator's posterior (EKF-SLAM), updated with the "
-                        "method's own pairings; settings under estimator.* (mode: localisation | slam)")
+                   help="closed loop: the belief is the estimator's posterior (the scene's EKF: SLAM, or "
+                        "localisation on the known map for lines scenes), updated with the method's own pairings; "
+                        "settings under estimator.* (mode: localisation | slam)")
 
 
 

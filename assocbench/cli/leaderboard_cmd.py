@@ -17,7 +17,8 @@ HELP = "run every method of a suite and write the leaderboard (CSV, Markdown, PN
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML or shipped suite name: leaderboard (default), loop (closed loop)")
+    p.add_argument("--suite", help="suite YAML or shipped suite name: leaderboard (default), loop (closed loop), "
+                   "planar (posts), lines (walls); the *_ci suites are check's")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
     p.add_argument("--executor", choices=EXECUTORS, default="local", help="local processes or a dask cluster")
     p.add_argument("--address", help="dask scheduler address, e.g. tcp://127.0.0.1:8786")

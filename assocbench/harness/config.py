@@ -296,8 +296,8 @@ def camera_only(spec: RunSpec, what: str) -> RunSpec:
     if isinstance(spec.sequence, (PlanarSequenceSpec, LineSequenceSpec)):
         track = "planar" if isinstance(spec.sequence, PlanarSequenceSpec) else "lines"
         raise UserError(f"{what} serves the camera track; scene {spec.sequence.scene!r} is a {track} one (lidar "
-                        f"scans): run it with `assocbench run` or `leaderboard --suite {track}`, whose "
-                        "figures show it")
+                        f"scans): run it with `assocbench run`, and see it in the top views of "
+                        f"`assocbench leaderboard --suite {track}`")
     return spec
 
 

@@ -105,9 +105,20 @@ def nominal_line_noise(R: list[np.ndarray], fallback: np.ndarray) -> np.ndarray:
     return nominal_noise(np.concatenate(stacked), fallback) if stacked else fallback
 
 
+def warm_extraction() -> None:
+    """Compile (or load from numba's cache) the extraction kernels on a small synthetic wall, with
+    the note ``kernels.warm`` prints when they compile, so the first frame is not the one that waits."""
+    from ..kernels import warm
+
+    angles = np.linspace(-0.6, 0.6, 48)
+    wall = Scan(angles, 2.0 / np.cos(angles), np.zeros(48, int), full_circle=False)
+    warm([lambda: extract_lines(wall, 0.01, LineExtractorConfig(min_points=8))], "line extraction kernels", expect_s=2)
+
+
 def make_line_sequence(spec: LineSequenceSpec, scene: LineScene | None = None) -> LineSequence:
     """Drive ``spec``'s trajectory through its scene and extract lines every frame."""
     scene = scene or load_line_scene(spec.scene)
+    warm_extraction()
     poses = planar_trajectory(scene, spec.trajectory, spec.frames, spec.seed, **spec.trajectory_params)
     zs, Rs, labels, ends, scans = [], [], [], [], []
     visible = np.zeros((len(poses), len(scene.lines)), bool)

@@ -117,11 +117,10 @@ def group_fits(rho: np.ndarray, beta: np.ndarray, w: np.ndarray | float, var_rho
     with ``H⁻¹`` from a 2×2 Cholesky factor), the orthogonal distances ``d`` (n,) of the points
     and per group (k, 4): RMS of d, largest |d|, least and largest ``ρ sin(β − α)`` (the
     along-line coordinate). ``w``, ``var_rho``, ``var_beta``: per point (n,) or one for all."""
-    def per_point(x):
-        return np.ascontiguousarray(np.broadcast_to(np.asarray(x, float), np.shape(rho)))
-    return _covariance_kernel(np.ascontiguousarray(rho, float), np.ascontiguousarray(beta, float), per_point(w),
-                              per_point(var_rho), per_point(var_beta), np.asarray(alpha, float),
-                              np.asarray(r, float), np.asarray(starts, np.int64))
+    def per_point(x):   # a writeable contiguous copy: a read-only view would compile a second signature
+        return np.array(np.broadcast_to(np.asarray(x, float), np.shape(rho)), dtype=float, order="C")
+    return _covariance_kernel(per_point(rho), per_point(beta), per_point(w), per_point(var_rho), per_point(var_beta),
+                              np.array(alpha, float), np.array(r, float), np.array(starts, np.int64))
 
 
 def fit_polar_line(rho: np.ndarray, beta: np.ndarray, sigma_rho: np.ndarray | float,

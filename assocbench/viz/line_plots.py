@@ -4,7 +4,7 @@ Each panel shows the map (the wall faces, grey), the true path (thick black) and
 estimate (thin, blue), and the last frame as the robot saw it, drawn at the
 *estimated* pose: the scan's points (small dots) and the extracted segments coloured by what the
 method did with them: paired with the right wall (green), with a wrong one (red), left unpaired
-though they lie on a map wall (orange), left unpaired as clutter should be (grey). A misplaced
+though they lie on a map wall (orange), left unpaired as clutter should be (purple). A misplaced
 estimate shows as scan and segments offset from the walls.
 """
 
@@ -19,7 +19,7 @@ import pandas as pd
 from ..belief.se2 import rot2
 from .loop_plots import label, method_order
 
-STATUS_COLORS = {"right": "#2ca02c", "wrong": "#d62728", "missed": "#ff7f0e", "clutter": "#7f7f7f"}
+STATUS_COLORS = {"right": "#2ca02c", "wrong": "#d62728", "missed": "#ff7f0e", "clutter": "#9467bd"}
 ESTIMATE_COLOR = "#1f77b4"   # one colour in every panel: the status colours must stay unambiguous
 
 
