@@ -24,8 +24,9 @@ import numpy as np
 
 from assocbench.belief.polar_line import line_from_points, predict
 from assocbench.belief.range_bearing import wrap
-from assocbench.belief.se2 import between, rot2, rz
+from assocbench.belief.se2 import between, rot2
 from assocbench.estimators.base import FrameData, Motion
+from assocbench.sim.planar_sequence import PosesInPlane
 
 ROOM = (4.0, 3.0)                    # half sizes: the room is [−4, 4] × [−3, 3]
 PILLAR = ((-0.1, -0.1), (0.7, 0.5))  # lower-left and upper-right corners
@@ -61,7 +62,7 @@ def visible_lines(pose: np.ndarray, segments: np.ndarray, segment_line: np.ndarr
 
 
 @dataclass
-class LineSeq:
+class LineSeq(PosesInPlane):
     """The fields of a ``LineSequence`` (``sim.line_sequence``) the lines track's belief reads, plus
     ``motions`` (odometry from k − 1 to k, ``motions[0]`` unused) for tests that drive a filter."""
 
@@ -82,20 +83,9 @@ class LineSeq:
     final_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # no scan: the top view draws segments only
     track: str = "lines"
 
-    def __len__(self) -> int:
-        return len(self.poses)
-
     @property
     def landmarks(self) -> np.ndarray:
         return self.lines
-
-    @property
-    def rotations(self) -> np.ndarray:
-        return rz(self.poses[:, 2])
-
-    @property
-    def positions(self) -> np.ndarray:
-        return np.column_stack([self.poses[:, :2], np.zeros(len(self.poses))])
 
     def frame(self, k: int) -> FrameData:
         return FrameData(self.z[k], self.R[k])

@@ -13,6 +13,24 @@ import numpy as np
 from scipy.linalg.blas import dsyr2k
 from scipy.linalg.lapack import dpotrs
 
+from ..belief.range_bearing import wrap
+from ..errors import UserError
+
+
+def paired_innovations(association: np.ndarray, n: int, z: np.ndarray, zhat: np.ndarray,
+                       angular: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(a, paired, ν)`` of an association (n,) against its problem's candidates: the candidates
+    paired (``a_j ≥ 0``) and their innovations ``ν_j = z_{a_j} − ẑ_j`` (k, d), angular dims wrapped
+    to [−π, π). A shape other than (n,) is a one-line ``UserError``."""
+    a = np.asarray(association, dtype=np.int64)
+    if a.shape != (n,):
+        raise UserError(f"association has shape {a.shape}, expected ({n},): one entry per candidate")
+    paired = np.flatnonzero(a >= 0)
+    nu = z[a[paired]] - zhat[paired]
+    for dim in angular:
+        nu[:, dim] = wrap(nu[:, dim])
+    return a, paired, nu
+
 
 class NotPositiveDefinite(ArithmeticError):
     """An innovation covariance that is not positive definite (the update is refused)."""

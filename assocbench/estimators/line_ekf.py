@@ -24,7 +24,7 @@ from ..belief.range_bearing import wrap
 from ..errors import UserError
 from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport
 from .config import EstimatorConfig
-from .ekf_core import block_diag, joseph_update
+from .ekf_core import block_diag, joseph_update, paired_innovations
 from .planar_pose import PlanarPoseViews, motion_step
 
 POSE = np.arange(3)
@@ -82,13 +82,8 @@ class LineEKF(PlanarPoseViews, Estimator):
         if self._last is None:
             raise RuntimeError("update() needs the problem() of the same frame first")
         (rows, zhat, H_pose, frame), self._last = self._last, None
-        a = np.asarray(association, dtype=np.int64)
-        if a.shape != rows.shape:
-            raise UserError(f"association has shape {a.shape}, expected ({len(rows)},): one entry per candidate")
-        paired = np.flatnonzero(a >= 0)
+        a, paired, nu = paired_innovations(association, len(rows), frame.z, zhat, ANGULAR)
         if len(paired):
-            nu = frame.z[a[paired]] - zhat[paired]
-            nu[:, 0] = wrap(nu[:, 0])
             dx, self.P = joseph_update(self.P, H_pose[paired].reshape(-1, 3), POSE, nu.ravel(),
                                        block_diag(frame.R[a[paired]]), overwrite=True)
             self._x = self._x + dx

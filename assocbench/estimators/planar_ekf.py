@@ -28,7 +28,7 @@ from ..belief.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobian
 from ..errors import UserError
 from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from .config import EstimatorConfig
-from .ekf_core import augment, block_diag, bundle_jacobian, joseph_update, remove, state_columns
+from .ekf_core import augment, block_diag, bundle_jacobian, joseph_update, paired_innovations, remove, state_columns
 from .planar_pose import PlanarPoseViews, motion_step
 
 POSE = np.arange(3)
@@ -83,13 +83,8 @@ class PlanarEKF(PlanarPoseViews, Estimator):
         """Joseph update with exactly the pairs of ``association`` (bearing innovation wrapped);
         then confirm observed tentative landmarks and drop those missed ``drop_after`` times."""
         rows, zhat, J_pose, J_l, inside, frame = self._require_problem()
-        a = np.asarray(association, dtype=np.int64)
-        if a.shape != rows.shape:
-            raise UserError(f"association has shape {a.shape}, expected ({len(rows)},): one entry per candidate")
-        paired = np.flatnonzero(a >= 0)
+        a, paired, nu = paired_innovations(association, len(rows), frame.z, zhat, ANGULAR)
         if len(paired):
-            nu = frame.z[a[paired]] - zhat[paired]
-            nu[:, 1] = wrap(nu[:, 1])
             dx, self.P = joseph_update(self.P, bundle_jacobian(J_pose[paired], J_l[paired]),
                                        state_columns(3, 2, rows[paired]), nu.ravel(),
                                        block_diag(frame.R[a[paired]]), overwrite=True)

@@ -14,16 +14,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..belief.se2 import rz
 from .lidar import LidarConfig, Scan, scan
 from .line_extract import LineExtractorConfig, extract_lines, label_lines
 from .line_scene import LineScene, beam_lines, load_line_scene, visible_lines
-from .planar_trajectory import planar_trajectory, scripted
-from .scene import resolve_scene_path
+from .planar_sequence import PosesInPlane, ScenePath
+from .planar_trajectory import planar_trajectory
 
 
 @dataclass(frozen=True)
-class LineSequenceSpec:
+class LineSequenceSpec(ScenePath):
     """Everything that determines a lines sequence."""
 
     scene: str = "office"
@@ -35,11 +34,6 @@ class LineSequenceSpec:
     lines: LineExtractorConfig = field(default_factory=LineExtractorConfig)
     keep_scans: bool = False
 
-    def resolved_trajectory(self) -> str:
-        """The trajectory's name: the given one, else the scene's default (``loop`` for a shipped
-        scene, ``ellipse`` for a user MJCF)."""
-        return self.trajectory or ("loop" if scripted(resolve_scene_path(self.scene)) else "ellipse")
-
     def check(self) -> None:
         """Refuse a bad scene (no walls, a degenerate wall), trajectory or trajectory parameter now,
         with one line, before anything runs."""
@@ -48,7 +42,7 @@ class LineSequenceSpec:
 
 
 @dataclass
-class LineSequence:
+class LineSequence(PosesInPlane):
     """Per-frame extracted lines and truth; line indices refer to ``lines``."""
 
     scene: str
@@ -69,22 +63,9 @@ class LineSequence:
     final_points: np.ndarray = field(default_factory=lambda: np.zeros((0, 2)))   # the last scan's points (robot frame)
     track = "lines"
 
-    def __len__(self) -> int:
-        return len(self.poses)
-
     @property
     def landmarks(self) -> np.ndarray:
         return self.lines
-
-    @property
-    def rotations(self) -> np.ndarray:
-        """(N, 3, 3) ``Rz(θ)``: the poses as 3-D rotations (for TUM files and 3-D metrics)."""
-        return rz(self.poses[:, 2])
-
-    @property
-    def positions(self) -> np.ndarray:
-        """(N, 3) ``(x, y, 0)``."""
-        return np.column_stack([self.poses[:, :2], np.zeros(len(self.poses))])
 
 
 def line_frame(scene: LineScene, pose: np.ndarray, spec: LineSequenceSpec, k: int):

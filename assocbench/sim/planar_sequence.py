@@ -21,8 +21,34 @@ from .scene import resolve_scene_path
 from .post_detect import PostDetectorConfig, detect_posts, label_detections
 
 
+class ScenePath:
+    """The path of a lidar track's spec (``scene``, ``trajectory``): shared by the planar and lines tracks."""
+
+    def resolved_trajectory(self) -> str:
+        """The trajectory's name: the given one, else the scene's default (``loop`` for a shipped
+        scene, ``ellipse`` for a user MJCF)."""
+        return self.trajectory or ("loop" if scripted(resolve_scene_path(self.scene)) else "ellipse")
+
+
+class PosesInPlane:
+    """A lidar track's sequence's ``poses`` (N, 3) ``(x, y, θ)``, also as 3-D rotations and positions."""
+
+    def __len__(self) -> int:
+        return len(self.poses)
+
+    @property
+    def rotations(self) -> np.ndarray:
+        """(N, 3, 3) ``Rz(θ)``: the poses as 3-D rotations (for TUM files and 3-D metrics)."""
+        return rz(self.poses[:, 2])
+
+    @property
+    def positions(self) -> np.ndarray:
+        """(N, 3) ``(x, y, 0)``."""
+        return np.column_stack([self.poses[:, :2], np.zeros(len(self.poses))])
+
+
 @dataclass(frozen=True)
-class PlanarSequenceSpec:
+class PlanarSequenceSpec(ScenePath):
     """Everything that determines a planar sequence."""
 
     scene: str = "park"
@@ -34,11 +60,6 @@ class PlanarSequenceSpec:
     posts: PostDetectorConfig = field(default_factory=PostDetectorConfig)
     keep_scans: bool = False
 
-    def resolved_trajectory(self) -> str:
-        """The trajectory's name: the given one, else the scene's default (``loop`` for a shipped
-        scene, ``ellipse`` for a user MJCF)."""
-        return self.trajectory or ("loop" if scripted(resolve_scene_path(self.scene)) else "ellipse")
-
     def check(self) -> None:
         """Refuse a bad scene (no posts, posts of two radii), trajectory or trajectory parameter now,
         with one line, before anything runs (a scene loads in milliseconds; the path is cheap)."""
@@ -47,7 +68,7 @@ class PlanarSequenceSpec:
 
 
 @dataclass
-class PlanarSequence:
+class PlanarSequence(PosesInPlane):
     """Per-frame detections and truth; post indices refer to ``post_names``."""
 
     scene: str
@@ -65,22 +86,9 @@ class PlanarSequence:
     scans: list[Scan] | None = None
     track = "planar"
 
-    def __len__(self) -> int:
-        return len(self.poses)
-
     @property
     def landmarks(self) -> np.ndarray:
         return self.posts
-
-    @property
-    def rotations(self) -> np.ndarray:
-        """(N, 3, 3) ``Rz(θ)``: the poses as 3-D rotations (for TUM files and 3-D metrics)."""
-        return rz(self.poses[:, 2])
-
-    @property
-    def positions(self) -> np.ndarray:
-        """(N, 3) ``(x, y, 0)``."""
-        return np.column_stack([self.poses[:, :2], np.zeros(len(self.poses))])
 
 
 def lidar_visible(scan_: Scan, post_geom_ids: np.ndarray, min_points: int) -> np.ndarray:
