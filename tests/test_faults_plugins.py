@@ -239,6 +239,13 @@ def _wait_for(predicate, timeout: float) -> bool:
     return predicate()
 
 
+def _default_sigint() -> None:
+    """In the child before exec: SIGINT back to its default. A test run started in the background
+    of a shell without job control inherits SIGINT ignored, and Python then never raises
+    KeyboardInterrupt, so the child would stand for a user who cannot press Ctrl-C."""
+    signal.signal(signal.SIGINT, signal.SIG_DFL)
+
+
 @pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="reads /proc")
 @pytest.mark.parametrize("how", ["ctrl-c", "sigterm", "sigkill"])
@@ -256,7 +263,7 @@ def test_a_stopped_sweep_returns_at_once_keeps_finished_jobs_and_leaves_no_proce
     with log.open("w") as stderr:
         proc = subprocess.Popen([sys.executable, "-m", "assocbench.cli.main", "leaderboard", "--suite", str(suite),
                                  "--out", str(out), "--jobs", "2", "--quiet"], env=env, start_new_session=True,
-                                stdout=subprocess.DEVNULL, stderr=stderr)
+                                stdout=subprocess.DEVNULL, stderr=stderr, preexec_fn=_default_sigint)
     try:
         assert _wait_for(lambda: list(out.rglob("*.manifest.json")) or proc.poll() is not None, 240)
         assert proc.poll() is None, log.read_text()
