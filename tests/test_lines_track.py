@@ -124,3 +124,25 @@ def test_extracted_line_covariance_describes_its_error_on_a_shipped_scene():
     assert extraction_scores(seq)["nees"] == pytest.approx(2.0, abs=0.3)
     seq = make_line_sequence(LineSequenceSpec(scene="office", frames=100))
     assert extraction_scores(seq)["nees"] < 3.0
+
+
+def test_a_wall_above_the_scan_plane_is_a_one_line_error(tmp_path, capsys):
+    """A map wall from z 2.3 to 2.7 m is a candidate the lidar at 0.5 m can never measure."""
+    path = tmp_path / "short.xml"
+    path.write_text('<mujoco><worldbody><geom name="floor" type="plane" size="9 9 0.1"/>'
+                    '<geom name="lw0" type="box" pos="0 3 2.5" size="3 0.05 0.2"/>'
+                    '<geom name="lw1" type="box" pos="0 -3 0.6" size="3 0.05 0.6"/></worldbody></mujoco>')
+    assert main(["run", "--method", "jcbb", "--scene", str(path), "--out", str(tmp_path / "o")]) == 2
+    err = capsys.readouterr().err.strip()
+    assert len(err.splitlines()) == 1 and "lw0" in err and "scan plane" in err
+    assert not (tmp_path / "o").exists()
+
+
+def test_a_run_with_nothing_to_associate_never_reads_as_perfect(tmp_path):
+    """95 % of the beams drop out: no line is extracted while walls stay candidates. The empty answer
+    is exact in every frame, yet perfect, jc_share and surprisal_gap are NaN, not 1 and 0."""
+    args = ["run", "--method", "jcbb", "--scene", "office", "--frames", "10", "--set", "lidar.dropout=0.95"]
+    assert main(args + ["--out", str(tmp_path), "--format", "csv"]) == 1
+    row = pd.read_csv(tmp_path / "summary.csv").iloc[0]
+    assert row["status"] == "nothing associated"
+    assert np.isnan(row["perfect"]) and np.isnan(row["jc_share"]) and np.isnan(row["surprisal_gap"])

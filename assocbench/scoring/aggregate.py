@@ -10,7 +10,9 @@ not say); true_mass = mean over frames of the probability a soft associator (JPD
 true outcome of each candidate (``metrics.true_mass``; NaN for hard associators).
 
 A ratio with nothing to count is NaN, never 1: precision when no pairing was returned, recall
-when the truth has no pair. ``status`` says in words whether the numbers can be trusted:
+when the truth has no pair; perfect when the run had nothing to associate at all (no true pair
+and no pairing returned: every empty answer is then trivially "exact"); jc_share and
+surprisal_gap when no pairing was returned in any frame (an empty answer is always compatible). ``status`` says in words whether the numbers can be trusted:
 ``ok``, or every reason they cannot (frames that failed, no candidates, nothing associated), so
 a broken run can never read as a perfect one; ``check`` fails every row that is not ``ok``.
 """
@@ -76,11 +78,12 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
     f1 = 2 * precision * recall / (precision + recall) if precision + recall > 0 else precision + recall  # 0 or NaN
     runtime_ms = ok["runtime_s"].to_numpy() * 1e3
     gap = (ok["surprisal"] - ok["surprisal_true"]).to_numpy()
+    paired_any = tp + fp > 0
     return {
         "status": run_status(frames), "precision": precision, "recall": recall, "f1": f1,
-        "perfect": _perfect_share(frames),
-        "surprisal_gap": float(np.nanmean(gap)) if np.isfinite(gap).any() else np.nan,
-        "jc_share": float(ok["jointly_compatible"].mean()) if len(ok) else np.nan,
+        "perfect": _perfect_share(frames) if paired_any or tp + fn > 0 else np.nan,
+        "surprisal_gap": float(np.nanmean(gap)) if paired_any and np.isfinite(gap).any() else np.nan,
+        "jc_share": float(ok["jointly_compatible"].mean()) if paired_any and len(ok) else np.nan,
         "clutter_accepted": int(frames["clutter_accepted"].sum()),
         "runtime_median_ms": float(np.median(runtime_ms)) if len(runtime_ms) else np.nan,
         "runtime_p95_ms": float(np.percentile(runtime_ms, 95)) if len(runtime_ms) else np.nan,

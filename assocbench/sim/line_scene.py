@@ -47,6 +47,7 @@ class Wall:
     centre: np.ndarray   # (2,)
     axes: np.ndarray     # (2, 2) rows u, v
     half: np.ndarray     # (2,) a, b
+    z_span: tuple[float, float] = (-np.inf, np.inf)   # bottom and top (m)
 
     def faces(self) -> list[tuple[np.ndarray, np.ndarray, float]]:
         """The four side faces ``(normal, centre, half length)`` in the order +u, −u, +v, −v."""
@@ -127,8 +128,9 @@ def _wall(model: "mujoco.MjModel", data: "mujoco.MjData", g: int, path: Path) ->
                         f"z only (euler=\"0 0 yaw\") or rename it so it does not start with 'lw'")
     i, j = [k for k in range(3) if k != vertical[0]]
     axes = rot[:2, [i, j]].T
+    z, dz = float(data.geom_xpos[g, 2]), float(size[vertical[0]])
     return Wall(g, data.geom_xpos[g, :2].copy(), axes / np.linalg.norm(axes, axis=1, keepdims=True),
-                size[[i, j]].copy())
+                size[[i, j]].copy(), (z - dz, z + dz))
 
 
 def build_map(walls: list[Wall]) -> tuple[np.ndarray, ...]:
@@ -184,6 +186,18 @@ def load_line_scene(scene: str | Path) -> LineScene:
                         f"lines: make the lw* walls longer")
     return LineScene(path.stem, path, model, data, lines, segments, segment_line, segment_geom, normals, walls,
                      face_to_line)
+
+
+def check_scan_plane(scene: LineScene, height: float) -> None:
+    """A one-line error when a map wall does not cross the lidar's scan plane at ``height``: its
+    faces would be candidates the lidar can never measure."""
+    for wall in scene.walls:
+        lo, hi = wall.z_span
+        if not lo <= height <= hi:
+            name = scene.model.geom(wall.geom).name
+            raise UserError(f"MJCF {scene.path}: map wall {name} spans z {lo:g}..{hi:g} m and does not cross the "
+                            f"lidar's scan plane at z = {height:g} m (lidar.height): move or resize it, or rename it "
+                            f"so it does not start with 'lw'")
 
 
 def beam_lines(scene: LineScene, scan: "Scan", pose: np.ndarray) -> np.ndarray:

@@ -16,7 +16,7 @@ import numpy as np
 
 from .lidar import LidarConfig, Scan, scan
 from .line_extract import LineExtractorConfig, extract_lines, label_lines
-from .line_scene import LineScene, beam_lines, load_line_scene, visible_lines
+from .line_scene import LineScene, beam_lines, check_scan_plane, load_line_scene, visible_lines
 from .planar_sequence import PosesInPlane, ScenePath
 from .planar_trajectory import planar_trajectory
 
@@ -35,10 +35,11 @@ class LineSequenceSpec(ScenePath):
     keep_scans: bool = False
 
     def check(self) -> None:
-        """Refuse a bad scene (no walls, a degenerate wall), trajectory or trajectory parameter now,
-        with one line, before anything runs."""
-        planar_trajectory(load_line_scene(self.scene), self.trajectory, min(self.frames, 2), self.seed,
-                          **self.trajectory_params)
+        """Refuse a bad scene (no walls, a degenerate wall or one the scan plane misses), trajectory
+        or trajectory parameter now, with one line, before anything runs."""
+        scene = load_line_scene(self.scene)
+        check_scan_plane(scene, self.lidar.height)
+        planar_trajectory(scene, self.trajectory, min(self.frames, 2), self.seed, **self.trajectory_params)
 
 
 @dataclass
