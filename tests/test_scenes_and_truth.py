@@ -22,7 +22,7 @@ def label_errors(seq) -> np.ndarray:
 
 def test_shipped_scenes_have_enough_landmarks():
     counts = {name: len(load_scene(name).landmarks) for name in shipped_scenes() if scene_track(name) == "camera"}
-    assert set(counts) == {"room", "checkerboard", "corridor"}
+    assert set(counts) == {"room", "checkerboard", "corridor", "bays", "crates"}
     assert counts["room"] >= 60 and min(counts.values()) >= 60
 
 

@@ -22,11 +22,12 @@ def _first_line(text: str | None) -> str:
 
 
 def main(args: argparse.Namespace) -> int:
+    from ..sim.dense_scenegen import DENSE_SCENES
     from ..sim.line_scenegen import LINE_SCENES
     from ..sim.planar_scenegen import PLANAR_SCENES
     from ..sim.scenegen import SCENES
 
-    described = SCENES | PLANAR_SCENES | LINE_SCENES
+    described = SCENES | PLANAR_SCENES | LINE_SCENES | DENSE_SCENES
     track = {name: "planar" for name in PLANAR_SCENES} | {name: "lines" for name in LINE_SCENES}
 
     sections = {

@@ -38,7 +38,7 @@ from .truth import TruthConfig, label_features, visibility
 from .waypoints import file_digest, read_waypoints, user_keyframes, waypoint_path
 
 FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
-DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line"}
+DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line", "bays": "line", "crates": "circle"}
 
 
 def default_cache_dir() -> Path:
