@@ -10,12 +10,15 @@ import numpy as np
 from .. import _runtime  # sets MUJOCO_GL before mujoco loads; GL_ERROR says if it could not
 from ..errors import UserError
 from .camera import CV_TO_MUJOCO, Intrinsics
+from .depth_frame import NO_GEOM
 from .scene import Scene
 
 import mujoco  # noqa: E402
 
 
 MAX_MSAA = 16
+FAR_SHARE = 0.999   # a depth within 0.1 % of the far plane is "nothing hit" (float32 readback)
+GEOM_TYPE = int(mujoco.mjtObj.mjOBJ_GEOM)   # a plain int: numpy compares an enum object element by element
 MIN_SIDE, MAX_SIDE = 16, 8192   # frame size in pixels: the smallest we render, the most GL contexts reliably offer
 
 
@@ -60,8 +63,17 @@ def _gl_renderer(model: "mujoco.MjModel", width: int, height: int) -> "mujoco.Re
     return renderer
 
 
+def _geometry_only() -> "mujoco.MjvOption":
+    """Default visual options with every site group hidden: a depth sensor sees geoms only (the
+    ``lm*`` sites are drawn as 1 cm spheres by default and would poke out of the surfaces)."""
+    option = mujoco.MjvOption()
+    option.sitegroup[:] = 0
+    return option
+
+
 class FrameRenderer:
-    """Renders RGB always, metric z-depth and segmentation ``(H, W, 2) [objid, objtype]`` on request.
+    """Renders RGB always, metric z-depth and segmentation ``(H, W, 2) [objid, objtype]`` on request;
+    ``render_depth`` renders depth and geom segmentation alone (no RGB pass).
 
     Each extra mode is a full extra render pass, so ask only for what you use. ``msaa`` is the
     number of multisamples of the offscreen buffer (None: the scene's ``<quality offsamples>``,
@@ -79,6 +91,7 @@ class FrameRenderer:
                 f"{scene.name!r}: lower it or raise <visual><global offwidth offheight> in the MJCF"
             )
         self.scene = scene
+        self._depth_option = _geometry_only()
         self.K = Intrinsics.from_fovy(width, height, scene.fovy)
         self.far = float(scene.model.vis.map.zfar * scene.model.stat.extent)   # depth of "nothing hit"
         quality = scene.model.vis.quality
@@ -114,6 +127,24 @@ class FrameRenderer:
             out["segmentation"] = r.render().copy()
             r.disable_segmentation_rendering()
         return out
+
+    def render_depth(self, R: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """Depth and geom segmentation of one frame, without the RGB pass: ``depth`` (H, W)
+        float64 metric z along the optical axis, NaN where nothing is hit (the far plane);
+        ``geom`` (H, W) int64 geom id each pixel sees, ``NO_GEOM`` (-1) where it sees no geom.
+        Sites are hidden (a sensor images surfaces, not markers)."""
+        self.place_camera(R, p)
+        r = self._renderer
+        r.update_scene(self.scene.data, camera=self.scene.camera_id, scene_option=self._depth_option)
+        r.enable_depth_rendering()
+        depth = r.render().astype(np.float64)
+        r.disable_depth_rendering()
+        r.enable_segmentation_rendering()
+        seg = r.render()
+        r.disable_segmentation_rendering()
+        depth[~((depth > 0) & (depth < FAR_SHARE * self.far))] = np.nan   # the far plane, as ``sequence.depth_at``
+        geom = np.where(seg[..., 1] == GEOM_TYPE, seg[..., 0], NO_GEOM).astype(np.int64)
+        return depth, geom
 
     def close(self) -> None:
         self._renderer.close()
