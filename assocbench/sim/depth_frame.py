@@ -32,12 +32,16 @@ def normal_map(vertices: np.ndarray) -> np.ndarray:
     """The homework's normals from neighbour differences (H, W, 3):
     ``n = (V[v+1, u] − V[v, u]) × (V[v, u+1] − V[v, u])``, normalised. In this order (OpenCV axes)
     the normal of a surface seen from the front points towards the camera (``n · V < 0``). NaN on
-    the last row and column and wherever a vertex involved is missing or the cross product vanishes."""
+    the last row and column and wherever a vertex involved is missing or the cross product vanishes.
+    The cross product is written out per component (``np.cross`` takes several times longer)."""
     n = np.full(vertices.shape, np.nan)
-    dx = vertices[:-1, 1:] - vertices[:-1, :-1]
-    dy = vertices[1:, :-1] - vertices[:-1, :-1]
-    c = np.cross(dy, dx)
-    norm = np.linalg.norm(c, axis=-1, keepdims=True)
+    here = vertices[:-1, :-1]
+    dx = vertices[:-1, 1:] - here
+    dy = vertices[1:, :-1] - here
+    c = np.stack([dy[..., 1] * dx[..., 2] - dy[..., 2] * dx[..., 1],
+                  dy[..., 2] * dx[..., 0] - dy[..., 0] * dx[..., 2],
+                  dy[..., 0] * dx[..., 1] - dy[..., 1] * dx[..., 0]], axis=-1)
+    norm = np.sqrt(np.einsum("...i,...i->...", c, c))[..., None]
     with np.errstate(invalid="ignore", divide="ignore"):
         n[:-1, :-1] = np.where(norm > 0, c / norm, np.nan)
     return n
