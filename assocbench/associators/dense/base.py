@@ -1,0 +1,109 @@
+"""The dense associator interface: pair source points (world) with pixels of a depth frame.
+
+A source set is a map's points or a previous frame's points in WORLD coordinates: ``points`` and
+unit ``normals`` (n, 3). A target is a ``DepthFrame`` and a guess ``(R, t)`` of its camera-to-world
+pose. A pair (i, pixel) is kept only when it passes the homework's filters, all in world
+coordinates with ``q = R V[pixel] + t`` and ``n_q = R N[pixel]``:
+
+    target pixel valid (finite depth and normal),  |p_i − q| < d_thr,  angle(n_p, n_q) < angle_deg
+
+(the angle test is ``n_p · n_q > cos(angle_deg)``). How the candidate pixel is found is the
+method's: the projection of ``p_i`` under the guess (``projective``) or its nearest valid vertex
+in 3-D (``kdtree``). NaN anywhere in a candidate fails every comparison, so it never pairs.
+"""
+
+from __future__ import annotations
+
+from abc import ABC, abstractmethod
+from dataclasses import dataclass, field
+from typing import ClassVar
+
+import numpy as np
+
+from ...errors import UserError
+from ...sim.depth_frame import DepthFrame
+from ...validation import in_range, validate_fields
+
+
+@dataclass
+class Pairs:
+    """An association: ``source`` (k,) int64 indices into the source points, ascending, each at
+    most once; ``pixel`` (k,) int64 flat pixel indices ``v·W + u`` into the frame; ``considered``
+    the source points that passed the method's first filter (see the method), so that
+    ``len / considered`` is the share of candidates the distance and angle filters kept."""
+
+    source: np.ndarray
+    pixel: np.ndarray
+    considered: int
+
+    def __len__(self) -> int:
+        return len(self.source)
+
+    @classmethod
+    def empty(cls, considered: int = 0) -> "Pairs":
+        return cls(np.empty(0, np.int64), np.empty(0, np.int64), int(considered))
+
+
+@dataclass
+class DenseAssociator(ABC):
+    """Base class. ``d_thr`` (m, > 0): largest distance |p − q| of a pair; ``angle_deg`` (in
+    (0, 180]): largest angle between the normals of a pair. Checked when built (a bad value is a
+    one-line ``UserError`` naming ``params.<field>``)."""
+
+    name: ClassVar[str] = "base"
+    summary: ClassVar[str] = ""
+
+    d_thr: float = field(default=0.05, metadata=in_range(0, None, lo_open=True))
+    angle_deg: float = field(default=30.0, metadata=in_range(0, 180, lo_open=True))
+
+    def __post_init__(self) -> None:
+        validate_fields(self, "params")
+
+    @property
+    def cos_thr(self) -> float:
+        """The angle filter as a cosine: a pair needs ``n_p · n_q > cos_thr``."""
+        return float(np.cos(np.deg2rad(self.angle_deg)))
+
+    @abstractmethod
+    def associate(self, points: np.ndarray, normals: np.ndarray, frame: DepthFrame,
+                  R: np.ndarray, t: np.ndarray) -> Pairs:
+        """Pairs of source points (world) and pixels of ``frame`` seen from the guess (R, t)."""
+
+
+def checked_inputs(points, normals, frame, R, t) -> tuple[np.ndarray, ...]:
+    """C-contiguous float64 copies (views where already so) of the inputs, with one-line
+    ``UserError``s for wrong shapes: points, normals (n, 3), R (3, 3), t (3,), frame maps (H, W, 3)."""
+    if not isinstance(frame, DepthFrame):
+        raise UserError(f"the target must be a DepthFrame, got {type(frame).__name__}")
+    p = np.ascontiguousarray(points, dtype=np.float64)
+    n = np.ascontiguousarray(normals, dtype=np.float64)
+    if p.ndim != 2 or p.shape[1] != 3 or n.shape != p.shape:
+        raise UserError(f"source points and normals must both be (n, 3) arrays, got {p.shape} and {n.shape}")
+    R = np.ascontiguousarray(R, dtype=np.float64)
+    t = np.ascontiguousarray(t, dtype=np.float64).reshape(-1)
+    if R.shape != (3, 3) or t.shape != (3,):
+        raise UserError(f"the pose guess must be R (3, 3) and t (3,), got {R.shape} and {t.shape}")
+    h, w = frame.depth.shape
+    if frame.vertices.shape != (h, w, 3) or frame.normals.shape != (h, w, 3):
+        raise UserError(f"frame vertices and normals must be (H, W, 3) = ({h}, {w}, 3), "
+                        f"got {frame.vertices.shape} and {frame.normals.shape}")
+    return p, n, R, t
+
+
+def flat_maps(frame: DepthFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The frame's depth (H·W,), vertices and normals (H·W, 3) as C-contiguous float64, indexed
+    by flat pixel ``v·W + u`` (views, no copy, for the maps ``vertex_map``/``normal_map`` make)."""
+    h, w = frame.depth.shape
+    return (np.ascontiguousarray(frame.depth, dtype=np.float64).reshape(h * w),
+            np.ascontiguousarray(frame.vertices, dtype=np.float64).reshape(h * w, 3),
+            np.ascontiguousarray(frame.normals, dtype=np.float64).reshape(h * w, 3))
+
+
+def world_filters(points: np.ndarray, normals: np.ndarray, V: np.ndarray, N: np.ndarray, source: np.ndarray,
+                  pixel: np.ndarray, R: np.ndarray, t: np.ndarray, d_thr: float, cos_thr: float) -> np.ndarray:
+    """Mask of candidate pairs passing ``|p − (R V + t)|² < d_thr²`` and ``n_p · (R N) > cos_thr``
+    (NaN fails both)."""
+    e = points[source] - (V[pixel] @ R.T + t)
+    dot = np.einsum("ij,ij->i", normals[source], N[pixel] @ R.T)
+    with np.errstate(invalid="ignore"):
+        return (np.einsum("ij,ij->i", e, e) < d_thr * d_thr) & (dot > cos_thr)

@@ -1,0 +1,111 @@
+"""Projective data association (the homework's ``find_projective_correspondence``).
+
+Each source point ``p`` (world) is taken into the target camera with the guess (R, t),
+``p_c = Rᵀ (p − t)``, and projected to its nearest pixel
+
+    u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋      (pixel centres at integers)
+
+First filter (the homework's 2.1, these points are ``considered``): ``z > 0`` (in front of the
+camera: a point behind it would otherwise project through the centre onto a real pixel),
+``0 ≤ u < W``, ``0 ≤ v < H``, and the pixel valid (finite positive depth, finite normal). Second
+filter, in world coordinates with ``q = R V + t``, ``n_q = R N``: ``|p − q|² < d_thr²`` (pixels
+on the same ray but at another depth are not the same surface) and ``n_p · n_q > cos(angle)``.
+
+One compiled pass over the source points, O(n), no sort: the pairs come out in source order.
+``associate_numpy`` is the same computation in plain numpy, operation for operation (the
+tests require identical pairs; the benchmark's baseline).
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+from ...sim.depth_frame import DepthFrame
+from .base import DenseAssociator, Pairs, checked_inputs, flat_maps
+
+
+@njit(cache=True)
+def projective_kernel(points, normals, depth, V, N, width, height, f, cx, cy, R, t, d2_thr, cos_thr):
+    """(source, pixel, considered) of the projective association; see the module docstring."""
+    n = points.shape[0]
+    src = np.empty(n, np.int64)
+    pix = np.empty(n, np.int64)
+    k = 0
+    considered = 0
+    for i in range(n):
+        dx, dy, dz = points[i, 0] - t[0], points[i, 1] - t[1], points[i, 2] - t[2]
+        z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
+        if not z > 0.0:   # also NaN
+            continue
+        x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz
+        y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
+        uf = math.floor(f * x / z + cx + 0.5)
+        vf = math.floor(f * y / z + cy + 0.5)
+        if not (uf >= 0.0 and uf < width and vf >= 0.0 and vf < height):   # before the int cast
+            continue
+        j = int(vf) * width + int(uf)
+        d = depth[j]
+        if not (d > 0.0 and d < np.inf and math.isfinite(N[j, 0])):
+            continue
+        considered += 1
+        ex = points[i, 0] - (R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0])
+        ey = points[i, 1] - (R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1])
+        ez = points[i, 2] - (R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2])
+        if not ex * ex + ey * ey + ez * ez < d2_thr:
+            continue
+        nx = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]
+        ny = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
+        nz = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
+        if not normals[i, 0] * nx + normals[i, 1] * ny + normals[i, 2] * nz > cos_thr:
+            continue
+        src[k] = i
+        pix[k] = j
+        k += 1
+    return src[:k].copy(), pix[:k].copy(), considered
+
+
+class ProjectiveAssociator(DenseAssociator):
+    """Nearest pixel of each source point's projection under the guess, then the homework's filters."""
+
+    name = "projective"
+    summary = "project each source point into the frame with the pose guess; nearest pixel, distance and normal-angle filters"
+
+    def associate(self, points, normals, frame: DepthFrame, R, t) -> Pairs:
+        p, n, R, t = checked_inputs(points, normals, frame, R, t)
+        depth, V, N = flat_maps(frame)
+        K = frame.K
+        h, w = frame.depth.shape
+        src, pix, considered = projective_kernel(p, n, depth, V, N, w, h, float(K.f), float(K.cx), float(K.cy),
+                                                 R, t, self.d_thr * self.d_thr, self.cos_thr)
+        return Pairs(src, pix, int(considered))
+
+
+def associate_numpy(points, normals, frame: DepthFrame, R, t, d_thr: float = 0.05, angle_deg: float = 30.0) -> Pairs:
+    """``ProjectiveAssociator(d_thr, angle_deg).associate`` in plain numpy, operation for
+    operation (reference for the tests, baseline for the benchmark)."""
+    p, n, R, t = checked_inputs(points, normals, frame, R, t)
+    depth, V, N = flat_maps(frame)
+    K, (h, w) = frame.K, frame.depth.shape
+    d = p - t
+    z = R[0, 2] * d[:, 0] + R[1, 2] * d[:, 1] + R[2, 2] * d[:, 2]
+    x = R[0, 0] * d[:, 0] + R[1, 0] * d[:, 1] + R[2, 0] * d[:, 2]
+    y = R[0, 1] * d[:, 0] + R[1, 1] * d[:, 1] + R[2, 1] * d[:, 2]
+    with np.errstate(divide="ignore", invalid="ignore"):
+        u = np.floor(float(K.f) * x / z + float(K.cx) + 0.5)
+        v = np.floor(float(K.f) * y / z + float(K.cy) + 0.5)
+        src = np.flatnonzero((z > 0) & (u >= 0) & (u < w) & (v >= 0) & (v < h))
+        pix = v[src].astype(np.int64) * w + u[src].astype(np.int64)
+        dj = depth[pix]
+        ok = (dj > 0) & (dj < np.inf) & np.isfinite(N[pix, 0])
+    src, pix = src[ok], pix[ok]
+    Vj, Nj, ps, ns = V[pix], N[pix], p[src], n[src]
+    e = [ps[:, r] - (R[r, 0] * Vj[:, 0] + R[r, 1] * Vj[:, 1] + R[r, 2] * Vj[:, 2] + t[r]) for r in range(3)]
+    nq = [R[r, 0] * Nj[:, 0] + R[r, 1] * Nj[:, 1] + R[r, 2] * Nj[:, 2] for r in range(3)]
+    cos_thr = float(np.cos(np.deg2rad(angle_deg)))
+    with np.errstate(invalid="ignore"):
+        keep = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2] < d_thr * d_thr) & (
+            ns[:, 0] * nq[0] + ns[:, 1] * nq[1] + ns[:, 2] * nq[2] > cos_thr)
+    return Pairs(src[keep], pix[keep], len(src))
