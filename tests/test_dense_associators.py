@@ -112,7 +112,8 @@ def test_projective_equals_plain_numpy(scene):
         for deg in (0.0, 1.0, 3.0, 10.0):
             R0, t0 = perturb(B.R, B.t, deg, deg / 100, rng)
             for d_thr, angle in ((0.05, 30.0), (0.01, 5.0), (10.0, 180.0)):
-                got = make_dense_associator("projective", d_thr=d_thr, angle_deg=angle).associate(pts, nrm, frame, R0, t0)
+                assoc = make_dense_associator("projective", d_thr=d_thr, angle_deg=angle)
+                got = assoc.associate(pts, nrm, frame, R0, t0)
                 ref = associate_numpy(pts, nrm, frame, R0, t0, d_thr, angle)
                 np.testing.assert_array_equal(got.source, ref.source)
                 np.testing.assert_array_equal(got.pixel, ref.pixel)

@@ -29,7 +29,7 @@ class KdTreeAssociator(DenseAssociator):
     """Nearest valid vertex in 3-D (cKDTree, built once per frame), then the homework's filters."""
 
     name = "kdtree"
-    summary = "nearest valid vertex of the frame in 3-D (cKDTree built once per frame); distance and normal-angle filters"
+    summary = "nearest valid vertex in 3-D (cKDTree, built once per frame); distance and normal-angle filters"
 
     def __post_init__(self) -> None:
         super().__post_init__()

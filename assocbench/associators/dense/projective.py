@@ -71,7 +71,7 @@ class ProjectiveAssociator(DenseAssociator):
     """Nearest pixel of each source point's projection under the guess, then the homework's filters."""
 
     name = "projective"
-    summary = "project each source point into the frame with the pose guess; nearest pixel, distance and normal-angle filters"
+    summary = "project each source point with the pose guess; nearest pixel; distance and normal-angle filters"
 
     def associate(self, points, normals, frame: DepthFrame, R, t) -> Pairs:
         p, n, R, t = checked_inputs(points, normals, frame, R, t)

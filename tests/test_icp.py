@@ -1,0 +1,182 @@
+"""Point-to-plane ICP: converges to the true pose from a small perturbation, its linear system is
+the homework's stacked A_i, b_i, its update agrees with finite differences, and it reports failure
+(never a wrong pose as good) for large perturbations, a single plane and an empty frame."""
+
+from __future__ import annotations
+
+import dataclasses
+
+import numpy as np
+import pytest
+from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, source_set, wall_frame
+
+from assocbench.associators.dense import DENSE_METHODS, Pairs, make_dense_associator
+from assocbench.errors import UserError
+from assocbench.estimators.icp import (IcpConfig, icp, normal_equations, rodrigues, solve_update,
+                                       stability_transform)
+
+NOISE = dict(sigma_base=0.0012, sigma_quad=0.0019, grazing_deg=75.0)   # the sensor's defaults
+
+
+def frame_pair(noise_scale: float = 0.0):
+    """Source points of the room seen from A, the target frame at B = A moved 2 deg / 5 cm."""
+    noise = {k: (v * noise_scale if k.startswith("sigma") else v) for k, v in NOISE.items()} if noise_scale else {}
+    A = room_frame(rng=np.random.default_rng([1]), **noise)
+    RB, tB = perturb(A.R, A.t, 2.0, 0.05, np.random.default_rng(7))
+    return source_set(A)[:2], render(ROOM, RB, tB, rng=np.random.default_rng([2]), **noise)
+
+
+@pytest.fixture(scope="module")
+def clean():
+    return frame_pair()
+
+
+# noise-free tolerance of the final pose (m, deg). The kdtree's nearest neighbours include more
+# depth-discontinuity pixels, whose neighbour-difference normals are skewed across the jump
+# (residuals up to 23 mm at the true pose, Σb² 0.038 m² against the projective 0.0009 m²): its
+# least-squares pose lands 0.29 mm / 0.016 deg off; the projective one 0.03 mm / 0.001 deg.
+TOLERANCE = {"projective": (1e-4, 0.01), "kdtree": (1e-3, 0.1)}
+
+
+@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+def test_converges_to_the_true_pose_from_3cm_3deg(name, clean):
+    """With d_thr = 10 cm: a 3 deg turn moves points 2-3 m away by 10-16 cm, beyond the default
+    5 cm gate, where 4 (projective) and 2 (kdtree) of 8 such starts end at a wrong minimum, all
+    reported failed (test_failure_is_reported_not_a_wrong_pose); with 10 cm all 8 converge."""
+    (pts, nrm), B = clean
+    tol_m, tol_deg = TOLERANCE[name]
+    for seed in range(4):
+        R0, t0 = perturb(B.R, B.t, 3.0, 0.03, np.random.default_rng([seed]))
+        res = icp(pts, nrm, B, make_dense_associator(name, d_thr=0.1), R0, t0)
+        err_m, err_deg = pose_error(res.R, res.t, B.R, B.t)
+        assert res.converged and not res.failed and res.reason == ""
+        assert err_m < tol_m and err_deg < tol_deg, (err_m, err_deg)
+        assert res.inlier_share > 0.98 and res.condition < 10
+
+
+def test_noisy_frames_converge_within_a_millimetre():
+    """At a quarter of the sensor's noise (normals err ~20 deg) ICP from 1 cm / 1 deg is accepted
+    and within 1 mm / 0.05 deg (measured 0.4-0.5 mm, 0.02-0.03 deg)."""
+    (pts, nrm), B = frame_pair(0.25)
+    for name in sorted(DENSE_METHODS):
+        R0, t0 = perturb(B.R, B.t, 1.0, 0.01, np.random.default_rng([5]))
+        res = icp(pts, nrm, B, make_dense_associator(name), R0, t0)
+        err_m, err_deg = pose_error(res.R, res.t, B.R, B.t)
+        assert not res.failed, res.reason
+        assert err_m < 1e-3 and err_deg < 0.05
+
+
+def explicit_rows(points, frame, pairs: Pairs, TR, Tt):
+    """The homework's A_i = n_qᵀ [−[p′]ₓ | I] and b_i = n_qᵀ (p′ − q), stacked row by row."""
+    A, b = [], []
+    for i, j in zip(pairs.source, pairs.pixel):
+        p = TR @ points[i] + Tt
+        q, n = frame.vertices.reshape(-1, 3)[j], frame.normals.reshape(-1, 3)[j]
+        skew = np.array([[0, -p[2], p[1]], [p[2], 0, -p[0]], [-p[1], p[0], 0]])
+        A.append(n @ np.hstack([-skew, np.eye(3)]))
+        b.append(n @ (p - q))
+    return np.array(A), np.array(b)
+
+
+def test_linear_system_is_the_stacked_rows(clean):
+    (pts, nrm), B = clean
+    R0, t0 = perturb(B.R, B.t, 2.0, 0.02, np.random.default_rng(1))
+    full = make_dense_associator("projective").associate(pts, nrm, B, R0, t0)
+    pick = np.random.default_rng(2).choice(len(full), 40, replace=False)
+    pairs = Pairs(full.source[np.sort(pick)], full.pixel[np.sort(pick)], full.considered)
+    TR, Tt = R0.T, -R0.T @ t0
+    A, b = explicit_rows(pts, B, pairs, TR, Tt)
+    H, g, sse, sp, spp = normal_equations(pts, B, pairs, TR, Tt)
+    scale = np.abs(A.T @ A).max()
+    np.testing.assert_allclose(H, A.T @ A, rtol=0, atol=1e-12 * scale)
+    np.testing.assert_allclose(g, A.T @ b, rtol=0, atol=1e-12 * max(np.abs(A.T @ b).max(), 1e-30))
+    assert abs(sse - b @ b) <= 1e-12 * b @ b
+    p = pts[pairs.source] @ TR.T + Tt
+    np.testing.assert_allclose(sp, p.sum(axis=0), rtol=1e-12)
+    np.testing.assert_allclose(spp, (p * p).sum(), rtol=1e-12)
+
+
+def test_update_matches_finite_differences(clean):
+    """The Gauss-Newton step from the normal equations equals the step from the residuals'
+    Jacobian taken by central differences of r_i(δ) = n_i · ([δR | δt] p′_i − q_i), and icp applies
+    it by left multiplication."""
+    (pts, nrm), B = clean
+    R0, t0 = perturb(B.R, B.t, 1.0, 0.01, np.random.default_rng(4))
+    pairs = make_dense_associator("projective").associate(pts, nrm, B, R0, t0)
+    TR, Tt = R0.T, -R0.T @ t0
+    p = pts[pairs.source] @ TR.T + Tt
+    q, n = B.vertices.reshape(-1, 3)[pairs.pixel], B.normals.reshape(-1, 3)[pairs.pixel]
+
+    def residuals(d):
+        return np.einsum("ij,ij->i", n, p @ rodrigues(d[:3]).T + d[3:] - q)
+
+    h = 1e-6
+    J = np.column_stack([(residuals(h * e) - residuals(-h * e)) / (2 * h) for e in np.eye(6)])
+    step_fd = -np.linalg.solve(J.T @ J, J.T @ residuals(np.zeros(6)))
+    H, g, _, sp, spp = normal_equations(pts, B, pairs, TR, Tt)
+    step, cond = solve_update(H, g, stability_transform(sp, spp, len(pairs)))
+    assert cond < 100
+    np.testing.assert_allclose(step, step_fd, rtol=1e-6, atol=1e-10)
+
+    res = icp(pts, nrm, B, make_dense_associator("projective"), R0, t0, IcpConfig(max_iterations=1))
+    dR = rodrigues(step[:3])
+    np.testing.assert_allclose(res.R, (dR @ TR).T, atol=1e-12)
+    np.testing.assert_allclose(res.t, -(dR @ TR).T @ (dR @ Tt + step[3:]), atol=1e-12)
+    assert np.array_equal(res.first_pairs.source, pairs.source) and res.iterations == 1
+
+
+@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+def test_failure_is_reported_not_a_wrong_pose(name, clean):
+    """Starts of growing size (0.5-45 deg with as many cm): whenever ICP does not report failure
+    its pose is within 1 mm / 0.1 deg; small starts succeed, 45 deg ones fail with a reason."""
+    (pts, nrm), B = clean
+    assoc = make_dense_associator(name)
+    outcome = {}
+    for size in (0.5, 2, 5, 8, 12, 20, 30, 45):
+        for seed in range(2):
+            R0, t0 = perturb(B.R, B.t, size, size / 100, np.random.default_rng([seed, int(10 * size)]))
+            res = icp(pts, nrm, B, assoc, R0, t0)
+            err_m, err_deg = pose_error(res.R, res.t, B.R, B.t)
+            if not res.failed:
+                assert err_m < 1e-3 and err_deg < 0.1, (size, seed, err_m, err_deg)
+            else:
+                assert res.reason
+            outcome[size, seed] = res.failed
+    assert not any(outcome[s, k] for s in (0.5, 2) for k in range(2))
+    assert all(outcome[45, k] for k in range(2))
+
+
+@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+def test_single_plane_is_degenerate(name):
+    """A wall alone leaves two translations and a rotation free: failed, whatever the start."""
+    W = wall_frame()
+    pts, nrm, *_ = source_set(W)
+    for size in (0.0, 1.0, 3.0):
+        R0, t0 = perturb(W.R, W.t, size, size / 100, np.random.default_rng([int(size)]))
+        res = icp(pts, nrm, W, make_dense_associator(name), R0, t0)
+        assert res.failed and "degenerate" in res.reason and res.condition > 100
+
+
+def test_nothing_valid_fails_without_an_exception(clean):
+    (pts, nrm), B = clean
+    nan = np.full_like(B.vertices, np.nan)
+    empty = dataclasses.replace(B, depth=np.full_like(B.depth, np.nan), vertices=nan, normals=nan)
+    for name in sorted(DENSE_METHODS):
+        res = icp(pts, nrm, empty, make_dense_associator(name), B.R, B.t)
+        assert res.failed and "no valid pixel" in res.reason and not res.converged
+        np.testing.assert_array_equal(res.R, B.R)
+        res = icp(pts[:0], nrm[:0], B, make_dense_associator(name), B.R, B.t)
+        assert res.failed and "too few pairs" in res.reason and len(res.first_pairs) == 0
+
+
+def test_bad_settings_are_one_line_errors(clean):
+    (pts, nrm), B = clean
+    for params in ({"max_iterations": 0}, {"converge_trans": 0.0}, {"converge_rot_deg": -1.0},
+                   {"min_pairs": 3}, {"min_inlier_share": 1.5}, {"max_rms": float("nan")}, {"max_condition": 0.5}):
+        with pytest.raises(UserError) as err:
+            IcpConfig(**params)
+        assert "\n" not in str(err.value) and f"icp.{list(params)[0]}" in str(err.value)
+    with pytest.raises(UserError, match="rotation"):
+        icp(pts, nrm, B, make_dense_associator("projective"), 2 * B.R, B.t)
+    with pytest.raises(UserError, match="t \\(3,\\)"):
+        icp(pts, nrm, B, make_dense_associator("projective"), B.R, B.t[:2])
