@@ -80,7 +80,7 @@ class IcpConfig:
     The thresholds' defaults and their evidence: see the module docstring.
     """
 
-    max_iterations: int = field(default=30, metadata=in_range(1, 10_000))
+    max_iterations: int = field(default=60, metadata=in_range(1, 10_000))
     converge_rot_deg: float = field(default=1e-3, metadata=in_range(0, 180, lo_open=True))
     converge_trans: float = field(default=1e-5, metadata=in_range(0, None, lo_open=True))
     min_pairs: int = field(default=200, metadata=in_range(6, None))
