@@ -1,0 +1,77 @@
+"""The summary row of a dense run, and its status: a run that lost track never reads ``ok``.
+
+    ate_mm       = sqrt(mean_k |p̂_k − p_k|²)          (no alignment: frame 0's pose is given)
+    step_error   = RMS over k of the relative pose error of the step k−1 → k
+    compression  = map points / (frames · W · H)        (the homework's naive concatenation, full size)
+"""
+
+from __future__ import annotations
+
+import numpy as np
+import pandas as pd
+
+from .aggregate import OK
+from .trajectory import ate_rmse, rotation_rmse_deg
+
+DENSE_COLUMNS = ("frames", "status", "precision", "recall", "precision_start", "recall_start", "icp_failures",
+                 "ate_mm", "ate_deg", "final_drift_mm", "step_error_mm", "step_error_deg", "map_points",
+                 "compression_pct", "map_median_mm", "map_p95_mm", "icp_ms", "fusion_ms", "fps")
+
+
+def _poses(frames: pd.DataFrame, prefix: str) -> tuple[np.ndarray, np.ndarray]:
+    from scipy.spatial.transform import Rotation
+
+    p = frames[[f"{prefix}{c}" for c in "xyz"]].to_numpy(float)
+    q = frames[[f"{prefix}q{c}" for c in "xyzw"]].to_numpy(float)
+    return Rotation.from_quat(q).as_matrix(), p
+
+
+def _rms(values: pd.Series) -> float:
+    v = values.dropna().to_numpy(float)
+    return float(np.sqrt(np.mean(v ** 2))) if len(v) else float("nan")
+
+
+def _mean(frames: pd.DataFrame, col: str) -> float:
+    v = frames[col].dropna() if col in frames else pd.Series(dtype=float)
+    return float(v.mean()) if len(v) else float("nan")
+
+
+def dense_status(frames: pd.DataFrame) -> str:
+    """``ok``, or what makes the run's numbers untrustworthy: frames that raised, ICP failures
+    (the pose was held, the frame not fused), or not one correspondence in the whole run."""
+    tracked = frames[frames["frame"] > 0]
+    errors = int((tracked.get("error", pd.Series(dtype=str)).fillna("") != "").sum())
+    if errors:
+        return f"failed frames: {errors} of {len(tracked)}"
+    lost = int(tracked["icp_failed"].sum())
+    if lost:
+        return f"ICP failed in {lost} of {len(tracked)} frames (pose held, frame not fused)"
+    if len(tracked) and tracked["pairs"].fillna(0).sum() == 0:
+        return "no correspondences in any frame"
+    return OK
+
+
+def summarize_dense(frames: pd.DataFrame, end: dict) -> dict:
+    """The summary row (``DENSE_COLUMNS``) of a run's per-frame records and end-of-run facts."""
+    R_true, p_true = _poses(frames, "true_")
+    R_est, p_est = _poses(frames, "est_")
+    tracked = frames[frames["frame"] > 0]
+    error = end["map_error"]
+    ms = lambda col: 1000 * float(frames[col].dropna().median()) if col in frames and frames[col].notna().any() \
+        else float("nan")  # noqa: E731
+    seconds = frames[[c for c in ("icp_s", "fusion_s") if c in frames]].fillna(0).to_numpy().sum()
+    return {
+        "frames": len(frames), "status": dense_status(frames),
+        "precision": _mean(tracked, "precision"), "recall": _mean(tracked, "recall"),
+        "precision_start": _mean(tracked, "precision_start"), "recall_start": _mean(tracked, "recall_start"),
+        "icp_failures": int(tracked["icp_failed"].sum()),
+        "ate_mm": 1000 * ate_rmse(p_true, p_est), "ate_deg": rotation_rmse_deg(R_true, R_est),
+        "final_drift_mm": 1000 * float(np.linalg.norm(p_est[-1] - p_true[-1])),
+        "step_error_mm": _rms(tracked["step_error_mm"]) if "step_error_mm" in tracked else float("nan"),
+        "step_error_deg": _rms(tracked["step_error_deg"]) if "step_error_deg" in tracked else float("nan"),
+        "map_points": len(end["map"]), "compression_pct": 100 * end["compression"],
+        "map_median_mm": 1000 * float(np.median(error)) if len(error) else float("nan"),
+        "map_p95_mm": 1000 * float(np.percentile(error, 95)) if len(error) else float("nan"),
+        "icp_ms": ms("icp_s"), "fusion_ms": ms("fusion_s"),
+        "fps": len(frames) / seconds if seconds > 0 else float("nan"),
+    }

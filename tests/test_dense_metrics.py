@@ -1,0 +1,66 @@
+"""Correspondence truth of the dense track: what counts as a true pair, a partner, precision, recall."""
+
+import numpy as np
+import pytest
+
+from assocbench.scoring.dense_metrics import has_partner, relative_pose_error, score_correspondences
+from assocbench.sim.camera import Intrinsics
+from assocbench.sim.depth_frame import DepthFrame, normal_map, vertex_map
+
+
+def wall_frame(z: float = 2.0, w: int = 40, h: int = 30) -> DepthFrame:
+    """A camera at the origin (identity pose) facing a wall at depth ``z``: left half geom 1, right half geom 2."""
+    K = Intrinsics.from_fovy(w, h, 45.0)
+    depth = np.full((h, w), z)
+    V = vertex_map(depth, K)
+    geom = np.where(np.arange(w)[None, :] < w // 2, 1, 2).repeat(h, axis=0)
+    return DepthFrame(K, depth, V, normal_map(V), V.copy(), geom, np.eye(3), np.zeros(3))
+
+
+def test_pairs_with_their_own_pixel_are_true_and_every_point_has_a_partner():
+    f = wall_frame()
+    ok = np.flatnonzero(f.valid.reshape(-1))
+    pts, geom = f.true_points.reshape(-1, 3)[ok], f.geom.reshape(-1)[ok]
+    s = score_correspondences(pts, geom, f, np.arange(len(ok)), ok, tol=0.01)
+    assert s.precision == 1.0 and s.recall == 1.0 and s.partners == len(ok)
+
+
+def test_a_pair_across_geoms_or_beyond_tol_is_false():
+    f = wall_frame()
+    ok = np.flatnonzero(f.valid.reshape(-1))
+    pts, geom = f.true_points.reshape(-1, 3)[ok], f.geom.reshape(-1)[ok]
+    wrong_geom = geom.copy()
+    wrong_geom[:] = 7
+    assert score_correspondences(pts, wrong_geom, f, np.arange(len(ok)), ok, 0.01).precision == 0.0
+    shifted = np.roll(ok, 3)   # each point paired with a pixel 3 columns away: ~4 cm at 2 m
+    s = score_correspondences(pts, geom, f, np.arange(len(ok)), shifted, tol=0.01)
+    assert s.precision == 0.0 and s.recall == 0.0
+
+
+def test_hidden_or_unmeasured_points_have_no_partner():
+    f = wall_frame()
+    behind = np.array([[0.0, 0.0, 3.0]])          # behind the wall: its pixel sees the wall at 2 m
+    outside = np.array([[5.0, 0.0, 2.0]])         # outside the view
+    assert not has_partner(np.vstack([behind, outside]), np.array([1, 1]), f, 0.03).any()
+    f.depth[:] = np.nan                            # nothing measured: no partner either
+    f.normals[:] = np.nan
+    assert not has_partner(f.true_points.reshape(-1, 3)[:5], np.ones(5, int), f, 0.03).any()
+
+
+def test_no_pairs_gives_nan_precision_not_one():
+    f = wall_frame()
+    s = score_correspondences(f.true_points.reshape(-1, 3)[:10], f.geom.reshape(-1)[:10], f,
+                              np.zeros(0, np.int64), np.zeros(0, np.int64), 0.03)
+    assert np.isnan(s.precision) and s.recall == 0.0
+
+
+def test_relative_pose_error_ignores_earlier_drift():
+    from scipy.spatial.transform import Rotation
+    R0, t0 = np.eye(3), np.zeros(3)
+    R1, t1 = Rotation.from_euler("z", 5, degrees=True).as_matrix(), np.array([0.1, 0, 0])
+    drift = Rotation.from_euler("x", 20, degrees=True).as_matrix()
+    off = np.array([1.0, 2.0, 3.0])   # both estimates moved by one rigid transform: the step is exact
+    trans, rot = relative_pose_error(R0, t0, R1, t1, drift @ R0, drift @ t0 + off, drift @ R1, drift @ t1 + off)
+    assert trans == pytest.approx(0, abs=1e-12) and rot == pytest.approx(0, abs=1e-6)
+    trans, rot = relative_pose_error(R0, t0, R1, t1, R0, t0, R1, t1 + np.array([0, 0.002, 0]))
+    assert trans == pytest.approx(0.002, abs=1e-12) and rot == pytest.approx(0, abs=1e-6)
