@@ -7,6 +7,8 @@ import tempfile
 from pathlib import Path
 
 from ..harness.check import baseline_table, check_tolerance, compare, read_baseline, write_baseline
+from ..harness.dense_suite import (DenseSuite, compare_dense, dense_table, is_dense_suite, load_dense_suite,
+                                   read_dense_baseline, run_dense_suite, write_dense_baseline)
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table
@@ -19,7 +21,7 @@ HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--suite", help="suite YAML or shipped suite name (default: the four shipped CI suites, "
                    "configs/ci.yaml, the closed loop's configs/loop_ci.yaml, the planar track's configs/planar_ci.yaml "
-                   "and the lines track's configs/lines_ci.yaml)")
+                   "and the lines track's configs/lines_ci.yaml; a dense suite is checked when named)")
     p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
                    "results/baseline_<suite>.csv for another suite; without --suite it is the ci suite's)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
@@ -41,8 +43,10 @@ def main(args: argparse.Namespace) -> int:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
         suites = ["ci"] if args.baseline is not None else list(DEFAULT_SUITES)
-    loaded = [load_suite(resolve_suite(s)) for s in suites]   # every suite checked before any runs
-    return max(check_suite(suite, args) for suite in loaded)
+    paths = [resolve_suite(s) for s in suites]
+    loaded = [load_dense_suite(p) if is_dense_suite(p) else load_suite(p) for p in paths]   # all checked first
+    return max(check_dense(suite, args) if isinstance(suite, DenseSuite) else check_suite(suite, args)
+               for suite in loaded)
 
 
 def check_suite(suite, args: argparse.Namespace) -> int:
@@ -67,3 +71,26 @@ def check_suite(suite, args: argparse.Namespace) -> int:
     print(f"ok: {len(expected)} scenario × method rows compared, all within tolerance {tolerance} of {baseline_path}")
     return 0
 
+
+
+def check_dense(suite: DenseSuite, args: argparse.Namespace) -> int:
+    """A dense suite against its baseline (or rewrite it): precision and recall may drop by the
+    tolerance, ATE and map error rise by the suite's ``ate_tolerance``; every run must be ok."""
+    tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
+    baseline_path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
+    baseline = None if args.update else read_dense_baseline(baseline_path)
+    if args.update:
+        check_output_folder(baseline_path.parent, "--baseline")
+    summaries, _, _ = run_dense_suite(suite, args.jobs, progress=not args.quiet)
+    if args.update:
+        write_dense_baseline(summaries, baseline_path)
+        print(f"wrote baseline {baseline_path} ({len(dense_table(summaries))} rows)")
+        return 0
+    findings = compare_dense(dense_table(summaries), baseline, suite, tolerance)
+    if len(findings):
+        print(f"check failed: {len(findings)} finding(s) against {baseline_path} (tolerance {tolerance}):")
+        print_table(findings, "table")
+        return 1
+    print(f"ok: {len(suite.rows())} scenario × method rows compared, all within tolerance {tolerance} of "
+          f"{baseline_path}")
+    return 0

@@ -21,6 +21,13 @@ def _first_line(text: str | None) -> str:
     return " ".join((text or "").strip().split("\n\n")[0].split())
 
 
+def dense_methods() -> dict[str, str]:
+    """The dense track's associators (the method implies the track)."""
+    from ..associators.dense.registry import DENSE_METHODS
+
+    return {name: "[dense] " + _first_line(cls.__doc__) for name, cls in DENSE_METHODS.items()}
+
+
 def main(args: argparse.Namespace) -> int:
     from ..sim.dense_scenegen import DENSE_SCENES
     from ..sim.line_scenegen import LINE_SCENES
@@ -31,7 +38,7 @@ def main(args: argparse.Namespace) -> int:
     track = {name: "planar" for name in PLANAR_SCENES} | {name: "lines" for name in LINE_SCENES}
 
     sections = {
-        "methods": available(),
+        "methods": available() | dense_methods(),
         "scenes": {name: f"[{track.get(name, 'camera')}] "
                    + (_first_line(described[name].__doc__) if name in described else str(path))
                    for name, path in shipped_scenes().items()},

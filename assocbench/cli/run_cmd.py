@@ -12,6 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
+from ..harness.dense_spec import DenseRunSpec
 from ..harness.runner import execute
 from ..scoring.aggregate import OK, SUMMARY_COLUMNS
 from ..scoring.loop_summary import LOOP_COLUMNS
@@ -53,6 +54,8 @@ def main(args: argparse.Namespace) -> int:
     spec = run_spec(cfg)
     out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
                                                                            spec.seed))
+    if isinstance(spec, DenseRunSpec):
+        return dense_main(spec, out, args.format)
     frames, summary = execute(spec)
     columns = SUMMARY_COLUMNS + (LOOP_COLUMNS if spec.loop else ())
     row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
@@ -75,5 +78,32 @@ def main(args: argparse.Namespace) -> int:
         errors = sorted(set(frames["error"]) - {""})
         first = f" (first error: {errors[0]})" if errors else ""
         print(f"assocbench: warning: these numbers cannot be trusted: {summary['status']}{first}", file=sys.stderr)
+        return 1
+    return 0
+
+
+def dense_main(spec: DenseRunSpec, out: Path, fmt: str) -> int:
+    """The dense track's run: frames.csv, summary.csv, TUM trajectories, map.ply and map.png."""
+    from ..harness.dense_execute import dense_writers, execute_dense
+    from ..scoring.dense_summary import DENSE_COLUMNS
+
+    frames, summary, end = execute_dense(spec)
+    seq = spec.sequence
+    row = {"scene": seq.scene, "trajectory": seq.camera_spec().resolved_trajectory(), "method": spec.method,
+           "seed": spec.seed, "tracking": spec.dense.tracking, **{k: summary[k] for k in DENSE_COLUMNS}}
+    summary_df = pd.DataFrame([row])
+    title = f"{spec.method} on {Path(seq.scene).stem}, {spec.dense.tracking} tracking, seed {spec.seed}"
+    writers = {out / n: partial(df.to_csv, index=False, float_format="%.9g")
+               for n, df in (("frames.csv", frames), ("summary.csv", summary_df))}
+    write_group(writers | dense_writers(frames, end, out, title))
+    if fmt == "table":
+        print(f"{title} ({row['trajectory']}, {row['frames']} frames)")
+        print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values())}), "table")
+        print(f"wrote {out / 'frames.csv'}, {out / 'summary.csv'}, {out / 'truth.txt'} and {out / 'estimate.txt'} "
+              f"(TUM), {out / 'map.ply'}, {out / 'map.png'}")
+    else:
+        print_table(summary_df, fmt)
+    if summary["status"] != OK:
+        print(f"assocbench: warning: these numbers cannot be trusted: {summary['status']}", file=sys.stderr)
         return 1
     return 0

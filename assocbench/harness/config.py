@@ -19,6 +19,9 @@ from ..associators.registry import make_associator
 from ..belief.camera_belief import BeliefConfig
 from ..errors import UserError
 from ..estimators.config import EstimatorConfig
+from ..estimators.icp import IcpConfig
+from ..estimators.point_fusion import FusionConfig
+from ..sim.depth_sensor import DepthConfig
 from ..sim.detect import DetectorConfig
 from ..sim.lidar import LidarConfig
 from ..sim.line_extract import LineExtractorConfig
@@ -31,6 +34,7 @@ from ..sim.sequence import SequenceSpec
 from ..sim.trajectory import check_trajectory_params
 from ..sim.truth import TruthConfig
 from ..validation import check_number
+from .dense_spec import DenseConfig, DenseRunSpec, dense_run_spec, is_dense
 
 DEFAULTS: dict = {
     "scene": "room",
@@ -45,6 +49,10 @@ DEFAULTS: dict = {
     "lidar": asdict(LidarConfig()),
     "posts": asdict(PostDetectorConfig()),
     "lines": asdict(LineExtractorConfig()),
+    "depth": asdict(DepthConfig()),
+    "icp": asdict(IcpConfig()),
+    "fusion": asdict(FusionConfig()),
+    "dense": asdict(DenseConfig()),
     "belief": asdict(BeliefConfig()),
     "loop": False,
     "estimator": asdict(EstimatorConfig()),
@@ -217,10 +225,11 @@ def _check_sizes(cfg: dict) -> None:
         check_number(value, f"resolution {name}", integer=True, lo=MIN_SIDE, hi=MAX_SIDE)
 
 
-def run_spec(cfg: dict) -> RunSpec:
+def run_spec(cfg: dict) -> RunSpec | DenseRunSpec:
     """Resolve a merged config mapping into typed stage settings. Every value is checked here,
     before anything runs: types, finiteness, ranges, sizes against ``limits``, the method and
-    its parameters (built once and thrown away)."""
+    its parameters (built once and thrown away). A dense method (projective, kdtree) gives the
+    dense track's ``DenseRunSpec``."""
     _check_sizes(cfg)
     check_number(cfg["seed"], "seed", integer=True, lo=0, hi=2**32 - 1)
     check_number(cfg["time_limit_s"], "time_limit_s", lo=0, hi=86400, lo_open=True)
@@ -232,6 +241,8 @@ def run_spec(cfg: dict) -> RunSpec:
         raise UserError(f"trajectory must be a name or null, got {cfg['trajectory']!r}")
     if not isinstance(cfg["loop"], bool):
         raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
+    if is_dense(cfg["method"]):
+        return dense_run_spec(cfg, _typed, _mapping)
     estimator = _typed(EstimatorConfig, cfg["estimator"], "estimator")
     seq = TRACK_SPECS[scene_track(cfg["scene"])](cfg, estimator)
     params = _mapping(cfg, "params")
@@ -293,6 +304,10 @@ TRACK_SPECS = {"camera": camera_sequence_spec, "planar": planar_sequence_spec, "
 def camera_only(spec: RunSpec, what: str) -> RunSpec:
     """``spec``, or a one-line error when its scene is a lidar one (planar or lines) and ``what``
     serves the camera track only (rendered pictures, the Gymnasium envs)."""
+    if isinstance(spec, DenseRunSpec):
+        raise UserError(f"{what} serves the camera track's features; method {spec.method} runs the dense track "
+                        f"(depth frames): run it with `assocbench run`, and see its map in "
+                        f"`assocbench leaderboard --suite dense`")
     if isinstance(spec.sequence, (PlanarSequenceSpec, LineSequenceSpec)):
         track = "planar" if isinstance(spec.sequence, PlanarSequenceSpec) else "lines"
         raise UserError(f"{what} serves the camera track; scene {spec.sequence.scene!r} is a {track} one (lidar "

@@ -171,7 +171,7 @@ def _crossed(difficulties: dict, backends: dict) -> dict:
 
 def resolve_suite(name: str) -> Path:
     """A suite file: ``name`` itself when it is a path that exists or ends in .yaml/.yml, else
-    the shipped ``configs/<name>.yaml`` (``leaderboard``, ``loop``, ``ci``, ``loop_ci``, ``planar``, ``planar_ci``, ``lines``, ``lines_ci``)."""
+    the shipped ``configs/<name>.yaml`` (``leaderboard``, ``loop``, ``ci``, ``loop_ci``, ``planar``, ``planar_ci``, ``lines``, ``lines_ci``, ``dense``)."""
     from .config import shipped_config
 
     path = Path(name)
@@ -179,7 +179,7 @@ def resolve_suite(name: str) -> Path:
         return path
     shipped = shipped_config(f"{name}.yaml")
     if not shipped.is_file():
-        raise UserError(f"suite {name!r} is neither a file nor a shipped suite (leaderboard, loop, ci, loop_ci, planar, planar_ci, lines, lines_ci); "
+        raise UserError(f"suite {name!r} is neither a file nor a shipped suite (leaderboard, loop, ci, loop_ci, planar, planar_ci, lines, lines_ci, dense); "
                         "pass a YAML path")
     return shipped
 

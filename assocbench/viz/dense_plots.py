@@ -1,0 +1,51 @@
+"""Top views of the dense track: fused maps coloured by their distance to the true surfaces,
+with the true path (black) and the estimated one (blue).
+
+A map point is drawn at its (x, y); points are sorted so the worst are drawn last and stay
+visible. The colour scale is fixed (0 to ``ERROR_SCALE_MM``) so panels compare at a glance.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+import numpy as np
+
+ERROR_SCALE_MM = 30.0
+MAX_DRAWN = 150_000   # points drawn per panel (an even subsample beyond it: a PNG, not an archive)
+
+
+def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarray, p_est: np.ndarray,
+              title: str):
+    """One top view: map points coloured by error, true and estimated paths; the scatter's handle."""
+    step = max(1, len(positions) // MAX_DRAWN)
+    pos, err = positions[::step], error_mm[::step]
+    order = np.argsort(err)
+    sc = ax.scatter(pos[order, 0], pos[order, 1], c=err[order], s=0.3, cmap="viridis", vmin=0,
+                    vmax=ERROR_SCALE_MM, linewidths=0, rasterized=True)
+    ax.plot(p_true[:, 0], p_true[:, 1], color="black", lw=2.0, label="true path")
+    ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
+    ax.plot(*p_true[0, :2], "o", color="black", ms=4)
+    ax.set_aspect("equal")
+    ax.set_title(title, fontsize=8)
+    ax.tick_params(labelsize=6)
+    return sc
+
+
+def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
+    """A PNG of one panel per entry (``positions``, ``error_mm``, ``p_true``, ``p_est``, ``title``)."""
+    from matplotlib.figure import Figure   # no pyplot state (as viz.plots)
+
+    cols = min(columns, len(panels))
+    rows = -(-len(panels) // cols)
+    fig = Figure(figsize=(4.2 * cols, 3.8 * rows))
+    axes = fig.subplots(rows, cols, squeeze=False)
+    sc = None
+    for ax, panel in zip(axes.flat, panels):
+        sc = map_panel(ax, panel["positions"], panel["error_mm"], panel["p_true"], panel["p_est"], panel["title"])
+    for ax in list(axes.flat)[len(panels):]:
+        ax.axis("off")
+    if sc is not None:
+        fig.colorbar(sc, ax=axes, shrink=0.8, label=f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})")
+        axes.flat[0].legend(fontsize=6, loc="upper right", markerscale=4)
+    fig.savefig(path, dpi=110)
