@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..scoring.dense_summary import summarize_dense
+from ..scoring.dense_summary import poses, summarize_dense
 from ..scoring.trajectory import tum_text
 from ..sim.ply import write_ply
 from .dense_run import run_dense
@@ -20,20 +20,13 @@ def execute_dense(spec: DenseRunSpec, cache_dir: Path | None = None) -> tuple[pd
     return frames, summarize_dense(frames, end), end
 
 
-def _poses(frames: pd.DataFrame, prefix: str):
-    from scipy.spatial.transform import Rotation
-
-    p = frames[[f"{prefix}{c}" for c in "xyz"]].to_numpy(float)
-    return Rotation.from_quat(frames[[f"{prefix}q{c}" for c in "xyzw"]].to_numpy(float)).as_matrix(), p
-
-
 def dense_writers(frames: pd.DataFrame, end: dict, out: Path, title: str) -> dict:
     """Writers of ``truth.txt`` / ``estimate.txt`` (TUM), ``map.ply`` (the fused map with its
     weight and distance to the true surface, mm) and ``map.png`` (its top view)."""
     from ..viz.dense_plots import map_figure
 
     stamps = frames["frame"].to_numpy(float)
-    (R_true, p_true), (R_est, p_est) = _poses(frames, "true_"), _poses(frames, "est_")
+    (R_true, p_true), (R_est, p_est) = poses(frames, "true_"), poses(frames, "est_")
     pmap, error_mm = end["map"], 1000 * end["map_error"]
     truth, estimate = tum_text(stamps, R_true, p_true, "truth"), tum_text(stamps, R_est, p_est, "estimate")
     panel = {"positions": pmap.positions, "error_mm": error_mm, "p_true": p_true, "p_est": p_est, "title": title}

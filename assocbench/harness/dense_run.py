@@ -34,6 +34,7 @@ from ..sim.depth_frame import DepthFrame
 from ..sim.scene import load_scene
 from .dense_spec import DenseRunSpec
 
+
 @dataclass
 class Source:
     """Points ICP registers to the new frame, in world coordinates, with their truth."""
@@ -55,10 +56,9 @@ def map_source(pmap: PointMap) -> Source:
     return Source(pmap.positions, pmap.normals, pmap.true_points, pmap.geom)
 
 
-def check_frames(seq: DenseSequence) -> None:
+def check_first_frame(seq: DenseSequence, first: DepthFrame) -> None:
     """Refuse a sequence the track cannot start on: no measured pixel in the first frame (it seeds
     the map) is one line, not a run of NaN."""
-    first = seq.frame(0)
     if not first.valid.any():
         reason = "every pixel is beyond depth.max_depth or missing" if np.isfinite(seq.depths[0]).any() \
             else "the camera sees nothing"
@@ -74,11 +74,11 @@ def pose_columns(prefix: str, R: np.ndarray, t: np.ndarray) -> dict:
 def run_dense(spec: DenseRunSpec, cache_dir=None) -> tuple[list[dict], dict]:
     """Per-frame records and end-of-run facts (map, its error, naive size) of ``spec``."""
     seq = load_dense_sequence(spec.sequence, cache_dir)
-    check_frames(seq)
+    frame = seq.frame(0)
+    check_first_frame(seq, frame)
     associator = make_dense_associator(spec.method, **spec.params)
     tracking, tol = spec.dense.tracking, spec.dense.truth_tol
     pmap = PointMap()
-    frame = seq.frame(0)
     R_est, t_est = seq.rotations[0].copy(), seq.positions[0].copy()
     start = time.perf_counter()
     fuse(pmap, frame, R_est, t_est, 0, spec.fusion)
@@ -103,7 +103,7 @@ def run_dense(spec: DenseRunSpec, cache_dir=None) -> tuple[list[dict], dict]:
             R_est, t_est = R_k, t_k
         previous = frame
     error = surface_distance(pmap.positions, load_scene(spec.sequence.scene)) if len(pmap) else np.zeros(0)
-    end = {"map": pmap, "map_error": error, "K": seq.K, "full_size": seq.full_size,
+    end = {"map": pmap, "map_error": error,
            "compression": compression_ratio(len(pmap), len(seq), seq.K.width, seq.K.height)}
     return records, end
 

@@ -47,10 +47,6 @@ class DenseRunSpec:
     dense: DenseConfig = field(default_factory=DenseConfig)
     seed: int = 0
 
-    @property
-    def loop(self) -> bool:   # tracking feeds on its own estimates: the dense track is a closed loop
-        return True
-
 
 def is_dense(method: object) -> bool:
     """Whether ``method`` names a dense associator (the method implies the track)."""

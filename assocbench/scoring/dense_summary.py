@@ -2,7 +2,8 @@
 
     ate_mm       = sqrt(mean_k |p̂_k − p_k|²)          (no alignment: frame 0's pose is given)
     step_error   = RMS over k of the relative pose error of the step k−1 → k
-    compression  = map points / (frames · W · H)        (the homework's naive concatenation, full size)
+    compression  = map points / (frames · w · h)        (the homework's naive concatenation of the
+                                                          downsampled input, w × h pixels a frame)
 """
 
 from __future__ import annotations
@@ -18,7 +19,8 @@ DENSE_COLUMNS = ("frames", "status", "precision", "recall", "precision_start", "
                  "compression_pct", "map_median_mm", "map_p95_mm", "icp_ms", "fusion_ms", "fps")
 
 
-def _poses(frames: pd.DataFrame, prefix: str) -> tuple[np.ndarray, np.ndarray]:
+def poses(frames: pd.DataFrame, prefix: str) -> tuple[np.ndarray, np.ndarray]:
+    """Rotations (N, 3, 3) and positions (N, 3) of the ``<prefix>x, y, z, qx, qy, qz, qw`` columns."""
     from scipy.spatial.transform import Rotation
 
     p = frames[[f"{prefix}{c}" for c in "xyz"]].to_numpy(float)
@@ -45,7 +47,7 @@ def dense_status(frames: pd.DataFrame) -> str:
         return f"failed frames: {errors} of {len(tracked)}"
     lost = int(tracked["icp_failed"].sum())
     if lost:
-        return f"ICP failed in {lost} of {len(tracked)} frames (pose held, frame not fused)"
+        return f"ICP failed in {lost} of {len(tracked)} frames (icp_reason in frames.csv says why)"
     if len(tracked) and tracked["pairs"].fillna(0).sum() == 0:
         return "no correspondences in any frame"
     return OK
@@ -53,8 +55,8 @@ def dense_status(frames: pd.DataFrame) -> str:
 
 def summarize_dense(frames: pd.DataFrame, end: dict) -> dict:
     """The summary row (``DENSE_COLUMNS``) of a run's per-frame records and end-of-run facts."""
-    R_true, p_true = _poses(frames, "true_")
-    R_est, p_est = _poses(frames, "est_")
+    R_true, p_true = poses(frames, "true_")
+    R_est, p_est = poses(frames, "est_")
     tracked = frames[frames["frame"] > 0]
     error = end["map_error"]
     ms = lambda col: 1000 * float(frames[col].dropna().median()) if col in frames and frames[col].notna().any() \

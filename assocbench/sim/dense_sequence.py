@@ -36,7 +36,7 @@ from .render import FrameRenderer
 from .scene import Scene, load_scene
 from .sequence import SequenceSpec, trajectory_poses
 
-FORMAT_VERSION = 1
+FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixels)
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
 # the dense track's path per shipped scene when the run names none, over PATH_FRAMES frames: slow
 # enough that neighbouring frames overlap as a hand-held depth camera's do (~2 cm and ~0.2 deg a
@@ -99,7 +99,6 @@ class DenseSequence:
 
     scene: str
     K: Intrinsics                 # of the downsampled frames
-    full_size: tuple[int, int]    # rendered (width, height): the naive map's pixels per frame
     depths: np.ndarray            # (N, h, w) float32 z-depth, NaN where nothing is hit
     geoms: np.ndarray             # (N, h, w) int32 geom id, -1 where none
     rotations: np.ndarray         # (N, 3, 3) camera-to-world
@@ -133,12 +132,12 @@ def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
             geoms.append(geom[::s, ::s].astype(np.int32))
         K = renderer.K
     K_small = Intrinsics(spec.width // s, spec.height // s, K.f / s, K.cx / s, K.cy / s)
-    return DenseSequence(scene.name, K_small, (spec.width, spec.height), np.array(depths), np.array(geoms),
+    return DenseSequence(scene.name, K_small, np.array(depths), np.array(geoms),
                          rots, pos, spec.depth, spec.seed)
 
 
 def _save(seq: DenseSequence, path: Path, key: str) -> None:
-    arrays = dict(key=np.array(key), scene=np.array(seq.scene), full=np.array(seq.full_size),
+    arrays = dict(key=np.array(key), scene=np.array(seq.scene),
                   K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]), depths=seq.depths,
                   geoms=seq.geoms, rotations=seq.rotations, positions=seq.positions)
     with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
@@ -152,7 +151,7 @@ def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
             raise ValueError("it was stored under another key")
         w, h, f, cx, cy = z["K"]
         seq = DenseSequence(str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
-                            tuple(int(v) for v in z["full"]), z["depths"], z["geoms"], z["rotations"],
+                            z["depths"], z["geoms"], z["rotations"],
                             z["positions"], spec.depth, spec.seed, from_cache=True)
     want = (spec.frames, spec.height // spec.depth.downsample, spec.width // spec.depth.downsample)
     if seq.depths.shape != want or seq.geoms.shape != want or seq.positions.shape != (spec.frames, 3):
