@@ -50,6 +50,7 @@ def test_same_seed_same_numbers_except_time(tmp_path):
     (["--set", "icp.max_rms=0"], ["icp.max_rms"]),
     (["--set", "dense.tracking=magic"], ["dense.tracking"]),
     (["--set", "dense.truth_tol=0"], ["dense.truth_tol"]),
+    (["--set", "dense.path_frames=1000000000"], ["dense.path_frames", "limits.frames"]),
     (["--loop"], ["drop --loop"]),
     (["--scene", "park"], ["dense track", "camera scene"]),
 ])

@@ -68,6 +68,10 @@ def dense_run_spec(cfg: dict, typed, mapping) -> DenseRunSpec:
                         "estimates (set dense.tracking); drop --loop / loop: true")
     dense = typed(DenseConfig, cfg["dense"], "dense")
     dense.check()
+    most = cfg["limits"]["frames"]
+    if dense.path_frames > most:
+        raise UserError(f"dense.path_frames {dense.path_frames} exceeds limits.frames = {most} (the path is "
+                        "computed over that many frames); lower it or raise limits.frames")
     res = cfg["resolution"]
     seq = DenseSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
                             trajectory_params=mapping(cfg, "trajectory_params"), frames=cfg["frames"],

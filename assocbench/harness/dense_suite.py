@@ -150,7 +150,7 @@ fused into a point map (the homework's point-based fusion); frame 0's pose is gi
 map point and pixel lie on one geom with true positions within `dense.truth_tol`); *at start*: of its
 first iteration, from the previous pose; *ICP failures*: frames whose ICP reported failure (pose held,
 frame not fused); *ATE*: RMSE of the positions, no alignment; *step error*: RMS relative pose error of
-one frame's step; *compression*: map points / (frames × full-resolution pixels), the homework's 8.87 %
+one frame's step; *compression*: map points / (frames × pixels of the downsampled input), the homework's 8.87 %
 definition; *map error*: distance of the map's points to the true surfaces.
 """
 
