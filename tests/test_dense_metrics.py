@@ -49,7 +49,8 @@ def test_hidden_or_unmeasured_points_have_no_partner():
 
 def test_no_pairs_gives_nan_precision_not_one():
     f = wall_frame()
-    s = score_correspondences(f.true_points.reshape(-1, 3)[:10], f.geom.reshape(-1)[:10], f,
+    ok = np.flatnonzero(f.valid.reshape(-1))[:10]   # ten points the frame sees: partners exist
+    s = score_correspondences(f.true_points.reshape(-1, 3)[ok], f.geom.reshape(-1)[ok], f,
                               np.zeros(0, np.int64), np.zeros(0, np.int64), 0.03)
     assert np.isnan(s.precision) and s.recall == 0.0
 

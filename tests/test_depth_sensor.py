@@ -93,14 +93,14 @@ def test_downsampling_keeps_each_kept_pixel_ray(walls, s):
     R, p = forward([7.5, 0.0, 0.0])
     frame, full = sense(renderer, R, p, cfg), sense(renderer, R, p, EXACT)
     assert frame.K == downsample_intrinsics(K, s) and frame.depth.shape == (H // s, W // s)
-    assert frame.valid[:-1, :-1].all()   # the last row and column have no neighbour for a normal
+    assert frame.valid[1:-1, 1:-1].all()   # the border rows and columns lack a neighbour for a normal
     assert np.nanmax(np.abs(world(frame)[..., 0] - 10.0)) < 1e-3
     np.testing.assert_allclose(frame.vertices, full.vertices[::s, ::s][:H // s, :W // s], rtol=0, atol=1e-12)
     R, p = forward([7.0, 100.0, 0.0])
     tilted = sense(renderer, R, p, cfg)
     n, q = tilted_plane(scene)
     off_plane = (world(tilted) - q) @ n
-    assert tilted.valid[:-1, :-1].all() and np.nanmax(np.abs(off_plane)) < 1e-3
+    assert tilted.valid[1:-1, 1:-1].all() and np.nanmax(np.abs(off_plane)) < 1e-3
 
 
 @pytest.mark.parametrize("distance", [1.0, 3.0, 6.0])
@@ -183,7 +183,7 @@ def test_true_points_lie_on_the_geom_the_segmentation_names(objects, msaa):
         mine = frame.geom == gid
         assert mine.sum() > 500, name
         assert surface_distance(objects, name, frame.true_points[mine]).max() < 1e-3, name
-    assert frame.valid.mean() > 0.9
+    assert frame.valid.mean() > 0.88   # the border and the pixels beside a depth edge carry no normal
 
 
 def test_a_frame_that_sees_nothing_is_all_missing(floor, walls):

@@ -31,15 +31,15 @@ def empty_frame(K: Intrinsics = dw.K320) -> DepthFrame:
 
 
 def test_merge_is_the_homeworks_weighted_average():
-    # a tilted plane seen by a 4x3 camera; pose: 90° about z (exact entries) and a dyadic shift
-    K = Intrinsics(4, 3, 2.0, 1.5, 1.0)
-    depth = 2.0 + 0.25 * np.arange(4)[None, :] + 0.5 * np.arange(3)[:, None]
+    # a tilted plane seen by a 6x5 camera; pose: 90° about z (exact entries) and a dyadic shift
+    K = Intrinsics(6, 5, 2.0, 2.5, 2.0)
+    depth = 2.0 + 0.25 * np.arange(6)[None, :] + 0.5 * np.arange(5)[:, None]
     V = vertex_map(depth, K)
     N = normal_map(V)
-    frame = DepthFrame(K, depth, V, N, V + 10.0, np.full((3, 4), 7), np.eye(3), np.zeros(3))
+    frame = DepthFrame(K, depth, V, N, V + 10.0, np.full((5, 6), 7), np.eye(3), np.zeros(3))
     R = np.array([[0.0, -1.0, 0.0], [1.0, 0.0, 0.0], [0.0, 0.0, 1.0]])
     t = np.array([0.5, -0.25, 1.0])
-    pix = [(0, 1), (1, 2)]                       # (v, u): two map points, weights 3 and 1
+    pix = [(1, 2), (2, 3)]                       # (v, u): two map points, weights 3 and 1
     q = np.array([R @ V[v, u] + t for v, u in pix])
     nq = np.array([R @ N[v, u] for v, u in pix])
     p = q + np.array([[0.01, -0.02, 0.005], [-0.015, 0.0, 0.02]])
@@ -49,7 +49,7 @@ def test_merge_is_the_homeworks_weighted_average():
     tp = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
     pmap = PointMap.from_arrays(p, n_p, w, 0, tp, 7)
     st = fuse(pmap, frame, R, t, 1, FusionConfig(angle_deg=30))
-    assert (st.merged, st.added, st.removed) == (2, 6 - 2, 0)   # 6 valid pixels (normals need a right/lower neighbour)
+    assert (st.merged, st.added, st.removed) == (2, 12 - 2, 0)   # 12 valid pixels (a normal needs all 4 neighbours)
     want_p = (w[:, None] * p + q) / (w[:, None] + 1)                # p <- (w p + R q + t) / (w + 1)
     want_n = (w[:, None] * n_p + nq) / (w[:, None] + 1)             # n <- (w n + R n_q) / (w + 1), normalised
     want_n /= np.linalg.norm(want_n, axis=1, keepdims=True)
@@ -60,8 +60,8 @@ def test_merge_is_the_homeworks_weighted_average():
     np.testing.assert_array_equal(pmap.weights[:2], w + 1)
     np.testing.assert_array_equal(pmap.last_seen, 1)
     np.testing.assert_array_equal(pmap.geom, 7)
-    # the 4 pixels no map point took are added as R q + t, R n_q, weight 1
-    rest = [(v, u) for v in range(2) for u in range(3) if (v, u) not in pix]
+    # the 10 pixels no map point took are added as R q + t, R n_q, weight 1
+    rest = [(v, u) for v in range(1, 4) for u in range(1, 5) if (v, u) not in pix]
     np.testing.assert_array_equal(pmap.positions[2:], [R @ V[v, u] + t for v, u in rest])
     np.testing.assert_array_equal(pmap.weights[2:], 1.0)
 

@@ -76,17 +76,23 @@ class IcpConfig:
     max_condition: κ(S) (the normal matrix in comparable units, ``stability_transform``) of the
         last iteration above this is a failure: some motion is unconstrained (a single plane, a
         corridor's axis).
+    max_step_m / max_step_deg: an estimate whose camera moved farther than this (m) or turned
+        more than this (deg) from the initial guess is a failure: beyond ICP's capture range a
+        converged pose is as likely a wrong minimum (one period of self-similar geometry off)
+        as the right one.
 
     The thresholds' defaults and their evidence: see the module docstring.
     """
 
-    max_iterations: int = field(default=60, metadata=in_range(1, 10_000))
-    converge_rot_deg: float = field(default=1e-3, metadata=in_range(0, 180, lo_open=True))
-    converge_trans: float = field(default=1e-5, metadata=in_range(0, None, lo_open=True))
+    max_iterations: int = field(default=100, metadata=in_range(1, 10_000))
+    converge_rot_deg: float = field(default=5e-3, metadata=in_range(0, 180, lo_open=True))
+    converge_trans: float = field(default=1e-4, metadata=in_range(0, None, lo_open=True))
     min_pairs: int = field(default=200, metadata=in_range(6, None))
     min_inlier_share: float = field(default=0.5, metadata=in_range(0, 1))
     max_rms: float = field(default=0.02, metadata=in_range(0, None, lo_open=True))
-    max_condition: float = field(default=100.0, metadata=in_range(1, None))
+    max_condition: float = field(default=1000.0, metadata=in_range(1, None))
+    max_step_m: float = field(default=0.15, metadata=in_range(0, None, lo_open=True))
+    max_step_deg: float = field(default=10.0, metadata=in_range(0, 180, lo_open=True))
 
     def __post_init__(self) -> None:
         self.check()
@@ -272,4 +278,16 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
                       f"({len(state['pairs'])} of {state['pairs'].considered} considered pairs kept)")
     if state["rms"] > cfg.max_rms:
         return result(f"residual rms {state['rms']:.4f} m > max_rms {cfg.max_rms} m")
+    moved_m, moved_deg = step_from(R0, t0, *_pose(TR, Tt))
+    if moved_m > cfg.max_step_m or moved_deg > cfg.max_step_deg:
+        return result(f"the estimate moved {moved_m:.3f} m and turned {moved_deg:.2f} deg from the initial guess, "
+                      f"beyond max_step_m {cfg.max_step_m} / max_step_deg {cfg.max_step_deg} (ICP's capture "
+                      f"range: a wrong minimum is as likely there)")
     return result()
+
+
+def step_from(R0: np.ndarray, t0: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[float, float]:
+    """How far the camera moved from ``(R0, t0)`` to ``(R, t)`` (camera-to-world): ``|t − t0|`` (m)
+    and the angle of ``R0ᵀ R`` (deg)."""
+    cos = np.clip((np.trace(R0.T @ R) - 1.0) / 2.0, -1.0, 1.0)
+    return float(np.linalg.norm(t - t0)), float(np.degrees(np.arccos(cos)))

@@ -10,11 +10,11 @@ from ...sim.depth_frame import DepthFrame, normal_map, vertex_map
 
 
 def tiny_frame() -> DepthFrame:
-    """A 4 x 4 frame of a plane 1 m in front of the camera (identity pose)."""
-    K = Intrinsics.from_fovy(4, 4, 60.0)
-    depth = np.ones((4, 4))
+    """A 6 x 6 frame of a plane 1 m in front of the camera (identity pose): 16 pixels with a normal."""
+    K = Intrinsics.from_fovy(6, 6, 60.0)
+    depth = np.ones((6, 6))
     V = vertex_map(depth, K)
-    return DepthFrame(K, depth, V, normal_map(V), V.copy(), np.zeros((4, 4), np.int64), np.eye(3), np.zeros(3))
+    return DepthFrame(K, depth, V, normal_map(V), V.copy(), np.zeros((6, 6), np.int64), np.eye(3), np.zeros(3))
 
 
 def warm_dense() -> float | None:
