@@ -45,7 +45,8 @@ Measured (one shared core, defaults, default noise; precision / recall / ms, tre
   Wrong pairs at the true pose (k = 90, checked apart): most projective ones are map points whose
   truth is mixed (fused from pixels of two geoms at an edge: never true); the KD-tree adds pairs
   for points with no partner, hidden behind a nearer surface or off the frame's measured pixels
-  (crates 1212 against 27, bays 914 against 397), which the ray would have met the occluder for.
+  (crates 1212 against 27, bays 914 against 397): along the ray such a point meets the nearer
+  surface and fails d_thr.
 """
 
 from __future__ import annotations
