@@ -28,25 +28,24 @@ Usage: python benchmarks/dense_association.py [--frames 10] [--stride 18] [--run
 
 Measured (one shared core, defaults, default noise; precision / recall / ms, tree build apart):
 
-- frame-to-frame from the true pose: crates projective 0.996 / 0.985 / 1.2, kdtree 0.993 / 0.982 /
-  37 (+16 build); bays projective 0.985 / 0.863 / 1.0, kdtree 0.895 / 0.888 / 40 (+14 build).
-  Noise-free, bays agree (0.98 / 0.99 both): the gaps are the noise, at the far end of the
-  bays (sigma 3.2 cm at 4 m, pixels 2 cm apart). The KD-tree's wrong pairs are nearly all on the
-  right surface at ~4 m, a neighbouring pixel's vertex nearer in 3-D than the one on the ray but
-  just over 3 cm off in truth; the projective method's missed partners are at ~4 m too, its one
-  candidate on the ray failing d_thr = 5 cm (two draws of the noise differ by sigma sqrt 2).
-- from 1 deg / 2 cm: crates 0.32 / 0.27 (projective) against 0.42 / 0.40 (kdtree), bays 0.10 /
-  0.05 against 0.15 / 0.13 (first-iteration pairs: a 1 deg turn moves a point 3 m away by 5 cm,
+- frame-to-frame from the true pose: crates projective 0.996 / 0.990 / 1.1, kdtree 0.993 / 0.988 /
+  39 (+16 build); bays projective 0.988 / 0.768 / 1.3, kdtree 0.907 / 0.794 / 63 (+26 build).
+  Noise-free, bays agree (0.987 / 0.990 against 0.985 / 0.988): the gaps are the noise at the far
+  end of the bays (sigma 3.2 cm at 4 m, pixels 2 cm apart). The KD-tree's wrong pairs are nearly
+  all on the right surface at ~4 m, a neighbouring pixel's vertex nearer in 3-D than the one on
+  the ray but just over 3 cm off in truth; the projective method's missed partners are at ~4 m
+  too, its one candidate on the ray failing d_thr = 5 cm (two draws of the noise differ by
+  sigma sqrt 2).
+- from 1 deg / 2 cm: crates 0.34 / 0.30 (projective) against 0.44 / 0.43 (kdtree), bays 0.10 /
+  0.05 against 0.14 / 0.11 (first-iteration pairs: a 1 deg turn moves a point 3 m away by 5 cm,
   beyond the 3 cm truth tolerance; the KD-tree finds a vertex within d_thr for more points).
-  The KD-tree's query slows as the guess worsens (crates 37 -> 47 -> 77 ms).
-- frame-to-model, maps of 75k-623k points: projective grows with the map (1.2 -> 11.6 ms on
-  bays), the KD-tree with the map points inside the frustum, the only ones it queries (64k -> 181k
-  of them: 61 -> 141 ms); projecting the 623k points to find them costs ~9 ms of the 120.
-  Wrong pairs at the true pose (k = 90, checked apart): most projective ones are map points whose
+  The KD-tree's query slows as the guess worsens (crates 39 -> 54 -> 97 ms).
+- frame-to-model, maps of 63k-886k points: projective grows with the map (1.6 -> 39 ms on bays),
+  the KD-tree with the map points inside the frustum, the only ones it queries (62k -> 241k of
+  them: 71 -> 342 ms). Wrong pairs at the true pose: most projective ones are map points whose
   truth is mixed (fused from pixels of two geoms at an edge: never true); the KD-tree adds pairs
-  for points with no partner, hidden behind a nearer surface or off the frame's measured pixels
-  (crates 1212 against 27, bays 914 against 397): along the ray such a point meets the nearer
-  surface and fails d_thr.
+  for points with no partner, hidden behind a nearer surface or off the frame's measured pixels:
+  along the ray such a point meets the nearer surface and fails d_thr.
 """
 
 from __future__ import annotations
