@@ -40,10 +40,10 @@ FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixel
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
 # the dense track's path per shipped scene when the run names none, over PATH_FRAMES frames: slow
 # enough that neighbouring frames overlap as a hand-held depth camera's do (bays 2.2 cm a frame,
-# crates 1.5 mm and 0.09 deg, plus the trajectory's seeded jitter, 1 cm and 0.5 deg); the camera
-# track's own paths move 2-5x faster. On crates, frames 10 and 50 are then 3.5 deg apart, inside
-# ICP's capture range from the identity, and 10 and 100 8 deg, at its edge
-# (benchmarks/dense_icp_basin.py: the homework's experiment)
+# crates 2 mm and 0.13 deg, plus the trajectory's seeded jitter, 1 cm and 0.5 deg); the camera
+# track's own paths move 2-5x faster. On crates, frames 10 and 50 are then about 5 deg apart,
+# inside ICP's capture range from the identity, and 10 and 100 about 11 deg, beyond it
+# (benchmarks/dense_icp_basin.py: the homework's experiment over seeds)
 DENSE_PATHS = {"room": ("circle", {"turns": 0.07}), "crates": ("circle", {"turns": 0.07}),
                "bays": ("line", {"length": 4.5}), "corridor": ("line", {"length": 4.5}),
                "checkerboard": ("line", {})}

@@ -38,8 +38,8 @@ class DepthConfig:
         the raw depth. At 320x240 the default noise is about the spacing of neighbouring vertices,
         so raw neighbour-difference normals are off by a median 43-64 deg at 1-4 m. On crates
         frame 50 (noise as default) the median error is 2.9 deg at 2 px and 1.5 deg at 3 px, and
-        ICP from the identity registers frames 10 and 50 (11 cm, 7 deg apart) only at 3 px
-        (0.15 mm / 0.013 deg; at 2 px it slides off 13 cm): the default is 3.
+        ICP from the identity registered two crates frames 11 cm / 7 deg apart only at 3 px
+        (0.15 mm / 0.013 deg; at 2 px it slid 13 cm off): the default is 3.
     """
 
     downsample: int = field(default=2, metadata=in_range(1, MAX_DOWNSAMPLE))
