@@ -21,6 +21,18 @@ def time_call(fn: Callable[[], object], repeat: int = 1) -> float:
     return best
 
 
+def timed(fn: Callable[[], object], runs: int, warmup: int) -> list[float]:
+    """Wall times (s) of ``runs`` calls of ``fn`` after ``warmup`` untimed ones."""
+    for _ in range(warmup):
+        fn()
+    out = []
+    for _ in range(runs):
+        start = time.perf_counter()
+        fn()
+        out.append(time.perf_counter() - start)
+    return out
+
+
 def summary_ms(seconds: list[float]) -> tuple[float, float]:
     """(median, p95) in milliseconds."""
     ms = np.asarray(seconds) * 1e3

@@ -52,12 +52,11 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms
+from _util import print_table, summary_ms, timed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb  # noqa: E402
@@ -91,13 +90,7 @@ class Cell:
 
 def median_ms(fn, runs: int) -> float:
     """Median wall time of ``runs`` calls of ``fn``, ms (one untimed call first)."""
-    fn()
-    out = []
-    for _ in range(runs):
-        start = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - start)
-    return summary_ms(out)[0]
+    return summary_ms(timed(fn, runs, 1))[0]
 
 
 def tree_build_ms(kd, frame, runs: int) -> float:

@@ -18,11 +18,10 @@ from __future__ import annotations
 
 import argparse
 import sys
-import time
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms
+from _util import print_table, summary_ms, timed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb, room_frame, render, ROOM, source_set  # noqa: E402
@@ -30,17 +29,6 @@ from dense_synthetic import perturb, room_frame, render, ROOM, source_set  # noq
 from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
 from assocbench.associators.dense.projective import associate_numpy  # noqa: E402
 from assocbench.estimators.icp import IcpConfig, icp, normal_equations, solve_update, stability_transform  # noqa: E402
-
-
-def timed(fn, runs: int, warmup: int) -> list[float]:
-    for _ in range(warmup):
-        fn()
-    out = []
-    for _ in range(runs):
-        start = time.perf_counter()
-        fn()
-        out.append(time.perf_counter() - start)
-    return out
 
 
 def main() -> None:
