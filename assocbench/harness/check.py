@@ -113,15 +113,26 @@ def baseline_table(summaries: pd.DataFrame) -> pd.DataFrame:
     """The rows written to the baseline: mean accuracy per scenario × method (and a closed
     loop's ATE)."""
     table = leaderboard_table(summaries)
-    return table[KEY + list(ACCURACY_METRICS) + (["ate_rmse"] if "ate_rmse" in table else [])]
+    return table[baseline_columns(table)]
 
 
-def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
-    """Write the baseline atomically; refuse one from a run that cannot vouch for anything."""
-    table = leaderboard_table(summaries)
+def baseline_columns(table: pd.DataFrame) -> list[str]:
+    """scenario, method, the accuracy metrics, and a closed loop's ATE when the table has it."""
+    return KEY + list(ACCURACY_METRICS) + (["ate_rmse"] if "ate_rmse" in table else [])
+
+
+def write_ok_table(table: pd.DataFrame, columns: list[str], path: Path) -> None:
+    """Write ``table[columns]`` as a baseline atomically; refuse it when any row's status is not
+    ok (a run that cannot vouch for anything must not become the reference)."""
     bad = table[table["status"] != OK]
     if len(bad):
         r = bad.iloc[0]
         raise UserError(f"not writing baseline {path}: {r['scenario']} × {r['method']} is not ok ({r['status']})")
     with atomic_path(path, role=Role("baseline", "--baseline")) as tmp:
-        baseline_table(summaries).to_csv(tmp, index=False, float_format="%.6f")
+        table[columns].to_csv(tmp, index=False, float_format="%.6f")
+
+
+def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
+    """Write the baseline (``baseline_table``) atomically; refuse one from a run not ok."""
+    table = leaderboard_table(summaries)
+    write_ok_table(table, baseline_columns(table), path)

@@ -22,6 +22,7 @@ from ..errors import UserError
 from ..scoring.aggregate import OK
 from ..scoring.dense_summary import DENSE_COLUMNS
 from ..validation import check_number
+from .check import write_ok_table
 from .config import DEFAULTS, merge, read_yaml, run_spec
 from .dense_spec import DenseRunSpec, is_dense
 from .suite import SUITE_KEYS, _crossed, _list, _methods, _refuse_duplicates
@@ -246,12 +247,4 @@ def read_dense_baseline(path: Path) -> pd.DataFrame:
 
 def write_dense_baseline(summaries: pd.DataFrame, path: Path) -> None:
     """Write the baseline (mean per scenario × method) atomically; refuse one from a run not ok."""
-    from ..atomic import Role, atomic_path
-
-    table = dense_table(summaries)
-    bad = table[table["status"] != OK]
-    if len(bad):
-        r = bad.iloc[0]
-        raise UserError(f"not writing baseline {path}: {r['scenario']} × {r['method']} is not ok ({r['status']})")
-    with atomic_path(path, role=Role("baseline", "--baseline")) as tmp:
-        table[["scenario", "method", *HIGHER_BETTER, *LOWER_BETTER_MM]].to_csv(tmp, index=False, float_format="%.6f")
+    write_ok_table(dense_table(summaries), ["scenario", "method", *HIGHER_BETTER, *LOWER_BETTER_MM], path)
