@@ -60,6 +60,14 @@ def package_digest(subpackage: str = "") -> str:
     return source_digest(PACKAGE_ROOT / subpackage if subpackage else PACKAGE_ROOT)
 
 
+def sources_digest(*subpackages: str) -> str:
+    """Digest of the sources under several subpackage folders (``"sim"``, ``"tracks/camera"``):
+    what a cached sequence is keyed by, so editing a measurement model or the track's own sensor
+    re-renders it while editing another track does not."""
+    files = tuple(sorted(f for sub in subpackages for f in (PACKAGE_ROOT / sub).rglob("*.py")))
+    return files_digest(files, PACKAGE_ROOT)
+
+
 def class_digest(cls: type) -> str:
     """Digest of the code behind ``cls`` by the rule in this module's docstring; its qualified
     name if it has no source file."""

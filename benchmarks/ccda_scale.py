@@ -17,7 +17,7 @@ import numpy as np
 from _util import print_table, summary_ms, time_call
 
 from assocbench import make_associator
-from assocbench.belief.synthetic import range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
 
 
 def proven(assoc) -> bool:

@@ -28,7 +28,7 @@ from dense_synthetic import perturb, room_frame, render, ROOM, source_set  # noq
 
 from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
 from assocbench.associators.dense.projective import associate_numpy  # noqa: E402
-from assocbench.estimators.icp import IcpConfig, icp, normal_equations, solve_update, stability_transform  # noqa: E402
+from assocbench.tracks.dense.icp import IcpConfig, icp, normal_equations, solve_update, stability_transform  # noqa: E402
 
 
 def main() -> None:

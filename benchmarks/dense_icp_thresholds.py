@@ -30,7 +30,7 @@ from dense_synthetic import ROOM, WALL, perturb, pose_at, pose_error, render, so
 from dense_synthetic import ROOM_EYE, ROOM_TARGET, WALL_EYE, WALL_TARGET  # noqa: E402
 
 from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
-from assocbench.estimators.icp import IcpConfig, icp  # noqa: E402
+from assocbench.tracks.dense.icp import IcpConfig, icp  # noqa: E402
 
 SIZES = (0, 1, 3, 5, 10, 15, 20, 30, 45)
 SCENES = {"room": (ROOM, ROOM_EYE, ROOM_TARGET), "corner": (ROOM[:3], ROOM_EYE, ROOM_TARGET),

@@ -95,11 +95,11 @@ from dense_synthetic import pose_error  # noqa: E402
 
 from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
 from assocbench.associators.dense.base import DenseAssociator, Pairs  # noqa: E402
-from assocbench.estimators.icp import IcpConfig, IcpResult, icp  # noqa: E402
+from assocbench.tracks.dense.icp import IcpConfig, IcpResult, icp  # noqa: E402
 from assocbench.harness.dense_run import frame_source  # noqa: E402
-from assocbench.sim.dense_sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
-from assocbench.sim.depth_frame import DepthFrame  # noqa: E402
-from assocbench.sim.depth_sensor import DepthConfig  # noqa: E402
+from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
+from assocbench.models.depth_frame import DepthFrame  # noqa: E402
+from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402
 
 REG = o3d.pipelines.registration
 D_THR = 0.05          # both methods' correspondence gate (m): our DenseAssociator default

@@ -39,10 +39,10 @@ from _util import print_table  # noqa: E402
 from scipy.linalg import cho_factor, cho_solve  # noqa: E402
 
 from assocbench.estimators.base import FrameData, Motion  # noqa: E402
-from assocbench.estimators.camera_ekf import CameraEKF  # noqa: E402
+from assocbench.tracks.camera.ekf import CameraEKF  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
 from assocbench.estimators.ekf_core import joseph_update  # noqa: E402
-from assocbench.sim.camera import Intrinsics  # noqa: E402
+from assocbench.models.camera import Intrinsics  # noqa: E402
 
 K = Intrinsics.from_fovy(640, 480, 60.0)
 TARGET = 1000.0   # updates/s at 50 landmarks

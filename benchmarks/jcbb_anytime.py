@@ -24,7 +24,7 @@ from assocbench.association.compatibility import individually_compatible, jointl
 from assocbench.association.problem import pairs_of
 from assocbench.associators.jcbb import default_budget
 from assocbench.associators.registry import BUILTINS
-from assocbench.belief.synthetic import range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
 
 CASES = Path(__file__).resolve().parents[1] / "tests" / "data"
 

@@ -11,7 +11,7 @@ from _util import print_table, summary_ms, time_call
 from textbook_jcbb import textbook_jcbb
 
 from assocbench import make_associator
-from assocbench.belief.synthetic import range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
 
 
 def main() -> None:

@@ -27,7 +27,7 @@ from _util import print_table, summary_ms, time_call
 from assocbench import make_associator
 from assocbench.associators.jpda import BP_MAX_SWEEPS, BP_TOL, JPDA
 from assocbench.associators.jpda_kernels import jpda_marginals
-from assocbench.belief.synthetic import range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
 from assocbench.scoring.metrics import true_mass
 
 

@@ -1,6 +1,6 @@
-"""Wall time of the full leaderboard (configs/leaderboard.yaml): cold cache (every sequence
+"""Wall time of the full leaderboard (assocbench/configs/leaderboard.yaml): cold cache (every sequence
 rendered) and warm cache (sequences cached, results recomputed).
-Usage: python benchmarks/leaderboard_time.py [--jobs 2] [--suite configs/leaderboard.yaml]"""
+Usage: python benchmarks/leaderboard_time.py [--jobs 2] [--suite assocbench/configs/leaderboard.yaml]"""
 
 from __future__ import annotations
 
@@ -28,7 +28,7 @@ def timed_leaderboard(suite: str, jobs: int, cache: Path, out: Path) -> float:
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__)
     ap.add_argument("--jobs", type=int, default=2)
-    ap.add_argument("--suite", default=str(ROOT / "configs" / "leaderboard.yaml"))
+    ap.add_argument("--suite", default=str(ROOT / "assocbench" / "configs" / "leaderboard.yaml"))
     args = ap.parse_args()
     with tempfile.TemporaryDirectory() as tmp:
         tmp = Path(tmp)

@@ -20,12 +20,12 @@ import time
 import numpy as np
 from _util import print_table
 
-from assocbench.sim.geometric_sensor import geometric_detections
+from assocbench.tracks.planar.geometric_sensor import geometric_detections
 from assocbench.sim.lidar import LidarConfig, scan
 from assocbench.sim.planar_scene import load_planar_scene
-from assocbench.sim.planar_sequence import PlanarSequenceSpec, lidar_frame
+from assocbench.tracks.planar.sequence import PlanarSequenceSpec, lidar_frame
 from assocbench.sim.planar_trajectory import planar_trajectory
-from assocbench.sim.post_detect import PostDetectorConfig, detect_posts, label_detections
+from assocbench.tracks.planar.post_detect import PostDetectorConfig, detect_posts, label_detections
 
 
 def rate(fn, items) -> float:

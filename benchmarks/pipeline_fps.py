@@ -12,14 +12,15 @@ import numpy as np
 from _util import print_table
 
 from assocbench.associators.registry import BUILTINS, make_associator
-from assocbench.belief.camera_belief import BeliefConfig, make_problem
+from assocbench.belief.config import BeliefConfig
+from assocbench.tracks.camera.belief import make_problem
 from assocbench.harness.runner import warm_up
-from assocbench.sim.detect import DetectorConfig, detect
+from assocbench.tracks.camera.detect import DetectorConfig, detect
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
-from assocbench.sim.sequence import SequenceSpec, load_sequence
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 from assocbench.sim.trajectory import make_trajectory, rig_for
-from assocbench.sim.truth import TruthConfig, label_features, visibility
+from assocbench.tracks.camera.truth import TruthConfig, label_features, visibility
 
 
 def pipeline(scene_name: str, width: int, height: int, frames: int, msaa: int | None) -> list[float]:

@@ -4,16 +4,16 @@ Run: python examples/line_extraction_table.py [frames] [seed]   (default 500 fra
 
 Prints a Markdown table (the README's): precision and recall of the true walls, RMS α and r
 errors against the true line seen from the true pose, and the mean NEES of the fits' Σ (2 when
-Σ describes the error: ``assocbench.scoring.extraction``).
+Σ describes the error: ``assocbench.tracks.lines.metrics``).
 """
 
 import sys
 
-from assocbench.scoring.extraction import extraction_scores
-from assocbench.sim.line_extract import METHODS, LineExtractorConfig
+from assocbench.tracks.lines.metrics import extraction_scores
+from assocbench.tracks.lines.extract import METHODS, LineExtractorConfig
 from assocbench.sim.line_scene import load_line_scene
-from assocbench.sim.line_scenegen import LINE_SCENES
-from assocbench.sim.line_sequence import LineSequenceSpec, make_line_sequence
+from assocbench.sim.scenegen.lines import LINE_SCENES
+from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
 
 
 def main(frames: int = 500, seed: int = 0) -> None:

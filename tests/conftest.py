@@ -23,7 +23,7 @@ def private_cache(tmp_path_factory):
 
 @pytest.fixture(scope="session")
 def room_sequence(private_cache):
-    from assocbench.sim.sequence import SequenceSpec, load_sequence
+    from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
     return load_sequence(SequenceSpec(scene="room", frames=24))
 

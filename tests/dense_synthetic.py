@@ -10,8 +10,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from assocbench.sim.camera import Intrinsics, look_at
-from assocbench.sim.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
+from assocbench.models.camera import Intrinsics, look_at
+from assocbench.models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
 
 K320 = Intrinsics.from_fovy(320, 240, 45.0)
 

@@ -9,8 +9,8 @@ import numpy as np
 from scipy.ndimage import uniform_filter
 
 from assocbench import _runtime  # noqa: F401  (MUJOCO_GL before mujoco loads)
-from assocbench.sim.camera import Intrinsics, look_at
-from assocbench.sim.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
+from assocbench.models.camera import Intrinsics, look_at
+from assocbench.models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
 
 import mujoco  # noqa: E402
 

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from assocbench.estimators.point_fusion import MIXED_GEOM, FusionConfig
-from assocbench.sim.depth_frame import DepthFrame
+from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig
+from assocbench.models.depth_frame import DepthFrame
 
 
 @dataclass

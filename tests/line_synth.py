@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from assocbench.belief.range_bearing import wrap
+from assocbench.models.range_bearing import wrap
 from assocbench.sim.lidar import LidarConfig, Scan
 
 

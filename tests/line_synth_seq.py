@@ -22,11 +22,11 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from assocbench.belief.polar_line import line_from_points, predict
-from assocbench.belief.range_bearing import wrap
-from assocbench.belief.se2 import between, rot2
+from assocbench.models.polar_line import line_from_points, predict
+from assocbench.models.range_bearing import wrap
+from assocbench.models.se2 import between, rot2
 from assocbench.estimators.base import FrameData, Motion
-from assocbench.sim.planar_sequence import PosesInPlane
+from assocbench.sim.robot_path import PosesInPlane
 
 ROOM = (4.0, 3.0)                    # half sizes: the room is [−4, 4] × [−3, 3]
 PILLAR = ((-0.1, -0.1), (0.7, 0.5))  # lower-left and upper-right corners

@@ -7,7 +7,7 @@ import pytest
 
 from assocbench import Problem, make_associator, validate_association
 from assocbench.associators.registry import available
-from assocbench.belief.synthetic import lattice_problem, range_bearing_problem
+from assocbench.models.synthetic import lattice_problem, range_bearing_problem
 from problems import random_problem, reference_joint, reference_surprisal
 
 METHODS = sorted(available())
@@ -181,7 +181,7 @@ import sys
 import numpy as np
 from numba.core.registry import CPUDispatcher
 from assocbench import make_associator
-from assocbench.belief.synthetic import camera_problem, range_bearing_problem
+from assocbench.models.synthetic import camera_problem, range_bearing_problem
 from assocbench.harness.runner import private_copy, warm_up
 
 def signatures():

@@ -6,11 +6,12 @@ import numpy as np
 import pytest
 
 from assocbench.association.compatibility import pairwise_nis
-from assocbench.belief.camera_belief import BeliefConfig, make_problem, map_mask
-from assocbench.belief.pinhole import perturb_pose, predict_bundle
-from assocbench.sim.camera import Intrinsics, look_at
-from assocbench.sim.detect import DetectorConfig
-from assocbench.sim.sequence import SequenceSpec, load_sequence
+from assocbench.belief.config import BeliefConfig, map_mask
+from assocbench.tracks.camera.belief import make_problem
+from assocbench.models.pinhole import perturb_pose, predict_bundle
+from assocbench.models.camera import Intrinsics, look_at
+from assocbench.tracks.camera.detect import DetectorConfig
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
 
 def test_analytic_jacobians_match_central_differences(rng):

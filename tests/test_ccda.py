@@ -95,7 +95,7 @@ def test_clique_is_maximum_and_pairwise_consistent(rng, unary):
 
 
 def test_ranges_and_bearings_give_pairwise_consistent_sets():
-    from assocbench.belief.synthetic import range_bearing_problem
+    from assocbench.models.synthetic import range_bearing_problem
 
     for seed in range(4):
         p, _ = range_bearing_problem(np.random.default_rng(seed), n=30)
@@ -157,7 +157,7 @@ def test_swaps_undo_two_landmarks_trading_features():
 
 
 def test_the_same_problem_gives_the_same_answer(rng):
-    from assocbench.belief.synthetic import range_bearing_problem
+    from assocbench.models.synthetic import range_bearing_problem
 
     p, _ = range_bearing_problem(np.random.default_rng(5), n=60)
     a = make_associator("ccda").associate(p)
@@ -166,7 +166,7 @@ def test_the_same_problem_gives_the_same_answer(rng):
 
 
 def test_node_budget_returns_the_best_so_far():
-    from assocbench.belief.synthetic import range_bearing_problem
+    from assocbench.models.synthetic import range_bearing_problem
 
     p, _ = range_bearing_problem(np.random.default_rng(1), n=40)
     ccda = make_associator("ccda", max_nodes=3)

@@ -12,7 +12,7 @@ import pandas as pd
 import pytest
 
 from assocbench.association.problem import NO_MATCH
-from assocbench.belief.camera_belief import BeliefConfig
+from assocbench.belief.config import BeliefConfig
 from assocbench.errors import UserError
 from assocbench.estimators.config import EstimatorConfig
 from assocbench.harness.loop import ClosedLoop, loop_records
@@ -26,14 +26,14 @@ FRAMES = 100
 
 @pytest.fixture(scope="module")
 def room100(private_cache):
-    from assocbench.sim.sequence import SequenceSpec, load_sequence
+    from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
     return load_sequence(SequenceSpec(scene="room", frames=FRAMES))
 
 
 @pytest.fixture(scope="module")
 def room_rgbd(private_cache):
-    from assocbench.sim.sequence import SequenceSpec, load_sequence
+    from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
     return load_sequence(SequenceSpec(scene="room", frames=FRAMES, feature_depth=True))
 
@@ -133,8 +133,8 @@ def test_invalid_association_is_a_failed_frame_and_does_not_touch_the_filter(roo
 
 def test_zero_or_nan_depth_makes_no_landmark():
     from assocbench.estimators.base import FrameData
-    from assocbench.estimators.camera_ekf import CameraEKF
-    from assocbench.sim.camera import Intrinsics
+    from assocbench.tracks.camera.ekf import CameraEKF
+    from assocbench.models.camera import Intrinsics
 
     K = Intrinsics.from_fovy(640, 480, 60)
     ekf = CameraEKF(K, EstimatorConfig(mode="slam"), np.eye(3), np.zeros(3), np.zeros((6, 6)), np.zeros((0, 3)),

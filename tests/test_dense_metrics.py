@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from assocbench.scoring.dense_metrics import has_partner, relative_pose_error, score_correspondences
-from assocbench.sim.camera import Intrinsics
-from assocbench.sim.depth_frame import DepthFrame, normal_map, vertex_map
+from assocbench.tracks.dense.metrics import has_partner, relative_pose_error, score_correspondences
+from assocbench.models.camera import Intrinsics
+from assocbench.models.depth_frame import DepthFrame, normal_map, vertex_map
 
 
 def wall_frame(z: float = 2.0, w: int = 40, h: int = 30) -> DepthFrame:
@@ -72,7 +72,7 @@ def test_a_wrong_pose_icp_accepted_makes_the_run_not_ok():
     status says so; a large step error right after a failed (held) frame is not counted."""
     import pandas as pd
 
-    from assocbench.scoring.dense_summary import WRONG_STEP_MM, dense_status, wrong_accepted
+    from assocbench.tracks.dense.summary import WRONG_STEP_MM, dense_status, wrong_accepted
     frames = pd.DataFrame({"frame": [0, 1, 2, 3], "icp_failed": [0, 0, 0, 0], "pairs": [0, 9, 9, 9],
                            "step_error_mm": [np.nan, 1.0, 2 * WRONG_STEP_MM, 2.0]})
     assert wrong_accepted(frames) == 1 and "accepted a wrong pose in 1 of 3" in dense_status(frames)

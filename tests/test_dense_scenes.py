@@ -6,11 +6,11 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from assocbench.sim.dense_scenegen import BAY_PERIOD, DENSE_SCENES, generate
-from assocbench.sim.depth_sensor import DepthConfig, depth_frame
+from assocbench.sim.scenegen.dense import BAY_PERIOD, DENSE_SCENES, generate
+from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene, shipped_scenes
-from assocbench.sim.sequence import SequenceSpec, trajectory_poses
+from assocbench.tracks.camera.sequence import SequenceSpec, trajectory_poses
 from assocbench.sim.trajectory import CLEARANCE
 
 import mujoco

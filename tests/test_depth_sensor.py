@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 
 from assocbench.errors import UserError
-from assocbench.sim.camera import look_at
-from assocbench.sim.depth_frame import NO_GEOM
-from assocbench.sim.depth_sensor import DepthConfig, depth_frame, downsample_intrinsics
+from assocbench.models.camera import look_at
+from assocbench.models.depth_frame import NO_GEOM
+from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame, downsample_intrinsics
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
 

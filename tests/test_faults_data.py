@@ -24,7 +24,7 @@ from assocbench.harness.jobstore import load_job, store_job
 from assocbench.harness.suite import Job, MethodEntry, load_suite
 from assocbench.harness.sweep import run_suite
 from assocbench.sim.scene import load_scene
-from assocbench.sim.sequence import SequenceSpec, load_sequence
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
 SMALL = SequenceSpec(scene="checkerboard", frames=2, width=320, height=240)
 OTHER = SequenceSpec(scene="checkerboard", frames=3, width=320, height=240)

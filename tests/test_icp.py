@@ -12,8 +12,7 @@ from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, sourc
 
 from assocbench.associators.dense import DENSE_METHODS, Pairs, make_dense_associator
 from assocbench.errors import UserError
-from assocbench.estimators.icp import (IcpConfig, icp, normal_equations, rodrigues, solve_update,
-                                       stability_transform)
+from assocbench.tracks.dense.icp import IcpConfig, icp, normal_equations, rodrigues, solve_update, stability_transform
 
 NOISE = dict(sigma_base=0.0012, sigma_quad=0.0019, grazing_deg=75.0)   # the sensor's defaults
 
@@ -186,14 +185,14 @@ def test_bad_settings_are_one_line_errors(clean):
 def crates_sequence():
     """Frames 0-100 of the crates scene's dense path (seed 0): frames 10 and 50 are 76 mm and
     4.8 deg apart, 10 and 100 169 mm and 11 deg."""
-    from assocbench.sim.dense_sequence import DenseSequenceSpec, load_dense_sequence
+    from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence
     return load_dense_sequence(DenseSequenceSpec(scene="crates", frames=101, seed=0))
 
 
 def crates_pair(seq, a: int, b: int, noise: bool):
     """Frame a's measured points at its true pose, and frame b; noise-free unless ``noise``."""
     from assocbench.harness.dense_run import frame_source
-    from assocbench.sim.depth_sensor import DepthConfig
+    from assocbench.tracks.dense.depth_sensor import DepthConfig
     seq = seq if noise else dataclasses.replace(seq, depth_cfg=DepthConfig(sigma_base=0.0, sigma_quad=0.0))
     A, B = seq.frame(a), seq.frame(b)
     src = frame_source(A, A.R, A.t)

@@ -11,7 +11,7 @@ from scipy.stats import chi2
 
 from assocbench import Problem, make_associator
 from assocbench.association.compatibility import individually_compatible, jointly_compatible
-from assocbench.belief.synthetic import range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
 from problems import exhaustive_best, reference_joint
 
 DATA = Path(__file__).parent / "data"

@@ -158,8 +158,13 @@ def test_cut_over_counts_events_and_budget():
 def test_event_count_and_its_lower_bound():
     """The cut-over's count (a weightless walk) equals the enumeration's and the cheap lower bound
     never exceeds it (a bound too high would send an enumerable cluster to BP)."""
-    from assocbench.associators.jpda_kernels import (_cluster, _components, count_events, enumerate_events,
-                                                     events_lower_bound)
+    from assocbench.associators.jpda_kernels import (
+        _cluster,
+        _components,
+        count_events,
+        enumerate_events,
+        events_lower_bound,
+    )
 
     clusters = 0
     for p in small_problems() + [chain_problem()]:

@@ -13,15 +13,15 @@ import numpy as np
 import pytest
 from line_synth_seq import line_seq
 
-from assocbench.belief.camera_belief import BeliefConfig, true_association
-from assocbench.belief.line_belief import candidate_lines
-from assocbench.belief.polar_line import jacobians, predict
-from assocbench.belief.range_bearing import pose_error, wrap
+from assocbench.belief.config import BeliefConfig, true_association
+from assocbench.tracks.lines.belief import candidate_lines
+from assocbench.models.polar_line import jacobians, predict
+from assocbench.models.range_bearing import pose_error, wrap
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData
 from assocbench.estimators.config import EstimatorConfig
-from assocbench.estimators.line_ekf import LineEKF
-from assocbench.estimators.planar_ekf import PlanarEKF
+from assocbench.tracks.lines.ekf import LineEKF
+from assocbench.tracks.planar.ekf import PlanarEKF
 from assocbench.estimators.registry import make_estimator
 from assocbench.scoring.trajectory import anees_band, ate_rmse
 

@@ -8,7 +8,7 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from assocbench.belief.range_bearing import wrap
+from assocbench.models.range_bearing import wrap
 from assocbench.errors import UserError
 from assocbench.sim.lidar import LidarConfig, cast, scan
 from assocbench.sim.line_scene import beam_lines, load_line_scene, visible_lines

@@ -10,12 +10,11 @@ from line_synth_seq import line_seq, room_map
 from assocbench import make_associator
 from assocbench.associators.registry import BUILTINS
 from assocbench.association.problem import Problem
-from assocbench.belief.camera_belief import BeliefConfig
-from assocbench.belief.line_belief import RANGE_MARGIN, candidate_lines, make_line_problem, \
-    pose_prediction_covariance
-from assocbench.belief.planar_belief import planar_pose_covariance
-from assocbench.belief.polar_line import ANGULAR, jacobians, predict
-from assocbench.belief.range_bearing import wrap
+from assocbench.belief.config import BeliefConfig
+from assocbench.tracks.lines.belief import RANGE_MARGIN, candidate_lines, make_line_problem, pose_prediction_covariance
+from assocbench.belief.planar import planar_pose_covariance
+from assocbench.models.polar_line import ANGULAR, jacobians, predict
+from assocbench.models.range_bearing import wrap
 
 METHODS = sorted(BUILTINS)
 # parameters for this scale: ENN's gate is a distance in measurement units (rad and m mixed here;

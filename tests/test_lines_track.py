@@ -12,11 +12,11 @@ import pytest
 from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records
-from assocbench.scoring.extraction import extraction_scores
-from assocbench.sim.line_extract import LineExtractorConfig
-from assocbench.sim.line_sequence import LineSequenceSpec, make_line_sequence
-from assocbench.sim.sequence import load_sequence
-from assocbench.viz.line_plots import segment_status
+from assocbench.tracks.lines.metrics import extraction_scores
+from assocbench.tracks.lines.extract import LineExtractorConfig
+from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
+from assocbench.tracks.camera.sequence import load_sequence
+from assocbench.tracks.lines.plots import segment_status
 
 
 def _summary(tmp_path, *args) -> pd.Series:

@@ -20,7 +20,7 @@ from assocbench.cli.main import main
 from assocbench.harness.leaderboard import write_leaderboard
 from assocbench.viz import draw
 from assocbench.viz.overlay import draw_association
-from assocbench.viz.truth_frame import TruthFrame, draw_truth_frame
+from assocbench.tracks.camera.truth_frame import TruthFrame, draw_truth_frame
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
 SMALL = ["--resolution", "64x48"]

@@ -19,7 +19,7 @@ from scipy.stats import chi2
 
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records
-from assocbench.sim.sequence import load_sequence
+from assocbench.tracks.camera.sequence import load_sequence
 
 pytest.importorskip("gtsam")
 

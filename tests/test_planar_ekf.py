@@ -15,12 +15,12 @@ import pytest
 from planar_synth import synth_world, true_association
 
 from assocbench.association.problem import NO_MATCH
-from assocbench.belief.range_bearing import jacobians, pose_error, predict, wrap
+from assocbench.models.range_bearing import jacobians, pose_error, predict, wrap
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData, Motion
 from assocbench.estimators.config import EstimatorConfig
 from assocbench.estimators.ekf_core import NotPositiveDefinite
-from assocbench.estimators.planar_ekf import PlanarEKF
+from assocbench.tracks.planar.ekf import PlanarEKF
 from assocbench.scoring.trajectory import anees, anees_band
 
 STEPS, SEEDS = 500, 20

@@ -11,11 +11,11 @@ from scipy.stats import chi2
 
 from planar_synth import compose, synth_world, true_association
 
-from assocbench.belief.range_bearing import pose_error
+from assocbench.models.range_bearing import pose_error
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData, Motion
 from assocbench.estimators.config import EstimatorConfig
-from assocbench.estimators.planar_isam2 import PlanarISAM2, tangent_to_world
+from assocbench.tracks.planar.isam2 import PlanarISAM2, tangent_to_world
 
 try:
     import gtsam
@@ -126,7 +126,7 @@ def test_joint_marginal_is_gtsams():
 @needs_gtsam
 def test_problem_covariance_is_h_sigma_ht():
     """Problem.P = H Σ Hᵀ over the pose and the candidates, with the world-frame Jacobians."""
-    from assocbench.belief.range_bearing import jacobians
+    from assocbench.models.range_bearing import jacobians
     world = synth_world(steps=40, seed=3)
     est = slam_estimator(world)
     run_true_association(world, est, 39)

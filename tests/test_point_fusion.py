@@ -9,11 +9,10 @@ import dense_world as dw
 from fusion_reference import NumpyMap, fuse_numpy
 
 from assocbench.errors import UserError
-from assocbench.estimators.point_fusion import (MIXED_GEOM, FusionConfig, PointMap, compression_ratio, fuse,
-                                                warm_fusion)
-from assocbench.scoring.surface import surface_distance
-from assocbench.sim.camera import Intrinsics
-from assocbench.sim.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
+from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig, PointMap, compression_ratio, fuse, warm_fusion
+from assocbench.tracks.dense.surface import surface_distance
+from assocbench.models.camera import Intrinsics
+from assocbench.models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
 
 PLANES = ("floor", "back", "left", "new")
 

@@ -3,8 +3,8 @@
 import numpy as np
 import pytest
 
-from assocbench.belief.polar_line import jacobians, line_from_points, predict, to_world
-from assocbench.belief.range_bearing import wrap
+from assocbench.models.polar_line import jacobians, line_from_points, predict, to_world
+from assocbench.models.range_bearing import wrap
 
 
 def test_prediction_matches_the_geometry_of_a_wall():

@@ -6,7 +6,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from assocbench.belief.range_bearing import inverse, inverse_jacobians, jacobians, pose_error, predict, wrap
+from assocbench.models.range_bearing import inverse, inverse_jacobians, jacobians, pose_error, predict, wrap
 
 RNG = np.random.default_rng(7)
 POSES = [np.array([0.3, -1.2, 0.4]), np.array([2.0, 1.0, np.pi - 0.01]), np.array([-1.0, 0.5, -3.1])]

@@ -12,9 +12,14 @@ import numpy as np
 import pytest
 
 from assocbench import UserError, make_associator, validate_association
-from assocbench.association.compatibility import chi2_threshold, individually_compatible, jointly_compatible, pairwise_nis
+from assocbench.association.compatibility import (
+    chi2_threshold,
+    individually_compatible,
+    jointly_compatible,
+    pairwise_nis,
+)
 from assocbench.associators.rjc import ransac_iterations
-from assocbench.belief.synthetic import camera_problem, lattice_problem, range_bearing_problem
+from assocbench.models.synthetic import camera_problem, lattice_problem, range_bearing_problem
 from problems import random_problem
 
 ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))

@@ -5,13 +5,13 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from assocbench.sim.camera import look_at
-from assocbench.sim.detect import DetectorConfig, detect
+from assocbench.models.camera import look_at
+from assocbench.tracks.camera.detect import DetectorConfig, detect
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.planar_scene import scene_track
 from assocbench.sim.scene import load_scene, shipped_scenes
-from assocbench.sim.sequence import SequenceSpec, load_sequence, render_sequence
-from assocbench.sim.truth import TruthConfig, label_features, occluded_by_depth, visibility
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, render_sequence
+from assocbench.tracks.camera.truth import TruthConfig, label_features, occluded_by_depth, visibility
 
 
 def label_errors(seq) -> np.ndarray:
@@ -82,7 +82,7 @@ def test_two_renders_are_identical():
 
 
 def test_cache_hit_does_no_rendering(tmp_path, monkeypatch):
-    import assocbench.sim.sequence as sequence
+    import assocbench.tracks.camera.sequence as sequence
 
     spec = SequenceSpec(scene="room", frames=2, seed=5)
     first = load_sequence(spec, tmp_path)
@@ -147,7 +147,7 @@ def oracle_visible(scene, R, p, K) -> np.ndarray:
     image, front side towards the camera and the first surface on the ray is the landmark."""
     import mujoco
 
-    from assocbench.sim.camera import project
+    from assocbench.models.camera import project
 
     uv, z = project(scene.landmarks, R, p, K)
     inside = (z > 0) & K.in_image(np.nan_to_num(uv, nan=-1e9))
@@ -205,7 +205,7 @@ def test_frame_summary_counts_nest(scene_name, index):
     "labelled" never exceeds "visible" (it said "12 landmarks visible ... 15 labelled")."""
     import re
 
-    from assocbench.viz.truth_frame import render_truth_frame
+    from assocbench.tracks.camera.truth_frame import render_truth_frame
 
     tf = render_truth_frame(SequenceSpec(scene=scene_name, frames=40), index)
     named = tf.labels[tf.labels >= 0]

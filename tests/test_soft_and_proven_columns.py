@@ -8,8 +8,8 @@ import math
 import numpy as np
 import pandas as pd
 
-from assocbench.belief.camera_belief import FrameTruth
-from assocbench.belief.synthetic import range_bearing_problem
+from assocbench.association.truth import FrameTruth
+from assocbench.models.synthetic import range_bearing_problem
 from assocbench.harness.runner import frame_records
 from assocbench.scoring.aggregate import leaderboard_table, summarize
 

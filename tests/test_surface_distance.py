@@ -8,7 +8,7 @@ import pytest
 
 from assocbench import _runtime  # noqa: F401
 from assocbench.errors import UserError
-from assocbench.scoring.surface import surface_distance
+from assocbench.tracks.dense.surface import surface_distance
 
 import mujoco  # noqa: E402
 

@@ -16,9 +16,19 @@ from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
 from assocbench import UserError
-from assocbench.scoring.trajectory import (anees, anees_band, ate_rmse, divergence_frame, pose_error,
-                                           pose_nees, position_errors, read_tum, rotation_errors_deg,
-                                           rotation_rmse_deg, write_tum)
+from assocbench.scoring.trajectory import (
+    anees,
+    anees_band,
+    ate_rmse,
+    divergence_frame,
+    pose_error,
+    pose_nees,
+    position_errors,
+    read_tum,
+    rotation_errors_deg,
+    rotation_rmse_deg,
+    write_tum,
+)
 
 
 def _exp(rotvec) -> np.ndarray:

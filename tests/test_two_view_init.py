@@ -11,16 +11,16 @@ import pytest
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
-from assocbench.belief.camera_belief import BeliefConfig
+from assocbench.belief.config import BeliefConfig
 from assocbench.estimators.base import FrameData, Motion
-from assocbench.estimators.camera_ekf import CameraEKF, exp_so3
+from assocbench.tracks.camera.ekf import CameraEKF, exp_so3
 from assocbench.estimators.config import EstimatorConfig
-from assocbench.estimators.triangulation import camera_matrix, triangulate_dlt
-from assocbench.estimators.two_view_init import MIN_PARALLAX_DEG, View, depth_spread, parallax_deg, two_view_landmark
+from assocbench.tracks.camera.triangulation import camera_matrix, triangulate_dlt
+from assocbench.tracks.camera.two_view_init import MIN_PARALLAX_DEG, View, depth_spread, parallax_deg, two_view_landmark
 from assocbench.harness.loop import loop_records
 from assocbench.scoring.aggregate import summarize
 from assocbench.scoring.trajectory import pose_error
-from assocbench.sim.camera import Intrinsics, look_at, project
+from assocbench.models.camera import Intrinsics, look_at, project
 from assocbench.sim.odometry import true_increment
 
 K = Intrinsics.from_fovy(640, 480, 60.0)   # f ≈ 416 px
@@ -187,7 +187,7 @@ def test_while_a_view_waits_the_state_holds_its_pose_clone_outside_the_reported_
 
 @pytest.fixture(scope="module")
 def room30(private_cache):
-    from assocbench.sim.sequence import SequenceSpec, load_sequence
+    from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
     return load_sequence(SequenceSpec(scene="room", frames=30, feature_depth=True))
 

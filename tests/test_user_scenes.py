@@ -8,8 +8,8 @@ import pytest
 from assocbench.errors import UserError
 from assocbench.sim.planar_scene import scene_track
 from assocbench.sim.scene import load_scene, shipped_scenes
-from assocbench.sim.scenegen import HALL_VERTICES, SceneBuilder, polygon_hall, write_scene
-from assocbench.sim.sequence import SequenceSpec, load_sequence, trajectory_poses
+from assocbench.sim.scenegen.camera import HALL_VERTICES, SceneBuilder, polygon_hall, write_scene
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, trajectory_poses
 from assocbench.sim.trajectory import rig_for
 
 

@@ -30,8 +30,13 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import (chi2_threshold, difference_nis_kernel, individually_compatible, marginal_blocks,
-                                         wrap_mask)
+from ..association.compatibility import (
+    chi2_threshold,
+    difference_nis_kernel,
+    individually_compatible,
+    marginal_blocks,
+    wrap_mask,
+)
 from ..association.problem import Problem
 from ..errors import UserError
 from ..validation import in_range

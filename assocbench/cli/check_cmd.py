@@ -7,8 +7,16 @@ import tempfile
 from pathlib import Path
 
 from ..harness.check import baseline_table, check_tolerance, compare, read_baseline, write_baseline
-from ..harness.dense_suite import (DenseSuite, compare_dense, dense_table, is_dense_suite, load_dense_suite,
-                                   read_dense_baseline, run_dense_suite, write_dense_baseline)
+from ..harness.dense_suite import (
+    DenseSuite,
+    compare_dense,
+    dense_table,
+    is_dense_suite,
+    load_dense_suite,
+    read_dense_baseline,
+    run_dense_suite,
+    write_dense_baseline,
+)
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table

@@ -12,7 +12,7 @@ from typing import Callable
 import pandas as pd
 
 from ..errors import UserError
-from ..sim.render import MIN_SIDE   # a zero side made the camera rig divide by zero
+from ..sim.render import MIN_SIDE  # a zero side made the camera rig divide by zero
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:

@@ -29,10 +29,10 @@ def dense_methods() -> dict[str, str]:
 
 
 def main(args: argparse.Namespace) -> int:
-    from ..sim.dense_scenegen import DENSE_SCENES
-    from ..sim.line_scenegen import LINE_SCENES
-    from ..sim.planar_scenegen import PLANAR_SCENES
-    from ..sim.scenegen import SCENES
+    from ..sim.scenegen.dense import DENSE_SCENES
+    from ..sim.scenegen.lines import LINE_SCENES
+    from ..sim.scenegen.planar import PLANAR_SCENES
+    from ..sim.scenegen.camera import SCENES
 
     described = SCENES | PLANAR_SCENES | LINE_SCENES | DENSE_SCENES
     track = {name: "planar" for name in PLANAR_SCENES} | {name: "lines" for name in LINE_SCENES}

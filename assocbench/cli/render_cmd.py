@@ -11,13 +11,13 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from ..belief.camera_belief import make_problem
+from ..tracks.camera.belief import make_problem
 from ..harness.config import RunSpec, camera_only, load_run_config, run_spec
 from ..harness.loop_replay import replay_loop
 from ..harness.runner import execute
 from ..sim.render import FrameRenderer
 from ..sim.scene import load_scene
-from ..sim.sequence import Sequence, load_sequence
+from ..tracks.camera.sequence import Sequence, load_sequence
 from ..viz.overlay import draw_association
 from ..viz.topview import top_view, view_bounds
 from ..viz.video import check_fps, check_video_path, write_video

@@ -85,7 +85,7 @@ def main(args: argparse.Namespace) -> int:
 def dense_main(spec: DenseRunSpec, out: Path, fmt: str) -> int:
     """The dense track's run: frames.csv, summary.csv, TUM trajectories, map.ply and map.png."""
     from ..harness.dense_execute import dense_writers, execute_dense
-    from ..scoring.dense_summary import DENSE_COLUMNS
+    from ..tracks.dense.summary import DENSE_COLUMNS
 
     frames, summary, end = execute_dense(spec)
     seq = spec.sequence

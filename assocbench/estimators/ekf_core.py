@@ -13,7 +13,7 @@ import numpy as np
 from scipy.linalg.blas import dsyr2k
 from scipy.linalg.lapack import dpotrs
 
-from ..belief.range_bearing import wrap
+from ..models.range_bearing import wrap
 from ..errors import UserError
 
 

@@ -14,7 +14,7 @@ import math
 
 import numpy as np
 
-from ..belief.se2 import compose, rz
+from ..models.se2 import compose, rz
 from ..errors import UserError
 from .base import Motion
 from .ekf_core import propagate_pose

@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..belief.camera_belief import BeliefConfig, map_mask, sample_estimate
-from ..belief.line_belief import sample_line_pose
-from ..belief.planar_belief import map_covariance, planar_pose_covariance, sample_planar_estimate
+from ..belief.config import BeliefConfig, map_mask
+from ..tracks.camera.belief import sample_estimate
+from ..tracks.lines.belief import sample_line_pose
+from ..belief.planar import map_covariance, planar_pose_covariance, sample_planar_estimate
 from ..errors import UserError
-from .camera_ekf import CameraEKF
+from ..tracks.camera.ekf import CameraEKF
 from .config import ESTIMATOR_NAMES, EstimatorConfig
 
 
@@ -46,9 +47,9 @@ def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed:
     with zero covariance and no map; ``localisation`` from the sampled pose and mapped posts
     (``belief.map_fraction``) with Σ = blockdiag(Σ_pose, Σ_L) reported."""
     if cfg.name == "isam2":
-        from .planar_isam2 import PlanarISAM2 as cls
+        from ..tracks.planar.isam2 import PlanarISAM2 as cls
     else:
-        from .planar_ekf import PlanarEKF as cls
+        from ..tracks.planar.ekf import PlanarEKF as cls
     if cfg.mode == "slam":
         return cls(cfg, seq.poses[0], np.zeros((3, 3)), np.zeros((0, 2)), np.zeros(0, np.int64), seq.max_range, seq.fov)
     pose_hat, map_hat = sample_planar_estimate(seq.poses[0], seq.posts, belief, np.random.default_rng([seed, 0, 505]))
@@ -63,7 +64,7 @@ def make_line_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: i
     """The lines track's ``LineEKF`` at frame 0: localisation only (the map of walls is known
     exactly), from the sampled pose with Σ_pose reported, on the mapped lines
     (``belief.map_fraction``). ``slam`` or ``isam2`` is a ``UserError`` naming what to use."""
-    from .line_ekf import NOT_ISAM2, NOT_SLAM, LineEKF
+    from ..tracks.lines.ekf import NOT_ISAM2, NOT_SLAM, LineEKF
     if cfg.name != "ekf":
         raise UserError(NOT_ISAM2)
     if cfg.mode != "localisation":

@@ -16,23 +16,23 @@ from pathlib import Path
 import yaml
 
 from ..associators.registry import make_associator
-from ..belief.camera_belief import BeliefConfig
+from ..belief.config import BeliefConfig
 from ..errors import UserError
 from ..estimators.config import EstimatorConfig
-from ..estimators.icp import IcpConfig
-from ..estimators.point_fusion import FusionConfig
-from ..sim.depth_sensor import DepthConfig
-from ..sim.detect import DetectorConfig
+from ..tracks.dense.icp import IcpConfig
+from ..tracks.dense.fusion import FusionConfig
+from ..tracks.dense.depth_sensor import DepthConfig
+from ..tracks.camera.detect import DetectorConfig
 from ..sim.lidar import LidarConfig
-from ..sim.line_extract import LineExtractorConfig
-from ..sim.line_sequence import LineSequenceSpec
+from ..tracks.lines.extract import LineExtractorConfig
+from ..tracks.lines.sequence import LineSequenceSpec
 from ..sim.planar_scene import scene_track
-from ..sim.planar_sequence import PlanarSequenceSpec
-from ..sim.post_detect import PostDetectorConfig
+from ..tracks.planar.sequence import PlanarSequenceSpec
+from ..tracks.planar.post_detect import PostDetectorConfig
 from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
-from ..sim.sequence import SequenceSpec
+from ..tracks.camera.sequence import SequenceSpec
 from ..sim.trajectory import check_trajectory_params
-from ..sim.truth import TruthConfig
+from ..tracks.camera.truth import TruthConfig
 from ..validation import check_number
 from .dense_spec import DenseConfig, DenseRunSpec, dense_run_spec, is_dense
 

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..scoring.dense_summary import poses, summarize_dense
+from ..tracks.dense.summary import poses, summarize_dense
 from ..scoring.trajectory import tum_text
 from ..sim.ply import write_ply
 from .dense_run import run_dense
@@ -23,7 +23,7 @@ def execute_dense(spec: DenseRunSpec, cache_dir: Path | None = None) -> tuple[pd
 def dense_writers(frames: pd.DataFrame, end: dict, out: Path, title: str) -> dict:
     """Writers of ``truth.txt`` / ``estimate.txt`` (TUM), ``map.ply`` (the fused map with its
     weight and distance to the true surface, mm) and ``map.png`` (its top view)."""
-    from ..viz.dense_plots import map_figure
+    from ..tracks.dense.plots import map_figure
 
     stamps = frames["frame"].to_numpy(float)
     (R_true, p_true), (R_est, p_est) = poses(frames, "true_"), poses(frames, "est_")

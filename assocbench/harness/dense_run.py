@@ -25,12 +25,12 @@ from scipy.spatial.transform import Rotation
 
 from ..associators.dense.registry import make_dense_associator
 from ..errors import UserError
-from ..estimators.icp import IcpConfig, icp
-from ..estimators.point_fusion import PointMap, compression_ratio, fuse
-from ..scoring.dense_metrics import relative_pose_error, score_correspondences
-from ..scoring.surface import surface_distance
-from ..sim.dense_sequence import DenseSequence, load_dense_sequence
-from ..sim.depth_frame import DepthFrame
+from ..tracks.dense.icp import IcpConfig, icp
+from ..tracks.dense.fusion import PointMap, compression_ratio, fuse
+from ..tracks.dense.metrics import relative_pose_error, score_correspondences
+from ..tracks.dense.surface import surface_distance
+from ..tracks.dense.sequence import DenseSequence, load_dense_sequence
+from ..models.depth_frame import DepthFrame
 from ..sim.scene import load_scene
 from .dense_spec import DenseRunSpec
 

@@ -11,10 +11,10 @@ from dataclasses import dataclass, field
 
 from ..associators.dense.registry import DENSE_METHODS, make_dense_associator
 from ..errors import UserError
-from ..estimators.icp import IcpConfig
-from ..estimators.point_fusion import FusionConfig
-from ..sim.dense_sequence import DenseSequenceSpec
-from ..sim.depth_sensor import DepthConfig
+from ..tracks.dense.icp import IcpConfig
+from ..tracks.dense.fusion import FusionConfig
+from ..tracks.dense.sequence import DenseSequenceSpec
+from ..tracks.dense.depth_sensor import DepthConfig
 from ..validation import check_number
 
 TRACKING = ("model", "frame", "truth")

@@ -20,7 +20,7 @@ import pandas as pd
 
 from ..errors import UserError
 from ..scoring.aggregate import OK
-from ..scoring.dense_summary import DENSE_COLUMNS
+from ..tracks.dense.summary import DENSE_COLUMNS
 from ..validation import check_number
 from .check import write_ok_table
 from .config import DEFAULTS, merge, read_yaml, run_spec
@@ -82,7 +82,7 @@ def load_dense_suite(path: Path) -> DenseSuite:
 
 
 def _render(spec: DenseRunSpec, cache_dir: str | None) -> None:
-    from ..sim.dense_sequence import load_dense_sequence
+    from ..tracks.dense.sequence import load_dense_sequence
 
     load_dense_sequence(spec.sequence, Path(cache_dir) if cache_dir else None)
 
@@ -90,7 +90,7 @@ def _render(spec: DenseRunSpec, cache_dir: str | None) -> None:
 def _run(item: tuple, cache_dir: str | None) -> tuple[dict, pd.DataFrame, dict]:
     """One run in a worker: its summary row, its frames and a subsample of its map for the figure."""
     from .dense_execute import execute_dense
-    from ..viz.dense_plots import MAX_DRAWN
+    from ..tracks.dense.plots import MAX_DRAWN
 
     scenario, label, seed, spec = item
     frames, summary, end = execute_dense(spec, Path(cache_dir) if cache_dir else None)
@@ -179,7 +179,7 @@ def write_dense_leaderboard(summaries: pd.DataFrame, frames: pd.DataFrame, pictu
     """``leaderboard.csv`` (every run), ``leaderboard.md``, ``frames.csv.gz``, ``leaderboard_map.png``:
     all written or none."""
     from ..atomic import write_group
-    from ..viz.dense_plots import map_figure
+    from ..tracks.dense.plots import map_figure
 
     table = dense_table(summaries)
     first_seed = {}

@@ -191,7 +191,7 @@ def map_view(frames: pd.DataFrame, scene: str, difficulty: str):
     title = f"{scenario} seed {one['seed'].min()}"
     if scene_track(name) == "lines":   # walls, not points: the map's faces and each method's last scan
         from ..sim.line_scene import load_line_scene
-        from ..viz.line_plots import line_map_figure, snapshots
+        from ..tracks.lines.plots import line_map_figure, snapshots
 
         return line_map_figure(one, load_line_scene(name).segments, snapshots(one), title=title)
     return map_figure(one, scene_landmarks(name), final_maps(one), title=title)

@@ -18,12 +18,13 @@ import numpy as np
 
 from ..association.compatibility import pairwise_nis
 from ..association.problem import NO_MATCH, Problem
-from ..belief.camera_belief import BeliefConfig, FrameTruth
+from ..belief.config import BeliefConfig
+from ..association.truth import FrameTruth
 from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
 from ..estimators.registry import make_estimator
 from ..scoring.metrics import score_frame, true_mass
-from ..sim.sequence import Sequence
+from ..tracks.camera.sequence import Sequence
 from .config import ORACLE
 from .loop_sensors import loop_sensor
 from .loop_truth import MapTruth, RevisitCounter, loop_truth, map_quality

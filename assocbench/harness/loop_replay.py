@@ -16,7 +16,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from ..association.problem import Problem
-from ..sim.sequence import Sequence
+from ..tracks.camera.sequence import Sequence
 from .config import RunSpec
 from .loop import ClosedLoop, recorded_answer
 

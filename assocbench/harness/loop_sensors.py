@@ -14,16 +14,16 @@ import numpy as np
 from scipy.spatial.transform import Rotation
 
 from ..association.problem import NO_MATCH
-from ..belief.camera_belief import BeliefConfig, with_clutter_labels
-from ..belief.line_belief import clutter_lines
-from ..belief.planar_belief import clutter_detections, nominal_noise
-from ..belief.range_bearing import pose_error as planar_pose_error
-from ..belief.se2 import compose
+from ..belief.config import BeliefConfig, with_clutter_labels
+from ..tracks.lines.belief import clutter_lines
+from ..belief.planar import clutter_detections, nominal_noise
+from ..models.range_bearing import pose_error as planar_pose_error
+from ..models.se2 import compose
 from ..estimators.base import FrameData, Motion
 from ..estimators.config import EstimatorConfig
 from ..scoring.trajectory import pose_error, pose_nees
 from ..sim.odometry import odometry, planar_odometry
-from ..viz.line_plots import segment_status, snapshot_json
+from ..tracks.lines.plots import segment_status, snapshot_json
 
 
 def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:

@@ -16,7 +16,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..association.problem import NO_MATCH
-from ..belief.camera_belief import FrameTruth
+from ..association.truth import FrameTruth
 
 
 @dataclass

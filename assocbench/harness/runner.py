@@ -20,13 +20,15 @@ import pandas as pd
 
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..associators.registry import make_associator
-from ..belief.camera_belief import BeliefConfig, FrameTruth, make_problem
-from ..belief.line_belief import make_line_problem
-from ..belief.planar_belief import make_planar_problem
+from ..belief.config import BeliefConfig
+from ..association.truth import FrameTruth
+from ..tracks.camera.belief import make_problem
+from ..tracks.lines.belief import make_line_problem
+from ..tracks.planar.belief import make_planar_problem
 from ..errors import UserError
 from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
-from ..sim.sequence import Sequence
+from ..tracks.camera.sequence import Sequence
 from .config import RunSpec
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call

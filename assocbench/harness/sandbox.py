@@ -35,7 +35,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..errors import UserError
-from ..sim.sequence import load_sequence
+from ..tracks.camera.sequence import load_sequence
 from .loop import loop_records
 from .runner import WARM_UP, describe, frame_problems, frame_records
 

@@ -24,7 +24,7 @@ import numpy as np
 
 from ..association.compatibility import joint_verdict, surprisal
 from ..association.problem import NO_MATCH, Problem
-from ..belief.camera_belief import FrameTruth
+from ..association.truth import FrameTruth
 
 JC_CONFIDENCE = 0.99
 

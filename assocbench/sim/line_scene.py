@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
-from ..belief.range_bearing import wrap
+from ..models.range_bearing import wrap
 from ..errors import UserError
 from . import footprint
 from .scene import WALL_PREFIX, Scene, _mjcf_error, resolve_scene_path

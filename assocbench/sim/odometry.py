@@ -11,9 +11,9 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
-from ..belief.pinhole import exp_so3
-from ..belief.range_bearing import wrap
-from ..belief.se2 import between
+from ..models.pinhole import exp_so3
+from ..models.range_bearing import wrap
+from ..models.se2 import between
 from ..estimators.base import Motion
 from ..estimators.config import EstimatorConfig
 

@@ -21,7 +21,7 @@ from typing import TYPE_CHECKING, Callable
 import numpy as np
 
 from ..errors import UserError
-from ..belief.range_bearing import wrap
+from ..models.range_bearing import wrap
 from ..validation import check_number
 
 if TYPE_CHECKING:

@@ -9,8 +9,8 @@ import numpy as np
 
 from .. import _runtime  # sets MUJOCO_GL before mujoco loads; GL_ERROR says if it could not
 from ..errors import UserError
-from .camera import CV_TO_MUJOCO, Intrinsics
-from .depth_frame import NO_GEOM
+from ..models.camera import CV_TO_MUJOCO, Intrinsics
+from ..models.depth_frame import NO_GEOM
 from .scene import Scene
 
 import mujoco  # noqa: E402

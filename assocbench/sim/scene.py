@@ -28,8 +28,8 @@ WALL_PREFIX = "lw"        # the lines track's map walls: box geoms named lw*
 
 
 def shipped_scenes() -> dict[str, Path]:
-    """Names and paths of the scenes shipped in the wheel (``assocbench/envs``)."""
-    root = Path(str(resources.files("assocbench.envs")))
+    """Names and paths of the scenes shipped in the wheel (``assocbench/scenes``)."""
+    root = Path(str(resources.files("assocbench.scenes")))
     return {p.stem: p for p in sorted(root.glob("*.xml"))}
 
 

@@ -21,7 +21,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..validation import check_number, in_range
-from .camera import look_at
+from ..models.camera import look_at
 
 Poses = tuple[np.ndarray, np.ndarray]  # (N, 3, 3) rotations, (N, 3) positions
 FreeSpace = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (origin, unit dirs (k, 3)) -> distances (k,)

@@ -29,7 +29,7 @@ import numpy as np
 import yaml
 
 from ..errors import UserError
-from .camera import CV_TO_MUJOCO, look_at
+from ..models.camera import CV_TO_MUJOCO, look_at
 from .normals import warn_once
 from .scene import Scene
 from .trajectory import Keyframes

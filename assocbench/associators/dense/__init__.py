@@ -7,6 +7,6 @@ the dense kernels (association and ICP) once per process.
 
 from .base import DenseAssociator, Pairs
 from .registry import DENSE_METHODS, make_dense_associator
-from .warm import warm_dense
+from ...tracks.dense.warm import warm_dense
 
 __all__ = ["DENSE_METHODS", "DenseAssociator", "Pairs", "make_dense_associator", "warm_dense"]

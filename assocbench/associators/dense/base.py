@@ -21,7 +21,7 @@ from typing import ClassVar
 import numpy as np
 
 from ...errors import UserError
-from ...sim.depth_frame import DepthFrame
+from ...models.depth_frame import DepthFrame
 from ...validation import in_range, validate_fields
 
 

@@ -21,7 +21,7 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial import cKDTree
 
-from ...sim.depth_frame import DepthFrame
+from ...models.depth_frame import DepthFrame
 from .base import DenseAssociator, Pairs, checked_inputs, flat_maps, world_filters
 
 

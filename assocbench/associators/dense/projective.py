@@ -23,7 +23,7 @@ import math
 import numpy as np
 from numba import njit
 
-from ...sim.depth_frame import DepthFrame
+from ...models.depth_frame import DepthFrame
 from .base import DenseAssociator, Pairs, checked_inputs, flat_maps
 
 

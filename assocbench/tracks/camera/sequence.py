@@ -1,0 +1,287 @@
+"""A rendered sequence: poses, features, truth labels and visibility of every frame, cached.
+
+``load_sequence(spec)`` renders, detects and labels each frame once and stores the result
+under a key that hashes everything that affects it (scene files, trajectory, resolution,
+detector and truth settings, this module's format version, the sources in ``CODE`` and the
+MuJoCo and OpenCV versions). A second call with the same
+spec reads the cache and renders nothing.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import struct
+import sys
+import zipfile
+import zlib
+from dataclasses import asdict, dataclass, field
+from pathlib import Path
+
+import cv2
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from ..._runtime import cache_root
+from ...atomic import CACHE, atomic_path
+from ...errors import UserError
+from ...fingerprint import sources_digest
+from ...models.camera import Intrinsics
+from .detect import DetectorConfig, detect
+from ..planar.sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
+from ..lines.sequence import LineSequence, LineSequenceSpec, make_line_sequence
+from ...sim.render import FrameRenderer
+from ...sim.scene import Scene, load_scene, resolve_scene_path
+from ...sim.trajectory import TRAJECTORIES, make_trajectory, rig_for
+from .truth import TruthConfig, label_features, visibility
+from ...sim.waypoints import file_digest, read_waypoints, user_keyframes, waypoint_path
+
+FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
+DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line", "bays": "line", "crates": "circle"}
+# the sources a cached sequence depends on: shared simulation, measurement models, this track
+CODE = ("sim", "models", "tracks/camera")
+
+
+def default_cache_dir() -> Path:
+    """``$ASSOCBENCH_CACHE`` or ``~/.cache/assocbench``."""
+    return cache_root()
+
+
+@dataclass(frozen=True)
+class SequenceSpec:
+    """Everything that determines a rendered sequence."""
+
+    scene: str = "room"
+    trajectory: str | None = None           # None: the scene's default
+    frames: int = 40
+    seed: int = 0
+    width: int = 640
+    height: int = 480
+    msaa: int | None = None                  # None: the scene's own multisampling
+    trajectory_params: dict = field(default_factory=dict)
+    detector: DetectorConfig = field(default_factory=DetectorConfig)
+    truth: TruthConfig = field(default_factory=TruthConfig)
+    keep_images: bool = False
+    feature_depth: bool = False             # render depth and keep its value at each feature (RGB-D)
+
+    def resolved_trajectory(self) -> str:
+        """The trajectory's name (the scene's default when None), checked; a waypoint file is
+        read and checked here too, so a bad one is refused before anything runs."""
+        name = self.trajectory or DEFAULT_TRAJECTORY.get(Path(self.scene).stem, "circle")
+        if name not in TRAJECTORIES:
+            raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
+        if name == "waypoints":
+            read_waypoints(waypoint_path(self.trajectory_params, resolve_scene_path(self.scene).parent))
+        return name
+
+    def key(self, scene: Scene) -> str:
+        """Cache key: a hash of every setting, the scene's files, a waypoint file's content, the
+        format version, the sources in ``CODE`` and the MuJoCo and OpenCV versions."""
+        payload = asdict(self) | {"trajectory": self.resolved_trajectory(), "scene": scene.digest,
+                                  "format": FORMAT_VERSION, "code": sources_digest(*CODE),
+                                  "mujoco": mujoco.__version__, "opencv": cv2.__version__}
+        if payload["trajectory"] == "waypoints":
+            payload["waypoints"] = file_digest(waypoint_path(self.trajectory_params, scene.path.parent))
+        return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+@dataclass
+class Sequence:
+    """Rendered frames' truth. Landmark indices refer to ``landmark_names``."""
+
+    scene: str
+    K: Intrinsics
+    landmarks: np.ndarray          # (L, 3)
+    normals: np.ndarray            # (L, 3) outward unit normals
+    landmark_names: list[str]
+    rotations: np.ndarray          # (N, 3, 3) camera-to-world, OpenCV axes
+    positions: np.ndarray          # (N, 3)
+    features: list[np.ndarray]     # N x (m_k, 2) detected pixels
+    labels: list[np.ndarray]       # N x (m_k,) landmark index or -1
+    visible: np.ndarray            # (N, L) truly visible: imaged, the only landmarks labels name
+    projections: np.ndarray        # (N, L, 2) true projections
+    depths: list[np.ndarray] | None = None   # N x (m_k,) rendered z-depth at each feature, NaN where none
+    images: np.ndarray | None = None
+    from_cache: bool = False
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+
+@dataclass
+class RenderedFrame:
+    """One rendered frame, its detections and their truth (what ``render_sequence`` keeps)."""
+
+    rgb: np.ndarray | None   # dropped once a sequence has taken what it keeps
+    features: np.ndarray     # (m, 2)
+    labels: np.ndarray       # (m,) landmark index or -1
+    projections: np.ndarray  # (L, 2)
+    visible: np.ndarray      # (L,) in front, in the image, front side towards the camera, unoccluded
+    depths: np.ndarray | None = None   # (m,) rendered z-depth at each feature (``feature_depth``)
+
+
+def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
+    """Camera rotations (N, 3, 3) and positions (N, 3) of ``spec``'s trajectory in ``scene``."""
+    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height, scene.free_distance)
+    name = spec.resolved_trajectory()
+    params, keys = user_keyframes(name, spec.trajectory_params, scene)
+    return make_trajectory(name, rig, spec.frames, spec.seed, keys=keys, **params)
+
+
+def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: np.ndarray, p: np.ndarray,
+                  k: int) -> RenderedFrame:
+    """Render frame ``k`` at pose ``(R, p)``, detect its features and label them."""
+    frame = renderer.render(R, p, depth=spec.truth.occlusion == "depth" or spec.feature_depth)
+    features = detect(frame["rgb"], spec.detector, np.random.default_rng([spec.seed, k, 11]))
+    uv, visible = visibility(scene, R, p, renderer.K, spec.truth, frame.get("depth"))
+    labels = label_features(features, uv, visible, spec.truth.gate_px)
+    depths = depth_at(frame["depth"], features, renderer.far) if spec.feature_depth else None
+    return RenderedFrame(frame["rgb"], features, labels, uv, visible, depths)
+
+
+def depth_at(depth: np.ndarray, features: np.ndarray, far: float) -> np.ndarray:
+    """Rendered z-depth at each feature's nearest pixel (a depth sensor returns one surface's
+    value, not a blend across an edge); NaN where nothing was hit (the far plane) or the value is
+    not a positive finite number."""
+    cols = np.clip(np.rint(features[:, 0]).astype(int), 0, depth.shape[1] - 1)
+    rows = np.clip(np.rint(features[:, 1]).astype(int), 0, depth.shape[0] - 1)
+    z = depth[rows, cols].astype(np.float64)
+    return np.where(np.isfinite(z) & (z > 0) & (z < 0.999 * far), z, np.nan)
+
+
+def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
+    """Render, detect and label every frame of ``spec`` (no cache)."""
+    scene = scene or load_scene(spec.scene)
+    rots, pos = trajectory_poses(spec, scene)
+    frames, images = [], []
+    with FrameRenderer(scene, spec.width, spec.height, spec.msaa) as renderer:
+        for k in tqdm(range(spec.frames), desc=f"render {scene.name}", unit="frame", leave=False,
+                      disable=None, mininterval=0.5):  # the bar shows on a terminal only
+            f = process_frame(spec, scene, renderer, rots[k], pos[k], k)
+            if spec.keep_images:
+                images.append(f.rgb)
+            f.rgb = None  # a long sequence must not hold every image in memory
+            frames.append(f)
+        K = renderer.K
+    return Sequence(scene.name, K, scene.landmarks, scene.normals, scene.landmark_names, rots, pos,
+                    [f.features for f in frames], [f.labels for f in frames],
+                    np.array([f.visible for f in frames]), np.array([f.projections for f in frames]),
+                    [f.depths for f in frames] if spec.feature_depth else None,
+                    np.array(images) if spec.keep_images else None)
+
+
+def _save(seq: Sequence, path: Path, key: str) -> None:
+    """Store ``seq`` at ``path`` atomically, with its cache ``key`` inside so a file that lands
+    under another key (copied, renamed) is recognised."""
+    counts = np.array([len(f) for f in seq.features])
+    arrays = dict(
+        key=np.array(key),
+        K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]),
+        landmarks=seq.landmarks, normals=seq.normals, names=np.array(seq.landmark_names), scene=np.array(seq.scene),
+        rotations=seq.rotations, positions=seq.positions, counts=counts,
+        features=np.concatenate(seq.features) if counts.sum() else np.zeros((0, 2)),
+        labels=np.concatenate(seq.labels) if counts.sum() else np.zeros(0, np.int64),
+        visible=seq.visible, projections=seq.projections,
+    )
+    if seq.images is not None:
+        arrays["images"] = seq.images
+    if seq.depths is not None:
+        arrays["depths"] = np.concatenate(seq.depths) if counts.sum() else np.zeros(0)
+    with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+
+class _Unusable(Exception):
+    """A cache entry that reads, but is not the sequence its key names."""
+
+
+# what reading a damaged .npz can raise: a truncated or flipped zip (BadZipFile, EOFError,
+# zlib.error, OSError), a damaged array header (ValueError, SyntaxError, MemoryError for an
+# absurd shape), a missing member (KeyError), or a pickle refusal for garbage (ValueError)
+_DAMAGED = (_Unusable, OSError, EOFError, ValueError, KeyError, IndexError, TypeError, SyntaxError,
+            MemoryError, NotImplementedError, RuntimeError, zipfile.BadZipFile, zlib.error, struct.error)
+
+
+def _load(path: Path, key: str, spec: SequenceSpec) -> Sequence:
+    """Read a cache entry and check it is the sequence of ``key``; raise one of ``_DAMAGED``."""
+    with np.load(path) as z:
+        if "key" not in z.files or str(z["key"]) != key:
+            raise _Unusable("it was stored under another key")
+        w, h, f, cx, cy = z["K"]
+        counts = z["counts"]
+        splits = np.cumsum(counts)[:-1]
+        seq = Sequence(
+            str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
+            z["landmarks"], z["normals"], [str(n) for n in z["names"]], z["rotations"], z["positions"],
+            np.split(z["features"], splits), np.split(z["labels"], splits), z["visible"],
+            z["projections"], np.split(z["depths"], splits) if "depths" in z.files else None,
+            z["images"] if "images" in z.files else None, from_cache=True,
+        )
+    _check_shapes(seq, counts, spec)
+    return seq
+
+
+def _check_shapes(seq: Sequence, counts: np.ndarray, spec: SequenceSpec) -> None:
+    """Raise ``_Unusable`` unless every array has the shape ``spec`` implies."""
+    n, lms = spec.frames, len(seq.landmark_names)
+    features = np.concatenate(seq.features) if len(seq.features) else np.zeros((0, 2))
+    labels = np.concatenate(seq.labels) if len(seq.labels) else np.zeros(0, np.int64)
+    expected = {"rotations": (seq.rotations.shape, (n, 3, 3)), "positions": (seq.positions.shape, (n, 3)),
+                "counts": (counts.shape, (n,)), "landmarks": (seq.landmarks.shape, (lms, 3)),
+                "normals": (seq.normals.shape, (lms, 3)), "visible": (seq.visible.shape, (n, lms)),
+                "projections": (seq.projections.shape, (n, lms, 2)),
+                "features": (features.shape, (int(counts.sum()), 2)), "labels": (labels.shape, (int(counts.sum()),)),
+                "image size": ((seq.K.width, seq.K.height), (spec.width, spec.height)),
+                "images": (None if seq.images is None else seq.images.shape,
+                           (n, spec.height, spec.width, 3) if spec.keep_images else None),
+                "depths": (None if seq.depths is None else (sum(len(d) for d in seq.depths),),
+                           (int(counts.sum()),) if spec.feature_depth else None)}
+    for name, (got, want) in expected.items():
+        if got != want:
+            raise _Unusable(f"{name} has shape {got}, expected {want}")
+    if labels.size and (labels.min() < -1 or labels.max() >= lms):
+        raise _Unusable("a label names no landmark")
+
+
+def _cached(path: Path, key: str, spec: SequenceSpec) -> Sequence | None:
+    """The cache entry at ``path`` if it is there and sound. An entry that cannot be read or
+    is not the sequence of ``key`` is removed, with one line on stderr, and ``None`` returned."""
+    try:
+        if not path.is_file():
+            return None
+        return _load(path, key, spec)
+    except PermissionError as exc:  # a cache we may not read is a setting to fix, not damage
+        raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
+    except _DAMAGED as exc:
+        reason = str(exc) if isinstance(exc, _Unusable) else f"{type(exc).__name__}: {exc}".splitlines()[0][:120]
+    print(f"assocbench: cached sequence {path} is unusable ({reason}); discarding it and rendering again",
+          file=sys.stderr)
+    try:
+        path.unlink(missing_ok=True)
+    except OSError:
+        pass  # the fresh render is stored over it
+    return None
+
+
+def load_sequence(spec: SequenceSpec | PlanarSequenceSpec | LineSequenceSpec, cache_dir: Path | None = None,
+                  use_cache: bool = True) -> Sequence | PlanarSequence | LineSequence:
+    """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
+    A damaged cache entry, or one that is not this spec's sequence, is rendered again. A planar
+    or lines spec's sequence is made afresh (lidar scans take a fraction of a millisecond: no cache)."""
+    if isinstance(spec, PlanarSequenceSpec):
+        return make_planar_sequence(spec)
+    if isinstance(spec, LineSequenceSpec):
+        return make_line_sequence(spec)
+    scene = load_scene(spec.scene)
+    key = spec.key(scene)
+    path = Path(cache_dir or default_cache_dir()) / "sequences" / f"{key}.npz"
+    if use_cache:
+        seq = _cached(path, key, spec)
+        if seq is not None:
+            return seq
+    seq = render_sequence(spec, scene)
+    if use_cache:
+        _save(seq, path, key)
+    return seq

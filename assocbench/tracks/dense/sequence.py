@@ -1,0 +1,186 @@
+"""The dense track's sequence: noise-free depth and segmentation rendered along a path, cached.
+
+Rendering (two passes a frame) is the slow part, so it is done once and stored downsampled
+under a key that hashes everything it depends on (scene files, path, resolution, downsample
+factor, the sources in ``CODE``, the MuJoCo version). The sensor's noise is not stored: it is drawn
+when a frame is read (``DenseSequence.frame``), from ``default_rng([seed, k, 17])``, so the
+same seed gives the same noisy frame bit for bit, and noise settings can change without
+rendering again.
+
+The path's speed does not depend on how many frames are run: the trajectory is laid out over
+``max(frames, path_frames)`` frames and a run takes the first ``frames``. So frames 10 and 50
+are the same two views whether a run has 60 frames or 200.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+import sys
+from dataclasses import asdict, dataclass, field, replace
+from pathlib import Path
+
+import mujoco
+import numpy as np
+from tqdm import tqdm
+
+from ..._runtime import cache_root
+from ...atomic import CACHE, atomic_path
+from ...errors import UserError
+from ...fingerprint import sources_digest
+from ...validation import check_number
+from ...models.camera import Intrinsics
+from ...models.depth_frame import DepthFrame
+from .depth_sensor import DepthConfig, depth_frame
+from ...sim.render import FrameRenderer
+from ...sim.scene import Scene, load_scene
+from ..camera.sequence import SequenceSpec, trajectory_poses
+
+FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixels)
+PATH_FRAMES = 200   # the length of the path a run's frames are taken from
+# the dense track's path per shipped scene when the run names none, over PATH_FRAMES frames: slow
+# enough that neighbouring frames overlap as a hand-held depth camera's do (bays 2.2 cm a frame,
+# crates 2 mm and 0.13 deg, plus the trajectory's seeded jitter, 1 cm and 0.5 deg); the camera
+# track's own paths move 2-5x faster. On crates, frames 10 and 50 are then about 5 deg apart,
+# inside ICP's capture range from the identity, and 10 and 100 about 11 deg, beyond it
+# (benchmarks/dense_icp_basin.py: the homework's experiment over seeds)
+DENSE_PATHS = {"room": ("circle", {"turns": 0.07}), "crates": ("circle", {"turns": 0.07}),
+               "bays": ("line", {"length": 4.5}), "corridor": ("line", {"length": 4.5}),
+               "checkerboard": ("line", {})}
+
+
+@dataclass(frozen=True)
+class DenseSequenceSpec:
+    """Everything that determines a dense sequence (``depth`` noise only at read time)."""
+
+    scene: str = "bays"
+    trajectory: str | None = None
+    trajectory_params: dict = field(default_factory=dict)
+    frames: int = 200
+    seed: int = 0
+    width: int = 640
+    height: int = 480
+    depth: DepthConfig = field(default_factory=DepthConfig)
+    path_frames: int = PATH_FRAMES
+
+    def path(self) -> tuple[str | None, dict]:
+        """The trajectory and its parameters: the run's own, else the scene's dense default."""
+        if self.trajectory is None and not self.trajectory_params:
+            return DENSE_PATHS.get(Path(self.scene).stem, (None, {}))
+        return self.trajectory, dict(self.trajectory_params)
+
+    def camera_spec(self) -> SequenceSpec:
+        """The camera track's spec of the same path (its trajectory code places and checks it)."""
+        name, params = self.path()
+        return SequenceSpec(scene=self.scene, trajectory=name, trajectory_params=params,
+                            frames=max(self.frames, self.path_frames), seed=self.seed,
+                            width=self.width, height=self.height)
+
+    def check(self) -> None:
+        """Refuse bad settings in one line before anything renders."""
+        from ...sim.trajectory import check_trajectory_params
+
+        self.depth.check()
+        check_number(self.path_frames, "dense.path_frames", integer=True, lo=2)
+        for side, n in (("width", self.width), ("height", self.height)):
+            if n // self.depth.downsample < 8:
+                raise UserError(f"depth.downsample {self.depth.downsample} leaves a {side} of "
+                                f"{n // self.depth.downsample} pixels; use a factor of at most {n // 8}")
+        cam = self.camera_spec()
+        check_trajectory_params(cam.resolved_trajectory(), cam.trajectory_params)
+
+    def key(self, scene: Scene) -> str:
+        payload = {"spec": asdict(self.camera_spec()), "frames": self.frames, "downsample": self.depth.downsample,
+                   "scene": scene.digest, "format": FORMAT_VERSION, "code": sources_digest(*CODE),
+                   "mujoco": mujoco.__version__}
+        return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+
+@dataclass
+class DenseSequence:
+    """Noise-free downsampled depth (N, h, w) and geom ids, true poses, and the sensor model."""
+
+    scene: str
+    K: Intrinsics                 # of the downsampled frames
+    depths: np.ndarray            # (N, h, w) float32 z-depth, NaN where nothing is hit
+    geoms: np.ndarray             # (N, h, w) int32 geom id, -1 where none
+    rotations: np.ndarray         # (N, 3, 3) camera-to-world
+    positions: np.ndarray         # (N, 3)
+    depth_cfg: DepthConfig
+    seed: int
+    from_cache: bool = False
+    track: str = "dense"
+
+    def __len__(self) -> int:
+        return len(self.positions)
+
+    def frame(self, k: int) -> DepthFrame:
+        """Frame ``k`` as the sensor gives it: noise drawn from ``default_rng([seed, k, 17])``."""
+        cfg = replace(self.depth_cfg, downsample=1)   # stored frames are already downsampled
+        return depth_frame(self.depths[k].astype(np.float64), self.geoms[k], self.rotations[k], self.positions[k],
+                           self.K, cfg, np.random.default_rng([self.seed, k, 17]))
+# the sources a cached sequence depends on: shared simulation, measurement models, this track
+CODE = ("sim", "models", "tracks/dense")
+
+
+def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
+    """Render every frame's depth and segmentation (no cache), keeping every ``downsample``-th pixel."""
+    rots, pos = trajectory_poses(spec.camera_spec(), scene)
+    rots, pos = rots[:spec.frames], pos[:spec.frames]
+    s = spec.depth.downsample
+    depths, geoms = [], []
+    with FrameRenderer(scene, spec.width, spec.height, msaa=0) as renderer:   # depth is not blended
+        for k in tqdm(range(spec.frames), desc=f"render depth {scene.name}", unit="frame", leave=False,
+                      disable=None, mininterval=0.5):
+            depth, geom = renderer.render_depth(rots[k], pos[k])
+            depths.append(depth[::s, ::s].astype(np.float32))
+            geoms.append(geom[::s, ::s].astype(np.int32))
+        K = renderer.K
+    K_small = Intrinsics(spec.width // s, spec.height // s, K.f / s, K.cx / s, K.cy / s)
+    return DenseSequence(scene.name, K_small, np.array(depths), np.array(geoms),
+                         rots, pos, spec.depth, spec.seed)
+
+
+def _save(seq: DenseSequence, path: Path, key: str) -> None:
+    arrays = dict(key=np.array(key), scene=np.array(seq.scene),
+                  K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]), depths=seq.depths,
+                  geoms=seq.geoms, rotations=seq.rotations, positions=seq.positions)
+    with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
+        with open(tmp, "wb") as fh:
+            np.savez_compressed(fh, **arrays)
+
+
+def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
+    with np.load(path) as z:
+        if str(z["key"]) != key:
+            raise ValueError("it was stored under another key")
+        w, h, f, cx, cy = z["K"]
+        seq = DenseSequence(str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
+                            z["depths"], z["geoms"], z["rotations"],
+                            z["positions"], spec.depth, spec.seed, from_cache=True)
+    want = (spec.frames, spec.height // spec.depth.downsample, spec.width // spec.depth.downsample)
+    if seq.depths.shape != want or seq.geoms.shape != want or seq.positions.shape != (spec.frames, 3):
+        raise ValueError(f"depths have shape {seq.depths.shape}, expected {want}")
+    return seq
+
+
+def load_dense_sequence(spec: DenseSequenceSpec, cache_dir: Path | None = None,
+                        use_cache: bool = True) -> DenseSequence:
+    """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
+    A damaged entry (truncated, another key, wrong shapes) is discarded with one line on stderr."""
+    scene = load_scene(spec.scene)
+    key = spec.key(scene)
+    path = Path(cache_dir or cache_root()) / "dense" / f"{key}.npz"
+    if use_cache and path.is_file():
+        try:
+            return _load(path, key, spec)
+        except PermissionError as exc:
+            raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
+        except Exception as exc:  # noqa: BLE001 - any damage to a cache file means: render again
+            print(f"assocbench: cached depth sequence {path} is unusable ({type(exc).__name__}: "
+                  f"{str(exc).splitlines()[0][:120] if str(exc) else ''}); rendering again", file=sys.stderr)
+            path.unlink(missing_ok=True)
+    seq = render_dense(spec, scene)
+    if use_cache:
+        _save(seq, path, key)
+    return seq

@@ -1,0 +1,36 @@
+"""The planar track's open-loop problem of one frame: the sampled estimate (``belief.planar``)
+predicts each mapped post in range-bearing, ``P = H Σ Hᵀ``; measurements are the frame's post
+detections plus uniform clutter over range × bearing."""
+
+from __future__ import annotations
+import numpy as np
+from ...association.problem import NO_MATCH, Problem
+from ...belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
+from ...association.truth import FrameTruth
+from ...models.range_bearing import ANGULAR, jacobians, predict
+from ...belief.planar import (
+    planar_pose_covariance,
+    sample_planar_estimate,
+    in_sensor_view,
+    clutter_detections,
+    nominal_noise,
+)
+
+
+def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
+    """The open-loop association problem of one planar frame and its truth (``seq``: a
+    ``PlanarSequence``; its ``max_range`` and ``fov`` bound the candidates)."""
+    rng = np.random.default_rng([seed, frame, 101])
+    pose_hat, map_hat = sample_planar_estimate(seq.poses[frame], seq.posts, cfg, rng)
+    in_map = map_mask(len(seq.posts), cfg, seed)
+    zhat = predict(pose_hat, map_hat)
+    cand = np.flatnonzero(in_map & in_sensor_view(zhat, seq.max_range, seq.fov))
+    H_pose, H_l = jacobians(pose_hat, map_hat[cand])
+    z, R, labels = seq.z[frame], seq.R[frame], seq.labels[frame]
+    cz, cR = clutter_detections(rng, cfg.clutter, nominal_noise(R, seq.nominal_R), seq.max_range, seq.fov)
+    feature_labels = np.concatenate([np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH),
+                                     np.full(cfg.clutter, NO_MATCH)]).astype(np.int64)
+    problem = Problem(z=np.vstack([z.reshape(-1, 2), cz]), R=np.concatenate([R.reshape(-1, 2, 2), cR]),
+                      zhat=zhat[cand], P=prediction_covariance(H_pose, H_l, planar_pose_covariance(cfg), cfg),
+                      landmark_ids=cand, volume=seq.max_range * seq.fov, angular=ANGULAR)
+    return problem, FrameTruth(feature_labels, true_association(feature_labels, cand), seq.visible[frame][cand])

@@ -1,4 +1,0 @@
-"""Shipped MuJoCo scenes (MJCF + textures), installed as ``assocbench.envs``.
-
-Rebuild with ``python -m assocbench.sim.scenegen envs``.
-"""
