@@ -120,3 +120,27 @@ def validate_fields(obj: Any, section: str) -> None:
             object.__setattr__(obj, f.name, value)
         elif isinstance(value, float) and not math.isfinite(value):
             raise UserError(f"{key} must be a finite number, got {value!r}")
+
+
+def typed_section(cls, values: dict, section: str):
+    """``cls(**values)``: a settings section built from its mapping, every field checked; a
+    one-line ``UserError`` naming ``section`` for a non-mapping or a bad value."""
+    if not isinstance(values, dict):
+        raise UserError(f"{section} must be a mapping of settings, got {values!r}")
+    try:
+        return cls(**values)
+    except (TypeError, ValueError) as exc:
+        if isinstance(exc, UserError):
+            raise
+        raise UserError(f"bad value in {section}: {exc}") from None
+
+
+def free_mapping(cfg: dict, key: str) -> dict:
+    """A free-form section (``params``, ``trajectory_params``): a mapping whose numbers are finite."""
+    value = cfg[key] if cfg[key] is not None else {}
+    if not isinstance(value, dict):
+        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {value!r}")
+    for name, item in value.items():
+        if isinstance(item, float):
+            check_number(item, f"{key}.{name}")
+    return dict(value)

@@ -64,7 +64,7 @@ from dense_synthetic import perturb  # noqa: E402
 from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
 from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse, warm_fusion  # noqa: E402
 from assocbench.harness.dense_run import Source, frame_source, map_source  # noqa: E402
-from assocbench.harness.dense_spec import DenseConfig  # noqa: E402
+from assocbench.tracks.dense.spec import DenseConfig  # noqa: E402
 from assocbench.tracks.dense.metrics import score_correspondences  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
 from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402

@@ -12,7 +12,7 @@ import assocbench  # noqa: F401
 from assocbench.association.problem import Problem
 from assocbench.errors import UserError
 from assocbench.gymenv import ENV_IDS, AssociationEnv, classical_action, sample_mask, sample_valid_action
-from assocbench.harness.config import DEFAULTS, merge, run_spec
+from assocbench.harness.config import defaults, merge, run_spec
 from assocbench.harness.runner import execute
 from assocbench.harness.suite import shipped_difficulties
 from assocbench.viz import draw
@@ -55,7 +55,7 @@ def test_jcbb_through_the_env_matches_assocbench_run():
         obs, _, done, _, info = env.step(classical_action(info, env.action_space.shape[0], "jcbb"))
         for k in totals:
             totals[k] += info["step_metrics"][k]
-    cfg = merge(merge(DEFAULTS, shipped_difficulties()["medium"], "t"), {"frames": 6, "seed": 0, "method": "jcbb"}, "t")
+    cfg = merge(merge(defaults(), shipped_difficulties()["medium"], "t"), {"frames": 6, "seed": 0, "method": "jcbb"}, "t")
     frames, summary = execute(run_spec(cfg))
     assert totals["tp"] == frames["tp"].sum() and totals["fp"] == frames["fp"].sum()
     assert totals["fn"] == frames["fn"].sum() and totals["perfect"] == frames["perfect"].sum()

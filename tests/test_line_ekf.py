@@ -22,7 +22,7 @@ from assocbench.estimators.base import FrameData
 from assocbench.estimators.config import EstimatorConfig
 from assocbench.tracks.lines.ekf import LineEKF
 from assocbench.tracks.planar.ekf import PlanarEKF
-from assocbench.estimators.registry import make_estimator
+from assocbench.tracks.base import get_track
 from assocbench.scoring.trajectory import anees_band, ate_rmse
 
 STEPS, SEEDS = 200, 10
@@ -167,10 +167,10 @@ def test_problem_is_the_joint_prediction_of_the_candidates():
 def test_slam_or_isam2_on_the_lines_track_is_a_user_error():
     seq = line_seq(5, seed=0)
     with pytest.raises(UserError, match="estimator.mode: localisation"):
-        make_estimator(seq, EstimatorConfig(mode="slam"), BeliefConfig(), 0)
+        get_track(seq.track).make_estimator(seq, EstimatorConfig(mode="slam"), BeliefConfig(), 0)
     with pytest.raises(UserError, match="lines track's estimator is ekf"):
-        make_estimator(seq, EstimatorConfig(name="isam2"), BeliefConfig(), 0)
-    ekf = make_estimator(seq, EstimatorConfig(), BeliefConfig(map_fraction=0.5), 0)
+        get_track(seq.track).make_estimator(seq, EstimatorConfig(name="isam2"), BeliefConfig(), 0)
+    ekf = get_track(seq.track).make_estimator(seq, EstimatorConfig(), BeliefConfig(map_fraction=0.5), 0)
     assert isinstance(ekf, LineEKF) and len(ekf.book) == 4
 
 
@@ -198,15 +198,15 @@ def test_bad_frame_or_association_is_a_user_error():
 
 
 def test_closed_loop_on_the_lines_track():
-    """``ClosedLoop`` dispatches seq.track "lines" to ``LinesSensor`` and ``LineEKF``: frames carry the
+    """The registry gives seq.track "lines" ``LinesSensor`` and ``LineEKF``: frames carry the
     extracted lines then ``belief.clutter`` clutter lines (labelled −1), odometry is planar, and MNN
     in the loop on the room (seed 0, 3 clutter lines per frame) stays consistent: measured ANEES
     2.95 over 200 frames (single-run band (2.67, 3.35) for independent frames), ATE 8.7 mm."""
     from assocbench.harness.loop import loop_records
-    from assocbench.harness.loop_sensors import LinesSensor, loop_sensor
+    from assocbench.tracks.lines.loop import LinesSensor
 
     seq = line_seq(STEPS, seed=0)
-    sensor = loop_sensor(seq, BeliefConfig(clutter=3), EstimatorConfig(), 0)
+    sensor = get_track(seq.track).loop_sensor(seq, BeliefConfig(clutter=3), EstimatorConfig(), 0)
     assert isinstance(sensor, LinesSensor) and sensor.nees_dof == 3
     data, labels = sensor.frame(4, None)
     m = len(seq.z[4])

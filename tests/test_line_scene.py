@@ -12,7 +12,7 @@ from assocbench.models.range_bearing import wrap
 from assocbench.errors import UserError
 from assocbench.sim.lidar import LidarConfig, cast, scan
 from assocbench.sim.line_scene import beam_lines, load_line_scene, visible_lines
-from assocbench.sim.planar_scene import scene_track
+from assocbench.tracks.base import scene_track
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory
 from assocbench.sim.scene import shipped_scenes
 

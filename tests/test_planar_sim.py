@@ -14,7 +14,8 @@ from assocbench.tracks.planar.geometric_sensor import geometric_detections
 from assocbench.sim.lidar import LidarConfig, scan
 from assocbench.models.se2 import between as true_planar_increment
 from assocbench.sim.odometry import planar_odometry
-from assocbench.sim.planar_scene import load_planar_scene, scene_track
+from assocbench.sim.planar_scene import load_planar_scene
+from assocbench.tracks.base import scene_track
 from assocbench.tracks.planar.sequence import PlanarSequenceSpec, make_planar_sequence
 from assocbench.models.range_bearing import wrap
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory

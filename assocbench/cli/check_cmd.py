@@ -18,6 +18,7 @@ from ..harness.dense_suite import (
     write_dense_baseline,
 )
 from ..harness.suite import load_suite, resolve_suite
+from ..tracks.base import iter_tracks
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table
 from .common import check_output_folder, print_table
@@ -38,7 +39,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 
 
-DEFAULT_SUITES = ("ci", "loop_ci", "planar_ci", "lines_ci")
+def default_suites() -> list[str]:
+    """Every registered track's CI suites, in registration order."""
+    return [name for track in iter_tracks() for name in track.ci_suites]
 
 
 def default_baseline(suite_name: str) -> Path:
@@ -50,7 +53,7 @@ def main(args: argparse.Namespace) -> int:
     if args.suite:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
-        suites = ["ci"] if args.baseline is not None else list(DEFAULT_SUITES)
+        suites = ["ci"] if args.baseline is not None else default_suites()
     paths = [resolve_suite(s) for s in suites]
     loaded = [load_dense_suite(p) if is_dense_suite(p) else load_suite(p) for p in paths]   # all checked first
     return max(check_dense(suite, args) if isinstance(suite, DenseSuite) else check_suite(suite, args)

@@ -1,4 +1,4 @@
-"""``assocbench list``: methods (plugins included), scenes and trajectories."""
+"""``assocbench list``: methods (plugins included), scenes, trajectories and tracks, each tagged with its track."""
 
 from __future__ import annotations
 
@@ -6,46 +6,26 @@ import argparse
 
 from ..associators.registry import available
 from ..sim.scene import shipped_scenes
-from ..sim.trajectory import TRAJECTORIES
+from ..tracks.base import first_line, iter_tracks, track_for_scene
 
 NAME = "list"
-HELP = "list methods, scenes and trajectories"
+HELP = "list methods, scenes, trajectories and tracks"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("what", nargs="?", choices=("methods", "scenes", "trajectories"), help="only this kind")
-
-
-def _first_line(text: str | None) -> str:
-    """The docstring's first paragraph on one line."""
-    return " ".join((text or "").strip().split("\n\n")[0].split())
-
-
-def dense_methods() -> dict[str, str]:
-    """The dense track's associators (the method implies the track)."""
-    from ..associators.dense.registry import DENSE_METHODS
-
-    return {name: "[dense] " + _first_line(cls.__doc__) for name, cls in DENSE_METHODS.items()}
+    p.add_argument("what", nargs="?", choices=("methods", "scenes", "trajectories", "tracks"), help="only this kind")
 
 
 def main(args: argparse.Namespace) -> int:
-    from ..sim.scenegen.dense import DENSE_SCENES
-    from ..sim.scenegen.lines import LINE_SCENES
-    from ..sim.scenegen.planar import PLANAR_SCENES
-    from ..sim.scenegen.camera import SCENES
-
-    described = SCENES | PLANAR_SCENES | LINE_SCENES | DENSE_SCENES
-    track = {name: "planar" for name in PLANAR_SCENES} | {name: "lines" for name in LINE_SCENES}
-
+    tracks = list(iter_tracks())
+    listed = {name: f"[{t.name}] {line}" for t in tracks for name, line in t.shipped_scenes().items()}
+    own = {m: t.name for t in tracks for m in dense_methods() if t.claims_method(m)}
     sections = {
-        "methods": available() | dense_methods(),
-        "scenes": {name: f"[{track.get(name, 'camera')}] "
-                   + (_first_line(described[name].__doc__) if name in described else str(path))
+        "methods": available() | {m: f"[{own[m]}] {line}" for m, line in dense_methods().items()},
+        "scenes": {name: listed.get(name, f"[{track_for_scene(path).name}] {path}")
                    for name, path in shipped_scenes().items()},
-        "trajectories": [(name, "[camera] " + _first_line(fn.__doc__)) for name, fn in TRAJECTORIES.items()]
-        + [("loop", "[planar, lines] a shipped planar or lines scene's own path (laps, start), its default"),
-           ("ellipse", "[planar, lines] an ellipse around the posts (lines: the wall faces) clear of every obstacle "
-                       "(laps, start, scale), a user MJCF's default")],
+        "trajectories": _trajectories(tracks),
+        "tracks": {t.name: t.summary for t in tracks},
     }
     for title, items in sections.items():
         if args.what and args.what != title:
@@ -56,3 +36,21 @@ def main(args: argparse.Namespace) -> int:
         for name, line in rows:
             print(f"  {name:<{width}}  {line}")
     return 0
+
+
+def _trajectories(tracks: list) -> dict[str, str]:
+    """Each trajectory once, tagged with every track that has it."""
+    owners: dict[str, list[str]] = {}
+    lines: dict[str, str] = {}
+    for t in tracks:
+        for name, line in t.trajectories():
+            owners.setdefault(name, []).append(t.name)
+            lines.setdefault(name, line)
+    return {name: f"[{', '.join(owners[name])}] {lines[name]}" for name in lines}
+
+
+def dense_methods() -> dict[str, str]:
+    """The dense track's associators (the method implies the track)."""
+    from ..associators.dense.registry import DENSE_METHODS
+
+    return {name: first_line(cls.__doc__) for name, cls in DENSE_METHODS.items()}

@@ -12,7 +12,7 @@ from scipy.spatial.transform import Rotation
 
 from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
-from ..harness.dense_spec import DenseRunSpec
+from ..tracks.dense.spec import DenseRunSpec
 from ..harness.runner import execute
 from ..scoring.aggregate import OK, SUMMARY_COLUMNS
 from ..scoring.loop_summary import LOOP_COLUMNS

@@ -11,7 +11,7 @@ from typing import Any
 import numpy as np
 
 from ..errors import UserError
-from ..harness.config import DEFAULTS, RunSpec, camera_only, merge, run_spec
+from ..harness.config import defaults, RunSpec, camera_only, merge, run_spec
 from ..harness.suite import shipped_difficulties
 from ..sim.render import MAX_SIDE, MIN_SIDE
 from ..validation import check_number
@@ -58,7 +58,7 @@ def env_config(scene: Any, trajectory: Any, frames: Any, difficulty: Any, resolu
     frames = check_number(_plain(frames), "frames", integer=True, lo=1)
     if config is not None and not isinstance(config, Mapping):
         raise UserError(f"config must be a mapping of run-config overrides, got {config!r}")
-    cfg = merge(merge(DEFAULTS, _difficulty(difficulty), "difficulty"), dict(config or {}), "config")
+    cfg = merge(merge(defaults(), _difficulty(difficulty), "difficulty"), dict(config or {}), "config")
     cfg = merge(cfg, {"scene": os.fspath(scene), "trajectory": trajectory, "frames": frames,
                       "resolution": _resolution(resolution)}, "env arguments")
     return cfg, camera_only(run_spec(cfg), "the Gymnasium env")

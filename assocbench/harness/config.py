@@ -10,6 +10,7 @@ import copy
 import re
 import difflib
 from dataclasses import asdict, dataclass
+from typing import Any
 from importlib import resources
 from pathlib import Path
 
@@ -19,24 +20,12 @@ from ..associators.registry import make_associator
 from ..belief.config import BeliefConfig
 from ..errors import UserError
 from ..estimators.config import EstimatorConfig
-from ..tracks.dense.icp import IcpConfig
-from ..tracks.dense.fusion import FusionConfig
-from ..tracks.dense.depth_sensor import DepthConfig
-from ..tracks.camera.detect import DetectorConfig
-from ..sim.lidar import LidarConfig
-from ..tracks.lines.extract import LineExtractorConfig
-from ..tracks.lines.sequence import LineSequenceSpec
-from ..sim.planar_scene import scene_track
-from ..tracks.planar.sequence import PlanarSequenceSpec
-from ..tracks.planar.post_detect import PostDetectorConfig
 from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
-from ..tracks.camera.sequence import SequenceSpec
-from ..sim.trajectory import check_trajectory_params
-from ..tracks.camera.truth import TruthConfig
-from ..validation import check_number
-from .dense_spec import DenseConfig, DenseRunSpec, dense_run_spec, is_dense
+from ..tracks.base import Track, get_track, iter_tracks, track_for_run
+from ..tracks.dense.spec import DenseRunSpec, dense_run_spec
+from ..validation import check_number, free_mapping, typed_section
 
-DEFAULTS: dict = {
+COMMON: dict = {
     "scene": "room",
     "trajectory": None,
     "trajectory_params": {},
@@ -44,15 +33,6 @@ DEFAULTS: dict = {
     "seed": 0,
     "resolution": [640, 480],
     "msaa": None,
-    "detector": asdict(DetectorConfig()),
-    "truth": asdict(TruthConfig()),
-    "lidar": asdict(LidarConfig()),
-    "posts": asdict(PostDetectorConfig()),
-    "lines": asdict(LineExtractorConfig()),
-    "depth": asdict(DepthConfig()),
-    "icp": asdict(IcpConfig()),
-    "fusion": asdict(FusionConfig()),
-    "dense": asdict(DenseConfig()),
     "belief": asdict(BeliefConfig()),
     "loop": False,
     "estimator": asdict(EstimatorConfig()),
@@ -61,6 +41,21 @@ DEFAULTS: dict = {
     "time_limit_s": 30.0,
     "limits": {"frames": 5000, "clutter": 1000},
 }
+
+
+def defaults() -> dict:
+    """The run config's schema and defaults: the settings every run has, then each registered
+    track's sections (a section two tracks share, such as ``lidar``, must agree)."""
+    out = copy.deepcopy(COMMON)
+    for track in iter_tracks():
+        for name, section in track.config_sections().items():
+            if name in out and out[name] != section:
+                raise UserError(f"track {track.name} declares settings section {name!r} with other defaults than "
+                                "another track or the common settings; rename its section")
+            out[name] = copy.deepcopy(section)
+    return out
+
+
 ORACLE = "oracle"   # the closed loop's reference method: the true association
 FREE_FORM = {"trajectory_params", "params"}  # checked by the trajectory / associator itself
 
@@ -74,7 +69,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
     """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
     last silently, so a typo'd override would be lost without a word)."""
 
-    def construct_mapping(self, node, deep=False):
+    def constructfree_mapping(self, node, deep=False):
         seen = set()
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)
@@ -82,7 +77,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
                 raise yaml.constructor.ConstructorError(
                     None, None, f"duplicate key {key!r}: give each key once", key_node.start_mark)
             seen.add(key)
-        return super().construct_mapping(node, deep)
+        return super().constructfree_mapping(node, deep)
 
 
 # YAML 1.1 (PyYAML) reads 5e-1 or 1e-3 as strings: it wants a dot and a signed exponent. Floats
@@ -160,7 +155,7 @@ def parse_sets(items: list[str] | None) -> dict:
 def load_run_config(config: str | Path | None = None, sets: list[str] | None = None, **flags) -> dict:
     """Defaults, then the YAML ``config`` (``configs/default.yaml`` if None), then ``--set``, then flags."""
     path = Path(config) if config else shipped_config("default.yaml")
-    cfg = merge(DEFAULTS, read_yaml(path), str(path))
+    cfg = merge(defaults(), read_yaml(path), str(path))
     cfg = merge(cfg, parse_sets(sets), "--set")
     return merge(cfg, {k: v for k, v in flags.items() if v is not None}, "command-line flags")
 
@@ -169,7 +164,7 @@ def load_run_config(config: str | Path | None = None, sets: list[str] | None = N
 class RunSpec:
     """A fully resolved run: which sequence, which belief, which method."""
 
-    sequence: SequenceSpec | PlanarSequenceSpec | LineSequenceSpec   # the scene's track: camera, planar or lines
+    sequence: Any                # the track's sequence spec
     belief: BeliefConfig
     seed: int
     method: str
@@ -177,34 +172,18 @@ class RunSpec:
     time_limit_s: float = 30.0   # per associate() call; a call past it is a failed frame
     loop: bool = False           # closed loop: the belief is the estimator's posterior
     estimator: EstimatorConfig = EstimatorConfig()
+    track: str = "camera"        # the registered track that makes the sequence and its problems
 
-
-def _typed(cls, values: dict, section: str):
-    if not isinstance(values, dict):
-        raise UserError(f"{section} must be a mapping of settings, got {values!r}")
-    try:
-        return cls(**values)
-    except (TypeError, ValueError) as exc:
-        if isinstance(exc, UserError):
-            raise
-        raise UserError(f"bad value in {section}: {exc}") from None
-
-
-def _mapping(cfg: dict, key: str) -> dict:
-    """A free-form section (``params``, ``trajectory_params``): a mapping whose numbers are finite."""
-    value = cfg[key] if cfg[key] is not None else {}
-    if not isinstance(value, dict):
-        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {value!r}")
-    for name, item in value.items():
-        if isinstance(item, float):
-            check_number(item, f"{key}.{name}")
-    return dict(value)
+    @property
+    def track_impl(self) -> Track:
+        """The registered ``Track`` of this run."""
+        return get_track(self.track)
 
 
 def _check_limits(cfg: dict) -> dict:
     """The size limits (``limits.frames``, ``limits.clutter``), themselves checked."""
     limits = cfg["limits"]
-    return {k: check_number(limits[k], f"limits.{k}", integer=True, lo=1) for k in DEFAULTS["limits"]}
+    return {k: check_number(limits[k], f"limits.{k}", integer=True, lo=1) for k in COMMON["limits"]}
 
 
 def _check_sizes(cfg: dict) -> None:
@@ -241,78 +220,25 @@ def run_spec(cfg: dict) -> RunSpec | DenseRunSpec:
         raise UserError(f"trajectory must be a name or null, got {cfg['trajectory']!r}")
     if not isinstance(cfg["loop"], bool):
         raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
-    if is_dense(cfg["method"]):
-        return dense_run_spec(cfg, _typed, _mapping)
-    estimator = _typed(EstimatorConfig, cfg["estimator"], "estimator")
-    seq = TRACK_SPECS[scene_track(cfg["scene"])](cfg, estimator)
-    params = _mapping(cfg, "params")
+    track = track_for_run(cfg["scene"], cfg["method"])
+    if track.name == "dense":   # the dense track's runs are not yet the harness's RunSpec
+        return dense_run_spec(cfg)
+    estimator = typed_section(EstimatorConfig, cfg["estimator"], "estimator")
+    seq = track.sequence_spec(cfg, estimator)
+    params = free_mapping(cfg, "params")
     check_method(cfg["method"], params, cfg["loop"])
-    return RunSpec(seq, _typed(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
-                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator)
+    return RunSpec(seq, typed_section(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
+                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator, track.name)
 
 
-def camera_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> SequenceSpec:
-    """The camera track's sequence: rendered frames, detected corners (``resolution``, ``msaa``,
-    ``detector``, ``truth``); RGB-D depth at each feature for the closed loop's slam mode."""
-    if estimator.name != "ekf":
-        raise UserError(f"estimator.name {estimator.name} serves the planar track only; scene {cfg['scene']!r} is a "
-                        "camera scene, whose estimator is ekf")
-    res = cfg["resolution"]
-    seq = SequenceSpec(
-        scene=cfg["scene"], trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
-        width=res[0], height=res[1], msaa=cfg["msaa"], trajectory_params=_mapping(cfg, "trajectory_params"),
-        detector=_typed(DetectorConfig, cfg["detector"], "detector"),
-        truth=_typed(TruthConfig, cfg["truth"], "truth"),
-        feature_depth=cfg["loop"] and estimator.mode == "slam",   # RGB-D, and the truth of texture corners
-    )
-    check_trajectory_params(seq.resolved_trajectory(), seq.trajectory_params)
-    return seq
-
-
-def planar_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> PlanarSequenceSpec:
-    """The planar track's sequence: lidar scans along the scene's path, posts detected in them
-    (``lidar``, ``posts``); the camera settings (resolution, detector, truth) do not apply."""
-    seq = PlanarSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
-                             trajectory_params=_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
-                             seed=cfg["seed"], lidar=_typed(LidarConfig, cfg["lidar"], "lidar"),
-                             posts=_typed(PostDetectorConfig, cfg["posts"], "posts"))
-    seq.check()
-    return seq
-
-
-def line_sequence_spec(cfg: dict, estimator: EstimatorConfig) -> LineSequenceSpec:
-    """The lines track's sequence: lidar scans along the scene's path, wall lines extracted from
-    them (``lidar``, ``lines``); its estimator is the EKF localisation on the known map."""
-    if estimator.name != "ekf" or estimator.mode != "localisation":
-        raise UserError(f"scene {cfg['scene']!r} is a lines scene, whose estimator is the EKF localisation on the "
-                        f"known map: set estimator.name: ekf and estimator.mode: localisation (got "
-                        f"{estimator.name}, {estimator.mode})")
-    seq = LineSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
-                           trajectory_params=_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
-                           seed=cfg["seed"], lidar=_typed(LidarConfig, cfg["lidar"], "lidar"),
-                           lines=_typed(LineExtractorConfig, cfg["lines"], "lines"))
-    if seq.lidar.mode != "lidar":
-        raise UserError(f"lidar.mode {seq.lidar.mode} serves the planar track's posts; lines are extracted from "
-                        "ray-cast scans: set lidar.mode: lidar")
-    seq.check()
-    return seq
-
-
-TRACK_SPECS = {"camera": camera_sequence_spec, "planar": planar_sequence_spec, "lines": line_sequence_spec}
-
-
-def camera_only(spec: RunSpec, what: str) -> RunSpec:
-    """``spec``, or a one-line error when its scene is a lidar one (planar or lines) and ``what``
-    serves the camera track only (rendered pictures, the Gymnasium envs)."""
-    if isinstance(spec, DenseRunSpec):
-        raise UserError(f"{what} serves the camera track's features; method {spec.method} runs the dense track "
-                        f"(depth frames): run it with `assocbench run`, and see its map in "
-                        f"`assocbench leaderboard --suite dense`")
-    if isinstance(spec.sequence, (PlanarSequenceSpec, LineSequenceSpec)):
-        track = "planar" if isinstance(spec.sequence, PlanarSequenceSpec) else "lines"
-        raise UserError(f"{what} serves the camera track; scene {spec.sequence.scene!r} is a {track} one (lidar "
-                        f"scans): run it with `assocbench run`, and see it in the top views of "
-                        f"`assocbench leaderboard --suite {track}`")
+def camera_only(spec: RunSpec | DenseRunSpec, what: str) -> RunSpec:
+    """``spec``, or a one-line error when its track has no pictures and ``what`` serves only
+    tracks that have (rendered frames, the Gymnasium envs)."""
+    name = "dense" if isinstance(spec, DenseRunSpec) else spec.track
+    if not get_track(name).pictures:
+        suite = next(iter(get_track(name).suites), name)
+        raise UserError(f"{what} serves the camera track; this run is on the {name} track: run it with "
+                        f"`assocbench run`, and see its pictures in `assocbench leaderboard --suite {suite}`")
     return spec
 
 

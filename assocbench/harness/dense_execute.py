@@ -10,7 +10,7 @@ from ..tracks.dense.summary import poses, summarize_dense
 from ..scoring.trajectory import tum_text
 from ..sim.ply import write_ply
 from .dense_run import run_dense
-from .dense_spec import DenseRunSpec
+from ..tracks.dense.spec import DenseRunSpec
 
 
 def execute_dense(spec: DenseRunSpec, cache_dir: Path | None = None) -> tuple[pd.DataFrame, dict, dict]:

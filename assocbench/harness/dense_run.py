@@ -32,7 +32,7 @@ from ..tracks.dense.surface import surface_distance
 from ..tracks.dense.sequence import DenseSequence, load_dense_sequence
 from ..models.depth_frame import DepthFrame
 from ..sim.scene import load_scene
-from .dense_spec import DenseRunSpec
+from ..tracks.dense.spec import DenseRunSpec
 
 
 @dataclass

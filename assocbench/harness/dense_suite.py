@@ -23,8 +23,8 @@ from ..scoring.aggregate import OK
 from ..tracks.dense.summary import DENSE_COLUMNS
 from ..validation import check_number
 from .check import write_ok_table
-from .config import DEFAULTS, merge, read_yaml, run_spec
-from .dense_spec import DenseRunSpec, is_dense
+from .config import defaults, merge, read_yaml, run_spec
+from ..tracks.dense.spec import DenseRunSpec, is_dense
 from .suite import SUITE_KEYS, _crossed, _list, _methods, _refuse_duplicates
 
 HIGHER_BETTER = ("precision", "recall")
@@ -59,7 +59,7 @@ def load_dense_suite(path: Path) -> DenseSuite:
     unknown = [k for k in raw if k not in SUITE_KEYS]
     if unknown:
         raise UserError(f"unknown key {unknown[0]!r} in {path}; known keys: {', '.join(SUITE_KEYS)}")
-    base = merge(DEFAULTS, raw.get("base") or {}, f"{path} base")
+    base = merge(defaults(), raw.get("base") or {}, f"{path} base")
     scenes = _list(raw, "scenes", [base["scene"]], str(path))
     seeds = _list(raw, "seeds", [base["seed"]], str(path))
     _refuse_duplicates(seeds, "seeds", str(path), "list each seed once")

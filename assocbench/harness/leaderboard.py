@@ -10,6 +10,7 @@ import numpy as np
 import pandas as pd
 
 from ..atomic import atomic_path, write_text
+from ..tracks.base import track_for_scene
 from .loop_truth import REVISIT_GAP
 from ..scoring.aggregate import leaderboard_table
 from ..viz.plots import pr_figure, runtime_figure, save_figure
@@ -179,9 +180,9 @@ def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, diffi
 
 
 def map_view(frames: pd.DataFrame, scene: str, difficulty: str):
-    """The top view of every method's run on ``scene/difficulty`` at the lowest seed: true path,
-    odometry alone (planar), each estimate and final map over the true landmarks."""
-    from ..sim.planar_scene import scene_track
+    """The top view of every method's run on ``scene/difficulty`` at the lowest seed: the track's
+    own figure where it has one, else the true path, odometry alone (planar), each estimate and
+    final map over the true landmarks."""
     from ..viz.loop_plots import map_figure
 
     scenario = f"{scene}/{difficulty}"
@@ -189,20 +190,9 @@ def map_view(frames: pd.DataFrame, scene: str, difficulty: str):
     one = one[one["seed"] == one["seed"].min()]
     name = one["scene"].iloc[0] if len(one) else scene
     title = f"{scenario} seed {one['seed'].min()}"
-    if scene_track(name) == "lines":   # walls, not points: the map's faces and each method's last scan
-        from ..sim.line_scene import load_line_scene
-        from ..tracks.lines.plots import line_map_figure, snapshots
-
-        return line_map_figure(one, load_line_scene(name).segments, snapshots(one), title=title)
-    return map_figure(one, scene_landmarks(name), final_maps(one), title=title)
-
-
-def scene_landmarks(scene: str) -> np.ndarray:
-    """The true landmarks of a scene, whatever its track: camera landmarks (L, 3), planar posts (L, 2)."""
-    from ..sim.planar_scene import load_planar_scene, scene_track
-    from ..sim.scene import load_scene
-
-    return load_planar_scene(scene).posts if scene_track(scene) == "planar" else load_scene(scene).landmarks
+    track = track_for_scene(name)
+    own = track.map_figure(one, name, title)
+    return own if own is not None else map_figure(one, track.landmarks(name), final_maps(one), title=title)
 
 
 def final_maps(frames: pd.DataFrame) -> dict[str, np.ndarray] | None:

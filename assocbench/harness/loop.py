@@ -22,11 +22,9 @@ from ..belief.config import BeliefConfig
 from ..association.truth import FrameTruth
 from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
-from ..estimators.registry import make_estimator
 from ..scoring.metrics import score_frame, true_mass
-from ..tracks.camera.sequence import Sequence
+from ..tracks.base import get_track
 from .config import ORACLE
-from .loop_sensors import loop_sensor
 from .loop_truth import MapTruth, RevisitCounter, loop_truth, map_quality
 from .runner import WARM_UP, _build, call_method, failed_record, warm_up
 
@@ -34,10 +32,11 @@ from .runner import WARM_UP, _build, call_method, failed_record, warm_up
 class ClosedLoop:
     """One method's closed-loop run on one sequence (see the module docstring)."""
 
-    def __init__(self, seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
+    def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
         self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
-        self.filter = make_estimator(seq, est, belief, seed)
-        self.sensor = loop_sensor(seq, belief, est, seed)
+        track = get_track(seq.track)
+        self.filter = track.make_estimator(seq, est, belief, seed)
+        self.sensor = track.loop_sensor(seq, belief, est, seed)
         self.revisits = RevisitCounter()
         self.truth = MapTruth()
         self.in_map = None
@@ -147,7 +146,7 @@ def recorded_answer(recorded, k: int) -> tuple:
     return np.asarray(association, dtype=np.int64), 0.0, {}, ""
 
 
-def loop_records(seq: Sequence, belief: BeliefConfig, est: EstimatorConfig, seed: int, method: str, params: dict,
+def loop_records(seq, belief: BeliefConfig, est: EstimatorConfig, seed: int, method: str, params: dict,
                  time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
                  on_call: Callable[[int, float], None] = lambda k, limit: None,
                  replay: dict | None = None) -> Iterator[dict]:

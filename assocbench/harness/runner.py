@@ -22,13 +22,10 @@ from ..association.problem import NO_MATCH, Problem, validate_association
 from ..associators.registry import make_associator
 from ..belief.config import BeliefConfig
 from ..association.truth import FrameTruth
-from ..tracks.camera.belief import make_problem
-from ..tracks.lines.belief import make_line_problem
-from ..tracks.planar.belief import make_planar_problem
 from ..errors import UserError
 from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
-from ..tracks.camera.sequence import Sequence
+from ..tracks.base import get_track
 from .config import RunSpec
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
@@ -63,12 +60,10 @@ def warm_up(associator) -> None:
             raise
 
 
-def frame_problems(seq: Sequence, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
+def frame_problems(seq, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
     """The problem and truth of every frame (open loop: the sampled belief of the scene's track);
     built once and shared by every method of a sweep."""
-    track = getattr(seq, "track", "camera")
-    make = {"planar": make_planar_problem, "lines": make_line_problem}.get(track, make_problem)
-    return [make(seq, k, belief, seed) for k in range(len(seq))]
+    return get_track(seq.track).problems(seq, belief, seed)
 
 
 def private_copy(problem: Problem) -> Problem:

@@ -35,7 +35,7 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..errors import UserError
-from ..tracks.camera.sequence import load_sequence
+from ..tracks.base import track_of_spec
 from .loop import loop_records
 from .runner import WARM_UP, describe, frame_problems, frame_records
 
@@ -122,7 +122,7 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
     cache = Path(task.cache_dir) if task.cache_dir else None
     for r in range(resume[0], len(task.runs)):
         spec = task.runs[r][1]
-        seq = load_sequence(spec.sequence, cache)
+        seq = track_of_spec(spec.sequence).load_sequence(spec.sequence, cache)
         problems = None if spec.loop else frame_problems(seq, spec.belief, spec.seed)
         for mi in range(resume[1] if r == resume[0] else 0, len(task.methods)):
             _, method, params = task.methods[mi]

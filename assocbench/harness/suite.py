@@ -20,7 +20,8 @@ from ..associators.registry import associator_class
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
 from ..validation import check_number
-from .config import DEFAULTS, check_method, merge, read_yaml, run_spec
+from ..tracks.base import iter_tracks
+from .config import check_method, defaults, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "backends", "methods", "seeds", "tolerance",
               "ate_tolerance")
@@ -120,7 +121,7 @@ def load_suite(path: str | Path) -> Suite:
             raise UserError(f"unknown key {key!r} in {path}; known keys: {', '.join(SUITE_KEYS)}")
     if not isinstance(raw.get("base") or {}, dict):
         raise UserError(f"'base' in {path} must be a run-config mapping")
-    base = merge(DEFAULTS, raw.get("base") or {}, f"{path} base")
+    base = merge(defaults(), raw.get("base") or {}, f"{path} base")
     scenes = _list(raw, "scenes", [base["scene"]], str(path))
     difficulties = raw.get("difficulties") or {"default": {}}
     seeds = _list(raw, "seeds", [base["seed"]], str(path))
@@ -171,7 +172,7 @@ def _crossed(difficulties: dict, backends: dict) -> dict:
 
 def resolve_suite(name: str) -> Path:
     """A suite file: ``name`` itself when it is a path that exists or ends in .yaml/.yml, else
-    the shipped ``configs/<name>.yaml`` (``leaderboard``, ``loop``, ``ci``, ``loop_ci``, ``planar``, ``planar_ci``, ``lines``, ``lines_ci``, ``dense``)."""
+    the shipped ``configs/<name>.yaml`` of a registered track (``Track.suites``)."""
     from .config import shipped_config
 
     path = Path(name)
@@ -179,8 +180,8 @@ def resolve_suite(name: str) -> Path:
         return path
     shipped = shipped_config(f"{name}.yaml")
     if not shipped.is_file():
-        raise UserError(f"suite {name!r} is neither a file nor a shipped suite (leaderboard, loop, ci, loop_ci, planar, planar_ci, lines, lines_ci, dense); "
-                        "pass a YAML path")
+        known = ", ".join(s for track in iter_tracks() for s in track.suites)
+        raise UserError(f"suite {name!r} is neither a file nor a shipped suite ({known}); pass a YAML path")
     return shipped
 
 

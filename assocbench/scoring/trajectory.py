@@ -297,3 +297,14 @@ def _check_rotations(R: np.ndarray, path: Path | str) -> None:
     if bad.any():
         raise UserError(f"TUM file {path}: R of pose {int(np.flatnonzero(bad)[0])} is not a rotation "
                         "(RᵀR ≠ I or det R ≠ 1); pass camera-to-world rotation matrices")
+
+
+def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:
+    """``{prefix}x … {prefix}qw``: a pose as TUM's position and scalar-last quaternion."""
+    q = Rotation.from_matrix(R).as_quat()
+    return {f"{prefix}{k}": float(v) for k, v in zip(("x", "y", "z", "qx", "qy", "qz", "qw"), (*p, *q))}
+
+
+def nees_or_nan(error: np.ndarray, cov: np.ndarray) -> float:
+    """Pose NEES, NaN while the pose covariance is zero (slam's first frame fixes the gauge)."""
+    return pose_nees(error, cov) if np.any(cov) else float("nan")

@@ -25,7 +25,7 @@ from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..models.range_bearing import wrap
 from ..errors import UserError
 from . import footprint
-from .scene import WALL_PREFIX, Scene, _mjcf_error, resolve_scene_path
+from .scene import WALL_PREFIX, Scene, mjcf_error, resolve_scene_path
 
 import mujoco  # noqa: E402
 
@@ -168,7 +168,7 @@ def load_line_scene(scene: str | Path) -> LineScene:
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except (ValueError, RuntimeError) as exc:
-        err = _mjcf_error(path, exc)
+        err = mjcf_error(path, exc)
         if "size" in str(err) and "must be positive" in str(err):
             err = UserError(f"{err} (a wall needs a positive half-size on every axis: "
                             f"size=\"half_length half_thickness half_height\")")

@@ -17,7 +17,7 @@ import numpy as np
 from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
 from . import footprint
-from .scene import LANDMARK_PREFIX, WALL_PREFIX, Scene, _mjcf_error, resolve_scene_path
+from .scene import LANDMARK_PREFIX, Scene, mjcf_error, resolve_scene_path
 
 import mujoco  # noqa: E402
 
@@ -51,27 +51,6 @@ def _named(items, prefix: str) -> list:
     return [x for x in items if x.name.startswith(prefix)]
 
 
-def scene_track(scene: str | Path) -> str:
-    """The track of a scene, from the parsed MJCF (not compiled): ``"lines"`` when it has geoms
-    named ``lw*`` (map walls) and nothing named ``lm*``, ``"planar"`` when it has geoms named
-    ``lm*`` (posts) and no sites named ``lm*``, else ``"camera"``; a one-line error for a mix."""
-    path = resolve_scene_path(scene)
-    try:
-        spec = mujoco.MjSpec.from_file(str(path))
-    except (ValueError, RuntimeError) as exc:
-        raise _mjcf_error(path, exc) from None
-    posts, sites = _named(spec.geoms, LANDMARK_PREFIX), _named(spec.sites, LANDMARK_PREFIX)
-    walls = _named(spec.geoms, WALL_PREFIX)
-    if posts and sites:
-        raise UserError(f"MJCF {path} has both lm* sites (camera landmarks) and lm* geoms (planar posts): a scene "
-                        "belongs to one track; rename one kind (e.g. the posts' geoms to post*, or the sites)")
-    if walls and (posts or sites):
-        kind = "geoms" if posts else "sites"
-        raise UserError(f"MJCF {path} has both lw* geoms (map walls, lines track) and lm* {kind} (landmarks): a scene "
-                        f"belongs to one track; rename one kind (e.g. the walls to wall*)")
-    return "lines" if walls else "planar" if posts else "camera"
-
-
 def _post_ids(model: "mujoco.MjModel", path: Path) -> np.ndarray:
     """Geom ids of the ``lm*`` geoms, checked: cylinders, one radius (one-line errors)."""
     names = [model.geom(i).name for i in range(model.ngeom)]
@@ -96,7 +75,7 @@ def load_planar_scene(scene: str | Path) -> PlanarScene:
     try:
         model = mujoco.MjModel.from_xml_path(str(path))
     except (ValueError, RuntimeError) as exc:
-        raise _mjcf_error(path, exc) from None
+        raise mjcf_error(path, exc) from None
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     ids = _post_ids(model, path)

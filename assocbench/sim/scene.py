@@ -51,7 +51,7 @@ def resolve_scene_path(scene: str | Path) -> Path:
     raise UserError(f"scene {str(scene)!r} not found: use one of {names} or the path of an existing MJCF .xml file")
 
 
-def _mjcf_error(path: Path, exc: Exception) -> UserError:
+def mjcf_error(path: Path, exc: Exception) -> UserError:
     """MuJoCo's whole message on one line (its first line alone is often just "XML parse error
     6:"; the line number and reason follow), plus Python's parser's reason for malformed XML."""
     said = " ".join(str(exc).split()) or type(exc).__name__
@@ -112,7 +112,7 @@ def load_scene(scene: str | Path) -> Scene:
         spec.worldbody.add_camera(name=CAMERA_NAME, fovy=fovy)
         model = spec.compile()
     except (ValueError, RuntimeError) as exc:
-        raise _mjcf_error(path, exc) from None
+        raise mjcf_error(path, exc) from None
     data = mujoco.MjData(model)
     mujoco.mj_forward(model, data)
     names = [model.site(i).name for i in range(model.nsite)]

@@ -22,7 +22,6 @@ with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a 
 
 from __future__ import annotations
 
-import math
 
 import numpy as np
 

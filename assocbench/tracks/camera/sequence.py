@@ -17,6 +17,7 @@ import zipfile
 import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
+from typing import ClassVar
 
 import cv2
 import mujoco
@@ -29,8 +30,6 @@ from ...errors import UserError
 from ...fingerprint import sources_digest
 from ...models.camera import Intrinsics
 from .detect import DetectorConfig, detect
-from ..planar.sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
-from ..lines.sequence import LineSequence, LineSequenceSpec, make_line_sequence
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene, resolve_scene_path
 from ...sim.trajectory import TRAJECTORIES, make_trajectory, rig_for
@@ -89,6 +88,8 @@ class SequenceSpec:
 @dataclass
 class Sequence:
     """Rendered frames' truth. Landmark indices refer to ``landmark_names``."""
+
+    track: ClassVar[str] = "camera"   # the registered track that reads it
 
     scene: str
     K: Intrinsics
@@ -265,15 +266,9 @@ def _cached(path: Path, key: str, spec: SequenceSpec) -> Sequence | None:
     return None
 
 
-def load_sequence(spec: SequenceSpec | PlanarSequenceSpec | LineSequenceSpec, cache_dir: Path | None = None,
-                  use_cache: bool = True) -> Sequence | PlanarSequence | LineSequence:
+def load_sequence(spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
     """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
-    A damaged cache entry, or one that is not this spec's sequence, is rendered again. A planar
-    or lines spec's sequence is made afresh (lidar scans take a fraction of a millisecond: no cache)."""
-    if isinstance(spec, PlanarSequenceSpec):
-        return make_planar_sequence(spec)
-    if isinstance(spec, LineSequenceSpec):
-        return make_line_sequence(spec)
+    A damaged cache entry, or one that is not this spec's sequence, is rendered again."""
     scene = load_scene(spec.scene)
     key = spec.key(scene)
     path = Path(cache_dir or default_cache_dir()) / "sequences" / f"{key}.npz"

@@ -9,13 +9,14 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ..associators.dense.registry import DENSE_METHODS, make_dense_associator
-from ..errors import UserError
-from ..tracks.dense.icp import IcpConfig
-from ..tracks.dense.fusion import FusionConfig
-from ..tracks.dense.sequence import DenseSequenceSpec
-from ..tracks.dense.depth_sensor import DepthConfig
-from ..validation import check_number
+from ...associators.dense.registry import DENSE_METHODS, make_dense_associator
+from ...errors import UserError
+from ...validation import check_number, free_mapping, typed_section
+from ..base import scene_track
+from .depth_sensor import DepthConfig
+from .fusion import FusionConfig
+from .icp import IcpConfig
+from .sequence import DenseSequenceSpec
 
 TRACKING = ("model", "frame", "truth")
 
@@ -53,11 +54,8 @@ def is_dense(method: object) -> bool:
     return isinstance(method, str) and method in DENSE_METHODS
 
 
-def dense_run_spec(cfg: dict, typed, mapping) -> DenseRunSpec:
-    """The dense run of a merged, size-checked config (``typed`` and ``mapping`` are the config
-    module's section readers, passed in to keep one implementation of each)."""
-    from ..sim.planar_scene import scene_track
-
+def dense_run_spec(cfg: dict) -> DenseRunSpec:
+    """The dense run of a merged, size-checked config."""
     track = scene_track(cfg["scene"])
     if track != "camera":
         raise UserError(f"method {cfg['method']} runs the dense track, on a camera scene (room, checkerboard, "
@@ -66,7 +64,7 @@ def dense_run_spec(cfg: dict, typed, mapping) -> DenseRunSpec:
     if cfg["loop"]:
         raise UserError(f"method {cfg['method']} runs the dense track, which always tracks with its own "
                         "estimates (set dense.tracking); drop --loop / loop: true")
-    dense = typed(DenseConfig, cfg["dense"], "dense")
+    dense = typed_section(DenseConfig, cfg["dense"], "dense")
     dense.check()
     most = cfg["limits"]["frames"]
     if dense.path_frames > most:
@@ -74,15 +72,15 @@ def dense_run_spec(cfg: dict, typed, mapping) -> DenseRunSpec:
                         "computed over that many frames); lower it or raise limits.frames")
     res = cfg["resolution"]
     seq = DenseSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
-                            trajectory_params=mapping(cfg, "trajectory_params"), frames=cfg["frames"],
+                            trajectory_params=free_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
                             seed=cfg["seed"], width=res[0], height=res[1],
-                            depth=typed(DepthConfig, cfg["depth"], "depth"), path_frames=dense.path_frames)
+                            depth=typed_section(DepthConfig, cfg["depth"], "depth"), path_frames=dense.path_frames)
     seq.check()
-    icp = typed(IcpConfig, cfg["icp"], "icp")
+    icp = typed_section(IcpConfig, cfg["icp"], "icp")
     icp.check()
-    fusion = typed(FusionConfig, cfg["fusion"], "fusion")
+    fusion = typed_section(FusionConfig, cfg["fusion"], "fusion")
     fusion.check()
-    params = mapping(cfg, "params")
+    params = free_mapping(cfg, "params")
     make_dense_associator(cfg["method"], **params)   # bad parameters are refused now
     if cfg["frames"] < 2:
         raise UserError("the dense track tracks frame 1 from frame 0: use at least 2 frames")

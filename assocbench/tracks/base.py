@@ -1,0 +1,229 @@
+"""The ``Track`` interface and the registry of tracks.
+
+A track is one way of sensing the scene with its own measurement model: the camera (pixels),
+the planar lidar (posts in range-bearing), the lines (walls as ``(α, r)``), the dense depth
+camera. Each is the same pipeline with other parts plugged in, so a track says what it
+contributes and the harness, the CLI, ``list``, ``check``, the leaderboard and the Gymnasium
+envs ask the registry instead of switching on the track's name:
+
+* ``claims_scene`` / ``claims_method``: which runs are its own (a scene's naming convention; a
+  method only it has, such as the dense track's projective association);
+* ``config_sections``: its settings, with their defaults (the run config's schema is the union);
+* ``sequence_spec`` / ``load_sequence``: what determines its simulated sequence, and the sequence;
+* ``problems``: the open loop's ``(Problem, FrameTruth)`` of every frame;
+* ``make_estimator`` / ``loop_sensor``: the closed loop's estimator at frame 0 and what it reads;
+* ``shipped_scenes`` / ``trajectories``: what ``assocbench list`` shows for it;
+* ``landmarks`` / ``map_figure``: the leaderboard's top view of a scene;
+* ``ci_suites`` and ``suites``: its shipped suites; ``assocbench check`` guards the CI ones.
+
+Built-in tracks register here; a third party's track registers through the entry-point group
+``assocbench.tracks`` (a ``Track`` subclass or an instance), or ``register_track`` in code.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterator
+from dataclasses import dataclass
+from functools import lru_cache
+from importlib import import_module, metadata
+from pathlib import Path
+from typing import Any, ClassVar
+
+import mujoco
+
+from ..errors import UserError
+from ..sim.scene import LANDMARK_PREFIX, WALL_PREFIX, mjcf_error, resolve_scene_path
+
+ENTRY_POINT_GROUP = "assocbench.tracks"
+
+
+@dataclass(frozen=True)
+class SceneMarks:
+    """What a scene's MJCF names, read without compiling it: ``lm*`` sites (camera landmarks),
+    ``lm*`` geoms (posts) and ``lw*`` geoms (map walls). Tracks claim scenes by these."""
+
+    path: Path
+    landmark_sites: int
+    landmark_geoms: int
+    wall_geoms: int
+
+
+class Track:
+    """One track of the benchmark. Subclasses set the class attributes and override the
+    methods their track has; a method left as it is raises a ``UserError`` saying the track
+    has no such part (e.g. a track without a closed loop)."""
+
+    name: ClassVar[str] = ""
+    summary: ClassVar[str] = ""
+    ci_suites: ClassVar[tuple[str, ...]] = ()   # shipped suites `assocbench check` runs by default
+    suites: ClassVar[tuple[str, ...]] = ()       # its shipped suites (configs/<name>.yaml)
+    pictures: ClassVar[bool] = False              # `frame`, `render` and the Gymnasium envs serve it
+    fallback: ClassVar[bool] = False              # claims every scene no other track claims
+    spec_type: ClassVar[type | None] = None       # the class of its sequence specs
+
+    # --- which runs are its own ---------------------------------------------------------
+    def claims_scene(self, marks: SceneMarks) -> bool:
+        """Whether the scene with ``marks`` follows this track's naming convention."""
+        return False
+
+    def claims_method(self, method: str) -> bool:
+        """Whether ``method`` exists on this track only (it then implies the track)."""
+        return False
+
+    # --- settings and sequence ------------------------------------------------------------
+    def config_sections(self) -> dict[str, dict]:
+        """This track's settings sections and their defaults (``{"lidar": {...}}``)."""
+        return {}
+
+    def sequence_spec(self, cfg: dict, estimator: Any) -> Any:
+        """The spec of the run's sequence from the merged, checked config ``cfg``."""
+        raise self._missing("a sequence")
+
+    def load_sequence(self, spec: Any, cache_dir: Path | None = None, use_cache: bool = True) -> Any:
+        """The sequence of ``spec`` (from the cache when there is one)."""
+        raise self._missing("a sequence")
+
+    def problems(self, seq: Any, belief: Any, seed: int) -> list:
+        """The open loop's ``(Problem, FrameTruth)`` of every frame of ``seq``."""
+        raise self._missing("open-loop problems")
+
+    # --- closed loop ----------------------------------------------------------------------
+    def make_estimator(self, seq: Any, cfg: Any, belief: Any, seed: int) -> Any:
+        """The closed loop's estimator at frame 0."""
+        raise self._missing("a closed loop")
+
+    def loop_sensor(self, seq: Any, belief: Any, est: Any, seed: int) -> Any:
+        """What the closed loop reads from ``seq``: measurements, odometry, pose columns."""
+        raise self._missing("a closed loop")
+
+    # --- what a user sees -----------------------------------------------------------------
+    def shipped_scenes(self) -> dict[str, str]:
+        """Its shipped scenes: name -> one-line description."""
+        return {}
+
+    def trajectories(self) -> list[tuple[str, str]]:
+        """Its named trajectories: (name, one-line description)."""
+        return []
+
+    def landmarks(self, scene: str) -> Any:
+        """The true landmarks of ``scene`` for the leaderboard's map views."""
+        raise self._missing("landmarks")
+
+    def map_figure(self, frames: Any, scene: str, title: str) -> Any:
+        """The leaderboard's top view of ``scene`` from the closed-loop ``frames`` of one seed, or
+        None for the default view (true path, estimates and final maps over ``landmarks``)."""
+        return None
+
+    def owns_spec(self, spec: Any) -> bool:
+        """Whether ``spec`` is a sequence spec of this track."""
+        return self.spec_type is not None and isinstance(spec, self.spec_type)
+
+    def _missing(self, what: str) -> UserError:
+        return UserError(f"the {self.name} track has no {what}")
+
+
+_TRACKS: dict[str, Track] = {}
+_BUILTINS = ("camera", "planar", "lines", "dense")
+
+
+def register_track(track: Track | type[Track]) -> Track:
+    """Add ``track`` (a ``Track`` subclass or instance) to the registry; a name taken by
+    another track is a ``UserError``."""
+    inst = track() if isinstance(track, type) else track
+    if not isinstance(inst, Track) or not inst.name:
+        raise UserError(f"{track!r} is not a Track with a name: subclass assocbench.tracks.base.Track")
+    other = _TRACKS.get(inst.name)
+    if other is not None and type(other) is not type(inst):
+        raise UserError(f"track name {inst.name!r} is taken by {type(other).__module__}; choose another name")
+    _TRACKS[inst.name] = inst
+    return inst
+
+
+@lru_cache(maxsize=1)
+def _load_builtins_and_plugins() -> None:
+    for name in _BUILTINS:
+        import_module(f"assocbench.tracks.{name}.track")
+    for ep in metadata.entry_points(group=ENTRY_POINT_GROUP):
+        try:
+            register_track(ep.load())
+        except UserError:
+            raise
+        except Exception as exc:  # noqa: BLE001 - a broken plugin is named, not a traceback
+            raise UserError(f"track plugin {ep.name!r} ({ep.value}) failed to load: "
+                            f"{type(exc).__name__}: {exc}") from None
+
+
+def tracks() -> dict[str, Track]:
+    """Every registered track by name: built-ins first, then plugins."""
+    _load_builtins_and_plugins()
+    return dict(_TRACKS)
+
+
+def get_track(name: str) -> Track:
+    """The registered track called ``name``."""
+    known = tracks()
+    if name not in known:
+        raise UserError(f"unknown track {name!r}: choose one of {', '.join(known)}")
+    return known[name]
+
+
+def iter_tracks() -> Iterator[Track]:
+    """The registered tracks in registration order."""
+    return iter(tracks().values())
+
+
+def track_of_spec(spec: Any) -> Track:
+    """The track whose sequence spec ``spec`` is."""
+    for track in iter_tracks():
+        if track.owns_spec(spec):
+            return track
+    raise UserError(f"no registered track makes sequences of {type(spec).__name__}")
+
+
+def first_line(text: str | None) -> str:
+    """The first paragraph of a docstring on one line (what ``list`` shows)."""
+    return " ".join((text or "").strip().split("\n\n")[0].split())
+
+
+def scene_marks(scene: str | Path) -> SceneMarks:
+    """Count what the scene's MJCF names (parsed, not compiled; one-line error for bad XML)."""
+    path = resolve_scene_path(scene)
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except (ValueError, RuntimeError) as exc:
+        raise mjcf_error(path, exc) from None
+
+    def named(items, prefix: str) -> int:
+        return sum(1 for item in items if item.name.startswith(prefix))
+
+    return SceneMarks(path, named(spec.sites, LANDMARK_PREFIX), named(spec.geoms, LANDMARK_PREFIX),
+                      named(spec.geoms, WALL_PREFIX))
+
+
+def track_for_scene(scene: str | Path) -> Track:
+    """The track whose convention the scene follows; a scene two tracks claim is refused in
+    one line (a scene belongs to one track), one no track claims goes to the fallback track."""
+    marks = scene_marks(scene)
+    claims = [t for t in iter_tracks() if t.claims_scene(marks)]
+    if len(claims) > 1:
+        raise UserError(f"MJCF {marks.path} follows the conventions of the {' and '.join(t.name for t in claims)} "
+                        f"tracks (lm* sites: camera landmarks, lm* geoms: posts, lw* geoms: walls): a scene "
+                        f"belongs to one track; rename one kind (e.g. the posts' geoms to post*, the walls to wall*)")
+    if claims:
+        return claims[0]
+    return next(t for t in iter_tracks() if t.fallback)
+
+
+def track_for_method(method: str) -> Track | None:
+    """The track that owns ``method``, or None when the method serves any scene's track."""
+    return next((t for t in iter_tracks() if t.claims_method(method)), None)
+
+
+def track_for_run(scene: str | Path, method: str) -> Track:
+    """The track of a run: the method's own track when it has one, else the scene's."""
+    return track_for_method(method) or track_for_scene(scene)
+
+
+def scene_track(scene: str | Path) -> str:
+    """The name of the scene's track (``track_for_scene``)."""
+    return track_for_scene(scene).name

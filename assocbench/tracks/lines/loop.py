@@ -1,0 +1,25 @@
+"""What the lines track's closed loop reads: the planar sensor with extracted wall lines for posts."""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..plane import PlanarSensor
+from .belief import clutter_lines
+from .plots import segment_status, snapshot_json
+
+
+class LinesSensor(PlanarSensor):
+    """The lines track: extracted wall lines ``(α, r)`` (their covariance is the extractor's) plus
+    clutter lines uniform over α × r, planar odometry, 3-dof pose error: the planar sensor with
+    lines for posts. Localisation only (the map is known), so no new-landmark gate applies."""
+
+    new_landmark_gate = 0.0   # unused: the lines track makes no landmarks
+    clutter = staticmethod(clutter_lines)
+
+    def snapshot(self, k: int, pose: np.ndarray, problem, association: np.ndarray, labels: np.ndarray) -> str:
+        """The last frame for the top view (``viz.line_plots``): the scan's points, the extracted
+        segments and what the method did with each, to be drawn at the estimated ``pose``."""
+        m = len(self.seq.z[k])   # the extracted lines; the clutter lines after them have no segment
+        status = segment_status(labels, problem.landmark_ids, association, m)
+        return snapshot_json(pose, self.seq.final_points, self.seq.endpoints[k], status)

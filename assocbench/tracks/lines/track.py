@@ -1,0 +1,80 @@
+"""The lines track: walls extracted from lidar scans as lines (α, r) with covariance."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from pathlib import Path
+
+from ...errors import UserError
+from ...estimators.config import EstimatorConfig
+from ...sim.lidar import LidarConfig
+from ...sim.line_scene import load_line_scene
+from ...sim.scenegen.lines import LINE_SCENES
+from ...validation import free_mapping, typed_section
+from ..base import SceneMarks, Track, first_line, register_track
+from ..plane import PLANE_TRAJECTORIES
+from .belief import make_line_problem
+from .estimator import make_line_estimator
+from .extract import LineExtractorConfig
+from .loop import LinesSensor
+from .plots import line_map_figure, snapshots
+from .sequence import LineSequence, LineSequenceSpec, make_line_sequence
+
+
+class LinesTrack(Track):
+    """Scenes whose map is ``lw*`` wall geoms (and no ``lm*`` landmarks)."""
+
+    name = "lines"
+    summary = "walls from 2-D lidar scans as lines (α, r) with Σ; EKF localisation on the known map"
+    ci_suites = ("lines_ci",)
+    suites = ("lines", "lines_ci")
+    spec_type = LineSequenceSpec
+
+    def claims_scene(self, marks: SceneMarks) -> bool:
+        return marks.wall_geoms > 0
+
+    def config_sections(self) -> dict[str, dict]:
+        return {"lidar": asdict(LidarConfig()), "lines": asdict(LineExtractorConfig())}
+
+    def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> LineSequenceSpec:
+        """Lidar scans along the scene's path and the wall lines extracted from them (``lidar``,
+        ``lines``); its estimator is the EKF localisation on the known map."""
+        if estimator.name != "ekf" or estimator.mode != "localisation":
+            raise UserError(f"scene {cfg['scene']!r} is a lines scene, whose estimator is the EKF localisation on "
+                            f"the known map: set estimator.name: ekf and estimator.mode: localisation (got "
+                            f"{estimator.name}, {estimator.mode})")
+        seq = LineSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
+                               trajectory_params=free_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
+                               seed=cfg["seed"], lidar=typed_section(LidarConfig, cfg["lidar"], "lidar"),
+                               lines=typed_section(LineExtractorConfig, cfg["lines"], "lines"))
+        if seq.lidar.mode != "lidar":
+            raise UserError(f"lidar.mode {seq.lidar.mode} serves the planar track's posts; lines are extracted "
+                            "from ray-cast scans: set lidar.mode: lidar")
+        seq.check()
+        return seq
+
+    def load_sequence(self, spec: LineSequenceSpec, cache_dir: Path | None = None,
+                      use_cache: bool = True) -> LineSequence:
+        return make_line_sequence(spec)
+
+    def problems(self, seq: LineSequence, belief, seed: int) -> list:
+        return [make_line_problem(seq, k, belief, seed) for k in range(len(seq))]
+
+    def make_estimator(self, seq: LineSequence, cfg: EstimatorConfig, belief, seed: int):
+        return make_line_estimator(seq, cfg, belief, seed)
+
+    def loop_sensor(self, seq: LineSequence, belief, est: EstimatorConfig, seed: int) -> LinesSensor:
+        return LinesSensor(seq, belief, est, seed)
+
+    def shipped_scenes(self) -> dict[str, str]:
+        return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}
+
+    def trajectories(self) -> list[tuple[str, str]]:
+        return PLANE_TRAJECTORIES
+
+    def map_figure(self, frames, scene: str, title: str):
+        """Walls, not points: the map's faces and each method's last scan."""
+        return line_map_figure(frames, load_line_scene(scene).segments, snapshots(frames), title=title)
+
+
+register_track(LinesTrack)

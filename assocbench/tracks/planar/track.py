@@ -1,0 +1,70 @@
+"""The planar track: a robot among identical posts, a 2-D lidar, circle fits, range-bearing."""
+
+from __future__ import annotations
+
+from dataclasses import asdict
+from pathlib import Path
+
+import numpy as np
+
+from ...estimators.config import EstimatorConfig
+from ...sim.lidar import LidarConfig
+from ...sim.planar_scene import load_planar_scene
+from ...sim.scenegen.planar import PLANAR_SCENES
+from ...validation import free_mapping, typed_section
+from ..base import SceneMarks, Track, first_line, register_track
+from ..plane import PLANE_TRAJECTORIES, PlanarSensor
+from .belief import make_planar_problem
+from .estimator import make_planar_estimator
+from .post_detect import PostDetectorConfig
+from .sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
+
+
+class PlanarTrack(Track):
+    """Scenes whose landmarks are ``lm*`` cylinder geoms (posts)."""
+
+    name = "planar"
+    summary = "a 2-D lidar among identical posts, circle fits, range-bearing; EKF-SLAM or GTSAM iSAM2"
+    ci_suites = ("planar_ci",)
+    suites = ("planar", "planar_ci")
+    spec_type = PlanarSequenceSpec
+
+    def claims_scene(self, marks: SceneMarks) -> bool:
+        return marks.landmark_geoms > 0
+
+    def config_sections(self) -> dict[str, dict]:
+        return {"lidar": asdict(LidarConfig()), "posts": asdict(PostDetectorConfig())}
+
+    def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> PlanarSequenceSpec:
+        """Lidar scans along the scene's path and the posts detected in them (``lidar``, ``posts``)."""
+        seq = PlanarSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
+                                 trajectory_params=free_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
+                                 seed=cfg["seed"], lidar=typed_section(LidarConfig, cfg["lidar"], "lidar"),
+                                 posts=typed_section(PostDetectorConfig, cfg["posts"], "posts"))
+        seq.check()
+        return seq
+
+    def load_sequence(self, spec: PlanarSequenceSpec, cache_dir: Path | None = None,
+                      use_cache: bool = True) -> PlanarSequence:
+        return make_planar_sequence(spec)
+
+    def problems(self, seq: PlanarSequence, belief, seed: int) -> list:
+        return [make_planar_problem(seq, k, belief, seed) for k in range(len(seq))]
+
+    def make_estimator(self, seq: PlanarSequence, cfg: EstimatorConfig, belief, seed: int):
+        return make_planar_estimator(seq, cfg, belief, seed)
+
+    def loop_sensor(self, seq: PlanarSequence, belief, est: EstimatorConfig, seed: int) -> PlanarSensor:
+        return PlanarSensor(seq, belief, est, seed)
+
+    def shipped_scenes(self) -> dict[str, str]:
+        return {name: first_line(build.__doc__) for name, build in PLANAR_SCENES.items()}
+
+    def trajectories(self) -> list[tuple[str, str]]:
+        return PLANE_TRAJECTORIES
+
+    def landmarks(self, scene: str) -> np.ndarray:
+        return load_planar_scene(scene).posts
+
+
+register_track(PlanarTrack)
