@@ -17,7 +17,6 @@ __all__ = [
     "surprisal", "validate_association",
 ]
 __version__ = "0.1.0"
-
-from .gymenv import register_envs as _register_envs  # noqa: E402
-
-_register_envs()
+# The Gymnasium environments register when ``assocbench.gymenv`` is imported (or through
+# ``gym.make("assocbench.gymenv:assocbench/Room-v0")``), not here: the contract above must load
+# without the simulator, OpenCV, Gymnasium or the harness.

@@ -6,7 +6,7 @@ import sys
 
 import gymnasium as gym
 
-import assocbench  # noqa: F401  (registers the environments)
+import assocbench.gymenv  # noqa: F401  (registers assocbench/Room-v0 and friends)
 from assocbench.gymenv import classical_action
 
 

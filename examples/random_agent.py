@@ -10,7 +10,7 @@ index range but may give one feature to two candidates; ``sample_valid_action`` 
 import gymnasium as gym
 import numpy as np
 
-import assocbench  # noqa: F401  (registers assocbench/Room-v0 and friends)
+import assocbench.gymenv  # noqa: F401  (registers assocbench/Room-v0 and friends)
 from assocbench.gymenv import sample_valid_action
 
 

@@ -1,6 +1,9 @@
 """Gymnasium environments: ``gymnasium.make("assocbench/Room-v0")`` and one id per shipped scene
 (open loop: the belief is sampled around the truth), and ``assocbench/RoomLoop-v0`` and friends
-(closed loop: the belief is a filter updated with the agent's own actions)."""
+(closed loop: the belief is a filter updated with the agent's own actions).
+
+Importing this package registers them: ``import assocbench.gymenv``, or name the module in the
+id, ``gymnasium.make("assocbench.gymenv:assocbench/Room-v0")``."""
 
 from __future__ import annotations
 
@@ -27,3 +30,5 @@ def register_envs() -> None:
 
 __all__ = ["AssociationEnv", "ENV_IDS", "LoopAssociationEnv", "action_mask", "classical_action", "register_envs",
            "sample_mask", "sample_valid_action"]
+
+register_envs()

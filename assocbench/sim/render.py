@@ -7,7 +7,7 @@ import warnings
 
 import numpy as np
 
-from .. import _runtime  # sets MUJOCO_GL before mujoco loads; GL_ERROR says if it could not
+from . import gl  # loads mujoco under MUJOCO_GL; GL_ERROR says if the backend could not load
 from ..errors import UserError
 from ..models.camera import CV_TO_MUJOCO, Intrinsics
 from ..models.depth_frame import NO_GEOM
@@ -46,8 +46,8 @@ def _gl_error(reason: str) -> UserError:
 def _gl_renderer(model: "mujoco.MjModel", width: int, height: int) -> "mujoco.Renderer":
     """``mujoco.Renderer``, or a one-line ``UserError`` when the GL backend cannot give a context
     (glfw without a display raises ``FatalError`` after Python warnings that say why)."""
-    if _runtime.GL_ERROR:   # the backend did not even load; mujoco was loaded without GL
-        raise _gl_error(_runtime.GL_ERROR)
+    if gl.GL_ERROR:   # the backend did not even load; mujoco was loaded without GL
+        raise _gl_error(gl.GL_ERROR)
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
         try:

@@ -170,7 +170,7 @@ def test_readme_python_example_runs_and_prints_what_it_says(capsys):
     import re
     from pathlib import Path
 
-    readme = (Path(__file__).resolve().parents[1] / "README.md").read_text()
+    readme = (Path(__file__).resolve().parents[2] / "README.md").read_text()
     block = next(b for b in re.findall(r"```python\n(.*?)```", readme, re.S) if "make_associator(\"jcbb\")" in b)
     exec(compile(block, "README.md", "exec"), {})
     assert capsys.readouterr().out.strip() == "[2 0]"

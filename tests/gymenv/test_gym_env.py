@@ -8,7 +8,7 @@ import pytest
 from gymnasium.error import ResetNeeded
 from gymnasium.utils.env_checker import check_env
 
-import assocbench  # noqa: F401
+import assocbench.gymenv  # noqa: F401  (registers assocbench/Room-v0 and friends)
 from assocbench.association.problem import Problem
 from assocbench.errors import UserError
 from assocbench.gymenv import ENV_IDS, AssociationEnv, classical_action, sample_mask, sample_valid_action
@@ -116,7 +116,7 @@ def test_examples_run(capsys, monkeypatch):
     monkeypatch.setattr(sys, "argv", ["example"])
     from pathlib import Path
 
-    root = Path(__file__).resolve().parents[1] / "examples"
+    root = Path(__file__).resolve().parents[2] / "examples"
     runpy.run_path(str(root / "random_agent.py"), run_name="__main__")
     runpy.run_path(str(root / "classical_agent.py"), run_name="__main__")
     out = capsys.readouterr().out

@@ -22,7 +22,7 @@ from assocbench.viz import draw
 from assocbench.viz.overlay import draw_association
 from assocbench.tracks.camera.truth_frame import TruthFrame, draw_truth_frame
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
 SMALL = ["--resolution", "64x48"]
 
 

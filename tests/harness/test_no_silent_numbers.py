@@ -16,7 +16,7 @@ from assocbench.harness.config import load_run_config, read_yaml, run_spec
 from assocbench.harness.suite import load_suite
 from assocbench.scoring.aggregate import OK, summarize
 
-from test_cli import assert_one_line_error
+from cli.test_cli import assert_one_line_error
 
 
 @pytest.mark.parametrize("setting,needles", [

@@ -14,7 +14,7 @@ from assocbench.association.compatibility import individually_compatible, jointl
 from assocbench.models.synthetic import range_bearing_problem
 from problems import exhaustive_best, reference_joint
 
-DATA = Path(__file__).parent / "data"
+DATA = Path(__file__).resolve().parents[1] / "data"
 
 
 def load_case(name: str) -> tuple[Problem, np.ndarray]:

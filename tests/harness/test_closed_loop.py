@@ -19,7 +19,7 @@ from assocbench.harness.loop import ClosedLoop, loop_records
 from assocbench.harness.runner import call_method
 from assocbench.scoring.aggregate import summarize
 from assocbench.scoring.trajectory import read_tum, ate_rmse
-from tests.test_cli import run_cli
+from tests.cli.test_cli import run_cli
 
 FRAMES = 100
 

@@ -11,7 +11,7 @@ import pytest
 
 from assocbench.cli.main import main
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
 
 
 def run_cli(*args: str, cwd=None) -> subprocess.CompletedProcess:

@@ -8,7 +8,7 @@ import numpy as np
 import pytest
 from gymnasium.utils.env_checker import check_env
 
-import assocbench  # noqa: F401  (registers the envs)
+import assocbench.gymenv  # noqa: F401  (registers the envs)
 from assocbench.errors import UserError
 from assocbench.gymenv import ENV_IDS, LoopAssociationEnv, classical_action
 from assocbench.harness.loop import ClosedLoop, loop_records
@@ -206,7 +206,7 @@ def test_the_classical_agent_example_runs_the_loop_env(capsys, monkeypatch):
     import sys
     from pathlib import Path
 
-    example = Path(__file__).resolve().parents[1] / "examples" / "classical_agent.py"
+    example = Path(__file__).resolve().parents[2] / "examples" / "classical_agent.py"
     monkeypatch.setattr(sys, "argv", ["example", "jcbb", "assocbench/RoomLoop-v0"])
     runpy.run_path(str(example), run_name="__main__")
     out = capsys.readouterr().out

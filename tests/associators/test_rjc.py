@@ -22,7 +22,7 @@ from assocbench.associators.rjc import ransac_iterations
 from assocbench.models.synthetic import camera_problem, lattice_problem, range_bearing_problem
 from problems import random_problem
 
-ROOT = os.path.dirname(os.path.dirname(os.path.abspath(__file__)))
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
 
 
 def some_problems():
