@@ -81,10 +81,12 @@ def _dask_client(address: str | None):
         raise UserError(f"cannot reach dask scheduler {address}: {exc}") from None
 
 
-def _run_dask(todo: list[Job], out: Path, address: str | None, cache_dir: str | None, bar: tqdm) -> None:
-    from dask.distributed import as_completed as dask_completed
+def _run_dask(todo: list[Job], out: Path, client, cache_dir: str | None, bar: tqdm) -> None:
+    """Run ``todo`` on the dask cluster of ``client`` (opened by ``_dask_client``), storing each
+    job as it finishes."""
+    from dask.distributed import as_completed as dask_completed   # importable: the client exists
 
-    with _dask_client(address) as client:
+    with client:
         futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
         for fut in dask_completed(futures):
             store_job(out, futures[fut], fut.result())
@@ -122,6 +124,9 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
         raise UserError(f"unknown executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
     if jobs < 1:
         raise UserError(f"--jobs must be at least 1, got {jobs}")
+    # the cluster is reached before anything is written: a missing extra, no address or an
+    # unreachable scheduler is one line and leaves no output folder behind
+    client = _dask_client(address) if executor == "dask" else None
     ensure_dir(out / "jobs")
     done = [load_job(out, j) for j in suite.jobs]
     todo = [j for j, d in zip(suite.jobs, done) if d is None]
@@ -129,7 +134,7 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
                unit="job", disable=not progress or not sys.stderr.isatty())  # no bars in logs
     try:
         if executor == "dask":
-            _run_dask(todo, out, address, cache_dir, bar)
+            _run_dask(todo, out, client, cache_dir, bar)
         else:
             _run_local(todo, out, jobs, cache_dir, bar)
     finally:
