@@ -138,6 +138,7 @@ def dense_table(summaries: pd.DataFrame) -> pd.DataFrame:
 
 MD_COLUMNS = (("precision", "precision", "{:.3f}"), ("recall", "recall", "{:.3f}"),
               ("precision at start", "precision_start", "{:.3f}"), ("ICP failures", "icp_failures", "{:.1f}"),
+              ("wrong steps", "wrong_steps", "{:.1f}"),
               ("ATE mm", "ate_mm", "{:.1f}"), ("final drift mm", "final_drift_mm", "{:.1f}"),
               ("step error mm / deg", ("step_error_mm", "step_error_deg"), "{:.2f} / {:.3f}"),
               ("map points", "map_points", "{:,.0f}"), ("compression %", "compression_pct", "{:.2f}"),
