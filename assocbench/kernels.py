@@ -60,7 +60,7 @@ def install() -> None:
     Cache.load_overload, Cache.save_overload = load_overload, save_overload
 
 
-def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels", expect_s: float = 30) -> float | None:
+def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels", expect_s: float = 60) -> float | None:
     """Run ``calls``; if a kernel compiles meanwhile, print ``compiling <what> (...)...`` at
     the first one, a dot per kernel and ``done in N s`` at the end. Returns the seconds spent
     compiling, ``None`` when everything came from the cache. A call's error is left to the
@@ -91,7 +91,7 @@ def _compiling(cache) -> None:
         print(".", end="", file=sys.stderr, flush=True)
     elif not _state["noted"] and _module(cache).startswith("assocbench"):
         _state["noted"] = True  # compiled outside warm(): a plain line, once
-        print("assocbench: compiling association kernels (first run in this environment, ~30 s)",
+        print(f"assocbench: compiling {_module(cache)} kernels at their first use (once per environment)",
               file=sys.stderr, flush=True)
 
 

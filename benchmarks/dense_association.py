@@ -5,7 +5,7 @@ frames), with the sensor's default noise and noise-free (same renders, same graz
 normal smoothing, ``sigma_base = sigma_quad = 0``). For ``--frames`` frames k (every ``--stride``-th
 along the path from 0) the target is frame k+1 and the source is either
 
-- frame-to-frame: frame k's valid pixels placed at its TRUE pose (``dense_run.frame_source``), or
+- frame-to-frame: frame k's valid pixels placed at its TRUE pose (``tracks.dense.run.frame_source``), or
 - frame-to-model: the map fused over frames 0..k at their true poses (``point_fusion.fuse``,
   default ``FusionConfig``), which grows along the path: the KD-tree's cost on a big map.
 
@@ -61,9 +61,10 @@ from _util import print_table, summary_ms, timed
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb  # noqa: E402
 
-from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
+from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse, warm_fusion  # noqa: E402
-from assocbench.harness.dense_run import Source, frame_source, map_source  # noqa: E402
+from assocbench.tracks.dense.run import Source, frame_source, map_source  # noqa: E402
 from assocbench.tracks.dense.spec import DenseConfig  # noqa: E402
 from assocbench.tracks.dense.metrics import score_correspondences  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402

@@ -29,7 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import ROOM, WALL, perturb, pose_at, pose_error, render, source_set  # noqa: E402
 from dense_synthetic import ROOM_EYE, ROOM_TARGET, WALL_EYE, WALL_TARGET  # noqa: E402
 
-from assocbench.associators.dense import make_dense_associator, warm_dense  # noqa: E402
+from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 from assocbench.tracks.dense.icp import IcpConfig, icp  # noqa: E402
 
 SIZES = (0, 1, 3, 5, 10, 15, 20, 30, 45)

@@ -1,4 +1,9 @@
-"""Registry of associators: the built-ins, entry-point plugins and ``pkg.module:Class`` specs."""
+"""Registry of associators: the built-ins, entry-point plugins and ``pkg.module:Class`` specs.
+
+Two kinds share it: feature associators (``Associator``: candidates paired with measurements of a
+``Problem``) and dense ones (``dense.DenseAssociator``: source points paired with pixels of a depth
+frame). A method's kind implies its track (``tracks.dense`` claims the dense ones), so a user's
+dense associator plugs in exactly as a feature associator does."""
 
 from __future__ import annotations
 
@@ -11,6 +16,7 @@ from ..errors import UserError
 from ..validation import validate_fields
 from .base import Associator
 from .ccda import CCDA
+from .dense import DENSE_METHODS, DenseAssociator
 from .enn import ENN
 from .jcbb import JCBB
 from .jpda import JPDA
@@ -23,6 +29,7 @@ from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
 BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive)}
+ALL_BUILTINS: dict[str, type] = {**BUILTINS, **DENSE_METHODS}
 
 
 def _load_spec(spec: str) -> type[Associator]:
@@ -47,7 +54,7 @@ def plugins() -> dict[str, str]:
 
 def available() -> dict[str, str]:
     """Every associator name usable with ``make_associator``, with its one-line summary."""
-    out = {name: cls.summary for name, cls in BUILTINS.items()}
+    out = {name: cls.summary for name, cls in ALL_BUILTINS.items()}
     for name, value in plugins().items():
         out.setdefault(name, f"plugin {value}")
     return out
@@ -56,8 +63,8 @@ def available() -> dict[str, str]:
 def associator_class(method: str) -> type[Associator]:
     """Class of a built-in name, a plugin name or a ``pkg.module:Class`` spec."""
     key = method.lower()
-    if key in BUILTINS:
-        return BUILTINS[key]
+    if key in ALL_BUILTINS:
+        return ALL_BUILTINS[key]
     if method in plugins():
         return _load_spec(plugins()[method])
     if ":" in method:
@@ -88,4 +95,23 @@ def make_associator(method: str, **params) -> Associator:
         raise UserError(f"cannot build method {method!r} with parameters {params}: {type(exc).__name__}: {exc}") from None
     if allowed is not None and not isinstance(associator, Associator):
         validate_fields(associator, "params")   # Associator subclasses check themselves
+    return associator
+
+
+def is_dense(method: str) -> bool:
+    """Whether ``method`` resolves to a dense associator (False for a name that does not resolve:
+    building it reports that)."""
+    try:
+        return issubclass(associator_class(method), DenseAssociator)
+    except UserError:
+        return False
+
+
+def make_dense_associator(method: str, **params) -> DenseAssociator:
+    """A dense associator (``make_associator``), or a one-line error when ``method`` is not one."""
+    associator = make_associator(method, **params)
+    if not isinstance(associator, DenseAssociator):
+        raise UserError(f"method {method!r} is not a dense associator (subclass "
+                        "assocbench.associators.dense.DenseAssociator); a feature associator runs on the "
+                        "camera, planar or lines track")
     return associator

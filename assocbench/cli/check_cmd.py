@@ -6,21 +6,10 @@ import argparse
 import tempfile
 from pathlib import Path
 
-from ..harness.check import baseline_table, check_tolerance, compare, read_baseline, write_baseline
-from ..harness.dense_suite import (
-    DenseSuite,
-    compare_dense,
-    dense_table,
-    is_dense_suite,
-    load_dense_suite,
-    read_dense_baseline,
-    run_dense_suite,
-    write_dense_baseline,
-)
-from ..harness.suite import load_suite, resolve_suite
-from ..tracks.base import iter_tracks
+from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
+from ..harness.suite import Suite, load_suite, resolve_suite
 from ..harness.sweep import run_suite
-from ..scoring.aggregate import leaderboard_table
+from ..tracks.base import iter_tracks
 from .common import check_output_folder, print_table
 
 NAME = "check"
@@ -28,9 +17,8 @@ HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML or shipped suite name (default: the four shipped CI suites, "
-                   "configs/ci.yaml, the closed loop's configs/loop_ci.yaml, the planar track's configs/planar_ci.yaml "
-                   "and the lines track's configs/lines_ci.yaml; a dense suite is checked when named)")
+    p.add_argument("--suite", help="suite YAML or shipped suite name (default: every track's CI suites: ci and "
+                   "loop_ci (camera), planar_ci, lines_ci, dense_ci)")
     p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
                    "results/baseline_<suite>.csv for another suite; without --suite it is the ci suite's)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
@@ -54,54 +42,32 @@ def main(args: argparse.Namespace) -> int:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
         suites = ["ci"] if args.baseline is not None else default_suites()
-    paths = [resolve_suite(s) for s in suites]
-    loaded = [load_dense_suite(p) if is_dense_suite(p) else load_suite(p) for p in paths]   # all checked first
-    return max(check_dense(suite, args) if isinstance(suite, DenseSuite) else check_suite(suite, args)
-               for suite in loaded)
+    loaded = [load_suite(resolve_suite(s)) for s in suites]   # all checked before any runs
+    return max(check_suite(suite, args) for suite in loaded)
 
 
-def check_suite(suite, args: argparse.Namespace) -> int:
-    """Run one suite and compare it with its baseline (or rewrite the baseline): exit status."""
+def check_suite(suite: Suite, args: argparse.Namespace) -> int:
+    """Run one suite and compare it with its baseline (or rewrite the baseline): exit status. The
+    columns compared are the suite's track's (``Track.check_metrics``)."""
     tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
+    tolerances = suite.tolerances() | {"tolerance": tolerance}
+    guards = suite.guards()
     baseline_path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
-    baseline = None if args.update else read_baseline(baseline_path, suite.name)
+    baseline = None if args.update else read_baseline(baseline_path, guards, suite.name)
     if args.update:
         check_output_folder(baseline_path.parent, "--baseline")   # before the suite runs, not after
     with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run
         summaries, _ = run_suite(suite, Path(scratch), args.jobs, progress=not args.quiet)
+    table = suite.track_impl.leaderboard_table(summaries)
     if args.update:
-        write_baseline(summaries, baseline_path)
-        print(f"wrote baseline {baseline_path} ({len(baseline_table(summaries))} rows)")
+        write_ok_table(table, baseline_columns(guards), baseline_path)
+        print(f"wrote baseline {baseline_path} ({len(table)} rows)")
         return 0
     expected = suite.rows()
-    findings = compare(leaderboard_table(summaries), baseline, tolerance, expected, suite.ate_tolerance)
+    findings = compare(table, baseline, guards, tolerances, expected)
     if len(findings):
         print(f"check failed: {len(findings)} finding(s) against {baseline_path} (tolerance {tolerance}):")
         print_table(findings, "table")
         return 1
     print(f"ok: {len(expected)} scenario × method rows compared, all within tolerance {tolerance} of {baseline_path}")
-    return 0
-
-
-
-def check_dense(suite: DenseSuite, args: argparse.Namespace) -> int:
-    """A dense suite against its baseline (or rewrite it): precision and recall may drop by the
-    tolerance, ATE and map error rise by the suite's ``ate_tolerance``; every run must be ok."""
-    tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
-    baseline_path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
-    baseline = None if args.update else read_dense_baseline(baseline_path)
-    if args.update:
-        check_output_folder(baseline_path.parent, "--baseline")
-    summaries, _, _ = run_dense_suite(suite, args.jobs, progress=not args.quiet)
-    if args.update:
-        write_dense_baseline(summaries, baseline_path)
-        print(f"wrote baseline {baseline_path} ({len(dense_table(summaries))} rows)")
-        return 0
-    findings = compare_dense(dense_table(summaries), baseline, suite, tolerance)
-    if len(findings):
-        print(f"check failed: {len(findings)} finding(s) against {baseline_path} (tolerance {tolerance}):")
-        print_table(findings, "table")
-        return 1
-    print(f"ok: {len(suite.rows())} scenario × method rows compared, all within tolerance {tolerance} of "
-          f"{baseline_path}")
     return 0

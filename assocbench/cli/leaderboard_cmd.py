@@ -6,11 +6,9 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..harness.dense_suite import is_dense_suite, load_dense_suite, run_dense_suite, write_dense_leaderboard
 from ..harness.leaderboard import write_leaderboard
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import EXECUTORS, run_suite
-from ..errors import UserError
 from ..scoring.aggregate import OK
 from .common import check_output_folder
 
@@ -30,13 +28,10 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    path = resolve_suite(args.suite or "leaderboard")
-    if is_dense_suite(path):
-        return dense_main(load_dense_suite(path), args)
-    suite = load_suite(path)
+    suite = load_suite(resolve_suite(args.suite or "leaderboard"))
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
     summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
-    paths = write_leaderboard(summaries, frames, out)
+    paths = suite.track_impl.write_leaderboard(summaries, frames, out) or write_leaderboard(summaries, frames, out)
     print(paths["md"].read_text())
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     untrusted = summaries[summaries["status"] != OK]
@@ -44,20 +39,4 @@ def main(args: argparse.Namespace) -> int:
         error = f": {r['error']}" if r["error"] else ""
         print(f"assocbench: warning: {r['method']} on {r['scenario']} seed {r['seed']} is not ok, "
               f"{r['status']}{error}", file=sys.stderr)
-    return 1 if len(untrusted) else 0
-
-
-def dense_main(suite, args: argparse.Namespace) -> int:
-    """A dense suite: every run in worker processes, then the leaderboard files (local only)."""
-    if args.executor != "local":
-        raise UserError("a dense suite runs on local worker processes (--jobs); drop --executor dask")
-    out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
-    summaries, frames, pictures = run_dense_suite(suite, args.jobs, progress=not args.quiet)
-    paths = write_dense_leaderboard(summaries, frames, pictures, out)
-    print(paths["md"].read_text())
-    print("wrote " + ", ".join(str(p) for p in paths.values()))
-    untrusted = summaries[summaries["status"] != OK]
-    for _, r in untrusted.iterrows():
-        print(f"assocbench: warning: {r['method']} on {r['scenario']} seed {r['seed']} is not ok, {r['status']}",
-              file=sys.stderr)
     return 1 if len(untrusted) else 0

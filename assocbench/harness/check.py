@@ -3,7 +3,9 @@
 ``check`` passes only when it compared everything it was asked to: every (scenario, method)
 row of the suite is in the baseline and in the fresh run, every run's ``status`` is ``ok`` (no
 failed frames, candidates present, something associated), and every accuracy value on both
-sides is finite and no more than ``tolerance`` (finite, >= 0) below the baseline.
+sides is finite and no worse than the baseline by more than its tolerance (finite, >= 0). Which
+columns are guarded is the track's (``Track.check_metrics``): accuracy for every feature track,
+a closed loop's ATE too, the dense track's correspondence precision, recall, ATE and map error.
 """
 
 from __future__ import annotations
@@ -16,7 +18,8 @@ import pandas as pd
 
 from ..atomic import Role, atomic_path
 from ..errors import UserError
-from ..scoring.aggregate import ACCURACY_METRICS, OK, leaderboard_table
+from ..scoring.aggregate import OK
+from ..tracks.base import GuardedMetric
 from ..validation import check_number
 
 KEY = ["scenario", "method"]
@@ -28,9 +31,10 @@ def check_tolerance(value, where: str = "--tolerance") -> float:
     return float(check_number(value, where, lo=0))
 
 
-def read_baseline(path: Path, suite: str = "ci") -> pd.DataFrame:
-    """The baseline CSV (``scenario, method`` and the accuracy metrics in [0, 1]), or a one-line
-    error: a missing, empty, truncated or non-numeric baseline cannot vouch for anything."""
+def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "ci") -> pd.DataFrame:
+    """The baseline CSV (``scenario, method`` and every guarded column, each in its range), or a
+    one-line error: a missing, empty, truncated or non-numeric baseline, or one that lacks a column
+    the suite guards (a closed loop's ``ate_rmse``), cannot vouch for anything."""
     if not path.is_file():
         how = "" if suite == "ci" else f" --suite {suite}"
         raise UserError(f"baseline {path} not found (run check from the repository root, or create it with "
@@ -39,27 +43,21 @@ def read_baseline(path: Path, suite: str = "ci") -> pd.DataFrame:
         base = pd.read_csv(path, dtype={"scenario": str, "method": str})
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         raise UserError(f"baseline {path} is not a readable CSV: {str(exc).strip().splitlines()[0]}") from None
-    missing = [c for c in KEY + list(ACCURACY_METRICS) if c not in base.columns]
+    missing = [c for c in KEY + [g.name for g in guards] if c not in base.columns]
     if missing:
-        raise UserError(f"baseline {path} lacks columns {', '.join(missing)}; regenerate it with --update")
+        raise UserError(f"baseline {path} lacks columns {', '.join(missing)} that suite {suite} guards; regenerate "
+                        "it with --update")
     if base.empty:
         raise UserError(f"baseline {path} has no rows, so nothing could be compared; regenerate it with --update")
-    for metric in ACCURACY_METRICS:
-        values = pd.to_numeric(base[metric], errors="coerce")
-        bad = ~values.between(0.0, 1.0)   # NaN (empty, text, a truncated row) is not between
+    for g in guards:
+        values = pd.to_numeric(base[g.name], errors="coerce")
+        bad = ~values.between(g.lo, g.hi) | ~np.isfinite(values)   # NaN (empty, text, a truncated row) is not between
         if bad.any():
             row = int(bad.to_numpy().argmax())
-            raise UserError(f"baseline {path} row {row + 2}: {metric} is {base[metric].iloc[row]!r}, not a number "
-                            f"in [0, 1] (truncated or edited?); regenerate it with --update")
-        base[metric] = values
-    if "ate_rmse" in base:   # a closed loop's baseline: metres, finite and >= 0
-        values = pd.to_numeric(base["ate_rmse"], errors="coerce")
-        bad = ~(values >= 0) | ~np.isfinite(values)
-        if bad.any():
-            row = int(bad.to_numpy().argmax())
-            raise UserError(f"baseline {path} row {row + 2}: ate_rmse is {base['ate_rmse'].iloc[row]!r}, not a "
-                            f"number >= 0 (truncated or edited?); regenerate it with --update")
-        base["ate_rmse"] = values
+            where = f"in [{g.lo:g}, {g.hi:g}]" if math.isfinite(g.hi) else f">= {g.lo:g}"
+            raise UserError(f"baseline {path} row {row + 2}: {g.name} is {base[g.name].iloc[row]!r}, not a number "
+                            f"{where} (truncated or edited?); regenerate it with --update")
+        base[g.name] = values
     dup = base.duplicated(KEY)
     if dup.any():
         r = base[dup].iloc[0]
@@ -67,12 +65,12 @@ def read_baseline(path: Path, suite: str = "ci") -> pd.DataFrame:
     return base
 
 
-def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float,
-            expected: list[tuple[str, str]], ate_tolerance: float = 0.01) -> pd.DataFrame:
-    """Findings (one row each) that make ``check`` fail: an accuracy metric more than
-    ``tolerance`` below the baseline, a closed loop's ATE more than ``ate_tolerance`` (m) above
-    it, a non-finite value, a run whose status is not ``ok``, or an ``expected`` row missing from
-    the baseline or from the current results."""
+def compare(current: pd.DataFrame, baseline: pd.DataFrame, guards: tuple[GuardedMetric, ...],
+            tolerances: dict[str, float], expected: list[tuple[str, str]]) -> pd.DataFrame:
+    """Findings (one row each) that make ``check`` fail: a guarded column worse than the baseline
+    by more than its tolerance (``tolerances[guard.tolerance] · guard.scale``), a non-finite
+    value, a run whose status is not ``ok``, or an ``expected`` row missing from the baseline or
+    from the current results."""
     cur = current.set_index(KEY)
     base = baseline.set_index(KEY)
     rows = []
@@ -91,34 +89,23 @@ def compare(current: pd.DataFrame, baseline: pd.DataFrame, tolerance: float,
         status = cur.loc[key, "status"] if "status" in cur else OK
         if status != OK:
             finding(key, f"run not ok: {status}")
-        for metric in ACCURACY_METRICS:
-            b, c = float(base.loc[key, metric]), float(cur.loc[key, metric])
+        for g in guards:
+            b = float(base.loc[key, g.name])
+            c = float(cur.loc[key, g.name]) if g.name in cur else math.nan
+            slack = tolerances[g.tolerance] * g.scale
             if not math.isfinite(c):
-                finding(key, "not a finite number", metric, b, c)
-            elif c < b - tolerance:
-                finding(key, "regressed", metric, b, c)
-        if "ate_rmse" in base.columns:   # a closed loop: lower is better
-            b, c = float(base.loc[key, "ate_rmse"]), float(cur.loc[key, "ate_rmse"]) if "ate_rmse" in cur else math.nan
-            if not math.isfinite(c):
-                finding(key, "not a finite number", "ate_rmse", b, c)
-            elif c > b + ate_tolerance:
-                finding(key, "regressed", "ate_rmse", b, c)
+                finding(key, "not a finite number", g.name, b, c)
+            elif (c < b - slack) if g.higher_better else (c > b + slack):
+                finding(key, "regressed", g.name, b, c)
     for key in base.index:
         if key not in set(expected):
             finding(key, "in the baseline but not in the suite")
     return pd.DataFrame(rows, columns=FINDING_COLUMNS)
 
 
-def baseline_table(summaries: pd.DataFrame) -> pd.DataFrame:
-    """The rows written to the baseline: mean accuracy per scenario × method (and a closed
-    loop's ATE)."""
-    table = leaderboard_table(summaries)
-    return table[baseline_columns(table)]
-
-
-def baseline_columns(table: pd.DataFrame) -> list[str]:
-    """scenario, method, the accuracy metrics, and a closed loop's ATE when the table has it."""
-    return KEY + list(ACCURACY_METRICS) + (["ate_rmse"] if "ate_rmse" in table else [])
+def baseline_columns(guards: tuple[GuardedMetric, ...]) -> list[str]:
+    """scenario, method and the guarded columns."""
+    return KEY + [g.name for g in guards]
 
 
 def write_ok_table(table: pd.DataFrame, columns: list[str], path: Path) -> None:
@@ -130,9 +117,3 @@ def write_ok_table(table: pd.DataFrame, columns: list[str], path: Path) -> None:
         raise UserError(f"not writing baseline {path}: {r['scenario']} × {r['method']} is not ok ({r['status']})")
     with atomic_path(path, role=Role("baseline", "--baseline")) as tmp:
         table[columns].to_csv(tmp, index=False, float_format="%.6f")
-
-
-def write_baseline(summaries: pd.DataFrame, path: Path) -> None:
-    """Write the baseline (``baseline_table``) atomically; refuse one from a run not ok."""
-    table = leaderboard_table(summaries)
-    write_ok_table(table, baseline_columns(table), path)

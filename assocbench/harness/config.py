@@ -22,7 +22,6 @@ from ..errors import UserError
 from ..estimators.config import EstimatorConfig
 from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
 from ..tracks.base import Track, get_track, iter_tracks, track_for_run
-from ..tracks.dense.spec import DenseRunSpec, dense_run_spec
 from ..validation import check_number, free_mapping, typed_section
 
 COMMON: dict = {
@@ -173,11 +172,16 @@ class RunSpec:
     loop: bool = False           # closed loop: the belief is the estimator's posterior
     estimator: EstimatorConfig = EstimatorConfig()
     track: str = "camera"        # the registered track that makes the sequence and its problems
+    settings: tuple = ()          # the track's own typed sections, ((name, value), ...) (Track.run_settings)
 
     @property
     def track_impl(self) -> Track:
         """The registered ``Track`` of this run."""
         return get_track(self.track)
+
+    def setting(self, name: str):
+        """The track's typed settings section ``name`` (e.g. the dense track's ``icp``)."""
+        return dict(self.settings)[name]
 
 
 def _check_limits(cfg: dict) -> dict:
@@ -204,11 +208,12 @@ def _check_sizes(cfg: dict) -> None:
         check_number(value, f"resolution {name}", integer=True, lo=MIN_SIDE, hi=MAX_SIDE)
 
 
-def run_spec(cfg: dict) -> RunSpec | DenseRunSpec:
+def run_spec(cfg: dict) -> RunSpec:
     """Resolve a merged config mapping into typed stage settings. Every value is checked here,
     before anything runs: types, finiteness, ranges, sizes against ``limits``, the method and
-    its parameters (built once and thrown away). A dense method (projective, kdtree) gives the
-    dense track's ``DenseRunSpec``."""
+    its parameters (built once and thrown away). The run's track is the method's own (a dense
+    method) or the scene's; the track reads its sections (``Track.sequence_spec``,
+    ``Track.run_settings``)."""
     _check_sizes(cfg)
     check_number(cfg["seed"], "seed", integer=True, lo=0, hi=2**32 - 1)
     check_number(cfg["time_limit_s"], "time_limit_s", lo=0, hi=86400, lo_open=True)
@@ -221,20 +226,22 @@ def run_spec(cfg: dict) -> RunSpec | DenseRunSpec:
     if not isinstance(cfg["loop"], bool):
         raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
     track = track_for_run(cfg["scene"], cfg["method"])
-    if track.name == "dense":   # the dense track's runs are not yet the harness's RunSpec
-        return dense_run_spec(cfg)
     estimator = typed_section(EstimatorConfig, cfg["estimator"], "estimator")
     seq = track.sequence_spec(cfg, estimator)
+    settings = track.run_settings(cfg)
     params = free_mapping(cfg, "params")
-    check_method(cfg["method"], params, cfg["loop"])
+    if track.has_problems:
+        check_method(cfg["method"], params, cfg["loop"])
+    else:
+        track.check_method(cfg["method"], params, cfg["loop"])
     return RunSpec(seq, typed_section(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
-                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator, track.name)
+                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator, track.name, settings)
 
 
-def camera_only(spec: RunSpec | DenseRunSpec, what: str) -> RunSpec:
+def camera_only(spec: RunSpec, what: str) -> RunSpec:
     """``spec``, or a one-line error when its track has no pictures and ``what`` serves only
     tracks that have (rendered frames, the Gymnasium envs)."""
-    name = "dense" if isinstance(spec, DenseRunSpec) else spec.track
+    name = spec.track
     if not get_track(name).pictures:
         suite = next(iter(get_track(name).suites), name)
         raise UserError(f"{what} serves the camera track; this run is on the {name} track: run it with "

@@ -10,6 +10,7 @@ edits its problem in place can change neither the scoring nor what later methods
 from __future__ import annotations
 
 import copy
+from dataclasses import dataclass
 import signal
 import time
 from collections.abc import Callable, Iterator
@@ -23,7 +24,6 @@ from ..associators.registry import make_associator
 from ..belief.config import BeliefConfig
 from ..association.truth import FrameTruth
 from ..errors import UserError
-from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..tracks.base import get_track
 from .config import RunSpec
@@ -196,17 +196,54 @@ def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, param
                "runtime_s": runtime, "error": "", "association": association.tolist()}
 
 
-def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False) -> tuple[pd.DataFrame, dict]:
+@dataclass
+class GuardedCalls:
+    """The plugin boundary for a track's own frame loop (``tracks.base.MethodCalls``): each call
+    announced to the supervising process with its limit, timed, and anything it raises (but a
+    real Ctrl-C) turned into the frame's error."""
+
+    time_limit_s: float
+    faults: dict
+    on_call: Callable[[int, float], None]
+
+    def build(self, make: Callable[[], object]) -> tuple[object | None, str]:
+        if WARM_UP in self.faults:   # building it died or hung in an earlier worker
+            return None, self.faults[WARM_UP][0]
+        self.on_call(WARM_UP, WARM_UP_FACTOR * self.time_limit_s)
+        try:
+            return make(), ""
+        except UserError:
+            raise
+        except BaseException as exc:  # noqa: BLE001 - a plugin's constructor is plugin code
+            if user_interrupt(exc):
+                raise
+            return None, describe(exc)
+
+    def call(self, k: int, fn: Callable[[], object]) -> tuple[object | None, float, str]:
+        self.on_call(k, self.time_limit_s)
+        start = time.perf_counter()
+        try:
+            out = fn()
+        except BaseException as exc:  # noqa: BLE001 - SystemExit too: a plugin must not end the run
+            if user_interrupt(exc):
+                raise
+            return None, time.perf_counter() - start, describe(exc)
+        return out, time.perf_counter() - start, ""
+
+
+def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False,
+            artifacts: Path | None = None) -> tuple[pd.DataFrame, dict]:
     """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
-    records and the summary. ``associations=True`` keeps each frame's association (a list, -1
-    where none; all -1 on a failed frame) in an ``association`` column, for pictures."""
+    records and the summary (the track's). ``associations=True`` keeps each frame's association
+    (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
+    ``artifacts``: a folder for the run's end-of-run files (the dense track's map)."""
     from .sandbox import Supervisor, Task  # here: sandbox imports this module
 
     name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
-    task = Task(name, ((name, spec),),
-                ((spec.method, spec.method, dict(spec.params)),), str(cache_dir) if cache_dir else None)
+    task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
+                str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)
     frames = pd.DataFrame(Supervisor(1).run_one(task)[(0, 0)])
-    if not associations:
+    if not associations and "association" in frames:
         frames = frames.drop(columns="association")
-    return frames, summarize(frames)
+    return frames, spec.track_impl.summarize(frames)
 

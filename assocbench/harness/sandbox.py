@@ -27,7 +27,7 @@ import time
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 from functools import partial
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -35,9 +35,9 @@ from pathlib import Path
 from tqdm import tqdm
 
 from ..errors import UserError
-from ..tracks.base import track_of_spec
+from ..tracks.base import get_track
 from .loop import loop_records
-from .runner import WARM_UP, describe, frame_problems, frame_records
+from .runner import WARM_UP, GuardedCalls, describe, frame_problems, frame_records
 
 # modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
 # from re-running the main script, and the preload module loads the built-ins' kernels
@@ -57,6 +57,7 @@ class Task:
     runs: tuple
     methods: tuple
     cache_dir: str | None = None
+    artifacts: str | None = None   # a folder for end-of-run files (one run: ``assocbench run``)
 
 
 class TaskFailed(RuntimeError):
@@ -122,8 +123,9 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
     cache = Path(task.cache_dir) if task.cache_dir else None
     for r in range(resume[0], len(task.runs)):
         spec = task.runs[r][1]
-        seq = track_of_spec(spec.sequence).load_sequence(spec.sequence, cache)
-        problems = None if spec.loop else frame_problems(seq, spec.belief, spec.seed)
+        track = spec.track_impl
+        seq = track.load_sequence(spec.sequence, cache)
+        problems = frame_problems(seq, spec.belief, spec.seed) if track.has_problems and not spec.loop else None
         for mi in range(resume[1] if r == resume[0] else 0, len(task.methods)):
             _, method, params = task.methods[mi]
             first = resume[2] if (r, mi) == resume[:2] else 0
@@ -132,6 +134,10 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
                 records = loop_records(seq, spec.belief, spec.estimator, spec.seed, method, params,
                                        spec.time_limit_s, first, faults.get((r, mi)), announce,
                                        replay if (r, mi) == resume[:2] else None)
+            elif problems is None:   # a track whose frames are not Problems runs its own frame loop
+                calls = GuardedCalls(spec.time_limit_s, faults.get((r, mi)) or {}, announce)
+                records = track.frame_records(seq, replace(spec, method=method, params=dict(params)), calls, first,
+                                              Path(task.artifacts) if task.artifacts else None)
             else:
                 records = frame_records(problems, method, params, spec.time_limit_s, first,
                                         faults.get((r, mi)), announce)
@@ -141,14 +147,14 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
 
 # ---------------------------------------------------------------- parent side
 
-def _context(methods: Iterable[str]):
+def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
     """``fork`` when this process has no other thread (Linux: one entry in /proc/self/task): a
     worker then starts in milliseconds with all this process has loaded, and with no other thread
     there is no lock that the child could inherit held. Otherwise (a progress monitor, a dask
     worker, a user's threads) a forkserver: workers fork from a clean server, started once (an
     import of assocbench, about 1.5 s) with the built-ins warm."""
     if "fork" in mp.get_all_start_methods() and _single_threaded():
-        warm_builtins(methods)  # here, so that every worker inherits the loaded kernels
+        warm_builtins(methods, tracks)  # here, so that every worker inherits the loaded kernels
         return mp.get_context("fork")
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(PRELOAD)  # no effect once the server runs: it is started once
@@ -165,10 +171,14 @@ def _single_threaded() -> bool:
 _warm: set[str] = set()
 
 
-def warm_builtins(methods: Iterable[str]) -> None:
-    """Load the compiled kernels of the built-in associators among ``methods`` in this process
-    (numba's cache; a compile if it is cold, announced on stderr by ``kernels.warm``), once.
-    Only assocbench's own code runs here."""
+def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
+    """Load the compiled kernels of the built-in associators among ``methods`` and of the
+    ``tracks`` (``Track.warm_up``) in this process (numba's cache; a compile if it is cold,
+    announced on stderr by ``kernels.warm``), once. Only assocbench's own code runs here."""
+    for name in sorted(set(tracks)):
+        if f"track {name}" not in _warm:
+            get_track(name).warm_up()
+            _warm.add(f"track {name}")
     from ..associators.registry import BUILTINS
     from ..kernels import warm
     from .runner import warm_scoring, warm_up
@@ -253,10 +263,10 @@ class Supervisor:
     def _launch(self, task: Task, progress: _Progress) -> _Running:
         if getattr(mp.current_process(), "_inheriting", False):  # a forkserver importing a script
             raise RuntimeError(f"assocbench was run while a process imported the main script; {_GUARD}")
-        ctx = _context(m[1] for m in task.methods)
+        ctx = _context((m[1] for m in task.methods), {spec.track for _, spec in task.runs})
         here, there = ctx.Pipe(duplex=False)
         done = progress.records.get(progress.resume[:2], {})   # a closed loop replays these frames
-        replay = {k: (rec["association"], rec["error"]) for k, rec in done.items() if k < progress.resume[2]}
+        replay = {k: (rec.get("association"), rec["error"]) for k, rec in done.items() if k < progress.resume[2]}
         process = ctx.Process(target=_worker, name=f"assocbench {task.name}",
                               args=(there, task, progress.resume, progress.faults, dict(os.environ), replay))
         try:

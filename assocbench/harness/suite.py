@@ -20,7 +20,7 @@ from ..associators.registry import associator_class
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
 from ..validation import check_number
-from ..tracks.base import iter_tracks
+from ..tracks.base import GuardedMetric, Track, get_track, iter_tracks, track_for_run
 from .config import check_method, defaults, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "backends", "methods", "seeds", "tolerance",
@@ -72,6 +72,19 @@ class Suite:
     jobs: tuple[Job, ...]
     tolerance: float
     ate_tolerance: float = 0.01   # m: a closed loop's ATE may rise this much above the baseline
+    track: str = "camera"         # every run of a suite is on one track (one table, one baseline)
+    loop: bool = False            # closed-loop runs: their trajectory is guarded too
+
+    @property
+    def track_impl(self) -> Track:
+        return get_track(self.track)
+
+    def guards(self) -> tuple[GuardedMetric, ...]:
+        """The columns ``check`` compares (the track's)."""
+        return self.track_impl.check_metrics(self.loop)
+
+    def tolerances(self) -> dict[str, float]:
+        return {"tolerance": self.tolerance, "ate_tolerance": self.ate_tolerance}
     def rows(self) -> list[tuple[str, str]]:
         """The (scenario, method label) rows a run of this suite must produce."""
         first = {}
@@ -139,8 +152,12 @@ def load_suite(path: str | Path) -> Suite:
     methods = _methods(raw.get("methods"), str(path))
     parts = [p for o in difficulties.values() for p in (o if isinstance(o, list) else [o])]
     loop = base.get("loop") is True or any(isinstance(p, dict) and p.get("loop") is True for p in parts)
-    for m in methods:
-        check_method(m.method, m.params, loop)   # unknown methods, broken plugins, bad parameters: now
+    track = suite_track(methods, scenes, base, str(path))
+    for m in methods:   # unknown methods, broken plugins, bad parameters: now
+        if track.has_problems:
+            check_method(m.method, m.params, loop)
+        else:
+            track.check_method(m.method, m.params, loop)
     tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)
     jobs = []
     for scene in scenes:
@@ -150,12 +167,28 @@ def load_suite(path: str | Path) -> Suite:
                 cfg = base
                 for part in override if isinstance(override, list) else [override]:
                     cfg = merge(cfg, part or {}, f"{path} difficulty {name}")
-                cfg = merge(cfg, {"scene": scene, "seed": seed}, str(path))
+                # the run's method names its track (a dense method): the worker builds that track's run
+                cfg = merge(cfg, {"scene": scene, "seed": seed, "method": methods[0].method}, str(path))
                 run_spec(cfg)  # validate now
                 runs.append((str(name), cfg))
             jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
     ate_tolerance = check_number(raw.get("ate_tolerance", 0.01), f"ate_tolerance in {path}", lo=0)
-    return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance))
+    return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance), track.name, loop)
+
+
+def suite_track(methods: tuple[MethodEntry, ...], scenes: list, base: dict, where: str) -> Track:
+    """The one track of a suite's runs: each method's own (a dense method), else each scene's;
+    a suite mixing tracks is refused (its runs are scored differently: one table cannot hold them)."""
+    found = {}
+    for m in methods:
+        for scene in scenes:
+            found.setdefault(track_for_run(scene, m.method).name,
+                             f"{m.label} on {scene}")
+    if len(found) > 1:
+        runs = "; ".join(f"{name}: {example}" for name, example in found.items())
+        raise UserError(f"suite {where} mixes tracks ({runs}): a track's runs are scored differently, so put "
+                        "them in separate suites")
+    return get_track(next(iter(found)))
 
 
 def _crossed(difficulties: dict, backends: dict) -> dict:

@@ -17,15 +17,16 @@ from tqdm import tqdm
 
 from ..atomic import ensure_dir
 from ..errors import UserError
-from ..scoring.aggregate import summarize
 from .config import run_spec
 from .jobstore import load_job, store_job
 from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
-LOOP_FRAME_COLUMNS = ("pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "true_x", "true_y",
-                      "odo_x", "odo_y", "final_map", "final_scan")   # for its plots
+# per-frame columns a leaderboard keeps (for its plots and the frames file), where a track's records have them
+FRAME_COLUMNS = ("n", "m", "runtime_s", "pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "est_z",
+                 "true_x", "true_y", "true_z", "odo_x", "odo_y", "final_map", "final_scan", "icp_s", "fusion_s",
+                 "icp_failed", "step_error_mm", "map_points")
 
 
 def job_task(job: Job, cache_dir: str | None = None) -> Task:
@@ -39,14 +40,15 @@ def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Summaries (one row per difficulty × method) and per-frame (n, runtime) of one job, from
     the worker's records by (difficulty index, method index)."""
     summaries, frames = [], []
-    for r, (difficulty, _) in enumerate(job.runs):
+    for r, (difficulty, cfg) in enumerate(job.runs):
+        track = run_spec(cfg).track_impl
         for mi, entry in enumerate(job.methods):
             per_frame = pd.DataFrame(records[(r, mi)])
             errors = sorted(set(per_frame["error"]) - {""})
             label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}
-            summaries.append({**label, **summarize(per_frame), "error": errors[0] if errors else ""})
-            kept = ["frame", "n", "m", "runtime_s"] + [c for c in LOOP_FRAME_COLUMNS if c in per_frame]
+            summaries.append({**label, **track.summarize(per_frame), "error": errors[0] if errors else ""})
+            kept = ["frame"] + [c for c in FRAME_COLUMNS if c in per_frame]
             frames.append(per_frame.assign(**label)[list(label) + kept])
     return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
 

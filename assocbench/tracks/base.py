@@ -10,7 +10,12 @@ envs ask the registry instead of switching on the track's name:
   method only it has, such as the dense track's projective association);
 * ``config_sections``: its settings, with their defaults (the run config's schema is the union);
 * ``sequence_spec`` / ``load_sequence``: what determines its simulated sequence, and the sequence;
-* ``problems``: the open loop's ``(Problem, FrameTruth)`` of every frame;
+* ``problems``: the open loop's ``(Problem, FrameTruth)`` of every frame; a track whose frames
+  are not a ``Problem`` (the dense track: ICP on depth frames) yields its own records instead
+  (``frame_records``), calling the method through the harness's ``MethodCalls``, so time limits,
+  worker isolation and resume hold for it too;
+* ``run_settings``, ``summarize``, ``summary_columns``: its own typed sections of a run, and
+  the summary row of a run's records;
 * ``make_estimator`` / ``loop_sensor``: the closed loop's estimator at frame 0 and what it reads;
 * ``shipped_scenes`` / ``trajectories``: what ``assocbench list`` shows for it;
 * ``landmarks`` / ``map_figure``: the leaderboard's top view of a scene;
@@ -22,16 +27,18 @@ Built-in tracks register here; a third party's track registers through the entry
 
 from __future__ import annotations
 
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
 from importlib import import_module, metadata
 from pathlib import Path
-from typing import Any, ClassVar
+from typing import Any, ClassVar, Protocol
 
 import mujoco
 
 from ..errors import UserError
+from ..scoring.aggregate import SUMMARY_COLUMNS, leaderboard_table, summarize
+from ..scoring.loop_summary import LOOP_COLUMNS
 from ..sim.scene import LANDMARK_PREFIX, WALL_PREFIX, mjcf_error, resolve_scene_path
 
 ENTRY_POINT_GROUP = "assocbench.tracks"
@@ -48,6 +55,40 @@ class SceneMarks:
     wall_geoms: int
 
 
+@dataclass(frozen=True)
+class GuardedMetric:
+    """A summary column ``assocbench check`` guards: it may fall (``higher_better``) or rise by the
+    suite's ``tolerance`` or ``ate_tolerance`` (times ``scale``: the tolerance's unit in this
+    column's), and a baseline value must lie in ``[lo, hi]``."""
+
+    name: str
+    higher_better: bool
+    tolerance: str = "tolerance"     # or "ate_tolerance"
+    scale: float = 1.0
+    lo: float = 0.0
+    hi: float = float("inf")
+
+
+ACCURACY_GUARDS = tuple(GuardedMetric(m, True, hi=1.0) for m in ("precision", "recall", "f1", "perfect"))
+ATE_GUARD = GuardedMetric("ate_rmse", False, "ate_tolerance")   # metres
+
+
+class MethodCalls(Protocol):
+    """The plugin boundary a track's own frame loop calls its method through (the harness
+    implements it): each call is announced to the supervising process, timed, and anything it
+    raises becomes that frame's ``error``. ``faults`` maps frames already known failed (a call
+    that hung or killed its worker) to ``(error, runtime_s)``; ``WARM_UP`` (-1): the method could
+    not even be built."""
+
+    faults: dict
+
+    def build(self, make: Callable[[], Any]) -> tuple[Any | None, str]:
+        """``(make(), "")``, or ``(None, error)`` when building the method failed."""
+
+    def call(self, k: int, fn: Callable[[], Any]) -> tuple[Any | None, float, str]:
+        """``(fn(), seconds, "")`` for frame ``k``, or ``(None, seconds, error)``."""
+
+
 class Track:
     """One track of the benchmark. Subclasses set the class attributes and override the
     methods their track has; a method left as it is raises a ``UserError`` saying the track
@@ -60,6 +101,7 @@ class Track:
     pictures: ClassVar[bool] = False              # `frame`, `render` and the Gymnasium envs serve it
     fallback: ClassVar[bool] = False              # claims every scene no other track claims
     spec_type: ClassVar[type | None] = None       # the class of its sequence specs
+    has_problems: ClassVar[bool] = True           # frames are Problems (else: frame_records)
 
     # --- which runs are its own ---------------------------------------------------------
     def claims_scene(self, marks: SceneMarks) -> bool:
@@ -86,6 +128,59 @@ class Track:
     def problems(self, seq: Any, belief: Any, seed: int) -> list:
         """The open loop's ``(Problem, FrameTruth)`` of every frame of ``seq``."""
         raise self._missing("open-loop problems")
+
+    def run_settings(self, cfg: dict) -> tuple:
+        """Its typed settings sections a run needs beyond the sequence (``RunSpec.settings``)."""
+        return ()
+
+    def check_method(self, method: str, params: dict, loop: bool) -> None:
+        """Refuse a method this track cannot run, or bad parameters (the harness builds feature
+        associators itself; a track with its own kind of method checks it here)."""
+
+    def frame_records(self, seq: Any, spec: Any, calls: MethodCalls, first: int = 0,
+                      artifacts: Path | None = None) -> Iterator[dict]:
+        """Per-frame records from frame ``first`` on, for a track whose frames are not a
+        ``Problem``; the method is called through ``calls``. ``artifacts``: a folder for the
+        run's end-of-run files (``run`` keeps them), or None."""
+        raise self._missing("frame records of its own")
+
+    def summarize(self, frames: Any) -> dict:
+        """The summary row of a run's per-frame records (the feature tracks' by default)."""
+        return summarize(frames)
+
+    def summary_columns(self, loop: bool) -> tuple[str, ...]:
+        """The summary's columns, in the order ``run`` prints and writes them."""
+        return SUMMARY_COLUMNS + (LOOP_COLUMNS if loop else ())
+
+    def check_metrics(self, loop: bool) -> tuple[GuardedMetric, ...]:
+        """The columns ``check`` compares with a baseline: accuracy, and a closed loop's ATE."""
+        return ACCURACY_GUARDS + ((ATE_GUARD,) if loop else ())
+
+    def leaderboard_table(self, summaries: Any) -> Any:
+        """One row per scenario × method from the runs' summaries (mean over seeds)."""
+        return leaderboard_table(summaries)
+
+    def write_leaderboard(self, summaries: Any, frames: Any, out: Path) -> dict | None:
+        """Write the track's own leaderboard files (``{"md": path, ...}``, all or none), or None
+        for the harness's (CSV, Markdown, plots)."""
+        return None
+
+    def warm_up(self) -> None:
+        """Load (or compile, announced on stderr) the track's own compiled kernels, once, in the
+        process the workers are forked from, so no frame's time includes a compile."""
+
+    def run_labels(self, spec: Any) -> dict:
+        """Columns that say how a run was made, beside its summary (the closed loop's mode)."""
+        return {"loop": spec.estimator.mode if spec.loop else "open"}
+
+    def describe_run(self, spec: Any) -> str:
+        """How a run was made, in words for its header (``open loop``; ``closed loop, ekf slam``)."""
+        return f"closed loop, {spec.estimator.name} {spec.estimator.mode}" if spec.loop else "open loop"
+
+    def run_writers(self, frames: Any, artifacts: Path, out: Path, title: str) -> dict:
+        """Writers of the track's own files of one run (``{path: write(path)}``), from its frames and
+        the end-of-run files its worker left in ``artifacts``; written with the CSVs, all or none."""
+        return {}
 
     # --- closed loop ----------------------------------------------------------------------
     def make_estimator(self, seq: Any, cfg: Any, belief: Any, seed: int) -> Any:

@@ -1,12 +1,16 @@
 """Dense associators: source points (world) paired with pixels of a depth frame.
 
 ``make_dense_associator(name, **params).associate(points, normals, frame, R, t) -> Pairs``;
-``DENSE_METHODS`` lists them (``projective``, ``kdtree``); ``warm_dense()`` loads or compiles
-the dense kernels (association and ICP) once per process.
+``DENSE_METHODS`` lists the built-ins (``projective``, ``kdtree``); they are registered with the
+other associators (``associators.registry``), so ``--method pkg.module:Class`` plugs in a user's
+``DenseAssociator`` the same way, and the method implies the dense track.
 """
 
 from .base import DenseAssociator, Pairs
-from .registry import DENSE_METHODS, make_dense_associator
-from ...tracks.dense.warm import warm_dense
+from .kdtree import KdTreeAssociator
+from .projective import ProjectiveAssociator
 
-__all__ = ["DENSE_METHODS", "DenseAssociator", "Pairs", "make_dense_associator", "warm_dense"]
+DENSE_METHODS: dict[str, type[DenseAssociator]] = {
+    cls.name: cls for cls in (ProjectiveAssociator, KdTreeAssociator)}
+
+__all__ = ["DENSE_METHODS", "DenseAssociator", "Pairs"]

@@ -8,6 +8,7 @@ visible. The colour scale is fixed (0 to ``ERROR_SCALE_MM``) so panels compare a
 from __future__ import annotations
 
 from collections.abc import Sequence
+from pathlib import Path
 
 import numpy as np
 
@@ -49,3 +50,17 @@ def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
         fig.colorbar(sc, ax=axes, shrink=0.8, label=f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})")
         axes.flat[0].legend(fontsize=6, loc="upper right", markerscale=4)
     fig.savefig(path, dpi=110)
+
+
+def map_writers(frames, map_file: Path, out: Path, title: str) -> dict:
+    """Writers of ``map.ply`` and ``map.png`` from a run's frames and its worker's ``map.npz``."""
+    from ...sim.ply import write_ply
+    from .summary import poses
+
+    with np.load(map_file) as z:
+        m = {k: z[k] for k in z.files}
+    p_true, p_est = poses(frames, "true_")[1], poses(frames, "est_")[1]
+    panel = {"positions": m["positions"], "error_mm": m["error_mm"], "p_true": p_true, "p_est": p_est, "title": title}
+    return {out / "map.ply": lambda p: write_ply(p, m["positions"], m["normals"],
+                                                 {"weight": m["weights"], "error_mm": m["error_mm"]}),
+            out / "map.png": lambda p: map_figure([panel], p, columns=1)}

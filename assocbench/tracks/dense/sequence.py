@@ -69,6 +69,10 @@ class DenseSequenceSpec:
             return DENSE_PATHS.get(Path(self.scene).stem, (None, {}))
         return self.trajectory, dict(self.trajectory_params)
 
+    def resolved_trajectory(self) -> str:
+        """The path's name (the scene's default when none was given)."""
+        return self.camera_spec().resolved_trajectory()
+
     def camera_spec(self) -> SequenceSpec:
         """The camera track's spec of the same path (its trajectory code places and checks it)."""
         name, params = self.path()

@@ -1,15 +1,14 @@
 """A dense run's settings: sections ``depth``, ``icp``, ``fusion`` and ``dense`` of a run config.
 
-The method implies the track: ``projective`` or ``kdtree`` (``DENSE_METHODS``) runs the dense
-track on the scene, which must be a camera scene (``lm*`` sites place its path). Every value is
+A dense method (``projective``, ``kdtree`` or a user's ``DenseAssociator``) implies the track;
+the scene must follow the camera convention (``lm*`` sites place its path). Every value is
 checked here, before anything renders.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
-from ...associators.dense.registry import DENSE_METHODS, make_dense_associator
 from ...errors import UserError
 from ...validation import check_number, free_mapping, typed_section
 from ..base import scene_track
@@ -36,26 +35,9 @@ class DenseConfig:
         check_number(self.path_frames, "dense.path_frames", integer=True, lo=2)
 
 
-@dataclass(frozen=True)
-class DenseRunSpec:
-    """A resolved dense run."""
-
-    sequence: DenseSequenceSpec
-    method: str
-    params: dict
-    icp: IcpConfig = field(default_factory=IcpConfig)
-    fusion: FusionConfig = field(default_factory=FusionConfig)
-    dense: DenseConfig = field(default_factory=DenseConfig)
-    seed: int = 0
-
-
-def is_dense(method: object) -> bool:
-    """Whether ``method`` names a dense associator (the method implies the track)."""
-    return isinstance(method, str) and method in DENSE_METHODS
-
-
-def dense_run_spec(cfg: dict) -> DenseRunSpec:
-    """The dense run of a merged, size-checked config."""
+def dense_sequence_spec(cfg: dict) -> DenseSequenceSpec:
+    """The depth sequence of a merged, size-checked config, with the track's own refusals: a
+    scene of another track, ``loop``, fewer than two frames, a path longer than ``limits.frames``."""
     track = scene_track(cfg["scene"])
     if track != "camera":
         raise UserError(f"method {cfg['method']} runs the dense track, on a camera scene (room, checkerboard, "
@@ -64,8 +46,9 @@ def dense_run_spec(cfg: dict) -> DenseRunSpec:
     if cfg["loop"]:
         raise UserError(f"method {cfg['method']} runs the dense track, which always tracks with its own "
                         "estimates (set dense.tracking); drop --loop / loop: true")
-    dense = typed_section(DenseConfig, cfg["dense"], "dense")
-    dense.check()
+    if cfg["frames"] < 2:
+        raise UserError("the dense track tracks frame 1 from frame 0: use at least 2 frames")
+    dense = dense_config(cfg)
     most = cfg["limits"]["frames"]
     if dense.path_frames > most:
         raise UserError(f"dense.path_frames {dense.path_frames} exceeds limits.frames = {most} (the path is "
@@ -76,12 +59,20 @@ def dense_run_spec(cfg: dict) -> DenseRunSpec:
                             seed=cfg["seed"], width=res[0], height=res[1],
                             depth=typed_section(DepthConfig, cfg["depth"], "depth"), path_frames=dense.path_frames)
     seq.check()
+    return seq
+
+
+def dense_config(cfg: dict) -> DenseConfig:
+    """Section ``dense``, checked."""
+    dense = typed_section(DenseConfig, cfg["dense"], "dense")
+    dense.check()
+    return dense
+
+
+def dense_settings(cfg: dict) -> tuple:
+    """The run's ``icp``, ``fusion`` and ``dense`` sections, typed and checked, as ``RunSpec.settings``."""
     icp = typed_section(IcpConfig, cfg["icp"], "icp")
     icp.check()
     fusion = typed_section(FusionConfig, cfg["fusion"], "fusion")
     fusion.check()
-    params = free_mapping(cfg, "params")
-    make_dense_associator(cfg["method"], **params)   # bad parameters are refused now
-    if cfg["frames"] < 2:
-        raise UserError("the dense track tracks frame 1 from frame 0: use at least 2 frames")
-    return DenseRunSpec(seq, cfg["method"], params, icp, fusion, dense, cfg["seed"])
+    return (("icp", icp), ("fusion", fusion), ("dense", dense_config(cfg)))

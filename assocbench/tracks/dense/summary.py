@@ -20,7 +20,7 @@ import pandas as pd
 from ...scoring.aggregate import OK
 from ...scoring.trajectory import ate_rmse, rotation_rmse_deg
 
-DENSE_COLUMNS = ("frames", "status", "precision", "recall", "precision_start", "recall_start", "icp_failures",
+DENSE_COLUMNS = ("frames", "status", "failures", "precision", "recall", "precision_start", "recall_start", "icp_failures",
                  "wrong_steps", "ate_mm", "ate_deg", "final_drift_mm", "step_error_mm", "step_error_deg", "map_points",
                  "compression_pct", "map_median_mm", "map_p95_mm", "icp_ms", "fusion_ms", "fps")
 
@@ -61,25 +61,36 @@ def wrong_accepted(frames: pd.DataFrame) -> int:
 
 
 def dense_status(frames: pd.DataFrame) -> str:
-    """``ok``, or why the run's numbers cannot be trusted: not one correspondence in any tracked
-    frame. Lost frames and wrong accepted poses are results (``icp_failures``, ``wrong_steps``)."""
+    """``ok``, or why the run's numbers cannot be trusted: the method failed (raised, exited, hung:
+    the ``error`` column), or not one correspondence in any tracked frame. Lost frames and wrong
+    accepted poses are results (``icp_failures``, ``wrong_steps``)."""
     tracked = frames[frames["frame"] > 0]
-    if len(tracked) and tracked["pairs"].fillna(0).sum() == 0:
+    failed = int((tracked["error"] != "").sum()) if "error" in tracked else 0
+    if failed:
+        return f"{failed}/{len(tracked)} frames failed"
+    if len(tracked) and tracked.get("pairs", pd.Series(0, index=tracked.index)).fillna(0).sum() == 0:
         return "no correspondences in any frame"
     return OK
 
 
-def summarize_dense(frames: pd.DataFrame, end: dict) -> dict:
-    """The summary row (``DENSE_COLUMNS``) of a run's per-frame records and end-of-run facts."""
+def _last(frames: pd.DataFrame, col: str) -> float:
+    """An end-of-run fact (``run.run_end``): the last record's ``col``, NaN when absent."""
+    return float(frames[col].iloc[-1]) if col in frames and len(frames) else float("nan")
+
+
+def summarize_dense(frames: pd.DataFrame) -> dict:
+    """The summary row (``DENSE_COLUMNS``) of a run's per-frame records; the map's facts are the
+    last record's (``run.run_end``)."""
+    frames = frames.sort_values("frame")
     R_true, p_true = poses(frames, "true_")
     R_est, p_est = poses(frames, "est_")
     tracked = frames[frames["frame"] > 0]
-    error = end["map_error"]
     ms = lambda col: 1000 * float(frames[col].dropna().median()) if col in frames and frames[col].notna().any() \
         else float("nan")  # noqa: E731
     seconds = frames[[c for c in ("icp_s", "fusion_s") if c in frames]].fillna(0).to_numpy().sum()
     return {
         "frames": len(frames), "status": dense_status(frames),
+        "failures": int((frames["error"] != "").sum()) if "error" in frames else 0,
         "precision": _mean(tracked, "precision"), "recall": _mean(tracked, "recall"),
         "precision_start": _mean(tracked, "precision_start"), "recall_start": _mean(tracked, "recall_start"),
         "icp_failures": int(tracked["icp_failed"].sum()), "wrong_steps": wrong_accepted(frames),
@@ -87,9 +98,8 @@ def summarize_dense(frames: pd.DataFrame, end: dict) -> dict:
         "final_drift_mm": 1000 * float(np.linalg.norm(p_est[-1] - p_true[-1])),
         "step_error_mm": _rms(tracked["step_error_mm"]) if "step_error_mm" in tracked else float("nan"),
         "step_error_deg": _rms(tracked["step_error_deg"]) if "step_error_deg" in tracked else float("nan"),
-        "map_points": len(end["map"]), "compression_pct": 100 * end["compression"],
-        "map_median_mm": 1000 * float(np.median(error)) if len(error) else float("nan"),
-        "map_p95_mm": 1000 * float(np.percentile(error, 95)) if len(error) else float("nan"),
+        "map_points": int(frames["map_points"].iloc[-1]), "compression_pct": _last(frames, "compression_pct"),
+        "map_median_mm": _last(frames, "map_median_mm"), "map_p95_mm": _last(frames, "map_p95_mm"),
         "icp_ms": ms("icp_s"), "fusion_ms": ms("fusion_s"),
         "fps": len(frames) / seconds if seconds > 0 else float("nan"),
     }

@@ -3,32 +3,99 @@
 from __future__ import annotations
 
 from dataclasses import asdict
+from pathlib import Path
 
-from ...associators.dense.registry import DENSE_METHODS
+import pandas as pd
+
+from ...associators.registry import is_dense, make_dense_associator
+from ...errors import UserError
 from ...sim.scene import load_scene
 from ...sim.scenegen.dense import DENSE_SCENES
-from ..base import Track, first_line, register_track
+from ..base import GuardedMetric, MethodCalls, Track, first_line, register_track
 from .depth_sensor import DepthConfig
 from .fusion import FusionConfig
 from .icp import IcpConfig
-from .sequence import DenseSequenceSpec
-from .spec import DenseConfig
+from .run import dense_records
+from .sequence import DenseSequence, DenseSequenceSpec, load_dense_sequence
+from .spec import DenseConfig, dense_sequence_spec, dense_settings
+from .leaderboard import dense_table, write_dense_leaderboard
+from .plots import map_writers
+from .summary import DENSE_COLUMNS, summarize_dense
+from .warm import warm_dense
 
 
 class DenseTrack(Track):
-    """Depth frames of camera-convention scenes; a dense method (projective, kdtree) implies it."""
+    """Depth frames of camera-convention scenes; a dense method (projective, kdtree, or a user's
+    ``DenseAssociator``) implies it."""
 
     name = "dense"
     summary = "depth frames, projective data association, point-to-plane ICP, point-based fusion"
-    suites = ("dense",)
+    suites = ("dense", "dense_ci")
+    ci_suites = ("dense_ci",)
     spec_type = DenseSequenceSpec
+    has_problems = False
 
     def claims_method(self, method: str) -> bool:
-        return isinstance(method, str) and method in DENSE_METHODS
+        return isinstance(method, str) and is_dense(method)
 
     def config_sections(self) -> dict[str, dict]:
         return {"depth": asdict(DepthConfig()), "icp": asdict(IcpConfig()), "fusion": asdict(FusionConfig()),
                 "dense": asdict(DenseConfig())}
+
+    def sequence_spec(self, cfg: dict, estimator) -> DenseSequenceSpec:
+        return dense_sequence_spec(cfg)
+
+    def run_settings(self, cfg: dict) -> tuple:
+        return dense_settings(cfg)
+
+    def check_method(self, method: str, params: dict, loop: bool) -> None:
+        make_dense_associator(method, **params)   # bad parameters are refused now
+
+    def load_sequence(self, spec: DenseSequenceSpec, cache_dir: Path | None = None,
+                      use_cache: bool = True) -> DenseSequence:
+        return load_dense_sequence(spec, cache_dir, use_cache)
+
+    def problems(self, seq, belief, seed: int) -> list:
+        raise UserError("the dense track's frames are depth images, not association problems: run a dense "
+                        "method (projective, kdtree) with `assocbench run`")
+
+    def frame_records(self, seq: DenseSequence, spec, calls: MethodCalls, first: int = 0,
+                      artifacts: Path | None = None):
+        return dense_records(seq, spec, calls, lambda: make_dense_associator(spec.method, **spec.params), first,
+                             artifacts)
+
+    def summarize(self, frames: pd.DataFrame) -> dict:
+        return summarize_dense(frames)
+
+    def summary_columns(self, loop: bool) -> tuple[str, ...]:
+        return DENSE_COLUMNS
+
+    def warm_up(self) -> None:
+        warm_dense()
+
+    def run_labels(self, spec) -> dict:
+        return {"tracking": spec.setting("dense").tracking}
+
+    def describe_run(self, spec) -> str:
+        return f"{spec.setting('dense').tracking} tracking"
+
+    def run_writers(self, frames: pd.DataFrame, artifacts: Path, out: Path, title: str) -> dict:
+        """``map.ply`` (the fused map with its weight and distance to the true surface, mm) and
+        ``map.png`` (its top view, coloured by that distance)."""
+        return map_writers(frames, artifacts / "map.npz", out, title)
+
+    def check_metrics(self, loop: bool) -> tuple[GuardedMetric, ...]:
+        """Correspondence precision and recall may fall by the suite's ``tolerance``; ATE and the
+        map's median error (mm) may rise by its ``ate_tolerance`` (m)."""
+        return (GuardedMetric("precision", True, hi=1.0), GuardedMetric("recall", True, hi=1.0),
+                GuardedMetric("ate_mm", False, "ate_tolerance", 1000.0),
+                GuardedMetric("map_median_mm", False, "ate_tolerance", 1000.0))
+
+    def leaderboard_table(self, summaries: pd.DataFrame) -> pd.DataFrame:
+        return dense_table(summaries)
+
+    def write_leaderboard(self, summaries: pd.DataFrame, frames: pd.DataFrame, out: Path) -> dict:
+        return write_dense_leaderboard(summaries, frames, out)
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in DENSE_SCENES.items()}

@@ -18,7 +18,7 @@ from .estimator import make_line_estimator
 from .extract import LineExtractorConfig
 from .loop import LinesSensor
 from .plots import line_map_figure, snapshots
-from .sequence import LineSequence, LineSequenceSpec, make_line_sequence
+from .sequence import LineSequence, LineSequenceSpec, make_line_sequence, warm_extraction
 
 
 class LinesTrack(Track):
@@ -65,6 +65,9 @@ class LinesTrack(Track):
 
     def loop_sensor(self, seq: LineSequence, belief, est: EstimatorConfig, seed: int) -> LinesSensor:
         return LinesSensor(seq, belief, est, seed)
+
+    def warm_up(self) -> None:
+        warm_extraction()
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}

@@ -78,11 +78,60 @@ def test_a_dense_suite_gives_a_leaderboard_and_a_check_that_guards_it(tmp_path, 
     assert main(["check", "--suite", str(suite), "--baseline", str(base), "--update", "--quiet"]) == 0
     assert main(["check", "--suite", str(suite), "--baseline", str(base), "--quiet"]) == 0
     worse = pd.read_csv(base)
-    worse["precision"] = 1.5   # a baseline the run cannot reach: check must fail, not pass
+    worse["precision"] = 1.0   # a baseline the run cannot reach at tolerance 0: check must fail, not pass
     worse.to_csv(base, index=False)
-    assert main(["check", "--suite", str(suite), "--baseline", str(base), "--quiet"]) == 1
+    assert main(["check", "--suite", str(suite), "--baseline", str(base), "--tolerance", "0", "--quiet"]) == 1
+    worse["ate_mm"] = 0.0      # ATE may rise by ate_tolerance (5 mm) only
+    worse["precision"] = 0.0
+    worse.to_csv(base, index=False)
+    assert main(["check", "--suite", str(suite), "--baseline", str(base), "--quiet"]) == 0
+    worse.drop(columns="map_median_mm").to_csv(base, index=False)   # a guarded column missing: refused
+    capsys.readouterr()
+    assert main(["check", "--suite", str(suite), "--baseline", str(base), "--quiet"]) == 2
+    assert "lacks columns map_median_mm" in capsys.readouterr().err
     mixed = tmp_path / "mixed.yaml"
     mixed.write_text("scenes: [crates]\nmethods: [projective, jcbb]\n")
-    capsys.readouterr()
     assert main(["leaderboard", "--suite", str(mixed), "--out", str(tmp_path / "m")]) == 2
-    assert "mixes dense methods" in capsys.readouterr().err
+    assert "mixes tracks" in capsys.readouterr().err
+
+
+PLUGIN = '''
+import os, sys, time
+from dataclasses import dataclass
+from assocbench.associators.dense import DenseAssociator
+from assocbench.associators.dense.projective import ProjectiveAssociator
+
+@dataclass
+class Misbehaves(ProjectiveAssociator):
+    """A user's dense associator that misbehaves from its third call on."""
+    mode: str = "raise"
+    def associate(self, points, normals, frame, R, t):
+        if frame is not getattr(self, "last", None):   # ICP calls it once an iteration: count frames
+            self.last, self.frames = frame, getattr(self, "frames", 0) + 1
+        if self.frames > 2:
+            if self.mode == "raise":
+                raise RuntimeError("boom")
+            if self.mode == "exit":
+                sys.exit(3)
+            if self.mode == "die":
+                os._exit(9)
+            time.sleep(60)
+        return super().associate(points, normals, frame, R, t)
+'''
+
+
+@pytest.mark.parametrize("mode", ["raise", "exit", "die", "hang"])
+def test_a_dense_plugin_that_fails_fails_only_its_own_frames(tmp_path, monkeypatch, capsys, mode):
+    """A user's DenseAssociator plugs in with --method pkg.module:Class, runs in the harness's worker,
+    and when it raises, exits, kills its process or hangs (past time_limit_s) only the frames it
+    failed are failed: the run is reported not ok with the error, and the frames before are kept."""
+    (tmp_path / "dense_plugin.py").write_text(PLUGIN)
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("PYTHONPATH", str(tmp_path))
+    code, frames, summary = run(tmp_path, mode, "--method", "dense_plugin:Misbehaves", "--scene", "crates", *FAST,
+                                "--set", f"params.mode={mode}", "--set", "time_limit_s=3")
+    assert code == 1 and summary["status"].iloc[0] != "ok"
+    assert len(frames) == 6 and frames["frame"].tolist() == list(range(6))
+    assert (frames["error"].fillna("") == "").iloc[:2].all()        # frame 0 (given pose) and frame 1 tracked
+    assert (frames["error"].fillna("") != "").iloc[2:].any()
+    assert "cannot be trusted" in capsys.readouterr().err

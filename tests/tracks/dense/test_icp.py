@@ -10,7 +10,8 @@ import numpy as np
 import pytest
 from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, source_set, wall_frame
 
-from assocbench.associators.dense import DENSE_METHODS, Pairs, make_dense_associator
+from assocbench.associators.dense import DENSE_METHODS, Pairs
+from assocbench.associators.registry import make_dense_associator
 from assocbench.errors import UserError
 from assocbench.tracks.dense.icp import IcpConfig, icp, normal_equations, rodrigues, solve_update, stability_transform
 
@@ -191,7 +192,7 @@ def crates_sequence():
 
 def crates_pair(seq, a: int, b: int, noise: bool):
     """Frame a's measured points at its true pose, and frame b; noise-free unless ``noise``."""
-    from assocbench.harness.dense_run import frame_source
+    from assocbench.tracks.dense.run import frame_source
     from assocbench.tracks.dense.depth_sensor import DepthConfig
     seq = seq if noise else dataclasses.replace(seq, depth_cfg=DepthConfig(sigma_base=0.0, sigma_quad=0.0))
     A, B = seq.frame(a), seq.frame(b)

@@ -1,0 +1,157 @@
+"""One run of the dense track, frame by frame: depth frames tracked by point-to-plane ICP and
+fused into a map. Runs inside the harness's worker (``harness/sandbox.py``) like every track.
+
+Per frame k ≥ 1 (frame 0 seeds the map at its true pose, as the homework's first frame does):
+
+1. the source is the fused map (``dense.tracking: model``, the homework's frame-to-model) or the
+   previous frame's points placed at their estimated pose (``frame``); ``truth`` fuses at the true
+   poses and runs ICP from the previous true pose, which isolates one step's error from drift;
+2. ICP from the previous estimate pairs source points with pixels (the run's method: projective,
+   kdtree or a user's ``DenseAssociator``) and solves for the pose. That is the method's call: the
+   harness times it, kills it past ``time_limit_s`` and records what it raises as the frame's
+   ``error``. A failed ICP or a failed call keeps the previous pose and the frame is not fused
+   (a lost frame must not damage the map);
+3. the frame is fused at the estimated pose.
+
+Each frame is scored for its correspondences (first and last ICP iteration) against per-pixel
+truth, its relative pose error, and its time; the last frame's record also carries the run's
+end: the map's distance to the true surfaces, its compression and a subsample of the map for the
+leaderboard's picture. A worker resumed at frame ``first`` replays frames ``< first`` (the same
+seed gives the same frames and poses) without sending them again.
+"""
+
+from __future__ import annotations
+
+import json
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from ...errors import UserError
+from ...models.depth_frame import DepthFrame
+from ...scoring.trajectory import pose_columns
+from ...sim.scene import load_scene
+from ..base import MethodCalls
+from .fusion import PointMap, compression_ratio, fuse
+from .icp import IcpConfig, icp
+from .metrics import relative_pose_error, score_correspondences
+from .sequence import DenseSequence
+from .surface import surface_distance
+
+PICTURE_POINTS = 10_000   # map points kept in the last record for the leaderboard's top view
+
+
+@dataclass
+class Source:
+    """Points ICP registers to the new frame, in world coordinates, with their truth."""
+
+    points: np.ndarray
+    normals: np.ndarray
+    true_points: np.ndarray
+    geom: np.ndarray
+
+
+def frame_source(frame: DepthFrame, R: np.ndarray, t: np.ndarray) -> Source:
+    """A frame's measured points and normals placed at pose ``(R, t)`` (frame-to-frame tracking)."""
+    ok = frame.valid.reshape(-1)
+    return Source(frame.vertices.reshape(-1, 3)[ok] @ R.T + t, frame.normals.reshape(-1, 3)[ok] @ R.T,
+                  frame.true_points.reshape(-1, 3)[ok], frame.geom.reshape(-1)[ok])
+
+
+def map_source(pmap: PointMap) -> Source:
+    return Source(pmap.positions, pmap.normals, pmap.true_points, pmap.geom)
+
+
+def check_first_frame(seq: DenseSequence, first: DepthFrame) -> None:
+    """Refuse a sequence the track cannot start on: no measured pixel in the first frame (it seeds
+    the map) is one line, not a run of NaN."""
+    if not first.valid.any():
+        reason = "every pixel is beyond depth.max_depth or missing" if np.isfinite(seq.depths[0]).any() \
+            else "the camera sees nothing"
+        raise UserError(f"the first depth frame of {seq.scene!r} has no valid pixel ({reason}); it seeds the map: "
+                        "check depth.min_depth/max_depth/dropout and the scene's path")
+
+
+def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: int = 0,
+                  artifacts: Path | None = None) -> Iterator[dict]:
+    """Per-frame records of ``spec`` (a ``RunSpec`` of the dense track) from frame ``first`` on.
+    ``build()`` makes the run's associator (through ``calls``: its failure fails every frame)."""
+    cfg, fusion, dense = spec.setting("icp"), spec.setting("fusion"), spec.setting("dense")
+    frame = seq.frame(0)
+    check_first_frame(seq, frame)
+    associator, build_error = calls.build(build)
+    pmap = PointMap()
+    R_est, t_est = seq.rotations[0].copy(), seq.positions[0].copy()
+    start = time.perf_counter()
+    fuse(pmap, frame, R_est, t_est, 0, fusion)
+    record = {"frame": 0, "icp_converged": True, "icp_failed": False, "icp_reason": "first frame (given pose)",
+              "fusion_s": time.perf_counter() - start, "map_points": len(pmap), "error": "",
+              **pose_columns("true_", seq.rotations[0], seq.positions[0]), **pose_columns("est_", R_est, t_est)}
+    previous = frame
+    for k in range(1, len(seq)):
+        if record["frame"] >= first:
+            yield record
+        frame = seq.frame(k)
+        R_prev, t_prev = (seq.rotations[k - 1], seq.positions[k - 1]) if dense.tracking == "truth" else (R_est, t_est)
+        source = frame_source(previous, R_prev, t_prev) if dense.tracking == "frame" else map_source(pmap)
+        record, R_k, t_k = track_frame(k, seq, frame, source, associator, build_error, calls, R_prev, t_prev, cfg,
+                                       dense.truth_tol)
+        if not record["icp_failed"] or dense.tracking == "truth":
+            R_fuse, t_fuse = (seq.rotations[k], seq.positions[k]) if dense.tracking == "truth" else (R_k, t_k)
+            start = time.perf_counter()
+            stats = fuse(pmap, frame, R_fuse, t_fuse, k, fusion)
+            record |= {"fusion_s": time.perf_counter() - start, "merged": stats.merged, "added": stats.added,
+                       "removed": stats.removed}
+        record["map_points"] = len(pmap)
+        if dense.tracking != "truth":
+            R_est, t_est = R_k, t_k
+        previous = frame
+    yield record | run_end(seq, spec, pmap, artifacts)
+
+
+def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, associator, build_error: str,
+                calls: MethodCalls, R0: np.ndarray, t0: np.ndarray, cfg: IcpConfig,
+                tol: float) -> tuple[dict, np.ndarray, np.ndarray]:
+    """ICP of frame ``k`` from ``(R0, t0)`` as the method's call: its record and the pose to carry on."""
+    held = {"frame": k, "icp_converged": False, "icp_failed": True, "source_points": len(source.points),
+            **pose_columns("true_", seq.rotations[k], seq.positions[k]), **pose_columns("est_", R0, t0)}
+    if associator is None or k in calls.faults:
+        error, runtime = calls.faults.get(k, (build_error, 0.0))
+        return held | {"icp_reason": "the method failed", "icp_s": runtime, "error": error}, R0, t0
+    res, elapsed, error = calls.call(k, lambda: icp(source.points, source.normals, frame, associator, R0, t0, cfg))
+    if res is None:
+        return held | {"icp_reason": "the method failed", "icp_s": elapsed, "error": error}, R0, t0
+    R_k, t_k = (R0, t0) if res.failed else (res.R, res.t)
+    first = score_correspondences(source.true_points, source.geom, frame, res.first_pairs.source,
+                                  res.first_pairs.pixel, tol)
+    last = score_correspondences(source.true_points, source.geom, frame, res.pairs.source, res.pairs.pixel, tol)
+    rpe_t, rpe_r = relative_pose_error(seq.rotations[k - 1], seq.positions[k - 1], seq.rotations[k],
+                                       seq.positions[k], R0, t0, R_k, t_k)
+    rec = {"frame": k, "icp_converged": bool(res.converged), "icp_failed": bool(res.failed),
+           "icp_reason": res.reason, "icp_iterations": int(res.iterations), "icp_s": elapsed, "error": "",
+           "source_points": len(source.points), "pairs_start": first.pairs, "pairs": last.pairs,
+           "precision_start": first.precision, "recall_start": first.recall,
+           "precision": last.precision, "recall": last.recall, "partners": last.partners,
+           "inlier_share": float(res.inlier_share), "icp_rms_mm": 1000 * float(res.rms),
+           "step_error_mm": 1000 * rpe_t, "step_error_deg": rpe_r,
+           **pose_columns("true_", seq.rotations[k], seq.positions[k]), **pose_columns("est_", R_k, t_k)}
+    return rec, R_k, t_k
+
+
+def run_end(seq: DenseSequence, spec, pmap: PointMap, artifacts: Path | None) -> dict:
+    """The run's end, for its last record: the map's distance to the true surfaces (mm), its
+    compression, a subsample for the picture; the whole map to ``artifacts/map.npz`` when asked."""
+    error = surface_distance(pmap.positions, load_scene(spec.sequence.scene)) if len(pmap) else np.zeros(0)
+    error_mm = 1000 * error
+    if artifacts is not None:
+        np.savez(Path(artifacts) / "map.npz", positions=pmap.positions, normals=pmap.normals, weights=pmap.weights,
+                 error_mm=error_mm)
+    step = max(1, len(pmap) // PICTURE_POINTS)
+    picture = np.column_stack([pmap.positions[::step], error_mm[::step]]) if len(pmap) else np.zeros((0, 4))
+    return {"map_median_mm": float(np.median(error_mm)) if len(error_mm) else float("nan"),
+            "map_p95_mm": float(np.percentile(error_mm, 95)) if len(error_mm) else float("nan"),
+            "compression_pct": 100 * compression_ratio(len(pmap), len(seq), seq.K.width, seq.K.height),
+            "final_map": json.dumps(np.round(picture, 4).tolist())}
