@@ -15,6 +15,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+import assocbench  # noqa: F401 - at collection, before conftest's private cache: the subprocesses
+#                    then share the user's compiled kernels (NUMBA_CACHE_DIR) instead of compiling
+
 HERE = Path(__file__).resolve().parent
 SCENE = '<mujoco><worldbody><site name="toy0" pos="0 0 0"/><site name="toy1" pos="1 0 0"/></worldbody></mujoco>\n'
 SUITE = """base: {{frames: 4, toy: {{landmarks: 12}}}}
