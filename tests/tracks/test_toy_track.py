@@ -135,3 +135,41 @@ def test_check_guards_a_user_track(toy, tmp_path):
     failed = cli("check", "--suite", str(suite), "--baseline", str(baseline), "--quiet")
     assert failed.returncode == 1, failed.stdout + failed.stderr
     assert "regressed" in failed.stdout and metric in failed.stdout
+
+
+@pytest.fixture
+def toy_module(tmp_path, monkeypatch):
+    """A copy of the toy track's module in ``tmp_path``, named in ASSOCBENCH_TRACKS; unregistered after."""
+    from assocbench.tracks import base
+
+    (tmp_path / "toy_copy.py").write_text((HERE / "toy_track.py").read_text())
+    monkeypatch.syspath_prepend(str(tmp_path))
+    monkeypatch.setenv("ASSOCBENCH_TRACKS", "toy_copy")
+    yield tmp_path / "toy_copy.py"
+    base._TRACKS.pop("toy", None)
+    sys.modules.pop("toy_copy", None)
+
+
+def test_a_track_module_named_in_the_environment_registers(toy_module, toy):
+    from assocbench.tracks.base import get_track, track_for_scene
+
+    assert get_track("toy").summary and track_for_scene(toy[0]).name == "toy"
+
+
+def test_a_track_module_that_does_not_import_is_one_line(monkeypatch):
+    from assocbench.errors import UserError
+    from assocbench.tracks.base import iter_tracks
+
+    monkeypatch.setenv("ASSOCBENCH_TRACKS", "camera_and_more, no_such_track_module")
+    with pytest.raises(UserError, match=r"^track module 'camera_and_more' named in ASSOCBENCH_TRACKS failed "
+                                        r"to import: ModuleNotFoundError.*PYTHONPATH\?\)$"):
+        list(iter_tracks())
+
+
+def test_editing_a_user_track_changes_its_jobs_key(toy_module, toy):
+    """A stored job made by a user track's old code is not reused after the track is edited."""
+    from assocbench.harness.suite import load_suite
+
+    key = load_suite(toy[1]).jobs[0].key
+    toy_module.write_text(toy_module.read_text() + "\n# edited\n")
+    assert load_suite(toy[1]).jobs[0].key != key
