@@ -15,8 +15,9 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
-import assocbench  # noqa: F401 - at collection, before conftest's private cache: the subprocesses
-#                    then share the user's compiled kernels (NUMBA_CACHE_DIR) instead of compiling
+# imported at collection, before conftest points the cache at a private folder: the subprocesses
+# then share the user's compiled kernels (NUMBA_CACHE_DIR) instead of compiling them again
+import assocbench  # noqa: F401
 
 HERE = Path(__file__).resolve().parent
 SCENE = '<mujoco><worldbody><site name="toy0" pos="0 0 0"/><site name="toy1" pos="1 0 0"/></worldbody></mujoco>\n'
@@ -48,7 +49,7 @@ def env(**extra) -> dict:
 
 def cli(*args: str, **extra) -> subprocess.CompletedProcess:
     return subprocess.run([sys.executable, "-m", "assocbench.cli.main", *args], env=env(**extra),
-                          capture_output=True, text=True, timeout=300)
+                          capture_output=True, text=True, timeout=300, check=False)
 
 
 def _default_sigint() -> None:
@@ -94,7 +95,7 @@ def test_an_interrupted_leaderboard_resumes_to_the_same_table(toy, tmp_path):
         proc = subprocess.Popen([sys.executable, "-m", "assocbench.cli.main", "leaderboard", "--suite", str(suite),
                                  "--out", str(out), "--jobs", "2", "--quiet"], env=env(TOY_DELAY_S="60", TOY_LOG=str(log)),
                                 start_new_session=True, stdout=subprocess.DEVNULL, stderr=stderr,
-                                preexec_fn=_default_sigint)
+                                preexec_fn=_default_sigint)  # noqa: PLW1509 - the test has no threads
     try:
         assert _wait_for(lambda: _manifests(out) or proc.poll() is not None, 120)
         assert proc.poll() is None, (tmp_path / "stderr.txt").read_text()

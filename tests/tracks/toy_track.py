@@ -79,7 +79,7 @@ class ToyTrack(Track):
         if os.environ.get("TOY_LOG"):
             with open(os.environ["TOY_LOG"], "a") as log:
                 log.write(f"{seed}\n")
-        time.sleep(seed * float(os.environ.get("TOY_DELAY_S", 0)))
+        time.sleep(seed * float(os.environ.get("TOY_DELAY_S", "0")))
         out = []
         for k in range(len(seq)):
             rng = np.random.default_rng([seed, k])
