@@ -83,7 +83,9 @@ class Track:
         return {}
 
     def sequence_spec(self, cfg: dict, estimator: Any) -> Any:
-        """The spec of the run's sequence from the merged, checked config ``cfg``."""
+        """The spec of the run's sequence from the merged, checked config ``cfg``: a picklable
+        value (it travels to worker processes) with ``scene`` (str) and ``resolved_trajectory()``
+        (str), which ``run`` names its output by; the sequence it loads has ``track`` (this name)."""
         raise self._missing("a sequence")
 
     def load_sequence(self, spec: Any, cache_dir: Path | None = None, use_cache: bool = True) -> Any:
