@@ -51,10 +51,16 @@ class Job:
         package), so results stored by other code are never reused. Computed once per job: a
         source edited while a sweep runs must not make a job stored under one key be looked up
         under another."""
-        code = [package_digest()] + [_method_digest(m.method) for m in self.methods]
+        code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests()
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+    def _track_digests(self) -> list[str]:
+        """Digests of the job's tracks that live outside this package (a user's track module):
+        editing one must not reuse numbers its old code made. Built-ins are in ``package_digest``."""
+        found = {type(track_for_run(self.scene, m.method)) for m in self.methods}
+        return sorted(class_digest(cls) for cls in found if not cls.__module__.startswith("assocbench."))
 
 
 def _method_digest(method: str) -> str:

@@ -22,11 +22,17 @@ envs ask the registry instead of switching on the track's name:
 * ``ci_suites`` and ``suites``: its shipped suites; ``assocbench check`` guards the CI ones.
 
 Built-in tracks register here; a third party's track registers through the entry-point group
-``assocbench.tracks`` (a ``Track`` subclass or an instance), or ``register_track`` in code.
+``assocbench.tracks`` (a ``Track`` subclass or an instance), or by a module that calls
+``register_track`` when imported, named in the environment variable ``ASSOCBENCH_TRACKS``
+(``pkg.mod[,pkg.mod2]``): a track that is not installed. The variable is read whenever the
+registry is asked, so it reaches every process that runs a job: worker processes (forked or
+forkserver's, which get the leader's environment), and dask workers where it is set.
 """
 
 from __future__ import annotations
 
+import os
+import sys
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from functools import lru_cache
@@ -42,6 +48,7 @@ from ..scoring.loop_summary import LOOP_COLUMNS
 from ..sim.scene import LANDMARK_PREFIX, WALL_PREFIX, mjcf_error, resolve_scene_path
 
 ENTRY_POINT_GROUP = "assocbench.tracks"
+MODULES_VARIABLE = "ASSOCBENCH_TRACKS"   # modules that register a track when imported
 
 
 @dataclass(frozen=True)
@@ -118,7 +125,9 @@ class Track:
         return {}
 
     def sequence_spec(self, cfg: dict, estimator: Any) -> Any:
-        """The spec of the run's sequence from the merged, checked config ``cfg``."""
+        """The spec of the run's sequence from the merged, checked config ``cfg``: a picklable
+        value (it travels to worker processes) with ``scene`` (str) and ``resolved_trajectory()``
+        (str), which ``run`` names its output by; the sequence it loads has ``track`` (this name)."""
         raise self._missing("a sequence")
 
     def load_sequence(self, spec: Any, cache_dir: Path | None = None, use_cache: bool = True) -> Any:
@@ -248,9 +257,25 @@ def _load_builtins_and_plugins() -> None:
                             f"{type(exc).__name__}: {exc}") from None
 
 
+def _load_named_modules() -> None:
+    """Import each module named in ``ASSOCBENCH_TRACKS`` (comma-separated); importing one
+    registers its track. Read on every call, not once: a worker process sets the leader's
+    environment after the registry may already have been asked (a forkserver's preload)."""
+    for name in filter(None, (n.strip() for n in os.environ.get(MODULES_VARIABLE, "").split(","))):
+        if name in sys.modules:
+            continue
+        try:
+            import_module(name)
+        except Exception as exc:  # noqa: BLE001 - a broken module is named in one line
+            raise UserError(f"track module {name!r} named in {MODULES_VARIABLE} failed to import: "
+                            f"{type(exc).__name__}: {exc} (is its folder on PYTHONPATH?)") from None
+
+
 def tracks() -> dict[str, Track]:
-    """Every registered track by name: built-ins first, then plugins."""
+    """Every registered track by name: built-ins first, then plugins and the modules named in
+    ``ASSOCBENCH_TRACKS``."""
     _load_builtins_and_plugins()
+    _load_named_modules()
     return dict(_TRACKS)
 
 
