@@ -32,8 +32,10 @@ that length. Slopes, not cost values, because the cost of a newly associated pix
 that set's noise (0.3 % of the cost between neighbouring poses of noisy crates, more than a 20 mm
 error in the weak direction changes it), while the slope averages it out. This stops the 2-cycle
 (crates 0 -> 5 from the truth alternated between +1.19 and −0.36 mm forever) and the noisy
-jitter: converged when a taken step is below ``converge_rot_deg``/``converge_trans`` or the radius
-below ``converge_trans``. ``iterations`` counts associations after the first.
+jitter: converged when a step is below ``converge_rot_deg``/``converge_trans`` (taken without a
+trial association: it cannot move the pose farther; ``pairs`` are then those before it) or the
+radius below ``converge_trans``. ``iterations`` counts the steps' associations (the trials and
+the shortened steps) plus the last, untried step; the last allowed iteration is taken untried.
 
 **Failure** (``failed=True`` with a ``reason``, never an exception for data): no valid pixel, too
 few pairs at the initial guess, no convergence within ``max_iterations``, and at the final pose a
@@ -73,7 +75,7 @@ and from the crates pairs above:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit
@@ -343,6 +345,13 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     while it < cfg.max_iterations:
         delta, _ = solve_update(cur.H, cur.g, cur.T, radius)
         size = float(np.linalg.norm(np.linalg.solve(cur.T.T, delta)))    # |y|: the points' rms motion (m)
+        step_deg, step_m = float(np.degrees(np.linalg.norm(delta[:3]))), float(np.linalg.norm(delta[3:]))
+        small = step_deg < cfg.converge_rot_deg and step_m < cfg.converge_trans
+        if small or it + 1 == cfg.max_iterations:    # no trial: it could not move farther than this step
+            TRn, Ttn = cur.stepped(delta)
+            cur = replace(cur, TR=TRn, Tt=Ttn)
+            converged, it = small, it + 1
+            break
         trial, it = linearised_at(delta), it + 1
         slope0, slope1 = float(cur.g @ delta), float(trial.g @ delta)    # ½ dF/dα at α = 0 and 1
         if len(trial.pairs) < cfg.min_pairs:             # the step lost the pairs: a shorter one
@@ -356,7 +365,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
             delta, radius = alpha * delta, alpha * size
             cur, it = linearised_at(delta), it + 1
         step_deg, step_m = float(np.degrees(np.linalg.norm(delta[:3]))), float(np.linalg.norm(delta[3:]))
-        if (step_deg < cfg.converge_rot_deg and step_m < cfg.converge_trans) or radius < cfg.converge_trans:
+        if radius < cfg.converge_trans:     # no step moving the points by more than this improves the fit
             converged = True
             break
     if not converged:
