@@ -7,7 +7,7 @@ target the frame at B = A moved 2 deg / 5 cm, the pose guess B perturbed by 1 de
 Rows: median and p95 milliseconds over ``--runs`` timed calls (after ``--warmup`` untimed ones),
 and the ratio of the median to the baseline, a plain-numpy projective association
 (``projective.associate_numpy``, the same computation) timed in the same process.
-"build + solve" is the 6x6 normal equations in one compiled pass plus the Cholesky solve;
+"build + solve" is the 6x6 normal equations in one compiled pass plus the damped eigen-solve;
 "one ICP iteration" is ``icp`` with ``max_iterations=1`` (association + build + solve + update;
 target <= 3 ms); "ICP to convergence" is the whole call from the guess.
 

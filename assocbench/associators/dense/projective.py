@@ -5,11 +5,13 @@ Each source point ``p`` (world) is taken into the target camera with the guess (
 
     u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋      (pixel centres at integers)
 
-First filter (the homework's 2.1, these points are ``considered``): ``z > 0`` (in front of the
-camera: a point behind it would otherwise project through the centre onto a real pixel),
-``0 ≤ u < W``, ``0 ≤ v < H``, and the pixel valid (finite positive depth, finite normal). Second
-filter, in world coordinates with ``q = R V + t``, ``n_q = R N``: ``|p − q|² < d_thr²`` (pixels
-on the same ray but at another depth are not the same surface) and ``n_p · n_q > cos(angle)``.
+First filter (the homework's 2.1; the points passing it are ``considered``, the visible ones):
+``z > 0`` (in front of the camera: a point behind it would otherwise project through the centre
+onto a real pixel), ``0 ≤ u < W``, ``0 ≤ v < H``, the pixel valid (finite positive depth ``d``,
+finite normal), and the point not hidden behind the pixel's surface, ``z ≤ d + gate(d)``
+(``base``: the gate grows with the depth noise). Second filter, in world coordinates with
+``q = R V + t``, ``n_q = R N``: ``|p − q|² < gate(d)²`` (pixels on the same ray but at another
+depth are not the same surface) and ``n_p · n_q > cos(angle)``.
 
 One compiled pass over the source points, O(n), no sort: the pairs come out in source order.
 ``associate_numpy`` is the same computation in plain numpy, operation for operation (the
@@ -28,8 +30,9 @@ from .base import DenseAssociator, Pairs, checked_inputs, flat_maps
 
 
 @njit(cache=True)
-def projective_kernel(points, normals, depth, V, N, width, height, f, cx, cy, R, t, d2_thr, cos_thr):
-    """(source, pixel, considered) of the projective association; see the module docstring."""
+def projective_kernel(points, normals, depth, V, N, width, height, f, cx, cy, R, t, floor, gate_a, gate_b, cos_thr):
+    """(source, pixel, considered) of the projective association with ``gate(d) = max(floor,
+    gate_a + gate_b · d²)``; see the module docstring."""
     n = points.shape[0]
     src = np.empty(n, np.int64)
     pix = np.empty(n, np.int64)
@@ -50,11 +53,14 @@ def projective_kernel(points, normals, depth, V, N, width, height, f, cx, cy, R,
         d = depth[j]
         if not (d > 0.0 and d < np.inf and math.isfinite(N[j, 0])):
             continue
+        gate = max(floor, gate_a + gate_b * d * d)
+        if z > d + gate:   # hidden behind the pixel's surface: not visible, not considered
+            continue
         considered += 1
         ex = points[i, 0] - (R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0])
         ey = points[i, 1] - (R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1])
         ez = points[i, 2] - (R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2])
-        if not ex * ex + ey * ey + ez * ez < d2_thr:
+        if not ex * ex + ey * ey + ez * ez < gate * gate:
             continue
         nx = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]
         ny = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
@@ -79,13 +85,15 @@ class ProjectiveAssociator(DenseAssociator):
         K = frame.K
         h, w = frame.depth.shape
         src, pix, considered = projective_kernel(p, n, depth, V, N, w, h, float(K.f), float(K.cx), float(K.cy),
-                                                 R, t, self.d_thr * self.d_thr, self.cos_thr)
+                                                 R, t, *self.gate_coefficients, self.cos_thr)
         return Pairs(src, pix, int(considered))
 
 
-def associate_numpy(points, normals, frame: DepthFrame, R, t, d_thr: float = 0.05, angle_deg: float = 30.0) -> Pairs:
-    """``ProjectiveAssociator(d_thr, angle_deg).associate`` in plain numpy, operation for
+def associate_numpy(points, normals, frame: DepthFrame, R, t, assoc: ProjectiveAssociator | None = None) -> Pairs:
+    """``assoc.associate`` (default ``ProjectiveAssociator()``) in plain numpy, operation for
     operation (reference for the tests, baseline for the benchmark)."""
+    assoc = ProjectiveAssociator() if assoc is None else assoc
+    floor, gate_a, gate_b = assoc.gate_coefficients
     p, n, R, t = checked_inputs(points, normals, frame, R, t)
     depth, V, N = flat_maps(frame)
     K, (h, w) = frame.K, frame.depth.shape
@@ -99,13 +107,14 @@ def associate_numpy(points, normals, frame: DepthFrame, R, t, d_thr: float = 0.0
         src = np.flatnonzero((z > 0) & (u >= 0) & (u < w) & (v >= 0) & (v < h))
         pix = v[src].astype(np.int64) * w + u[src].astype(np.int64)
         dj = depth[pix]
-        ok = (dj > 0) & (dj < np.inf) & np.isfinite(N[pix, 0])
-    src, pix = src[ok], pix[ok]
+        gate = np.maximum(floor, gate_a + gate_b * dj * dj)
+        ok = (dj > 0) & (dj < np.inf) & np.isfinite(N[pix, 0]) & ~(z[src] > dj + gate)
+    src, pix, gate = src[ok], pix[ok], gate[ok]
     Vj, Nj, ps, ns = V[pix], N[pix], p[src], n[src]
     e = [ps[:, r] - (R[r, 0] * Vj[:, 0] + R[r, 1] * Vj[:, 1] + R[r, 2] * Vj[:, 2] + t[r]) for r in range(3)]
     nq = [R[r, 0] * Nj[:, 0] + R[r, 1] * Nj[:, 1] + R[r, 2] * Nj[:, 2] for r in range(3)]
-    cos_thr = float(np.cos(np.deg2rad(angle_deg)))
+    cos_thr = assoc.cos_thr
     with np.errstate(invalid="ignore"):
-        keep = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2] < d_thr * d_thr) & (
+        keep = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2] < gate * gate) & (
             ns[:, 0] * nq[0] + ns[:, 1] * nq[1] + ns[:, 2] * nq[2] > cos_thr)
     return Pairs(src[keep], pix[keep], len(src))

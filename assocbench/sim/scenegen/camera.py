@@ -33,7 +33,7 @@ class SceneBuilder:
     geoms: list[str] = field(default_factory=list)
     n_landmarks: int = 0
     normals: list[np.ndarray] = field(default_factory=list)   # intended normal of each landmark
-    generator: str = "scenegen"   # the module named in the header as the one to edit
+    generator: str = "scenegen.camera"   # the module named in the header as the one to edit
     # MuJoCo scales the clip planes by the model's extent; a set ``extent`` pins it, so the planes
     # are ``znear * extent`` and ``zfar * extent`` metres whatever the scene's size
     znear: float = 0.005

@@ -148,7 +148,7 @@ def generate(out_dir: Path) -> dict[str, int]:
     """Write the dense scenes' MJCF (and the shared textures) into ``out_dir``; return landmark counts."""
     counts = {}
     for name, build in DENSE_SCENES.items():
-        sb = SceneBuilder(name, generator="dense_scenegen", znear=NEAR_M / EXTENT, zfar=FAR_M / EXTENT,
+        sb = SceneBuilder(name, generator="scenegen.dense", znear=NEAR_M / EXTENT, zfar=FAR_M / EXTENT,
                           extent=EXTENT)
         counts[name] = write_scene(out_dir, name, build, builder=sb)[1].n_landmarks
     return counts

@@ -65,7 +65,7 @@ class LineBuilder:
         self.n_clutter += 1
 
     def xml(self, comment: str) -> str:
-        return floor_scene_xml(self.name, comment, "line_scenegen",
+        return floor_scene_xml(self.name, comment, "scenegen.lines",
                                "Map walls: upright box geoms named lw* (their four side faces are the map's lines); every\n"
                                "     other geom is clutter.", self.geoms)
 

@@ -60,7 +60,7 @@ class PlanarBuilder:
                               f'size="{sx:.4f} {sy:.4f} {h}" rgba="0.6 0.6 0.6 1"/>')
 
     def xml(self, comment: str) -> str:
-        return floor_scene_xml(self.name, comment, "planar_scenegen",
+        return floor_scene_xml(self.name, comment, "scenegen.planar",
                                f"Posts: cylinder geoms named lm* of one radius ({POST_RADIUS} m).", self.geoms)
 
 

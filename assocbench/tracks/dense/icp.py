@@ -13,18 +13,37 @@ least squares), then left-multiplies ``T ← [δR | δt] T`` with ``δR = exp([�
 **Solve.** The 6x6 normal matrix and right-hand side are summed in one compiled pass over the
 pairs (27 products per pair, streaming: the n x 6 matrix A is never stored, so the pass reads only
 the inputs; 0.6 ms for 60 000 pairs, where a QR of the stacked n x 6 A would first write 2.9 MB).
-The matrix is symmetric positive definite whenever the pose is constrained, so it is solved by
-Cholesky (``scipy.linalg.cho_factor``), after re-expressing the motion so that its parameters
-are comparable (``stability_transform``: rotation about the pairs' centroid, scaled by their rms
-radius): ``S = T H Tᵀ``. Cholesky squares the condition of A, which is harmless here: κ(S)
-measured 4.7-6.5 on the synthetic room (noise-free and noisy) at the true pose (~1 digit lost),
-and it is only used up to κ(S) = 1e4 (``SOLVE_CONDITION``, 4 of 16 digits).
+The step is solved in the eigenbasis of ``S = T H Tᵀ``, after re-expressing the motion so that its
+parameters are comparable (``stability_transform``: rotation about the pairs' centroid, scaled by
+their rms radius, so ``|y|`` is about the points' rms motion in metres); κ(S) measured 4.7-6.5 on
+the synthetic room at the true pose.
+
+**Iteration** (``icp``): a trust region on the re-associated cost. Each step is the
+Levenberg–Marquardt step (``solve_update``): the Gauss–Newton step when it moves the points by at
+most the radius, else damped, ``(S + λI) y = −T g``, to exactly the radius (which starts at, and
+never exceeds, the association gate's floor ``d_thr``: pairs found within the gate say nothing
+about farther motion). A poorly conditioned step is thus taken, damped, never truncated: truncation
+at κ 1e4 froze the weak motion of crates 0 -> 5 (κ 1.1e4) and stopped 45.8 mm off. The pairs are
+then re-associated at the trial pose; the slope of the cost along the step there, ``g₁ · δ``,
+decides: ≤ 0 (still descending) takes the trial (and doubles the radius when the minimum lies
+beyond twice the step); > 0 means the step overshot the minimum of the re-associated cost, so the
+pose goes to the secant's zero ``α = g₀·δ / (g₀·δ − g₁·δ)`` of the step and the radius shrinks to
+that length. Slopes, not cost values, because the cost of a newly associated pixel set carries
+that set's noise (0.3 % of the cost between neighbouring poses of noisy crates, more than a 20 mm
+error in the weak direction changes it), while the slope averages it out. This stops the 2-cycle
+(crates 0 -> 5 from the truth alternated between +1.19 and −0.36 mm forever) and the noisy
+jitter: converged when a step is below ``converge_rot_deg``/``converge_trans`` (taken without a
+trial association: it cannot move the pose farther; ``pairs`` are then those before it) or the
+radius below ``converge_trans``. ``iterations`` counts the steps' associations (the trials and
+the shortened steps) plus the last, untried step; the last allowed iteration is taken untried.
 
 **Failure** (``failed=True`` with a ``reason``, never an exception for data): no valid pixel, too
-few pairs in an iteration, no convergence within ``max_iterations``, and on the last iteration a
-degenerate normal matrix (κ(S) > ``max_condition``), an inlier share below ``min_inlier_share``
-or a residual rms above ``max_rms``. An ill-conditioned EARLY iteration is not a failure: past
-κ(S) = 1e4 its step is taken only along the constrained motions (``solve_update``).
+few pairs at the initial guess, no convergence within ``max_iterations``, and at the final pose a
+degenerate normal matrix (κ(S) > ``max_condition``), an inlier share below ``min_inlier_share``,
+a residual rms above ``max_rms`` (each residual scaled by the gate's floor over the gate that
+admitted it, so that far, noisy pairs the depth-scaled gate lets in do not read as a mismatch:
+plain rms 30-35 mm on bays from the identity) or a step from the guess beyond ``max_step_m`` /
+``max_step_deg``. A trial step that keeps fewer than ``min_pairs`` pairs is shortened, not failed.
 Frame-to-frame and frame-to-model tracking are this call with a different source set.
 
 **Capture range.** The association's distance gate bounds it: a start must put most points
@@ -43,8 +62,8 @@ and from the crates pairs above:
   its noise-free wrong minima 2 800-14 000: ``max_condition = 1000``. A noisy wrong minimum can
   sit at κ 380-950, so κ alone does not separate them there.
 * inlier share: ≥ 0.96 at the true pose between crates frames, 0.48-0.76 at most of their wrong
-  minima; but frame-to-model tracking on bays runs at 0.6-0.75 (map points hidden from the
-  current view count as considered), so ``min_inlier_share = 0.5`` only catches gross failure.
+  minima (measured with hidden points counted; ``considered`` now counts only visible source
+  points, see ``associators.dense.base``), so ``min_inlier_share = 0.5`` only catches gross failure.
 * residual rms at the true pose: ≤ 0.73 mm noise-free, ≤ 11 mm with the sensor's noise on
   crates; ``max_rms = 0.02`` m catches gross mismatch only (a wrong minimum fits its remaining
   pairs about as well).
@@ -56,11 +75,10 @@ and from the crates pairs above:
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass, field, replace
 
 import numpy as np
 from numba import njit
-from scipy.linalg import LinAlgError, cho_factor, cho_solve
 
 from ...associators.dense.base import DenseAssociator, Pairs, checked_inputs, flat_maps
 from ...errors import UserError
@@ -77,7 +95,8 @@ class IcpConfig:
         and moves less than this (m).
     min_pairs: fewer pairs in any iteration is a failure (too little to constrain 6 dof).
     min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure.
-    max_rms: final point-to-plane residual rms (m) above this is a failure.
+    max_rms: final point-to-plane residual rms (m, each residual scaled by the gate's floor over
+        its gate: the module docstring's **Failure**) above this is a failure.
     max_condition: κ(S) (the normal matrix in comparable units, ``stability_transform``) of the
         last iteration above this is a failure: some motion is unconstrained (a single plane, a
         corridor's axis).
@@ -112,10 +131,10 @@ class IcpResult:
     """``R, t``: the estimated camera-to-world pose of the target frame (when ``failed``, the last
     estimate: do not trust it). ``converged``: the last update was below the convergence
     thresholds. ``failed`` / ``reason``: see the module docstring (``reason`` is "" when not
-    failed). ``iterations``: updates applied. ``pairs``: the last iteration's association;
-    ``first_pairs``: the first (at the initial guess). ``rms``: point-to-plane residual rms (m) of
-    the last pairs; ``inlier_share``: ``len(pairs) / pairs.considered``; ``condition``: κ(S) of
-    the last iteration's normal matrix (``solve_update``)."""
+    failed). ``iterations``: associations after the first (each a tried or a shortened step).
+    ``pairs``: the association at the returned pose; ``first_pairs``: at the initial guess.
+    ``rms``: point-to-plane residual rms (m) of ``pairs``; ``inlier_share``:
+    ``len(pairs) / pairs.considered``; ``condition``: κ(S) of their normal matrix (``solve_update``)."""
 
     R: np.ndarray
     t: np.ndarray
@@ -130,22 +149,24 @@ class IcpResult:
     condition: float
 
 
-# κ(S) above which a step is truncated to the constrained motions. Far above IcpConfig.max_condition
-# on purpose: truncating at 100 froze directions that were weak but real, and ICP then stopped at
-# wrong minima with κ just above 100 (110 measured); solved fully up to 1e4, its wrong minima
-# measured κ ≥ 3 650, far from the ≤ 6.5 of the right ones.
-SOLVE_CONDITION = 1e4
+# Relative eigenvalue of S below which a motion is numerically unconstrained (rounding level of
+# a sum of ~1e5 products): it gets no step at all, not a step of rounding noise over rounding noise.
+NUMERICAL_RANK = 1e-12
+# A rejected step shrinks the trust radius to this share of its length (Nocedal & Wright, alg. 4.1).
+SHRINK = 0.25
 
 
 @njit(cache=True)
-def normal_equations_kernel(points, V, N, source, pixel, TR, Tt):
-    """(H, g, sse, sp, spp): ``H = Σ A_iᵀ A_i`` (6, 6), ``g = Σ A_iᵀ b_i`` (6,), ``sse = Σ b_i²``
-    with ``A_i = [(p′ × n)ᵀ, nᵀ]``, ``b_i = n · (p′ − q)``, ``p′ = TR p + Tt``; ``sp = Σ p′`` (3,)
-    and ``spp = Σ |p′|²`` for the stability measure. One pass; scalar accumulators for the 21
-    distinct entries so they stay in registers."""
+def normal_equations_kernel(points, V, N, source, pixel, TR, Tt, floor, gate_a, gate_b):
+    """(H, g, sse, sp, spp, sse_gated): ``H = Σ A_iᵀ A_i`` (6, 6), ``g = Σ A_iᵀ b_i`` (6,),
+    ``sse = Σ b_i²`` with ``A_i = [(p′ × n)ᵀ, nᵀ]``, ``b_i = n · (p′ − q)``, ``p′ = TR p + Tt``;
+    ``sp = Σ p′`` (3,) and ``spp = Σ |p′|²`` for the stability measure; ``sse_gated = Σ (s_i b_i)²``
+    with ``s_i = floor / max(floor, gate_a + gate_b d²)`` at the pixel's depth d (the residual in
+    units of the association gate that admitted it, times its floor; 1 when floor is 0). One pass;
+    scalar accumulators for the 21 distinct entries so they stay in registers."""
     h00 = h01 = h02 = h03 = h04 = h05 = h11 = h12 = h13 = h14 = h15 = 0.0
     h22 = h23 = h24 = h25 = h33 = h34 = h35 = h44 = h45 = h55 = 0.0
-    g0 = g1 = g2 = g3 = g4 = g5 = sse = sx = sy = sz = spp = 0.0
+    g0 = g1 = g2 = g3 = g4 = g5 = sse = sx = sy = sz = spp = ssg = 0.0
     for k in range(source.shape[0]):
         i, j = source[k], pixel[k]
         x = TR[0, 0] * points[i, 0] + TR[0, 1] * points[i, 1] + TR[0, 2] * points[i, 2] + Tt[0]
@@ -161,18 +182,30 @@ def normal_equations_kernel(points, V, N, source, pixel, TR, Tt):
         g0 += a0 * b; g1 += a1 * b; g2 += a2 * b; g3 += nx * b; g4 += ny * b; g5 += nz * b  # noqa: E702
         sse += b * b
         sx += x; sy += y; sz += z; spp += x * x + y * y + z * z  # noqa: E702
+        gate = max(floor, gate_a + gate_b * V[j, 2] * V[j, 2])
+        s = floor / gate if floor > 0.0 else 1.0
+        ssg += s * s * b * b
     H = np.array([[h00, h01, h02, h03, h04, h05], [h01, h11, h12, h13, h14, h15], [h02, h12, h22, h23, h24, h25],
                   [h03, h13, h23, h33, h34, h35], [h04, h14, h24, h34, h44, h45], [h05, h15, h25, h35, h45, h55]])
-    return H, np.array([g0, g1, g2, g3, g4, g5]), sse, np.array([sx, sy, sz]), spp
+    return H, np.array([g0, g1, g2, g3, g4, g5]), sse, np.array([sx, sy, sz]), spp, ssg
+
+
+def gated_normal_equations(points: np.ndarray, frame: DepthFrame, pairs: Pairs, TR: np.ndarray, Tt: np.ndarray,
+                           gate: tuple[float, float, float] = (0.0, 0.0, 0.0)):
+    """``(Σ A_iᵀ A_i, Σ A_iᵀ b_i, Σ b_i², Σ p′, Σ |p′|², Σ (s_i b_i)²)`` of ``pairs`` under the
+    world-to-camera estimate ``p′ = TR p + Tt``; ``gate`` the associator's ``gate_coefficients``
+    (``normal_equations_kernel``)."""
+    _, V, N = flat_maps(frame)
+    f64 = np.float64
+    return normal_equations_kernel(np.ascontiguousarray(points, dtype=f64), V, N, pairs.source, pairs.pixel,
+                                   np.ascontiguousarray(TR, dtype=f64), np.ascontiguousarray(Tt, dtype=f64),
+                                   *(float(c) for c in gate))
 
 
 def normal_equations(points: np.ndarray, frame: DepthFrame, pairs: Pairs, TR: np.ndarray, Tt: np.ndarray):
     """``(Σ A_iᵀ A_i, Σ A_iᵀ b_i, Σ b_i², Σ p′, Σ |p′|²)`` of ``pairs`` under the world-to-camera
-    estimate ``p′ = TR p + Tt`` (see the module docstring)."""
-    _, V, N = flat_maps(frame)
-    f64 = np.float64
-    return normal_equations_kernel(np.ascontiguousarray(points, dtype=f64), V, N, pairs.source, pairs.pixel,
-                                   np.ascontiguousarray(TR, dtype=f64), np.ascontiguousarray(Tt, dtype=f64))
+    estimate ``p′ = TR p + Tt`` (the homework's stacked system; see the module docstring)."""
+    return gated_normal_equations(points, frame, pairs, TR, Tt)[:5]
 
 
 def rodrigues(w: np.ndarray) -> np.ndarray:
@@ -188,7 +221,9 @@ def stability_transform(sp: np.ndarray, spp: float, k: int) -> np.ndarray:
     """``T = diag(I/L, I) [[I, −[c]ₓ], [0, I]]`` (6, 6): the motion parameters re-expressed as a
     rotation about the pairs' centroid ``c = Σp′/k`` with its angle times their rms radius
     ``L = √(Σ|p′|²/k − |c|²)``, so that every parameter moves the points by metres and ``T H Tᵀ``
-    compares them (Gelfand et al. 2003, "Geometrically stable sampling for the ICP algorithm")."""
+    compares them (Gelfand et al. 2003, "Geometrically stable sampling for the ICP algorithm").
+    In these units ``y = T⁻ᵀ δ`` is (the rotation's displacement at radius L, the centroid's
+    displacement), and ``|y|`` about the rms displacement of the points."""
     c = sp / k
     L = np.sqrt(max(spp / k - c @ c, 1e-12))
     T = np.eye(6)
@@ -197,27 +232,46 @@ def stability_transform(sp: np.ndarray, spp: float, k: int) -> np.ndarray:
     return T
 
 
-def solve_update(H: np.ndarray, g: np.ndarray, T: np.ndarray, max_condition: float = SOLVE_CONDITION
-                 ) -> tuple[np.ndarray, float]:
-    """(δ, κ) for ``H δ = −g``: with ``S = T H Tᵀ`` (``stability_transform``) and ``δ = Tᵀ y``,
-    ``S y = −T g``; κ = λ_max/λ_min of S (inf when singular). When ``κ ≤ max_condition``, y by
-    Cholesky of S (at most log10 κ ≤ 4 of the 16 digits lost); otherwise only in the span of the
-    eigenvectors of S with ``λ ≥ λ_max / max_condition``, leaving the (numerically) unconstrained
-    motions unchanged: an early iteration, whose few pairs at a poor guess may lie on one plane,
-    still moves the constrained ones; whether the problem is degenerate is judged on the last
-    iteration (``IcpConfig.max_condition``)."""
+def damping(ev: np.ndarray, r: np.ndarray, radius: float) -> float:
+    """The Levenberg–Marquardt ``λ ≥ 0`` with ``|y(λ)| ≈ radius``, ``y_i(λ) = r_i / (ev_i + λ)``
+    (the eigenbasis of S), or 0 when the Gauss–Newton step ``y(0)`` is inside the radius: Newton's
+    method on ``φ(λ) = 1/|y(λ)| − 1/radius`` (Moré & Sorensen 1983), which is nearly linear in λ
+    and approached from below, so it converges monotonically; a few iterations reach 1e-3."""
+    lam = 0.0
+    for _ in range(50):
+        d = ev + lam
+        norm = float(np.sqrt(np.sum((r / d) ** 2)))
+        if norm <= radius * (1 + 1e-3) and (lam == 0.0 or norm >= radius * (1 - 1e-3)):
+            return lam
+        slope = float(np.sum(r * r / d ** 3)) / norm ** 3              # φ′(λ) > 0
+        lam = max(lam - (1.0 / norm - 1.0 / radius) / slope, 0.0)
+    return lam
+
+
+def solve_update(H: np.ndarray, g: np.ndarray, T: np.ndarray, radius: float = np.inf) -> tuple[np.ndarray, float]:
+    """(δ, κ): the Levenberg–Marquardt step ``(S + λI) y = −T g``, ``δ = Tᵀ y``, with
+    ``S = T H Tᵀ`` (``stability_transform``) and κ = λ_max/λ_min of S (inf when singular); λ = 0
+    (the Gauss–Newton step, ``H δ = −g``) when ``|y| ≤ radius``, else the λ with ``|y| = radius``
+    (``damping``): the minimiser of the linearised cost ``|A δ + b|²`` within the trust region.
+    Solved in the eigenbasis of S, which also gives κ; a direction with eigenvalue below
+    ``NUMERICAL_RANK · λ_max`` (numerically unconstrained: a single plane's sliding) gets no step.
+    Unlike truncating the solve at a condition number, damping moves every constrained motion,
+    however weakly constrained, by no more than the radius allows."""
     S, rhs = T @ H @ T.T, -T @ g
     ev, vec = np.linalg.eigh(S)
     cond = float(ev[-1] / ev[0]) if ev[0] > 0 else float("inf")
-    if cond <= max_condition:
-        try:
-            return T.T @ cho_solve(cho_factor(S, lower=True, check_finite=False), rhs, check_finite=False), cond
-        except LinAlgError:  # not positive definite after all (rounding): the truncated step below
-            pass
     if not ev[-1] > 0:
         return np.zeros(6), cond
-    keep = ev >= ev[-1] / max_condition
-    return T.T @ (vec[:, keep] @ ((vec[:, keep].T @ rhs) / ev[keep])), cond
+    keep = ev > NUMERICAL_RANK * ev[-1]
+    ev, r = ev[keep], vec[:, keep].T @ rhs
+    y = vec[:, keep] @ (r / (ev + damping(ev, r, radius)))
+    return T.T @ y, cond
+
+
+def condition_number(H: np.ndarray, T: np.ndarray) -> float:
+    """κ(S) = λ_max/λ_min of ``S = T H Tᵀ`` (inf when singular)."""
+    ev = np.linalg.eigvalsh(T @ H @ T.T)
+    return float(ev[-1] / ev[0]) if ev[0] > 0 else float("inf")
 
 
 def _pose(TR: np.ndarray, Tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -235,60 +289,123 @@ def _check_pose(R0, t0) -> tuple[np.ndarray, np.ndarray]:
     return R0, t0
 
 
+@dataclass
+class _Linearised:
+    """The pairs at a pose and their point-to-plane system: ``H``, ``g``, the residual rms (m) and
+    the rms of the residuals referred to the gate's floor (``gated_normal_equations``), ``T``
+    (``stability_transform``)."""
+
+    TR: np.ndarray
+    Tt: np.ndarray
+    pairs: Pairs
+    H: np.ndarray
+    g: np.ndarray
+    rms: float
+    rms_gated: float
+    T: np.ndarray
+
+    @classmethod
+    def at(cls, points, frame: DepthFrame, pairs: Pairs, TR: np.ndarray, Tt: np.ndarray,
+           gate: tuple[float, float, float]) -> _Linearised:
+        H, g, sse, sp, spp, ssg = gated_normal_equations(points, frame, pairs, TR, Tt, gate)
+        k = max(len(pairs), 1)
+        return cls(TR, Tt, pairs, H, g, float(np.sqrt(sse / k)), float(np.sqrt(ssg / k)),
+                   stability_transform(sp, spp, k))
+
+    def stepped(self, delta: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+        """The world-to-camera estimate after the update: ``[δR | δt] T``."""
+        dR = rodrigues(delta[:3])
+        return dR @ self.TR, dR @ self.Tt + delta[3:]
+
+
 def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: DenseAssociator,
         R0: np.ndarray, t0: np.ndarray, cfg: IcpConfig = IcpConfig()) -> IcpResult:
     """Camera-to-world pose of ``frame`` registering the source ``points``/``normals`` (world)
-    to it, from the guess ``(R0, t0)``; see the module docstring. Bad shapes are a ``UserError``;
-    bad data (nothing valid, degenerate, diverging) is ``failed=True`` with a ``reason``."""
+    to it, from the guess ``(R0, t0)``; see the module docstring (**Iteration**). Bad shapes are a
+    ``UserError``; bad data (nothing valid, degenerate, diverging) is ``failed=True`` with a ``reason``."""
     points, normals, _, _ = checked_inputs(points, normals, frame, np.eye(3), np.zeros(3))
     R0, t0 = _check_pose(R0, t0)
     TR, Tt = R0.T.copy(), -R0.T @ t0
-    state = {"pairs": Pairs.empty(), "first": None, "rms": float("nan"), "share": float("nan"),
-             "cond": float("nan"), "it": 0, "converged": False}
-
-    def result(reason: str = "") -> IcpResult:
-        R, t = _pose(TR, Tt)
-        first = state["first"] if state["first"] is not None else state["pairs"]
-        return IcpResult(R, t, state["converged"], bool(reason), reason, state["it"], state["pairs"], first,
-                         state["rms"], state["share"], state["cond"])
-
     if not frame.valid.any():
-        return result("the frame has no valid pixel (no finite depth with a normal)")
-    step_deg = step_m = float("nan")
-    for it in range(cfg.max_iterations):
-        pairs = associator.associate(points, normals, frame, *_pose(TR, Tt))
-        state.update(pairs=pairs, first=pairs if it == 0 else state["first"],
-                     share=len(pairs) / pairs.considered if pairs.considered else 0.0)
-        if len(pairs) < cfg.min_pairs:
-            return result(f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at iteration {it + 1} "
-                          f"({pairs.considered} source points considered)")
-        H, g, sse, sp, spp = normal_equations(points, frame, pairs, TR, Tt)
-        delta, cond = solve_update(H, g, stability_transform(sp, spp, len(pairs)))
-        state.update(rms=float(np.sqrt(sse / len(pairs))), cond=cond)
-        dR = rodrigues(delta[:3])
-        TR, Tt = dR @ TR, dR @ Tt + delta[3:]
-        state["it"] = it + 1
+        return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
+    pairs = associator.associate(points, normals, frame, R0, t0)
+    if len(pairs) < cfg.min_pairs:
+        return _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
+                       f"guess ({pairs.considered} source points considered)")
+    gate = getattr(associator, "gate_coefficients", (0.0, 0.0, 0.0))
+    cur, first = _Linearised.at(points, frame, pairs, TR, Tt, gate), pairs
+
+    def linearised_at(delta: np.ndarray) -> _Linearised:
+        TRn, Ttn = cur.stepped(delta)
+        pairs = associator.associate(points, normals, frame, *_pose(TRn, Ttn))
+        return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
+
+    radius_max = float(associator.d_thr)
+    radius, converged, step_deg, step_m, it = radius_max, False, float("nan"), float("nan"), 0
+    while it < cfg.max_iterations:
+        delta, _ = solve_update(cur.H, cur.g, cur.T, radius)
+        size = float(np.linalg.norm(np.linalg.solve(cur.T.T, delta)))    # |y|: the points' rms motion (m)
         step_deg, step_m = float(np.degrees(np.linalg.norm(delta[:3]))), float(np.linalg.norm(delta[3:]))
-        if step_deg < cfg.converge_rot_deg and step_m < cfg.converge_trans:
-            state["converged"] = True
+        small = step_deg < cfg.converge_rot_deg and step_m < cfg.converge_trans
+        if small or it + 1 == cfg.max_iterations:    # no trial: it could not move farther than this step
+            TRn, Ttn = cur.stepped(delta)
+            cur = replace(cur, TR=TRn, Tt=Ttn)
+            converged, it = small, it + 1
             break
-    if not state["converged"]:
-        return result(f"no convergence in {cfg.max_iterations} iterations (last update {step_deg:.3g} deg, "
-                      f"{step_m:.3g} m)")
-    if not state["cond"] <= cfg.max_condition:
-        return result(f"degenerate geometry: condition number {state['cond']:.3g} > max_condition "
-                      f"{cfg.max_condition:.3g} (some motion is unconstrained by the pairs)")
-    if state["share"] < cfg.min_inlier_share:
-        return result(f"inlier share {state['share']:.3f} < min_inlier_share {cfg.min_inlier_share} "
-                      f"({len(state['pairs'])} of {state['pairs'].considered} considered pairs kept)")
-    if state["rms"] > cfg.max_rms:
-        return result(f"residual rms {state['rms']:.4f} m > max_rms {cfg.max_rms} m")
-    moved_m, moved_deg = step_from(R0, t0, *_pose(TR, Tt))
+        trial, it = linearised_at(delta), it + 1
+        slope0, slope1 = float(cur.g @ delta), float(trial.g @ delta)    # ½ dF/dα at α = 0 and 1
+        if len(trial.pairs) < cfg.min_pairs:             # the step lost the pairs: a shorter one
+            radius = SHRINK * size
+        elif slope1 <= 0.0:                               # still descending at the full step: take it
+            if size >= 0.99 * radius and slope1 < 0.5 * slope0:   # the minimum lies beyond 2 radii
+                radius = min(radius_max, 2.0 * radius)
+            cur = trial
+        else:                                             # overshot: the minimum along δ lies inside
+            alpha = slope0 / (slope0 - slope1)            # the secant's zero of the slope, in (0, 1)
+            delta, radius = alpha * delta, alpha * size
+            cur, it = linearised_at(delta), it + 1
+        step_deg, step_m = float(np.degrees(np.linalg.norm(delta[:3]))), float(np.linalg.norm(delta[3:]))
+        if radius < cfg.converge_trans:     # no step moving the points by more than this improves the fit
+            converged = True
+            break
+    if not converged:
+        return _result(cur.TR, cur.Tt, cur.pairs, first, f"no convergence in {cfg.max_iterations} iterations "
+                       f"(last update {step_deg:.3g} deg, {step_m:.3g} m)", cur, it)
+    return _result(cur.TR, cur.Tt, cur.pairs, first, _judged(cur, cfg, R0, t0), cur, it, converged=True)
+
+
+def _judged(cur: _Linearised, cfg: IcpConfig, R0: np.ndarray, t0: np.ndarray) -> str:
+    """The failure reason of a converged estimate ("" when accepted): module docstring, **Failure**."""
+    cond, pairs = condition_number(cur.H, cur.T), cur.pairs
+    share, rms = _share(pairs), cur.rms_gated
+    if not cond <= cfg.max_condition:
+        return (f"degenerate geometry: condition number {cond:.3g} > max_condition "
+                f"{cfg.max_condition:.3g} (some motion is unconstrained by the pairs)")
+    if share < cfg.min_inlier_share:
+        return (f"inlier share {share:.3f} < min_inlier_share {cfg.min_inlier_share} "
+                f"({len(pairs)} of {pairs.considered} considered pairs kept)")
+    if rms > cfg.max_rms:
+        return (f"residual rms {rms:.4f} m > max_rms {cfg.max_rms} m (each residual scaled by the association "
+                f"gate's floor over its gate; plain rms {cur.rms:.4f} m)")
+    moved_m, moved_deg = step_from(R0, t0, *_pose(cur.TR, cur.Tt))
     if moved_m > cfg.max_step_m or moved_deg > cfg.max_step_deg:
-        return result(f"the estimate moved {moved_m:.3f} m and turned {moved_deg:.2f} deg from the initial guess, "
-                      f"beyond max_step_m {cfg.max_step_m} / max_step_deg {cfg.max_step_deg} (ICP's capture "
-                      f"range: a wrong minimum is as likely there)")
-    return result()
+        return (f"the estimate moved {moved_m:.3f} m and turned {moved_deg:.2f} deg from the initial guess, "
+                f"beyond max_step_m {cfg.max_step_m} / max_step_deg {cfg.max_step_deg} (ICP's capture "
+                f"range: a wrong minimum is as likely there)")
+    return ""
+
+
+def _share(pairs: Pairs) -> float:
+    return len(pairs) / pairs.considered if pairs.considered else 0.0
+
+
+def _result(TR: np.ndarray, Tt: np.ndarray, pairs: Pairs, first: Pairs | None, reason: str,
+            cur: _Linearised | None = None, iterations: int = 0, converged: bool = False) -> IcpResult:
+    R, t = _pose(TR, Tt)
+    rms = cur.rms if cur is not None else float("nan")
+    cond = condition_number(cur.H, cur.T) if cur is not None else float("nan")
+    return IcpResult(R, t, converged, bool(reason), reason, iterations, pairs, first if first is not None else pairs,
+                     rms, _share(pairs) if cur is not None else float("nan"), cond)
 
 
 def step_from(R0: np.ndarray, t0: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[float, float]:

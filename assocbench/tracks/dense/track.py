@@ -7,7 +7,7 @@ from pathlib import Path
 
 import pandas as pd
 
-from ...associators.registry import is_dense, make_dense_associator
+from ...associators.registry import associator_class, is_dense, make_dense_associator
 from ...errors import UserError
 from ...sim.scene import load_scene
 from ...sim.scenegen.dense import DENSE_SCENES
@@ -22,6 +22,15 @@ from .leaderboard import dense_table, write_dense_leaderboard
 from .plots import map_writers
 from .summary import DENSE_COLUMNS, summarize_dense
 from .warm import warm_dense
+
+
+def gate_params(spec) -> dict:
+    """The method's parameters, with the run's depth noise (``depth.sigma_base``, ``sigma_quad``) for
+    an associator whose gate grows with it (``DenseAssociator.gate``) unless the user set them."""
+    fields = getattr(associator_class(spec.method), "__dataclass_fields__", {})
+    depth = spec.sequence.depth
+    noise = {k: getattr(depth, k) for k in ("sigma_base", "sigma_quad") if k in fields}
+    return noise | dict(spec.params)
 
 
 class DenseTrack(Track):
@@ -61,8 +70,8 @@ class DenseTrack(Track):
 
     def frame_records(self, seq: DenseSequence, spec, calls: MethodCalls, first: int = 0,
                       artifacts: Path | None = None):
-        return dense_records(seq, spec, calls, lambda: make_dense_associator(spec.method, **spec.params), first,
-                             artifacts)
+        return dense_records(seq, spec, calls, lambda: make_dense_associator(spec.method, **gate_params(spec)),
+                             first, artifacts)
 
     def summarize(self, frames: pd.DataFrame) -> dict:
         return summarize_dense(frames)
