@@ -17,7 +17,8 @@ from _util import print_table, summary_ms, time_call
 
 from assocbench import make_associator
 from assocbench.associators.registry import BUILTINS
-from assocbench.models.synthetic import camera_problem, range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
+from assocbench.tracks.camera.synthetic import camera_problem
 
 MODELS = {"range-bearing": range_bearing_problem, "camera": camera_problem}
 

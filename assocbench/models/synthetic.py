@@ -6,7 +6,8 @@
 * ``range_bearing_problem``: EKF-SLAM-like planar robot observing point landmarks in range
   and bearing (bearing wraps), landmark errors correlated with the pose error.
 
-Both return ``(Problem, true_association)``; the measurements are drawn from the model the
+Both return ``(Problem, true_association)`` (the camera track's ``camera_problem`` lives in
+``tracks/camera/synthetic.py``: it draws from that track's belief model); the measurements are drawn from the model the
 problem reports, so gating theory holds.
 """
 
@@ -18,7 +19,7 @@ from ..association.compatibility import wrap_angles
 from ..association.problem import NO_MATCH, Problem
 
 
-def _observe(rng, z_true: np.ndarray, p_detect: float, clutter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+def observe(rng, z_true: np.ndarray, p_detect: float, clutter: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Detected measurements (shuffled, clutter included) and the true association."""
     n = len(z_true)
     detected = np.flatnonzero(rng.uniform(size=n) < p_detect)
@@ -52,7 +53,7 @@ def lattice_problem(rng: np.random.Generator, n: int = 20, spacing: float = 30.0
     err = np.linalg.cholesky(P) @ rng.normal(size=2 * n)
     z_true = zhat + err.reshape(n, 2) + rng.normal(0.0, sigma_meas, (n, 2))
     lo, hi = zhat.min(axis=0) - spacing, zhat.max(axis=0) + spacing
-    z, truth = _observe(rng, z_true, p_detect, rng.uniform(lo, hi, (n_clutter, 2)))
+    z, truth = observe(rng, z_true, p_detect, rng.uniform(lo, hi, (n_clutter, 2)))
     R = np.repeat((sigma_meas**2 * np.eye(2))[None], len(z), axis=0)
     return Problem(z, R, zhat, P, volume=float(np.prod(hi - lo))), truth
 
@@ -101,33 +102,6 @@ def range_bearing_problem(rng: np.random.Generator, n: int = 40, p_detect: float
     z_true = wrap_angles(true_h + rng.normal(0.0, 1.0, (n, 2)) * sigma_meas, (1,))
     n_clutter = int(round(clutter_ratio * n))
     clutter = np.column_stack([rng.uniform(0, extent, n_clutter), rng.uniform(-np.pi, np.pi, n_clutter)])
-    z, truth = _observe(rng, z_true, p_detect, clutter)
+    z, truth = observe(rng, z_true, p_detect, clutter)
     R = np.repeat(np.diag(np.square(sigma_meas))[None], len(z), axis=0)
     return Problem(z, R, h, 0.5 * (P + P.T), volume=extent * 2 * np.pi, angular=(1,)), truth
-
-
-def camera_problem(rng: np.random.Generator, n: int = 40, p_detect: float = 0.8, clutter_ratio: float = 0.2,
-                   sigma_position: float = 0.05, sigma_rotation_deg: float = 1.0, sigma_landmark: float = 0.03,
-                   sigma_common: float = 0.03, sigma_pixel: float = 1.0) -> tuple[Problem, np.ndarray]:
-    """The camera track without rendering: ``n`` landmarks 2-8 m in front of a 640x480 camera,
-    the same belief model as the rendered benchmark (``camera_belief``): P = J Σ Jᵀ with pose,
-    landmark and common-mode errors; measurements drawn from the true state."""
-    from .camera import Intrinsics
-    from ..belief.config import BeliefConfig
-    from ..tracks.camera.belief import bundle_covariance, sample_estimate
-    from .pinhole import predict_bundle
-
-    K = Intrinsics.from_fovy(640, 480, 60.0)
-    cfg = BeliefConfig(sigma_position=sigma_position, sigma_rotation=sigma_rotation_deg,
-                       sigma_landmark=sigma_landmark, sigma_common=sigma_common, sigma_pixel=sigma_pixel)
-    depth = rng.uniform(2.0, 8.0, n)
-    pix = rng.uniform([20, 20], [620, 460], (n, 2))
-    landmarks = np.column_stack([(pix - [K.cx, K.cy]) * depth[:, None] / K.f, depth])  # camera = world frame
-    R, p = np.eye(3), np.zeros(3)
-    R_hat, p_hat, l_hat = sample_estimate(R, p, landmarks, cfg, rng)
-    zhat, J_pose, J_l, _ = predict_bundle(R_hat, p_hat, l_hat, K)
-    z_true = predict_bundle(R, p, landmarks, K)[0] + rng.normal(0.0, sigma_pixel, (n, 2))
-    n_clutter = int(round(clutter_ratio * n))
-    z, truth = _observe(rng, z_true, p_detect, rng.uniform([0, 0], [640, 480], (n_clutter, 2)))
-    R_meas = np.repeat((sigma_pixel**2 * np.eye(2))[None], len(z), axis=0)
-    return Problem(z, R_meas, zhat, bundle_covariance(J_pose, J_l, cfg), volume=K.area), truth

@@ -181,7 +181,8 @@ import sys
 import numpy as np
 from numba.core.registry import CPUDispatcher
 from assocbench import make_associator
-from assocbench.models.synthetic import camera_problem, range_bearing_problem
+from assocbench.models.synthetic import range_bearing_problem
+from assocbench.tracks.camera.synthetic import camera_problem
 from assocbench.harness.runner import private_copy, warm_up
 
 def signatures():

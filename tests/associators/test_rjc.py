@@ -19,7 +19,8 @@ from assocbench.association.compatibility import (
     pairwise_nis,
 )
 from assocbench.associators.rjc import ransac_iterations
-from assocbench.models.synthetic import camera_problem, lattice_problem, range_bearing_problem
+from assocbench.models.synthetic import lattice_problem, range_bearing_problem
+from assocbench.tracks.camera.synthetic import camera_problem
 from problems import random_problem
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
