@@ -13,7 +13,7 @@ from scipy.spatial.transform import Rotation
 
 from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
-from ..harness.runner import execute
+from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
 from ..scoring.trajectory import tum_text
 from .common import add_run_options, check_output_folder, config_digest, print_table

@@ -14,10 +14,8 @@ from dataclasses import dataclass
 import signal
 import time
 from collections.abc import Callable, Iterator
-from pathlib import Path
 
 import numpy as np
-import pandas as pd
 
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..associators.registry import make_associator
@@ -26,7 +24,6 @@ from ..association.truth import FrameTruth
 from ..errors import UserError
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..tracks.base import get_track
-from .config import RunSpec
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
 WARM_UP_FACTOR = 10   # warm-up may compile (numba, a plugin's JIT): it gets 10x the per-call limit
@@ -229,21 +226,4 @@ class GuardedCalls:
                 raise
             return None, time.perf_counter() - start, describe(exc)
         return out, time.perf_counter() - start, ""
-
-
-def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False,
-            artifacts: Path | None = None) -> tuple[pd.DataFrame, dict]:
-    """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
-    records and the summary (the track's). ``associations=True`` keeps each frame's association
-    (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
-    ``artifacts``: a folder for the run's end-of-run files (the dense track's map)."""
-    from .sandbox import Supervisor, Task  # here: sandbox imports this module
-
-    name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
-    task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
-                str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)
-    frames = pd.DataFrame(Supervisor(1).run_one(task)[(0, 0)])
-    if not associations and "association" in frames:
-        frames = frames.drop(columns="association")
-    return frames, spec.track_impl.summarize(frames)
 

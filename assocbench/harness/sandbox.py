@@ -32,10 +32,12 @@ from functools import partial
 from multiprocessing.connection import wait
 from pathlib import Path
 
+import pandas as pd
 from tqdm import tqdm
 
 from ..errors import UserError
 from ..tracks.base import get_track
+from .config import RunSpec
 from .loop import loop_records
 from .runner import WARM_UP, GuardedCalls, describe, frame_problems, frame_records
 
@@ -365,3 +367,18 @@ class _allow_children:
 
     def __exit__(self, *exc):
         self.proc._config["daemon"] = self.daemon
+
+
+def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False,
+            artifacts: Path | None = None) -> tuple[pd.DataFrame, dict]:
+    """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
+    records and the summary (the track's). ``associations=True`` keeps each frame's association
+    (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
+    ``artifacts``: a folder for the run's end-of-run files (the dense track's map)."""
+    name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
+    task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
+                str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)
+    frames = pd.DataFrame(Supervisor(1).run_one(task)[(0, 0)])
+    if not associations and "association" in frames:
+        frames = frames.drop(columns="association")
+    return frames, spec.track_impl.summarize(frames)

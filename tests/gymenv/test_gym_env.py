@@ -13,7 +13,7 @@ from assocbench.association.problem import Problem
 from assocbench.errors import UserError
 from assocbench.gymenv import ENV_IDS, AssociationEnv, classical_action, sample_mask, sample_valid_action
 from assocbench.harness.config import defaults, merge, run_spec
-from assocbench.harness.runner import execute
+from assocbench.harness.sandbox import execute
 from assocbench.harness.suite import shipped_difficulties
 from assocbench.viz import draw
 
