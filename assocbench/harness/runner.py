@@ -1,7 +1,7 @@
 """One run: a cached sequence, a belief per frame, one associator, scored frame by frame.
 
 The frame loop (``frame_records``) runs inside a worker process (``sandbox.py``), which is what
-lets the parent enforce a time limit and survive a method that dies or exits; ``execute`` runs
+lets the parent enforce a time limit and survive a method that dies or exits; ``sandbox.execute`` runs
 it there. The plugin boundary is ``call_method``: anything a method raises, ``SystemExit`` included,
 is that frame's failure, and every call gets its own copy of the problem, so a method that
 edits its problem in place can change neither the scoring nor what later methods see.
