@@ -30,14 +30,13 @@ from ...errors import UserError
 from ...fingerprint import sources_digest
 from ...models.camera import Intrinsics
 from .detect import DetectorConfig, detect
+from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
-from ...sim.scene import Scene, load_scene, resolve_scene_path
-from ...sim.trajectory import TRAJECTORIES, make_trajectory, rig_for
+from ...sim.scene import Scene, load_scene
 from .truth import TruthConfig, label_features, visibility
-from ...sim.waypoints import file_digest, read_waypoints, user_keyframes, waypoint_path
+from ...sim.waypoints import file_digest, waypoint_path
 
 FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
-DEFAULT_TRAJECTORY = {"room": "circle", "checkerboard": "line", "corridor": "line", "bays": "line", "crates": "circle"}
 # the sources a cached sequence depends on: shared simulation, measurement models, this track
 CODE = ("sim", "models", "tracks/camera")
 
@@ -64,15 +63,14 @@ class SequenceSpec:
     keep_images: bool = False
     feature_depth: bool = False             # render depth and keep its value at each feature (RGB-D)
 
+    def path(self) -> CameraPath:
+        """The camera's path (``sim.camera_path``)."""
+        return CameraPath(self.scene, self.trajectory, self.trajectory_params, self.frames, self.seed, self.width,
+                          self.height)
+
     def resolved_trajectory(self) -> str:
-        """The trajectory's name (the scene's default when None), checked; a waypoint file is
-        read and checked here too, so a bad one is refused before anything runs."""
-        name = self.trajectory or DEFAULT_TRAJECTORY.get(Path(self.scene).stem, "circle")
-        if name not in TRAJECTORIES:
-            raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
-        if name == "waypoints":
-            read_waypoints(waypoint_path(self.trajectory_params, resolve_scene_path(self.scene).parent))
-        return name
+        """The trajectory's name (the scene's default when None), checked (``CameraPath``)."""
+        return self.path().resolved_trajectory()
 
     def key(self, scene: Scene) -> str:
         """Cache key: a hash of every setting, the scene's files, a waypoint file's content, the
@@ -124,10 +122,7 @@ class RenderedFrame:
 
 def trajectory_poses(spec: SequenceSpec, scene: Scene) -> tuple[np.ndarray, np.ndarray]:
     """Camera rotations (N, 3, 3) and positions (N, 3) of ``spec``'s trajectory in ``scene``."""
-    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, spec.width / spec.height, scene.free_distance)
-    name = spec.resolved_trajectory()
-    params, keys = user_keyframes(name, spec.trajectory_params, scene)
-    return make_trajectory(name, rig, spec.frames, spec.seed, keys=keys, **params)
+    return spec.path().poses(scene)
 
 
 def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: np.ndarray, p: np.ndarray,

@@ -34,7 +34,7 @@ from ...models.depth_frame import DepthFrame
 from .depth_sensor import DepthConfig, depth_frame
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
-from ..camera.sequence import SequenceSpec, trajectory_poses
+from ...sim.camera_path import CameraPath
 
 FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixels)
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
@@ -71,14 +71,14 @@ class DenseSequenceSpec:
 
     def resolved_trajectory(self) -> str:
         """The path's name (the scene's default when none was given)."""
-        return self.camera_spec().resolved_trajectory()
+        return self.camera_path().resolved_trajectory()
 
-    def camera_spec(self) -> SequenceSpec:
-        """The camera track's spec of the same path (its trajectory code places and checks it)."""
+    def camera_path(self) -> CameraPath:
+        """The camera's path over ``max(frames, path_frames)`` frames (``sim.camera_path`` places and
+        checks it); a run takes its first ``frames``."""
         name, params = self.path()
-        return SequenceSpec(scene=self.scene, trajectory=name, trajectory_params=params,
-                            frames=max(self.frames, self.path_frames), seed=self.seed,
-                            width=self.width, height=self.height)
+        return CameraPath(self.scene, name, params, max(self.frames, self.path_frames), self.seed, self.width,
+                          self.height)
 
     def check(self) -> None:
         """Refuse bad settings in one line before anything renders."""
@@ -90,11 +90,11 @@ class DenseSequenceSpec:
             if n // self.depth.downsample < 8:
                 raise UserError(f"depth.downsample {self.depth.downsample} leaves a {side} of "
                                 f"{n // self.depth.downsample} pixels; use a factor of at most {n // 8}")
-        cam = self.camera_spec()
+        cam = self.camera_path()
         check_trajectory_params(cam.resolved_trajectory(), cam.trajectory_params)
 
     def key(self, scene: Scene) -> str:
-        payload = {"spec": asdict(self.camera_spec()), "frames": self.frames, "downsample": self.depth.downsample,
+        payload = {"spec": asdict(self.camera_path()), "frames": self.frames, "downsample": self.depth.downsample,
                    "scene": scene.digest, "format": FORMAT_VERSION, "code": sources_digest(*CODE),
                    "mujoco": mujoco.__version__}
         return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
@@ -129,7 +129,7 @@ CODE = ("sim", "models", "tracks/dense")
 
 def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
     """Render every frame's depth and segmentation (no cache), keeping every ``downsample``-th pixel."""
-    rots, pos = trajectory_poses(spec.camera_spec(), scene)
+    rots, pos = spec.camera_path().poses(scene)
     rots, pos = rots[:spec.frames], pos[:spec.frames]
     s = spec.depth.downsample
     depths, geoms = [], []
