@@ -19,6 +19,7 @@ from pathlib import Path
 from ..associators.registry import associator_class
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
+from ..sim.scene import scene_digest
 from ..validation import check_number
 from ..tracks.base import GuardedMetric, Track, get_track, iter_tracks, track_for_run
 from .config import check_method, defaults, merge, read_yaml, run_spec
@@ -52,6 +53,7 @@ class Job:
         source edited while a sweep runs must not make a job stored under one key be looked up
         under another."""
         code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests()
+        code.append(scene_digest(self.scene))   # the scene's content, not its path: an edited MJCF recomputes
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]

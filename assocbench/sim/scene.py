@@ -10,6 +10,7 @@ resolution.
 from __future__ import annotations
 
 import hashlib
+import xml.etree.ElementTree as ET
 from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
@@ -83,12 +84,8 @@ class Scene:
 
     @property
     def digest(self) -> str:
-        """Hash of the MJCF text and every file next to it (textures): the cache key part."""
-        h = hashlib.sha256(self.path.read_bytes())
-        for extra in sorted(self.path.parent.iterdir()):
-            if extra.suffix.lower() in {".png", ".obj", ".stl"}:
-                h.update(extra.name.encode() + extra.read_bytes())
-        return h.hexdigest()[:16]
+        """The scene's content hash (``scene_digest``): the cache key part."""
+        return scene_digest(self.path)
 
     def free_distance(self, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
         """Distance (k,) from ``origin`` to the first surface along each unit direction (k, 3):
@@ -101,6 +98,45 @@ class Scene:
                            True, -1, geom, dist, normal, k, 1e6)
         inside = np.einsum("ij,ij->i", normal.reshape(k, 3), dirs) > 0
         return np.where(dist < 0, np.inf, np.where(inside & (dist >= 0), 0.0, dist))
+
+
+ASSET_SUFFIXES = {".png", ".obj", ".stl", ".msh", ".xml"}
+
+
+def scene_files(path: Path) -> list[Path]:
+    """Every file the MJCF at ``path`` is made of: itself, each file it ``<include>``s (recursively)
+    and every file any element names with ``file=`` (textures, meshes), found beside the including
+    file or the main one; and, as before, the asset files beside it. What a digest must cover."""
+    seen: dict[Path, None] = {}
+    todo = [path.resolve()]
+    while todo:
+        current = todo.pop()
+        if current in seen or not current.is_file():
+            continue
+        seen[current] = None
+        if current.suffix.lower() != ".xml":
+            continue
+        try:
+            root = ET.parse(current).getroot()
+        except ET.ParseError:
+            continue   # MuJoCo's own parse reports it when the scene loads
+        for element in root.iter():
+            name = element.get("file")
+            if name:
+                todo += [(base / name).resolve() for base in (current.parent, path.parent)]
+    extras = [f.resolve() for f in sorted(path.parent.iterdir()) if f.suffix.lower() in ASSET_SUFFIXES - {".xml"}]
+    return sorted(dict.fromkeys([*seen, *extras]))
+
+
+def scene_digest(scene: str | Path) -> str:
+    """SHA-256 (16 hex digits) of the names and contents of every file of a scene
+    (``scene_files``): editing an included body, a texture or a mesh changes it."""
+    path = resolve_scene_path(scene)
+    h = hashlib.sha256()
+    for f in scene_files(path):
+        h.update(str(f.relative_to(path.parent) if f.is_relative_to(path.parent) else f.name).encode())
+        h.update(f.read_bytes())
+    return h.hexdigest()[:16]
 
 
 def load_scene(scene: str | Path) -> Scene:
