@@ -9,6 +9,7 @@ was and raises a one-line ``UserError`` naming the file, the cause and what to c
 from __future__ import annotations
 
 import errno
+import glob
 import os
 import tempfile
 from contextlib import contextmanager
@@ -92,7 +93,7 @@ def atomic_paths(targets: Sequence[Path], suffix: str = "", role: Role = OUTPUT)
     try:
         for target in targets:
             ensure_dir(target.parent, role)
-            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.", suffix=suffix or target.suffix,
+            fd, tmp = tempfile.mkstemp(prefix=f".{target.name}.{os.getpid()}.", suffix=suffix or target.suffix,
                                        dir=target.parent)
             os.close(fd)
             temps.append(tmp)
@@ -102,6 +103,8 @@ def atomic_paths(targets: Sequence[Path], suffix: str = "", role: Role = OUTPUT)
         for tmp, target in zip(temps, targets):
             os.replace(tmp, target)
             renamed.append(target)
+        for target in targets:
+            remove_orphans(target)
     except OSError as exc:
         target = _culprit(exc, targets)
         error = place_error(exc, target, role, renamed) if target else None
@@ -112,6 +115,30 @@ def atomic_paths(targets: Sequence[Path], suffix: str = "", role: Role = OUTPUT)
         for tmp in temps:
             if os.path.exists(tmp):
                 os.unlink(tmp)
+
+
+def remove_orphans(target: Path) -> None:
+    """Delete the temporary files of ``target`` left by a writer that died before renaming them
+    (kill -9): each names its writer's process id, and only those of processes that are gone go,
+    so a concurrent writer's file in progress is left alone."""
+    prefix = f".{target.name}."
+    for leftover in target.parent.glob(glob.escape(prefix) + "*"):
+        pid = leftover.name[len(prefix):].split(".", 1)[0]
+        if pid.isdigit() and int(pid) != os.getpid() and not _alive(int(pid)):
+            try:
+                leftover.unlink()
+            except OSError:
+                pass   # another writer cleaned it first
+
+
+def _alive(pid: int) -> bool:
+    try:
+        os.kill(pid, 0)
+    except ProcessLookupError:
+        return False
+    except OSError:
+        return True   # exists, owned by someone else
+    return True
 
 
 def _culprit(exc: OSError, targets: list[Path]) -> Path | str | None:

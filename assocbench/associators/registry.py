@@ -56,8 +56,19 @@ def available() -> dict[str, str]:
     """Every associator name usable with ``make_associator``, with its one-line summary."""
     out = {name: cls.summary for name, cls in ALL_BUILTINS.items()}
     for name, value in plugins().items():
-        out.setdefault(name, f"plugin {value}")
+        out.setdefault(name, _plugin_summary(value))
     return out
+
+
+def _plugin_summary(spec: str) -> str:
+    """A plugin's ``summary`` (else its docstring's first line) and where it comes from; a plugin
+    that does not load says why instead."""
+    try:
+        cls = _load_spec(spec)
+    except UserError as exc:
+        return f"(plugin {spec}: {exc})"
+    text = getattr(cls, "summary", "") or " ".join((cls.__doc__ or "").strip().split("\n\n")[0].split())
+    return f"{text} (plugin {spec})" if text else f"plugin {spec}"
 
 
 def associator_class(method: str) -> type[Associator]:

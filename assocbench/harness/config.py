@@ -226,6 +226,7 @@ def run_spec(cfg: dict) -> RunSpec:
     if not isinstance(cfg["loop"], bool):
         raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
     track = track_for_run(cfg["scene"], cfg["method"])
+    check_every_section(cfg, track)
     estimator = typed_section(EstimatorConfig, cfg["estimator"], "estimator")
     seq = track.sequence_spec(cfg, estimator)
     settings = track.run_settings(cfg)
@@ -236,6 +237,28 @@ def run_spec(cfg: dict) -> RunSpec:
         track.check_method(cfg["method"], params, cfg["loop"])
     return RunSpec(seq, typed_section(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
                    params, float(cfg["time_limit_s"]), cfg["loop"], estimator, track.name, settings)
+
+
+def check_every_section(cfg: dict, track: Track) -> None:
+    """Check every track's settings, used by this run or not (a NaN in a section the run ignores
+    is still a mistake), and refuse a setting that cannot apply to the run: another track's
+    section changed from its defaults, or the estimator's settings outside the closed loop."""
+    base = defaults()
+    for other in iter_tracks():
+        for name, cls in other.section_types().items():
+            section = typed_section(cls, cfg[name], name)
+            if callable(getattr(section, "check", None)):
+                section.check()
+    used = set(COMMON) | set(track.config_sections())
+    for name in base:
+        if name not in used and cfg[name] != base[name]:
+            owners = [t.name for t in iter_tracks() if name in t.config_sections()]
+            changed = next(f"{name}.{k}" for k, v in cfg[name].items() if base[name].get(k) != v)
+            raise UserError(f"{changed} is a setting of the {' and '.join(owners)} track, but this run is on the "
+                            f"{track.name} track (scene {cfg['scene']!r}, method {cfg['method']!r}): drop it")
+    if not cfg["loop"] and cfg["estimator"] != base["estimator"]:
+        changed = next(k for k, v in cfg["estimator"].items() if base["estimator"].get(k) != v)
+        raise UserError(f"estimator.{changed} applies to the closed loop only: add --loop (loop: true) or drop it")
 
 
 def camera_only(spec: RunSpec, what: str) -> RunSpec:

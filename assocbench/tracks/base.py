@@ -34,7 +34,7 @@ from __future__ import annotations
 import os
 import sys
 from collections.abc import Callable, Iterator
-from dataclasses import dataclass
+from dataclasses import asdict, dataclass
 from functools import lru_cache
 from importlib import import_module, metadata
 from pathlib import Path
@@ -120,9 +120,15 @@ class Track:
         return False
 
     # --- settings and sequence ------------------------------------------------------------
-    def config_sections(self) -> dict[str, dict]:
-        """This track's settings sections and their defaults (``{"lidar": {...}}``)."""
+    def section_types(self) -> dict[str, type]:
+        """This track's settings sections as dataclasses that check their values when built
+        (``{"lidar": LidarConfig}``); every run checks them, used by its track or not."""
         return {}
+
+    def config_sections(self) -> dict[str, dict]:
+        """This track's settings sections and their defaults (``{"lidar": {...}}``): by default
+        those of ``section_types``; a plugin may give plain mappings instead."""
+        return {name: asdict(cls()) for name, cls in self.section_types().items()}
 
     def sequence_spec(self, cfg: dict, estimator: Any) -> Any:
         """The spec of the run's sequence from the merged, checked config ``cfg``: a picklable

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
 from pathlib import Path
 
 import numpy as np
@@ -36,8 +35,8 @@ class CameraTrack(Track):
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.landmark_sites > 0
 
-    def config_sections(self) -> dict[str, dict]:
-        return {"detector": asdict(DetectorConfig()), "truth": asdict(TruthConfig())}
+    def section_types(self) -> dict[str, type]:
+        return {"detector": DetectorConfig, "truth": TruthConfig}
 
     def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> SequenceSpec:
         """Rendered frames and detected corners (``resolution``, ``msaa``, ``detector``,

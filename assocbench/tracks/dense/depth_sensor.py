@@ -60,10 +60,16 @@ class DepthConfig:
         if self.min_depth >= self.max_depth:
             raise UserError(f"depth.min_depth ({self.min_depth}) must be below depth.max_depth "
                             f"({self.max_depth}): the sensor's working range would be empty")
+        if 0 < self.normal_smooth_px < MIN_SMOOTH_PX:   # a Gaussian this narrow weighs no neighbour: no smoothing
+            raise UserError(f"depth.normal_smooth_px must be 0 (no smoothing) or at least {MIN_SMOOTH_PX} px, "
+                            f"got {self.normal_smooth_px}")
 
     def sigma(self, z: np.ndarray) -> np.ndarray:
         """Axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m) at depth ``z`` (m)."""
         return self.sigma_base + self.sigma_quad * np.square(z)
+
+
+MIN_SMOOTH_PX = 0.1   # below it exp(-1/(2σ²)) < 1e-21: the neighbours' weights vanish (and 1/σ² overflows)
 
 
 def downsample_intrinsics(K: Intrinsics, s: int) -> Intrinsics:

@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
 from pathlib import Path
 
 import pandas as pd
@@ -47,9 +46,8 @@ class DenseTrack(Track):
     def claims_method(self, method: str) -> bool:
         return isinstance(method, str) and is_dense(method)
 
-    def config_sections(self) -> dict[str, dict]:
-        return {"depth": asdict(DepthConfig()), "icp": asdict(IcpConfig()), "fusion": asdict(FusionConfig()),
-                "dense": asdict(DenseConfig())}
+    def section_types(self) -> dict[str, type]:
+        return {"depth": DepthConfig, "icp": IcpConfig, "fusion": FusionConfig, "dense": DenseConfig}
 
     def sequence_spec(self, cfg: dict, estimator) -> DenseSequenceSpec:
         return dense_sequence_spec(cfg)

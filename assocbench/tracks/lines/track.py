@@ -2,7 +2,6 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
 from pathlib import Path
 
 from ...errors import UserError
@@ -33,8 +32,8 @@ class LinesTrack(Track):
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.wall_geoms > 0
 
-    def config_sections(self) -> dict[str, dict]:
-        return {"lidar": asdict(LidarConfig()), "lines": asdict(LineExtractorConfig())}
+    def section_types(self) -> dict[str, type]:
+        return {"lidar": LidarConfig, "lines": LineExtractorConfig}
 
     def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> LineSequenceSpec:
         """Lidar scans along the scene's path and the wall lines extracted from them (``lidar``,

@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
-from dataclasses import asdict
+import importlib.util
 from pathlib import Path
 
 import numpy as np
 
+from ...errors import UserError
 from ...estimators.config import EstimatorConfig
 from ...sim.lidar import LidarConfig
 from ...sim.planar_scene import load_planar_scene
@@ -32,11 +33,15 @@ class PlanarTrack(Track):
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.landmark_geoms > 0
 
-    def config_sections(self) -> dict[str, dict]:
-        return {"lidar": asdict(LidarConfig()), "posts": asdict(PostDetectorConfig())}
+    def section_types(self) -> dict[str, type]:
+        return {"lidar": LidarConfig, "posts": PostDetectorConfig}
 
     def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> PlanarSequenceSpec:
-        """Lidar scans along the scene's path and the posts detected in them (``lidar``, ``posts``)."""
+        """Lidar scans along the scene's path and the posts detected in them (``lidar``, ``posts``).
+        The iSAM2 back end's package is looked for here, before anything compiles or runs."""
+        if estimator.name == "isam2" and cfg["loop"] and importlib.util.find_spec("gtsam") is None:
+            raise UserError("estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]' "
+                            "(from a clone: pip install '.[gtsam]')")
         seq = PlanarSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
                                  trajectory_params=free_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
                                  seed=cfg["seed"], lidar=typed_section(LidarConfig, cfg["lidar"], "lidar"),
