@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from assocbench import Problem, make_associator, validate_association
-from assocbench.associators.registry import available
+from assocbench.associators.registry import is_dense, available
 from assocbench.models.synthetic import lattice_problem, range_bearing_problem
 from problems import random_problem, reference_joint, reference_surprisal
 
-METHODS = sorted(available())
+METHODS = sorted(m for m in available() if not is_dense(m))   # the dense ones: tests/tracks/dense
 
 
 def easy_problem(n: int = 6) -> tuple[Problem, np.ndarray]:
