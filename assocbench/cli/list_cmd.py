@@ -6,7 +6,7 @@ import argparse
 
 from ..associators.registry import available
 from ..sim.scene import shipped_scenes
-from ..tracks.base import first_line, iter_tracks, track_for_scene
+from ..tracks.base import iter_tracks, track_for_method, track_for_scene
 
 NAME = "list"
 HELP = "list methods, scenes, trajectories and tracks"
@@ -19,9 +19,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 def main(args: argparse.Namespace) -> int:
     tracks = list(iter_tracks())
     listed = {name: f"[{t.name}] {line}" for t in tracks for name, line in t.shipped_scenes().items()}
-    own = {m: t.name for t in tracks for m in dense_methods() if t.claims_method(m)}
     sections = {
-        "methods": available() | {m: f"[{own[m]}] {line}" for m, line in dense_methods().items()},
+        "methods": {name: (f"[{own.name}] " if (own := track_for_method(name)) else "") + line
+                    for name, line in available().items()},
         "scenes": {name: listed.get(name, f"[{track_for_scene(path).name}] {path}")
                    for name, path in shipped_scenes().items()},
         "trajectories": _trajectories(tracks),
@@ -47,10 +47,3 @@ def _trajectories(tracks: list) -> dict[str, str]:
             owners.setdefault(name, []).append(t.name)
             lines.setdefault(name, line)
     return {name: f"[{', '.join(owners[name])}] {lines[name]}" for name in lines}
-
-
-def dense_methods() -> dict[str, str]:
-    """The dense track's associators (the method implies the track)."""
-    from ..associators.dense.registry import DENSE_METHODS
-
-    return {name: first_line(cls.__doc__) for name, cls in DENSE_METHODS.items()}

@@ -68,7 +68,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
     """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
     last silently, so a typo'd override would be lost without a word)."""
 
-    def constructfree_mapping(self, node, deep=False):
+    def construct_mapping(self, node, deep=False):
         seen = set()
         for key_node, _ in node.value:
             key = self.construct_object(key_node, deep=deep)
@@ -76,7 +76,7 @@ class _UniqueKeyLoader(yaml.SafeLoader):
                 raise yaml.constructor.ConstructorError(
                     None, None, f"duplicate key {key!r}: give each key once", key_node.start_mark)
             seen.add(key)
-        return super().constructfree_mapping(node, deep)
+        return super().construct_mapping(node, deep)
 
 
 # YAML 1.1 (PyYAML) reads 5e-1 or 1e-3 as strings: it wants a dot and a signed exponent. Floats

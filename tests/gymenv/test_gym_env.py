@@ -285,7 +285,7 @@ def test_reset_refuses_options():
 
 
 CLOSE_AFTER_FAILED_RESET = """
-import gymnasium as gym, numpy as np, assocbench
+import gymnasium as gym, numpy as np, assocbench.gymenv
 
 def vec():
     return gym.make_vec("assocbench/Room-v0", num_envs=2, vectorization_mode="async", frames=2,

@@ -15,8 +15,13 @@ from assocbench.harness.loop import loop_records
 from assocbench.tracks.lines.metrics import extraction_scores
 from assocbench.tracks.lines.extract import LineExtractorConfig
 from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
-from assocbench.tracks.camera.sequence import load_sequence
+from assocbench.tracks.base import track_of_spec
 from assocbench.tracks.lines.plots import segment_status
+
+
+def load_sequence(spec):
+    """The sequence of a spec of any track (the registry knows whose it is)."""
+    return track_of_spec(spec).load_sequence(spec)
 
 
 def _summary(tmp_path, *args) -> pd.Series:

@@ -19,7 +19,13 @@ from scipy.stats import chi2
 
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records
-from assocbench.tracks.camera.sequence import load_sequence
+from assocbench.tracks.base import track_of_spec
+
+
+def load_sequence(spec):
+    """The sequence of a spec of any track (the registry knows whose it is)."""
+    return track_of_spec(spec).load_sequence(spec)
+
 
 pytest.importorskip("gtsam")
 

@@ -14,7 +14,13 @@ from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records, new_landmark_features
 from assocbench.harness.suite import load_suite, resolve_suite
-from assocbench.tracks.camera.sequence import load_sequence
+from assocbench.tracks.base import track_of_spec
+
+
+def load_sequence(spec):
+    """The sequence of a spec of any track (the registry knows whose it is)."""
+    return track_of_spec(spec).load_sequence(spec)
+
 
 SLAM = ["estimator.mode=slam", "estimator.target_paired=1000", "estimator.max_new_per_frame=20",
         "estimator.max_landmarks=500", "estimator.new_landmark_gate=4"]
