@@ -1,0 +1,101 @@
+"""The README's shell commands parse as written, and every relative link of the README and the
+docs pages points at a file that exists."""
+
+from __future__ import annotations
+
+import re
+import shlex
+from pathlib import Path
+
+import pytest
+
+from assocbench.cli.main import build_parser
+
+ROOT = Path(__file__).resolve().parents[2]
+PAGES = [ROOT / "README.md", *sorted((ROOT / "docs").rglob("*.md"))]
+FENCE = re.compile(r"^```(\w*)\n(.*?)^```", re.M | re.S)
+
+
+def shell_commands(text: str) -> list[str]:
+    """The commands of the ``bash`` blocks: continuation lines joined, comments dropped, split at
+    ``&&``, ``;`` and ``|``."""
+    out = []
+    for lang, body in FENCE.findall(text):
+        if lang not in ("bash", "sh"):
+            continue
+        for line in body.replace("\\\n", " ").splitlines():
+            words = shlex.split(line, comments=True)
+            command: list[str] = []
+            for word in [*words, "&&"]:
+                if word in ("&&", ";", "|", "&"):
+                    if command:
+                        out.append(command)
+                    command = []
+                else:
+                    command.append(word)
+    return out
+
+
+def assocbench_args(command: list[str]) -> list[str] | None:
+    """The arguments of an ``assocbench`` command (after any ``VAR=value``), else None."""
+    words = [w for w in command if not re.match(r"^[A-Z_]+=", w)] if command else []
+    return words[1:] if words and Path(words[0]).name == "assocbench" else None
+
+
+README_COMMANDS = [args for c in shell_commands((ROOT / "README.md").read_text()) if (args := assocbench_args(c)) is not None]
+
+
+def test_readme_has_the_commands_it_promises():
+    assert ["run", "--method", "jcbb", "--scene", "park"] in README_COMMANDS
+    assert ["run", "--method", "projective", "--scene", "crates", "--frames", "20"] in README_COMMANDS
+    assert len(README_COMMANDS) >= 10
+    assert len((ROOT / "README.md").read_text().splitlines()) <= 200
+
+
+@pytest.mark.parametrize("args", README_COMMANDS, ids=[" ".join(a) for a in README_COMMANDS])
+def test_readme_assocbench_command_parses(args):
+    parser = build_parser()
+    parsed, extra = parser.parse_known_args(args)   # argparse exits (SystemExit) on a bad command
+    assert extra == [] and parsed.command == args[0]
+
+
+def test_docs_assocbench_commands_parse():
+    bad = []
+    for page in PAGES[1:]:
+        for command in shell_commands(page.read_text()):
+            args = assocbench_args(command)
+            if args is None:
+                continue
+            try:
+                _, extra = build_parser().parse_known_args(args)
+            except SystemExit:
+                extra = ["(refused)"]
+            if extra:
+                bad.append(f"{page.relative_to(ROOT)}: assocbench {' '.join(args)} -> {extra}")
+    assert bad == []
+
+
+def relative_links(text: str) -> list[str]:
+    """Link and image targets outside code blocks and code spans, without web addresses or
+    anchors of the same page."""
+    text = re.sub(r"`[^`\n]*`", "", FENCE.sub("", text))
+    targets = re.findall(r"!?\[[^\]]*\]\(([^)\s]+)\)", text)
+    return [t.split("#")[0] for t in targets if not re.match(r"^(\w+:|#)", t)]
+
+
+def link_target(page: Path, target: str) -> Path:
+    """The file a link names. The docs hook publishes ``results/`` at the site's root, so a docs
+    page's ``results/...`` (seen from ``docs/``) is the repository's ``results/...``."""
+    path = (page.parent / target).resolve()
+    published = ROOT / "docs" / "results"
+    return ROOT / "results" / path.relative_to(published) if path.is_relative_to(published) else path
+
+
+@pytest.mark.parametrize("page", PAGES, ids=[str(p.relative_to(ROOT)) for p in PAGES])
+def test_relative_links_point_at_files_that_exist(page):
+    missing = [t for t in relative_links(page.read_text()) if not link_target(page, t).exists()]
+    assert missing == []
+
+
+def test_the_link_check_sees_links():
+    assert relative_links("[a](docs/x.md) `[b](no.md)` [c](https://e.org) [d](#here) ![e](p.png#x)") == ["docs/x.md", "p.png"]
