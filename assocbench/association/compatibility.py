@@ -27,9 +27,13 @@ from .problem import Problem, pairs_of
 LOG_2PI = float(np.log(2 * np.pi))
 
 
+@lru_cache(maxsize=1024)
 def joint_gates(d: int, n: int, confidence: float) -> np.ndarray:
-    """``gate[k] = χ²_{dk}(c)`` for hypotheses of k = 0..n pairings (``gate[0] = 0``)."""
-    return np.array([chi2_threshold(d * k, confidence) for k in range(n + 1)])
+    """``gate[k] = χ²_{dk}(c)`` for hypotheses of k = 0..n pairings (``gate[0] = 0``); read-only,
+    one array per (d, n, c) shared by every call."""
+    gates = np.array([chi2_threshold(d * k, confidence) for k in range(n + 1)])
+    gates.flags.writeable = False
+    return gates
 
 
 @lru_cache(maxsize=4096)

@@ -6,17 +6,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import individually_compatible, joint_gates, joint_nis, wrap_mask
+from ..association.compatibility import individually_compatible, joint_gates, wrap_mask
 from ..association.problem import Problem
 from ..validation import in_range
+from .anytime_search import anytime_jcbb, default_budget, default_budgets
 from .base import CONFIDENCE, Associator
-from .jcbb_dive import classic_dive, greedy_dive
-from .jcbb_search import jcbb_search
+from .rjc import RJC
 
-REORDERED_DIVES = 3   # each ordered by the previous dive's answer; the class docstring has the measurement
-BUDGET_WORK, START_NODES, MAX_BUDGET = 320_000, 12, 20_000   # default_budget
-QUICK_NODES = 200     # a first exact search from the classic dive proves most problems up to n ≈ 40 alone;
-QUICK_MAX_CANDIDATES = 100   # beyond, it proves none (0 of 20 at n = 160) and costs ~5 ms there
+__all__ = ["JCBB", "anytime_jcbb", "default_budget"]
 
 
 @dataclass
@@ -108,22 +105,24 @@ class JCBB(Associator):
         ic = individually_compatible(problem, self.confidence)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
                 joint_gates(problem.d, problem.n, self.confidence))
-        budget = default_budget(int(ic.any(axis=0).sum())) if self.max_nodes is None else int(self.max_nodes)
+        if self.max_nodes is None:
+            later, quick = default_budgets(int(ic.any(axis=0).sum()))
+            budget = later + quick
+        else:
+            budget, quick = int(self.max_nodes), None
         feats, lms, self.info = anytime_jcbb(args, budget, bool(self.prefix_test),
-                                             restarts=lambda budget: self._restarts(problem, budget))
+                                             restarts=lambda budget: self._restarts(problem, budget), quick_nodes=quick)
         out[lms] = feats
         return out
 
     def warm_up(self, problem: Problem) -> None:
         """``associate``, then every step of the anytime search, which a tiny problem skips
         (its quick search proves it), and the restarts' own kernels."""
-        from .rjc import RJC
-
         self.associate(problem)
         ic = individually_compatible(problem, self.confidence)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
                 joint_gates(problem.d, problem.n, self.confidence))
-        anytime_jcbb(args, 10_000, restarts=lambda budget: self._restarts(problem, budget), quick=False)
+        anytime_jcbb(args, 10_000, restarts=lambda budget: self._restarts(problem, budget), quick_nodes=0)
         RJC(confidence=self.confidence).warm_up(problem)
 
     def _restarts(self, problem: Problem, budget: int) -> tuple[np.ndarray, np.ndarray, float, int] | None:
@@ -131,91 +130,13 @@ class JCBB(Associator):
         of 4 features, then a jointly compatible completion), seeded, with as many iterations as
         ``budget`` has room for at one node per feature a completion visits: (features,
         landmarks, NIS, nodes: its search nodes plus those), or None when not even one fits."""
-        from .rjc import RJC
-
         if budget < problem.m:
             return None
-        rjc = RJC(confidence=self.confidence, max_iterations=budget // problem.m)
+        rjc = self.__dict__.get("_rjc")
+        if rjc is None or rjc.confidence != self.confidence:
+            rjc = self.__dict__["_rjc"] = RJC(confidence=self.confidence)   # built (and checked) once: ~1 ms
+        rjc.max_iterations = budget // problem.m                             # an int >= 1, as its field demands
         answer = rjc.associate(problem)
         lms = np.flatnonzero(answer >= 0)
         nodes = rjc.info["nodes"] + rjc.info["iterations"] * problem.m
-        return answer[lms], lms, joint_nis(problem, answer), nodes
-
-
-def default_budget(candidates: int) -> int:
-    """Default node budget for ``candidates`` landmarks with an individually compatible feature:
-    ``BUDGET_WORK / candidates``, but room for every start of step 2 at least
-    (``START_NODES × candidates``: five dives and about seven RANSAC iterations at one node
-    per landmark or feature), and at most ``MAX_BUDGET``. A node's cost grows about linearly
-    with the candidates (forward checking, the factor's columns), so this keeps the budget's
-    time roughly level: about 2100 nodes at n = 160 (medians 31-48 ms over runs of
-    ``benchmarks/jcbb_anytime.py``, within the 50 ms target; 400 000 / n gave 51 ms), 8000 at
-    n = 40, 3600 at n = 320 (where fewer left the restarts too few iterations: 2 problems fell
-    short of SNN's or RJC's answer). On the camera leaderboard it proves 98 % of the
-    corridor/hard frames, where a fixed 2500 proved 6 %."""
-    return int(min(MAX_BUDGET, max(START_NODES * candidates, BUDGET_WORK // max(candidates, 1))))
-
-
-def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
-                 restarts=None, quick: bool = True) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
-    (features, landmarks of the answer, ``info``). ``restarts(budget)``, when given, returns
-    one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)`` to start from,
-    found within about ``budget`` nodes, or None. ``quick=False`` skips the quick search (so
-    every step runs: ``JCBB.warm_up``). RJC calls this on its samples' sub-problems (without
-    restarts)."""
-    candidates = np.flatnonzero(args[0].any(axis=0))
-    feats, lms, nis, surest = classic_dive(*args, candidates)
-    best = _Incumbent(feats, lms, nis, len(candidates))
-    quick_nodes = QUICK_NODES if quick and len(candidates) <= QUICK_MAX_CANDIDATES else 0
-    timed_out = best.search(args, min(quick_nodes, max_nodes - best.nodes), prefix_test)
-    if timed_out:
-        _more_starts(args, candidates, surest, best, max_nodes, restarts)
-        timed_out = best.search(args, max_nodes - best.nodes, prefix_test)
-    info = {"timed_out": timed_out, "proven_optimal": not (timed_out or prefix_test), "nodes": best.nodes,
-            "dive_pairings": best.history[0][1], "history": best.history}
-    return best.feats, best.lms, info
-
-
-def _better(k: int, nis: float, best_k: int, best_nis: float) -> bool:
-    return k > best_k or (k == best_k and nis < best_nis)
-
-
-class _Incumbent:
-    """The best hypothesis so far (features, landmarks, NIS), the nodes spent and the history of
-    improvements ``(nodes, pairings, NIS)``."""
-
-    def __init__(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
-        self.feats, self.lms, self.nis, self.nodes = feats, lms, float(nis), nodes
-        self.history = [(nodes, len(lms), float(nis))]
-
-    def offer(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
-        """Count ``nodes`` spent finding a hypothesis; keep it if it is better."""
-        self.nodes += nodes
-        if _better(len(lms), nis, len(self.lms), self.nis):
-            self.feats, self.lms, self.nis = feats, lms, float(nis)
-            self.history.append((self.nodes, len(lms), float(nis)))
-
-    def search(self, args: tuple, budget: int, prefix_test: bool) -> bool:
-        """Branch and bound from the incumbent with ``budget`` nodes; True if it timed out."""
-        feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(*args, budget, prefix_test, self.feats,
-                                                                       self.lms, self.nis)
-        self.history += [(self.nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
-        self.feats, self.lms, self.nis = feats, lms, self.history[-1][2]
-        self.nodes += min(int(used), max(budget, 0))
-        return bool(timed_out)
-
-
-def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: _Incumbent, max_nodes: int,
-                 restarts) -> None:
-    """Step 2: the greedy dive, the reordered dives and the restarts, each while the budget lasts."""
-    if best.nodes + len(candidates) <= max_nodes:
-        best.offer(*greedy_dive(*args, candidates), len(candidates))
-    for _ in range(REORDERED_DIVES):
-        if best.nodes + len(candidates) > max_nodes:
-            break
-        feats, lms, nis, surest = classic_dive(*args, candidates[np.argsort(surest[candidates], kind="stable")])
-        best.offer(feats, lms, nis, len(candidates))
-    found = restarts(max_nodes - best.nodes) if restarts is not None else None
-    if found is not None:
-        best.offer(*found)
+        return answer[lms], lms, rjc.info["nis"], nodes
