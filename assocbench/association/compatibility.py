@@ -97,13 +97,18 @@ def individually_compatible(problem: Problem, confidence: float = 0.99,
 
     Without ``nis``, from ``gated_pairs``: only the pairs the exact prefilter lets through are
     whitened, and the mask is that of ``pairwise_nis`` bit for bit."""
-    gate = chi2_threshold(problem.d, confidence)
     if nis is not None:
-        return nis <= gate
-    mask = np.zeros((problem.m, problem.n), np.bool_)
-    feats, lms, _, _ = pairs_within(problem, gate)
-    mask[feats, lms] = True
-    return mask
+        return nis <= chi2_threshold(problem.d, confidence)
+    return gate_mask(problem, confidence)[0]
+
+
+def gate_mask(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, np.ndarray]:
+    """``individually_compatible``'s mask (m, n) and the landmarks with at least one pair inside
+    the gate (ascending), from one compiled pass (``gated_pairs``)."""
+    if problem.m == 0 or problem.n == 0:
+        return np.zeros((problem.m, problem.n), np.bool_), np.zeros(0, np.int64)
+    return _gate_mask(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
+                      chi2_threshold(problem.d, confidence))
 
 
 def gated_pairs(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -358,6 +363,20 @@ def _sweep_gate(P, z, zhat, R, wrap, limit):
                 feats[q], lms[q], nis[q], logdet[q] = i, j, v, ld
                 q += 1
     return feats[:q], lms[:q], nis[:q], logdet[:q]
+
+
+@njit(cache=True)
+def _gate_mask(P, z, zhat, R, wrap, limit):
+    feats, lms, _, _ = _sweep_gate(P, z, zhat, R, wrap, limit)
+    mask = np.zeros((z.shape[0], zhat.shape[0]), np.bool_)
+    candidates = np.empty(lms.shape[0], np.int64)
+    count = 0
+    for t in range(lms.shape[0]):           # lms ascending
+        mask[feats[t], lms[t]] = True
+        if t == 0 or lms[t] != lms[t - 1]:
+            candidates[count] = lms[t]
+            count += 1
+    return mask, candidates[:count]
 
 
 @njit(cache=True)

@@ -52,15 +52,19 @@ def quick_budget(candidates: int, room: int) -> int:
     return int(min(max(QUICK_NODES, QUICK_PER_CANDIDATE * candidates), room // QUICK_SHARE))
 
 
-def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False,
-                 restarts=None, quick_nodes: int | None = None) -> tuple[np.ndarray, np.ndarray, dict]:
+def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False, restarts=None,
+                 quick_nodes: int | None = None, candidates: np.ndarray | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
     (features, landmarks of the answer, ``info``). ``restarts(budget)``, when given, returns
     one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)`` to start from,
     found within about ``budget`` nodes, or None. ``quick_nodes``: the quick search's nodes,
     charged to ``max_nodes`` (None: ``quick_budget(candidates, max_nodes)``; 0 skips it, so every
-    step runs: ``JCBB.warm_up``). RJC calls this on its samples' sub-problems (without restarts)."""
-    candidates = np.flatnonzero(args[0].any(axis=0))
+    step runs: ``JCBB.warm_up``). ``candidates``: the landmarks with an individually compatible
+    feature, ascending, when the caller has them (``gate_mask``). RJC calls this on its samples'
+    sub-problems (without restarts)."""
+    if candidates is None:
+        candidates = np.flatnonzero(args[0].any(axis=0))
     feats, lms, nis, surest = classic_dive(*args, candidates)
     best = _Incumbent(feats, lms, nis, len(candidates))
     if quick_nodes is None:

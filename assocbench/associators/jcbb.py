@@ -6,7 +6,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import individually_compatible, joint_gates, wrap_mask
+from ..association.compatibility import gate_mask, individually_compatible, joint_gates, wrap_mask
 from ..association.problem import Problem
 from ..validation import in_range
 from .anytime_search import anytime_jcbb, default_budget, default_budgets
@@ -102,16 +102,17 @@ class JCBB(Associator):
         self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
         if problem.m == 0 or problem.n == 0:
             return out
-        ic = individually_compatible(problem, self.confidence)
+        ic, candidates = gate_mask(problem, self.confidence)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
                 joint_gates(problem.d, problem.n, self.confidence))
         if self.max_nodes is None:
-            later, quick = default_budgets(int(ic.any(axis=0).sum()))
+            later, quick = default_budgets(len(candidates))
             budget = later + quick
         else:
             budget, quick = int(self.max_nodes), None
         feats, lms, self.info = anytime_jcbb(args, budget, bool(self.prefix_test),
-                                             restarts=lambda budget: self._restarts(problem, budget), quick_nodes=quick)
+                                             restarts=lambda budget: self._restarts(problem, budget),
+                                             quick_nodes=quick, candidates=candidates)
         out[lms] = feats
         return out
 
