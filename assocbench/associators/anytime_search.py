@@ -65,12 +65,15 @@ def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False, restart
     sub-problems (without restarts)."""
     if candidates is None:
         candidates = np.flatnonzero(args[0].any(axis=0))
-    feats, lms, nis, surest = classic_dive(*args, candidates)
-    best = _Incumbent(feats, lms, nis, len(candidates))
     if quick_nodes is None:
         quick_nodes = quick_budget(len(candidates), max_nodes)
+    # unranked when a quick search follows: a problem it proves never needs the ranking
+    feats, lms, nis, surest = classic_dive(*args, candidates, quick_nodes == 0)
+    best = _Incumbent(feats, lms, nis, len(candidates))
     timed_out = best.search(args, min(quick_nodes, max_nodes - best.nodes), prefix_test)
     if timed_out:
+        if quick_nodes:         # the ranking of the first dive, again (the same hypothesis): uncounted
+            surest = classic_dive(*args, candidates)[3]
         _more_starts(args, candidates, surest, best, max_nodes, restarts)
         timed_out = best.search(args, max_nodes - best.nodes, prefix_test)
     info = {"timed_out": timed_out, "proven_optimal": not (timed_out or prefix_test), "nodes": best.nodes,

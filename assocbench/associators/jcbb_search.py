@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import advance_moments, append_rows, whitened_pair
+from ..association.compatibility import advance_moments, append_rows, whitened_nis
 
 
 @njit(cache=True)
@@ -143,7 +143,7 @@ def _forward_check(in_play, free, adj_start, adj_feat, P, z, zhat, R, wrap, C, G
             i = adj_feat[e]
             if free[i]:
                 lms[q], feats[q] = j, i
-                dnis[q] = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+                dnis[q] = whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)
                 q += 1
     return q
 
@@ -230,7 +230,7 @@ def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G,
     d = z.shape[1]
     kd = k * d
     S, y, L, w2 = pair_work
-    dn = whitened_pair(P, z, zhat, R, wrap, i, j, C[k], G[k], S, y, L, w2)[0]
+    dn = whitened_nis(P, z, zhat, R, wrap, i, j, C[k], G[k], S, y, L, w2)
     cols = lvl_cols[level, :lvl_ncols[level]]
     append_rows(Mt, w, kd, P, j, L, w2, cols)
     advance_moments(Mt, kd, w2, cols, C[k], G[k], C[k + 1], G[k + 1])
