@@ -7,14 +7,15 @@ the best of 5 constructions; one core.
 
 Usage: python benchmarks/problem_construction.py [--problems 10] [--sizes 10 20 40 80 160 320]
 """
+# ruff: noqa: I001  (_util goes first: it sets one BLAS thread before numpy loads)
 
 from __future__ import annotations
 
 import argparse
 
-from _util import print_table, summary_ms, time_call  # first: it sets one BLAS thread before numpy loads
+from _util import print_table, summary_ms, time_call
 
-import numpy as np  # noqa: E402
+import numpy as np
 
 from assocbench import Problem, make_associator
 from assocbench.association import problem as problem_module
@@ -64,7 +65,7 @@ def main() -> None:
             eigen.append(e)
             chol.append(c)
             mnn.associate(p)
-            assoc.append(time_call(lambda: mnn.associate(p), 5))
+            assoc.append(time_call(lambda p=p: mnn.associate(p), 5))
         e, c, a = (summary_ms(t)[0] for t in (eigen, chol, assoc))
         rows.append([n, e, c, e / c, a, c / a])
     print(f"Problem construction, median ms over {args.problems} range-bearing problems (best of 5 each)")
