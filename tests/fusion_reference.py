@@ -1,4 +1,4 @@
-"""The same point-based fusion as ``estimators.point_fusion.fuse`` in plain vectorised numpy (the way
+"""The same point-based fusion as ``tracks.dense.fusion.fuse`` in plain vectorised numpy (the way
 the homework's skeleton writes it: masks, fancy indexing, ``np.concatenate``): the tests check the
 compiled kernels against it and ``benchmarks/fusion_rate.py`` times both."""
 

@@ -1,7 +1,7 @@
 """A synthetic lines world for the lines track's estimator tests (no MuJoCo): an 8 × 6 m room
 centred on the origin with a 0.8 × 0.6 m pillar, a robot on an elliptic loop around the pillar,
 and per-frame "extracted" lines = the true prediction of each visible map line plus noise drawn
-from the R the extractor reports. Its ``LineSeq`` has the fields of ``sim.line_sequence.LineSequence``
+from the R the extractor reports. Its ``LineSeq`` has the fields of ``tracks.lines.sequence.LineSequence``
 that the belief, the estimator registry and the loop sensor read.
 
 Map lines (α_w, r_w), r_w ≥ 0 about the world origin (the room is centred on it, so no line
@@ -63,7 +63,7 @@ def visible_lines(pose: np.ndarray, segments: np.ndarray, segment_line: np.ndarr
 
 @dataclass
 class LineSeq(PosesInPlane):
-    """The fields of a ``LineSequence`` (``sim.line_sequence``) the lines track's belief reads, plus
+    """The fields of a ``LineSequence`` (``tracks.lines.sequence``) the lines track's belief reads, plus
     ``motions`` (odometry from k − 1 to k, ``motions[0]`` unused) for tests that drive a filter."""
 
     poses: np.ndarray

@@ -70,6 +70,27 @@ def greedy_one_to_one(cost: np.ndarray, allowed: np.ndarray) -> np.ndarray:
     return _mutual_best_rounds(c, m, n)
 
 
+def greedy_pairs(feats: np.ndarray, lms: np.ndarray, cost: np.ndarray, m: int, n: int) -> np.ndarray:
+    """``greedy_one_to_one`` on a sparse list of allowed pairs (feature ``feats[t]``, landmark
+    ``lms[t]``, ``cost[t]``), listed by landmark then feature: the pairs cheapest first (a stable
+    sort, so equal costs go in list order), each taken when its feature and landmark are both
+    free. The same matching as the rounds of ``greedy_one_to_one`` where costs differ, at
+    O(q log q) for q pairs instead of O(m·n) a round. Returns (n,) features, -1 for none."""
+    return _sorted_greedy(feats, lms, cost, m, n)
+
+
+@njit(cache=True)
+def _sorted_greedy(feats, lms, cost, m, n):
+    out = np.full(n, NO_MATCH, np.int64)
+    taken = np.zeros(m, np.bool_)
+    for t in np.argsort(cost, kind="mergesort"):
+        i, j = feats[t], lms[t]
+        if out[j] < 0 and not taken[i]:
+            out[j] = i
+            taken[i] = True
+    return out
+
+
 @njit(cache=True)
 def _mutual_best_rounds(c, m, n):
     out = np.full(n, NO_MATCH, np.int64)

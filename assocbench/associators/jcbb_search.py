@@ -16,7 +16,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import advance_moments, append_rows, whitened_pair
+from ..association.compatibility import advance_moments, append_rows, whitened_nis
 
 
 @njit(cache=True)
@@ -143,7 +143,7 @@ def _forward_check(in_play, free, adj_start, adj_feat, P, z, zhat, R, wrap, C, G
             i = adj_feat[e]
             if free[i]:
                 lms[q], feats[q] = j, i
-                dnis[q] = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+                dnis[q] = whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)
                 q += 1
     return q
 
@@ -230,11 +230,23 @@ def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G,
     d = z.shape[1]
     kd = k * d
     S, y, L, w2 = pair_work
-    dn = whitened_pair(P, z, zhat, R, wrap, i, j, C[k], G[k], S, y, L, w2)[0]
+    dn = whitened_nis(P, z, zhat, R, wrap, i, j, C[k], G[k], S, y, L, w2)
     cols = lvl_cols[level, :lvl_ncols[level]]
     append_rows(Mt, w, kd, P, j, L, w2, cols)
     advance_moments(Mt, kd, w2, cols, C[k], G[k], C[k + 1], G[k + 1])
     return dn
+
+
+@njit(cache=True)
+def _is_matching(ic, adj_start):
+    """Whether no landmark and no feature has two individually compatible partners."""
+    for j in range(ic.shape[1]):
+        if adj_start[j + 1] - adj_start[j] > 1:
+            return False
+    for i in range(ic.shape[0]):
+        if np.sum(ic[i]) > 1:
+            return False
+    return True
 
 
 @njit(cache=True)
@@ -253,6 +265,11 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
     adj_feat = np.empty(adj_start[n], np.int64)
     for j in range(n):
         adj_feat[adj_start[j]:adj_start[j + 1]] = np.flatnonzero(ic[:, j])
+    if max_nodes >= 1 and init_i.shape[0] == adj_start[n] and _is_matching(ic, adj_start):
+        # the incumbent holds every individually compatible pairing and none shares a landmark or
+        # a feature: it is the only hypothesis of its size and none is larger, so the root proves it
+        return (init_i.copy(), init_j.copy(), 1, False, np.zeros(1, np.int64), np.full(1, init_i.shape[0]),
+                np.full(1, init_nis))
     Mt = np.zeros((n * d, n * d))                  # L⁻¹ P[J, :], transposed
     w = np.zeros(n * d)
     C = np.zeros((n + 1, n, d))                    # conditional moments at each hypothesis size
@@ -275,6 +292,8 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
     lvl_pushed = np.zeros(levels, np.bool_)
     lvl_cols = np.zeros((levels, n), np.int64)     # landmarks still in play below each level
     lvl_ncols = np.zeros(levels, np.int64)
+    lvl_bound = np.zeros(levels, np.int64)         # each open node's bound and floor (_bound)
+    lvl_floor = np.zeros(levels)
     best_k, best_nis = init_i.shape[0], init_nis
     best_i = np.full(n, -1, np.int64)
     best_j = np.full(n, -1, np.int64)
@@ -324,6 +343,7 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
                 lvl_ncand[level] = nc
                 lvl_njc[level] = n_jc                        # children that stay jointly compatible
                 lvl_ncols[level] = ncols
+                lvl_bound[level], lvl_floor[level] = bound, floor
                 lvl_j[level] = jstar
                 lvl_next[level] = 0
                 lvl_done[level] = False
@@ -343,10 +363,15 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
         lvl_next[level] += 1
         n_jc = lvl_njc[level]
         last = n_jc if prefix_test else lvl_ncand[level]
-        if slot > last:
+        reach = k + lvl_bound[level]
+        if slot > last or reach < best_k or (reach == best_k and lvl_floor[level] >= best_nis):
+            # the node's own bound, against the incumbent its earlier children may have improved:
+            # every completion below has at most `reach` pairings and, with that many, NIS >= floor
             lvl_done[level] = True
             level -= 1
             continue
+        if slot == n_jc and k + lvl_ncols[level] < best_k:
+            continue        # "unassociated": too few landmarks left in play to reach the incumbent
         if slot != n_jc:
             a = slot if slot < n_jc else slot - 1
             i, j = lvl_cand[level, a], lvl_j[level]

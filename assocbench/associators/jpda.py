@@ -21,7 +21,7 @@ from dataclasses import dataclass, field, replace
 
 import numpy as np
 
-from ..association.compatibility import individually_compatible, log_gaussian, pairwise_nis
+from ..association.compatibility import gated_pairs, log_gaussian
 from ..association.problem import Problem
 from ..validation import in_range
 from .base import CONFIDENCE, Associator, greedy_one_to_one
@@ -92,12 +92,16 @@ class JPDA(Associator):
 
     def pair_log_weights(self, problem: Problem) -> tuple[np.ndarray, np.ndarray]:
         """(gated, logr), both (m, n): the gate mask and ``log(P_D N_ij / (λ (1 - P_D P_G)))``,
-        the log-weight a pairing adds to an event relative to leaving its landmark undetected."""
-        nis, logdet = pairwise_nis(problem)
-        gated = individually_compatible(problem, self.confidence, nis)
+        the log-weight a pairing adds to an event relative to leaving its landmark undetected
+        (-inf outside the gate: never read)."""
+        feats, lms, nis, logdet = gated_pairs(problem, self.confidence)
         density = 1.0 / problem.volume if self.clutter_density is None else self.clutter_density
         log_ratio = np.log(self.p_detect) - np.log(density) - np.log1p(-self.p_detect * self.confidence)
-        return gated, log_gaussian(nis, logdet, problem.d) + log_ratio
+        gated = np.zeros((problem.m, problem.n), np.bool_)
+        logr = np.full((problem.m, problem.n), -np.inf)
+        gated[feats, lms] = True
+        logr[feats, lms] = log_gaussian(nis, logdet, problem.d) + log_ratio
+        return gated, logr
 
     def marginals(self, problem: Problem) -> np.ndarray:
         """``β`` (n, m + 1), last column ``β_j∅``; sets ``self.info`` (see the class docstring)."""

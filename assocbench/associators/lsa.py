@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 import numpy as np
 from scipy.optimize import linear_sum_assignment
 
-from ..association.compatibility import individually_compatible, log_gaussian, pairwise_nis
+from ..association.compatibility import gated_pairs, log_gaussian
 from ..association.problem import NO_MATCH, Problem
 from .base import CONFIDENCE, Associator
 
@@ -33,10 +33,9 @@ class LSA(Associator):
         m, n = problem.m, problem.n
         if m == 0 or n == 0:
             return self.empty(problem)
-        nis, logdet = pairwise_nis(problem)
-        gated = individually_compatible(problem, self.confidence, nis)
+        feats, lms, nis, logdet = gated_pairs(problem, self.confidence)
         cost = np.full((n, m + n), FORBIDDEN)
-        cost[:, :m] = np.where(gated, -log_gaussian(nis, logdet, problem.d), FORBIDDEN).T
+        cost[lms, feats] = -log_gaussian(nis, logdet, problem.d)
         dummy = np.log(problem.volume) if self.threshold is None else self.threshold
         cost[np.arange(n), m + np.arange(n)] = dummy
         rows, cols = linear_sum_assignment(cost)

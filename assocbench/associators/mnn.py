@@ -6,14 +6,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import individually_compatible, pairwise_nis
+from ..association.compatibility import gated_pairs
 from ..association.problem import Problem
-from .base import CONFIDENCE, Associator, greedy_one_to_one
+from .base import CONFIDENCE, Associator, greedy_pairs
 
 
 @dataclass
 class MNN(Associator):
-    """Pair by smallest individual NIS ``y_ijᵀ (P_jj + R_i)⁻¹ y_ij`` among pairs inside the gate.
+    """Pair by smallest individual NIS ``y_ijᵀ (P_jj + R_i)⁻¹ y_ij`` among pairs inside the gate
+    (``gated_pairs``: only the pairs the exact prefilter lets through are whitened), greedily.
 
     confidence: gate ``χ²_d(confidence)`` on the individual NIS.
     """
@@ -25,5 +26,5 @@ class MNN(Associator):
     def associate(self, problem: Problem) -> np.ndarray:
         if problem.m == 0 or problem.n == 0:
             return self.empty(problem)
-        nis, _ = pairwise_nis(problem)
-        return greedy_one_to_one(nis, individually_compatible(problem, self.confidence, nis))
+        feats, lms, nis, _ = gated_pairs(problem, self.confidence)
+        return greedy_pairs(feats, lms, nis, problem.m, problem.n)

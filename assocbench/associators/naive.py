@@ -7,7 +7,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import pairwise_nis
+from ..association.compatibility import pairs_within
 from ..association.problem import Problem
 from ..validation import in_range
 from .base import Associator
@@ -36,9 +36,11 @@ class Naive(Associator):
         out = self.empty(problem)
         if problem.m == 0 or problem.n == 0:
             return out
-        nis, _ = pairwise_nis(problem)
-        free = np.ones(problem.n, dtype=bool)
         limit = self.threshold ** 2
+        feats, lms, within, _ = pairs_within(problem, limit)   # only these can be paired
+        nis = np.full((problem.m, problem.n), np.inf)
+        nis[feats, lms] = within
+        free = np.ones(problem.n, dtype=bool)
         for i in range(problem.m):
             candidates = np.where(free & (nis[i] < limit), nis[i], np.inf)
             j = int(np.argmin(candidates))

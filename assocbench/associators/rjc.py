@@ -35,7 +35,7 @@ from ..association.compatibility import individually_compatible, joint_gates, wr
 from ..association.problem import Problem
 from ..validation import in_range
 from .base import CONFIDENCE, Associator
-from .jcbb import anytime_jcbb
+from .anytime_search import anytime_jcbb
 from .rjc_kernels import adjacency, complete, make_work
 
 
@@ -61,7 +61,7 @@ class RJC(Associator):
 
     1. draws ``b = min(sample_size, N)`` of them (``np.random.default_rng(seed)``, made afresh by
        every ``associate`` call, so an answer never depends on earlier calls);
-    2. finds the sample's hypothesis: JCBB over the sampled features only (``jcbb.anytime_jcbb``);
+    2. finds the sample's hypothesis: JCBB over the sampled features only (``anytime_search.anytime_jcbb``);
     3. completes it: the other features in a fixed order, fewest individually compatible
        landmarks first (as JCBB branches; ties by index), each take the open compatible
        landmark with the smallest joint NIS increase among those keeping
@@ -90,7 +90,8 @@ class RJC(Associator):
 
     ``info``: ``iterations`` run, ``required`` (the final adaptive count, before the cap),
     ``nodes`` (JCBB nodes over all samples), ``timed_out`` (a sample's JCBB spent its budget, or
-    the cap stopped the loop short of ``required``).
+    the cap stopped the loop short of ``required``), ``nis`` (the answer's joint NIS, summed as
+    its completion grew it).
     """
 
     name = "rjc"
@@ -112,7 +113,7 @@ class RJC(Associator):
 
     def associate(self, problem: Problem) -> np.ndarray:
         out = self.empty(problem)
-        self.info = {"iterations": 0, "required": 0, "nodes": 0, "timed_out": False}
+        self.info = {"iterations": 0, "required": 0, "nodes": 0, "timed_out": False, "nis": 0.0}
         if problem.m == 0 or problem.n == 0:
             return out
         ic = individually_compatible(problem, self.confidence)
@@ -122,15 +123,15 @@ class RJC(Associator):
         if gated.size == 0:
             return out
         order = gated[np.argsort(counts[gated], kind="stable")]    # fewest candidates first
-        best_i, best_j, nodes, timed_out, ran, required = self._ransac(problem, ic, (start, adj), gated, order)
+        best_i, best_j, nis, nodes, timed_out, ran, required = self._ransac(problem, ic, (start, adj), gated, order)
         out[best_j] = best_i
         self.info = {"iterations": ran, "required": int(required), "nodes": nodes,
-                     "timed_out": bool(timed_out or ran < required)}
+                     "timed_out": bool(timed_out or ran < required), "nis": nis}
         return out
 
     def _ransac(self, problem: Problem, ic: np.ndarray, csr: tuple, gated: np.ndarray, order: np.ndarray) -> tuple:
-        """The RANSAC loop: (best features, best landmarks, JCBB nodes, a JCBB out of budget,
-        iterations run, iterations required)."""
+        """The RANSAC loop: (best features, best landmarks, their joint NIS, JCBB nodes, a JCBB out
+        of budget, iterations run, iterations required)."""
         b = min(int(self.sample_size), gated.size)
         adaptive = self.iterations is None and b < gated.size
         if b == gated.size:
@@ -158,7 +159,7 @@ class RJC(Associator):
                 best_k, best_nis, best = k, nis, (pairs[0][:k].copy(), pairs[1][:k].copy())
             if adaptive:
                 required = ransac_iterations(self.p_fail, max(self.p_good, best_k / gated.size), b)
-        return *best, nodes, timed_out, ran, required
+        return *best, float(best_nis) if best_k else 0.0, nodes, timed_out, ran, required
 
 
 def sample_hypothesis(problem: Problem, ic: np.ndarray, sample: np.ndarray, wrap: np.ndarray, gate: np.ndarray,

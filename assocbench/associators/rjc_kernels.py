@@ -11,7 +11,7 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import advance_moments, append_rows, empty_factor, whitened_pair
+from ..association.compatibility import advance_moments, append_rows, empty_factor, whitened_nis
 
 
 def adjacency(ic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
@@ -47,7 +47,7 @@ def _append(k, nis, i, j, P, z, zhat, R, wrap, work, cols, pair_i, pair_j):
     Returns the new NIS."""
     Mt, w, C, G, S, y, L, w2 = work
     d = z.shape[1]
-    dn = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+    dn = whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)
     append_rows(Mt, w, k * d, P, j, L, w2, cols)
     advance_moments(Mt, k * d, w2, cols, C, G, C, G)
     pair_i[k], pair_j[k] = i, j
@@ -96,7 +96,7 @@ def complete(seed_i, seed_j, order, in_sample, start, adj, P, z, zhat, R, wrap, 
             j = adj[e]
             demand[j] -= 1
             if is_open[j]:
-                dn = whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)[0]
+                dn = whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)
                 if dn < least and nis + dn <= gate[k + 1]:
                     pick, least = j, dn
         if pick < 0:

@@ -7,17 +7,9 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import (
-    LOG_2PI,
-    advance_moments,
-    append_rows,
-    empty_factor,
-    individually_compatible,
-    joint_gates,
-    pairwise_nis,
-    whitened_pair,
-    wrap_mask,
-)
+from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, empty_factor,
+                                         individually_compatible, joint_gates, whitened_pair,
+                                         wrap_mask)
 from ..association.problem import Problem
 from .base import CONFIDENCE, Associator
 
@@ -43,7 +35,7 @@ class SNN(Associator):
         out = self.empty(problem)
         if problem.m == 0 or problem.n == 0:
             return out
-        ic = individually_compatible(problem, self.confidence, pairwise_nis(problem)[0])
+        ic = individually_compatible(problem, self.confidence)
         gate = joint_gates(problem.d, problem.n, self.confidence)
         new_cost = -float(np.log(problem.volume)) + 0.5 * problem.d * LOG_2PI
         feats, lms = snn_greedy(ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem), gate, new_cost)

@@ -5,7 +5,7 @@ The same knobs as the camera track's ``BeliefConfig``, read in the plane: the ro
 ``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₂)``; the actual error is drawn from ``k² Σ``. Candidates are the
 mapped posts the estimate predicts within the lidar's range and field of view; the joint
 prediction covariance is ``P = H Σ Hᵀ`` with the range-bearing Jacobians
-(``belief.range_bearing``). Measurements are the frame's post detections (with the noise the
+(``models.range_bearing``). Measurements are the frame's post detections (with the noise the
 detector reports) plus ``clutter`` detections drawn uniformly over range × bearing.
 """
 

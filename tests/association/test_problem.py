@@ -48,3 +48,51 @@ def test_invalid_associations_are_rejected(assoc, msg):
 
 def test_valid_association_passes():
     assert validate_association([1, -1, 0], make()).tolist() == [1, -1, 0]
+
+
+def _eigen_rule(mats, semidefinite):
+    """The eigenvalue test the Cholesky path must agree with: every ``λ >= 0`` (semidefinite:
+    ``λ >= -1e-10 · max|A|``)."""
+    tol = 1e-10 * np.abs(mats).max() if semidefinite else 0.0
+    return bool(np.all(np.linalg.eigvalsh(mats).min(axis=-1) >= -tol))
+
+
+def _with_smallest_eigenvalue(rng, dim, smallest):
+    """A random symmetric matrix with eigenvalues ``smallest`` and others in [0.1, 10]."""
+    Q, _ = np.linalg.qr(rng.normal(size=(dim, dim)))
+    lam = np.concatenate([[smallest], rng.uniform(0.1, 10.0, dim - 1)])
+    A = (Q * lam) @ Q.T
+    return 0.5 * (A + A.T)
+
+
+def _accepted(field, value, message):
+    try:
+        make(**{field: value})
+    except ValueError as err:
+        assert message in str(err)
+        return False
+    return True
+
+
+def test_singular_but_semidefinite_P_is_accepted():
+    """A P of rank 2 (every landmark a copy of one, as after a perfectly correlated pose error)
+    has eigenvalues 0 up to rounding; it must be accepted, and a shifted copy refused."""
+    block = np.array([[2.0, 0.5], [0.5, 1.0]])
+    P = np.kron(np.ones((3, 3)), block)
+    assert make(P=P).P.shape == (6, 6)
+    with pytest.raises(ValueError, match="Problem.P is not positive semidefinite"):
+        make(P=P - 1e-6 * np.eye(6))
+
+
+@pytest.mark.parametrize("smallest", [1e-3, 1e-14, 0.0, -1e-14, -1e-11, -1e-9, -1e-3, -1.0])
+def test_cholesky_validation_agrees_with_the_eigenvalue_test(rng, smallest):
+    """Random symmetric P and R with smallest eigenvalue positive, zero, just inside the
+    semidefinite tolerance and outside it: accepted exactly when the eigenvalue rule says. (R is
+    tested strictly definite, so within rounding of λ = 0 either verdict is rounding: skipped.)"""
+    for _ in range(40):
+        P = _with_smallest_eigenvalue(rng, 6, smallest)
+        assert _accepted("P", P, "Problem.P is not positive semidefinite") == _eigen_rule(P, True)
+        if abs(smallest) < 1e-12:
+            continue
+        R = np.stack([np.eye(2), _with_smallest_eigenvalue(rng, 2, smallest)])
+        assert _accepted("R", R, "Problem.R[1] is not positive definite") == _eigen_rule(R, False)

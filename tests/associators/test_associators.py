@@ -212,3 +212,16 @@ def test_warm_up_loads_every_kernel_a_frame_uses(method):
     out = subprocess.run([sys.executable, "-c", WARM_CHECK, method], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout
+
+
+def test_sparse_greedy_equals_the_dense_rounds(rng):
+    """``greedy_pairs`` (sort the allowed pairs, take each whose feature and landmark are free)
+    against ``greedy_one_to_one`` (mutual-best rounds on the dense matrix), distinct costs."""
+    from assocbench.associators.base import greedy_one_to_one, greedy_pairs
+
+    for _ in range(300):
+        m, n = int(rng.integers(1, 12)), int(rng.integers(1, 12))
+        cost = rng.uniform(0, 10, (m, n))
+        allowed = rng.uniform(size=(m, n)) < rng.uniform(0.05, 1.0)
+        lms, feats = np.nonzero(allowed.T)               # by landmark, then feature
+        assert np.array_equal(greedy_pairs(feats, lms, cost[feats, lms], m, n), greedy_one_to_one(cost, allowed))

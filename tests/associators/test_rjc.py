@@ -12,12 +12,8 @@ import numpy as np
 import pytest
 
 from assocbench import UserError, make_associator, validate_association
-from assocbench.association.compatibility import (
-    chi2_threshold,
-    individually_compatible,
-    jointly_compatible,
-    pairwise_nis,
-)
+from assocbench.association.compatibility import (chi2_threshold, individually_compatible, joint_nis, jointly_compatible,
+                                                  pairwise_nis)
 from assocbench.associators.rjc import ransac_iterations
 from assocbench.models.synthetic import lattice_problem, range_bearing_problem
 from assocbench.tracks.camera.synthetic import camera_problem
@@ -99,8 +95,10 @@ def test_adaptive_count_stops_once_every_feature_is_paired():
 
     p = Problem(zhat[::-1] + 0.3, np.repeat(np.eye(2)[None], n, 0), zhat, 4.0 * np.eye(2 * n), volume=1e5)
     rjc = make_associator("rjc")
-    assert rjc.associate(p).tolist() == list(range(n))[::-1]
-    assert rjc.info == {"iterations": 1, "required": 1, "nodes": rjc.info["nodes"], "timed_out": False}
+    answer = rjc.associate(p)
+    assert answer.tolist() == list(range(n))[::-1]
+    assert rjc.info == {"iterations": 1, "required": 1, "nodes": rjc.info["nodes"], "timed_out": False,
+                        "nis": pytest.approx(joint_nis(p, answer), rel=1e-12)}
 
 
 def test_iteration_cap_is_reported_as_timed_out():
@@ -156,7 +154,7 @@ def test_sample_search_is_jcbb_with_the_other_rows_cleared():
     the individual-compatibility rows of the unsampled features cleared: same pairings, same
     number of nodes."""
     from assocbench.association.compatibility import joint_gates, wrap_mask
-    from assocbench.associators.jcbb import anytime_jcbb
+    from assocbench.associators.anytime_search import anytime_jcbb
     from assocbench.associators.rjc import sample_hypothesis
 
     rng = np.random.default_rng(5)

@@ -11,9 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
-from assocbench.association.problem import NO_MATCH
 from assocbench.belief.config import BeliefConfig
-from assocbench.errors import UserError
 from assocbench.estimators.config import EstimatorConfig
 from assocbench.harness.loop import ClosedLoop, loop_records
 from assocbench.harness.runner import call_method

@@ -1,13 +1,13 @@
 """Camera EKF-SLAM: camera pose (position, orientation as an error state) and 3-D landmarks.
 
 State ``x = [p, θ, l₁, …, l_N]`` with the nominal orientation ``R̂`` kept outside the vector:
-``R = R̂ Exp(δθ)`` (body-frame error, the perturbation ``belief.pinhole`` takes its Jacobians
+``R = R̂ Exp(δθ)`` (body-frame error, the perturbation ``models.pinhole`` takes its Jacobians
 with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a rotation's singularity.
 
 * Motion (body-frame increment ``Δp, Δθ`` with covariance Q):
   ``p' = p + R̂ Δp``, ``R̂' = R̂ Exp(Δθ)``; ``F = [[I, −R̂[Δp]×], [0, Exp(Δθ)ᵀ]]``,
   ``G = blockdiag(R̂, I)``.
-* Measurement: lab 8's pinhole bundle ``h(x)`` and Jacobians (``belief.pinhole.predict_bundle``),
+* Measurement: lab 8's pinhole bundle ``h(x)`` and Jacobians (``models.pinhole.predict_bundle``),
   updated in Joseph form (``ekf_core.joseph_update``). After an update the error is folded into
   the nominal state, ``R̂ ← R̂ Exp(δθ)``, and the covariance's θ rows and columns are mapped by
   the reset Jacobian ``G_r = I − ½[δθ]×``.

@@ -4,7 +4,7 @@
 Candidates are the mapped lines the estimate expects to see (``candidate_lines``: a face of the
 line faces the estimated pose and some point of it lies within range and field of view; the
 estimate knows nothing of occlusion). Their prediction is ``ẑ_j = h(x̂, m_j)``
-(``belief.polar_line``) with the joint covariance ``P = H Σ_pose Hᵀ``, ``H`` the stacked
+(``models.polar_line``) with the joint covariance ``P = H Σ_pose Hᵀ``, ``H`` the stacked
 ``∂h/∂pose`` (2n, 3): every line's prediction shares the one pose error, so P has rank ≤ 3.
 Measurements are the frame's extracted lines (with the covariance the extractor reports) plus
 ``clutter`` false lines uniform over α × r.

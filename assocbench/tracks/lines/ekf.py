@@ -6,8 +6,8 @@ exact and never change.
 
 * Motion: the planar odometry step of every planar filter (``planar_pose.motion_step``).
 * Candidates of a frame: the mapped lines with a face towards the estimated pose and a point in
-  range and field of view (``belief.line_belief.candidate_lines``); ``ẑ_j = h(x̂, m_j)`` and the
-  joint ``P = H P_pose Hᵀ`` (``belief.polar_line``, ``line_belief.pose_prediction_covariance``).
+  range and field of view (``tracks.lines.belief.candidate_lines``); ``ẑ_j = h(x̂, m_j)`` and the
+  joint ``P = H P_pose Hᵀ`` (``models.polar_line``, ``tracks.lines.belief.pose_prediction_covariance``).
 * Update with the pairs ``(j, i)`` of the association, all at once:
   ``ν = [wrap(α_i − α̂_j), r_i − r̂_j]`` stacked, ``R = blockdiag(R_i)``,
   ``S = H P Hᵀ + R`` (the lecture's Σ_IN), Joseph form (``ekf_core.joseph_update``).

@@ -18,7 +18,7 @@ class LinesSensor(PlanarSensor):
     clutter = staticmethod(clutter_lines)
 
     def snapshot(self, k: int, pose: np.ndarray, problem, association: np.ndarray, labels: np.ndarray) -> str:
-        """The last frame for the top view (``viz.line_plots``): the scan's points, the extracted
+        """The last frame for the top view (``tracks.lines.plots``): the scan's points, the extracted
         segments and what the method did with each, to be drawn at the estimated ``pose``."""
         m = len(self.seq.z[k])   # the extracted lines; the clutter lines after them have no segment
         status = segment_status(labels, problem.landmark_ids, association, m)

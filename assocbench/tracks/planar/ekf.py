@@ -8,7 +8,7 @@ State ``x = [x, y, θ, l₁x, l₁y, …, l_Nx, l_Ny]`` with additive world-fram
   ``F = ∂x'/∂pose = [[1, 0, −s Δx − c Δy], [0, 1, c Δx − s Δy], [0, 0, 1]]``,
   ``G = ∂x'/∂Δ = blockdiag(R(θ), 1)``; ``P' = F P Fᵀ + G Q Gᵀ`` on the pose block, ``F P`` on
   the pose-landmark cross terms (``planar_pose.motion_step``, shared with ``LineEKF``).
-* Measurement ``z = (r, φ) = h(x, l)`` (``belief.range_bearing``), the bearing's innovation
+* Measurement ``z = (r, φ) = h(x, l)`` (``models.range_bearing``), the bearing's innovation
   wrapped, Joseph update (``ekf_core.joseph_update``).
 * New landmark ``l = g(x, z)`` with ``P_ll = G_x P_xx G_xᵀ + G_z R G_zᵀ`` (``ekf_core.augment``).
 

@@ -20,7 +20,7 @@ from .post_detect import Detections
 
 
 def true_range_bearing(scene: PlanarScene, pose: np.ndarray) -> np.ndarray:
-    """``(r, φ)`` (L, 2) of every post's centre seen from ``pose`` (``belief.range_bearing.predict``)."""
+    """``(r, φ)`` (L, 2) of every post's centre seen from ``pose`` (``models.range_bearing.predict``)."""
     return predict(np.asarray(pose, dtype=np.float64), scene.posts)
 
 
