@@ -144,17 +144,22 @@ def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runti
             "true_mass": float("nan"), "runtime_s": runtime, "error": error, "association": [NO_MATCH] * problem.n}
 
 
-def _build(method: str, params: dict):
-    """The associator, or (None, error) when its own constructor fails; a bad name or parameter
-    is the user's (``UserError`` propagates)."""
+def guarded_build(make: Callable[[], object]) -> tuple[object | None, str]:
+    """``(make(), "")``, or ``(None, error)`` when building a method fails in its own code; a bad
+    name or parameter is the user's (``UserError`` propagates), and so is a real Ctrl-C."""
     try:
-        return make_associator(method, **params), ""
+        return make(), ""
     except UserError:
         raise
-    except BaseException as exc:  # noqa: BLE001 - the plugin's __init__ is plugin code
+    except BaseException as exc:  # noqa: BLE001 - a plugin's constructor is plugin code
         if user_interrupt(exc):
             raise
         return None, describe(exc)
+
+
+def _build(method: str, params: dict):
+    """The associator, or (None, error) when its own constructor fails (``guarded_build``)."""
+    return guarded_build(lambda: make_associator(method, **params))
 
 
 def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, params: dict,
@@ -207,14 +212,7 @@ class GuardedCalls:
         if WARM_UP in self.faults:   # building it died or hung in an earlier worker
             return None, self.faults[WARM_UP][0]
         self.on_call(WARM_UP, WARM_UP_FACTOR * self.time_limit_s)
-        try:
-            return make(), ""
-        except UserError:
-            raise
-        except BaseException as exc:  # noqa: BLE001 - a plugin's constructor is plugin code
-            if user_interrupt(exc):
-                raise
-            return None, describe(exc)
+        return guarded_build(make)
 
     def call(self, k: int, fn: Callable[[], object]) -> tuple[object | None, float, str]:
         self.on_call(k, self.time_limit_s)

@@ -3,8 +3,8 @@ named ``lm*``, all of one radius.
 
 The camera track marks landmarks with ``lm*`` *sites*, the planar track with ``lm*`` *geoms*
 (the posts themselves), the lines track its map walls with ``lw*`` box geoms (``line_scene``):
-``scene_track`` tells them apart from the parsed MJCF without compiling
-it. Every geom is static (no robot body): the lidar's rays start at the pose, at its height.
+the track registry (``tracks.base.track_for_scene``) tells them apart from the parsed MJCF
+without compiling it. Every geom is static (no robot body): the lidar's rays start at the pose, at its height.
 """
 
 from __future__ import annotations
@@ -45,10 +45,6 @@ class PlanarScene:
     def anchors(self) -> np.ndarray:
         """(L, 2) the points the default ellipse is built around: the posts."""
         return self.posts
-
-
-def _named(items, prefix: str) -> list:
-    return [x for x in items if x.name.startswith(prefix)]
 
 
 def _post_ids(model: "mujoco.MjModel", path: Path) -> np.ndarray:
