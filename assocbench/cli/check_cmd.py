@@ -28,8 +28,17 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def default_suites() -> list[str]:
-    """Every registered track's CI suites, in registration order."""
-    return [name for track in iter_tracks() for name in track.ci_suites]
+    """Every registered track's CI suites, in registration order; one that cannot run here (an
+    optional package missing) is skipped with a line saying so, not silently."""
+    out = []
+    for track in iter_tracks():
+        for name in track.ci_suites:
+            why = track.ci_suite_skipped(name)
+            if why:
+                print(f"{name} skipped: {why}")
+            else:
+                out.append(name)
+    return out
 
 
 def default_baseline(suite_name: str) -> Path:

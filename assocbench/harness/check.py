@@ -43,13 +43,13 @@ def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "c
         base = pd.read_csv(path, dtype={"scenario": str, "method": str})
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
         raise UserError(f"baseline {path} is not a readable CSV: {str(exc).strip().splitlines()[0]}") from None
-    missing = [c for c in KEY + [g.name for g in guards] if c not in base.columns]
+    missing = [c for c in KEY + [g.name for g in guards if g.required] if c not in base.columns]
     if missing:
         raise UserError(f"baseline {path} lacks columns {', '.join(missing)} that suite {suite} guards; regenerate "
                         "it with --update")
     if base.empty:
         raise UserError(f"baseline {path} has no rows, so nothing could be compared; regenerate it with --update")
-    for g in guards:
+    for g in [g for g in guards if g.name in base.columns]:
         values = pd.to_numeric(base[g.name], errors="coerce")
         bad = ~values.between(g.lo, g.hi) | ~np.isfinite(values)   # NaN (empty, text, a truncated row) is not between
         if bad.any():
@@ -89,7 +89,7 @@ def compare(current: pd.DataFrame, baseline: pd.DataFrame, guards: tuple[Guarded
         status = cur.loc[key, "status"] if "status" in cur else OK
         if status != OK:
             finding(key, f"run not ok: {status}")
-        for g in guards:
+        for g in [g for g in guards if g.name in base.columns]:
             b = float(base.loc[key, g.name])
             c = float(cur.loc[key, g.name]) if g.name in cur else math.nan
             slack = tolerances[g.tolerance] * g.scale

@@ -74,10 +74,13 @@ class GuardedMetric:
     scale: float = 1.0
     lo: float = 0.0
     hi: float = float("inf")
+    required: bool = True            # False: compared only when the baseline has the column
 
 
 ACCURACY_GUARDS = tuple(GuardedMetric(m, True, hi=1.0) for m in ("precision", "recall", "f1", "perfect"))
 ATE_GUARD = GuardedMetric("ate_rmse", False, "ate_tolerance")   # metres
+# a smoother's final estimate of every pose (the iSAM2 back end; an EKF's equals ate_rmse), metres
+SMOOTHED_ATE_GUARD = GuardedMetric("ate_smoothed", False, "ate_tolerance", required=False)
 
 
 class MethodCalls(Protocol):
@@ -183,6 +186,10 @@ class Track:
     def warm_up(self) -> None:
         """Load (or compile, announced on stderr) the track's own compiled kernels, once, in the
         process the workers are forked from, so no frame's time includes a compile."""
+
+    def ci_suite_skipped(self, name: str) -> str | None:
+        """Why the CI suite ``name`` cannot run here (an optional package missing), or None."""
+        return None
 
     def run_labels(self, spec: Any) -> dict:
         """Columns that say how a run was made, beside its summary (the closed loop's mode)."""

@@ -13,7 +13,7 @@ from ...sim.lidar import LidarConfig
 from ...sim.planar_scene import load_planar_scene
 from ...sim.scenegen.planar import PLANAR_SCENES
 from ...validation import free_mapping, typed_section
-from ..base import SceneMarks, Track, first_line, register_track
+from ..base import SMOOTHED_ATE_GUARD, GuardedMetric, SceneMarks, Track, first_line, register_track
 from ..plane import PLANE_TRAJECTORIES, PlanarSensor
 from .belief import make_planar_problem
 from .estimator import make_planar_estimator
@@ -26,12 +26,22 @@ class PlanarTrack(Track):
 
     name = "planar"
     summary = "a 2-D lidar among identical posts, circle fits, range-bearing; EKF-SLAM or GTSAM iSAM2"
-    ci_suites = ("planar_ci",)
-    suites = ("planar", "planar_ci")
+    ci_suites = ("planar_ci", "planar_isam2_ci")
+    suites = ("planar", "planar_ci", "planar_isam2_ci")
     spec_type = PlanarSequenceSpec
 
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.landmark_geoms > 0
+
+    def check_metrics(self, loop: bool) -> tuple[GuardedMetric, ...]:
+        """Accuracy, and in the closed loop the filtered and (where the baseline has it) the
+        smoothed ATE: the iSAM2 back end is a smoother."""
+        return super().check_metrics(loop) + ((SMOOTHED_ATE_GUARD,) if loop else ())
+
+    def ci_suite_skipped(self, name: str) -> str | None:
+        if name == "planar_isam2_ci" and importlib.util.find_spec("gtsam") is None:
+            return "gtsam is not installed (pip install 'assocbench[gtsam]')"
+        return None
 
     def section_types(self) -> dict[str, type]:
         return {"lidar": LidarConfig, "posts": PostDetectorConfig}

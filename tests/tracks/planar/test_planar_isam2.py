@@ -270,13 +270,13 @@ def loop_positions(monkeypatch, frames: int, nudge: bool) -> np.ndarray:
     differences another CPU's libm or BLAS kernels make."""
     from assocbench.harness.config import load_run_config, run_spec
     from assocbench.harness.loop import loop_records
-    from assocbench.sim.sequence import load_sequence
+    from assocbench.tracks.base import track_of_spec
     spec = run_spec(load_run_config(None, HARD_SLAM, method="lsa", scene="post_grid", frames=500, seed=1, loop=True))
     if nudge:
         predict = PlanarISAM2.predict
         monkeypatch.setattr(PlanarISAM2, "predict", lambda self, m: predict(
             self, Motion(np.nextafter(m.increment, np.inf), m.covariance)))
-    records = loop_records(load_sequence(spec.sequence), spec.belief, spec.estimator, spec.seed, "lsa", {})
+    records = loop_records(track_of_spec(spec.sequence).load_sequence(spec.sequence), spec.belief, spec.estimator, spec.seed, "lsa", {})
     return np.array([[r["est_x"], r["est_y"]] for _, r in zip(range(frames), records)])
 
 
@@ -294,7 +294,7 @@ def test_last_bit_differences_do_not_grow(monkeypatch):
 def test_no_landmark_from_a_feature_closer_than_min_init_range():
     """initialise skips a feature inside MIN_INIT_RANGE (no post's centre can be that near) and
     still makes the others, within the same caps."""
-    from assocbench.estimators.planar_isam2 import MIN_INIT_RANGE
+    from assocbench.tracks.planar.isam2 import MIN_INIT_RANGE
     est = PlanarISAM2(EstimatorConfig(name="isam2", mode="slam"), np.zeros(3), np.zeros((3, 3)), np.zeros((0, 2)),
                       np.zeros(0, np.int64), 5.0, 2 * np.pi)
     R = np.diag([0.01, np.deg2rad(0.5)]) ** 2
@@ -336,7 +336,7 @@ def test_exact_odometry_or_precise_lidar_runs(mode, sigma_t, sigma_h_deg, sigma_
 def test_noise_above_the_floor_is_passed_unchanged():
     """Every shipped σ is far above NOISE_FLOOR: its covariance reaches GTSAM bit for bit; one
     below it is raised to NOISE_FLOOR² along that eigenvector only."""
-    from assocbench.estimators.planar_isam2 import NOISE_FLOOR
+    from assocbench.tracks.planar.isam2 import NOISE_FLOOR
     est = PlanarISAM2(EstimatorConfig(name="isam2", mode="slam"), np.zeros(3), np.zeros((3, 3)), np.zeros((0, 2)),
                       np.zeros(0, np.int64), 5.0, np.pi)
     S = np.array([[1e-4, 2e-5], [2e-5, 3e-4]])
