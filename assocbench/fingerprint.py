@@ -23,7 +23,7 @@ import hashlib
 import inspect
 import sys
 import sysconfig
-from functools import lru_cache
+from functools import cache, lru_cache
 from importlib import metadata
 from pathlib import Path
 
@@ -107,7 +107,7 @@ def _bounded(found, own: Path, root: Path) -> tuple[Path, ...]:
     return tuple(sorted(files))
 
 
-@lru_cache(maxsize=None)
+@cache
 def _warn_once(message: str) -> None:
     print(message, file=sys.stderr)
 
@@ -119,7 +119,7 @@ def _library_folders() -> frozenset[Path]:
     return frozenset(Path(paths[k]).resolve() for k in ("stdlib", "platstdlib", "purelib", "platlib") if k in paths)
 
 
-@lru_cache(maxsize=None)
+@cache
 def _distribution(top: str) -> str:
     """``name==version:`` of the installed distribution providing ``top``, or ``""``."""
     try:

@@ -21,8 +21,8 @@ import functools
 import glob
 import sys
 import time
+from collections.abc import Callable, Iterable
 from pathlib import Path
-from typing import Callable, Iterable
 
 _state = {"active": False, "started": None, "noted": False, "what": "", "expect": 30}
 

@@ -24,12 +24,12 @@ import numpy as np
 from _util import print_table, summary_ms, timed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from dense_synthetic import perturb, room_frame, render, ROOM, source_set  # noqa: E402
+from dense_synthetic import ROOM, perturb, render, room_frame, source_set  # noqa: E402
 
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 from assocbench.associators.dense.projective import associate_numpy  # noqa: E402
+from assocbench.associators.registry import make_dense_associator  # noqa: E402
 from assocbench.tracks.dense.icp import IcpConfig, icp, normal_equations, solve_update, stability_transform  # noqa: E402
+from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 
 def main() -> None:

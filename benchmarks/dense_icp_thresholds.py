@@ -26,12 +26,23 @@ import numpy as np
 from _util import print_table
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
-from dense_synthetic import ROOM, WALL, perturb, pose_at, pose_error, render, source_set  # noqa: E402
-from dense_synthetic import ROOM_EYE, ROOM_TARGET, WALL_EYE, WALL_TARGET  # noqa: E402
+from dense_synthetic import (  # noqa: E402  # noqa: E402
+    ROOM,
+    ROOM_EYE,
+    ROOM_TARGET,
+    WALL,
+    WALL_EYE,
+    WALL_TARGET,
+    perturb,
+    pose_at,
+    pose_error,
+    render,
+    source_set,
+)
 
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 from assocbench.tracks.dense.icp import IcpConfig, icp  # noqa: E402
+from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 SIZES = (0, 1, 3, 5, 10, 15, 20, 30, 45)
 SCENES = {"room": (ROOM, ROOM_EYE, ROOM_TARGET), "corner": (ROOM[:3], ROOM_EYE, ROOM_TARGET),

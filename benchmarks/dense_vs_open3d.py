@@ -93,14 +93,14 @@ from scipy.spatial import cKDTree  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import pose_error  # noqa: E402
 
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 from assocbench.associators.dense.base import DenseAssociator, Pairs  # noqa: E402
+from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.models.depth_frame import DepthFrame  # noqa: E402
+from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402
 from assocbench.tracks.dense.icp import IcpConfig, IcpResult, icp  # noqa: E402
 from assocbench.tracks.dense.run import frame_source  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
-from assocbench.models.depth_frame import DepthFrame  # noqa: E402
-from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402
+from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 REG = o3d.pipelines.registration
 D_THR = 0.05          # both methods' correspondence gate (m): our DenseAssociator default
@@ -157,7 +157,7 @@ def ours(result: IcpResult) -> Estimate:
     return Estimate(result.R, result.t, result.converged and not result.failed, result.iterations, note)
 
 
-def cloud(points: np.ndarray, normals: np.ndarray | None = None) -> "o3d.geometry.PointCloud":
+def cloud(points: np.ndarray, normals: np.ndarray | None = None) -> o3d.geometry.PointCloud:
     pc = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.ascontiguousarray(points, dtype=np.float64)))
     if normals is not None:
         pc.normals = o3d.utility.Vector3dVector(np.ascontiguousarray(normals, dtype=np.float64))

@@ -19,11 +19,11 @@ import time
 import numpy as np
 from _util import print_table, summary_ms
 
-from assocbench.sim.scenegen.dense import DENSE_SCENES
-from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
+from assocbench.sim.scenegen.dense import DENSE_SCENES
 from assocbench.tracks.camera.sequence import SequenceSpec, trajectory_poses
+from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
 
 
 def timed(fn) -> tuple[float, object]:

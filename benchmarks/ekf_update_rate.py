@@ -32,17 +32,17 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 import argparse  # noqa: E402
 import copy  # noqa: E402
 import time  # noqa: E402
-from typing import Callable  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 from _util import print_table  # noqa: E402
 from scipy.linalg import cho_factor, cho_solve  # noqa: E402
 
 from assocbench.estimators.base import FrameData, Motion  # noqa: E402
-from assocbench.tracks.camera.ekf import CameraEKF  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
 from assocbench.estimators.ekf_core import joseph_update  # noqa: E402
 from assocbench.models.camera import Intrinsics  # noqa: E402
+from assocbench.tracks.camera.ekf import CameraEKF  # noqa: E402
 
 K = Intrinsics.from_fovy(640, 480, 60.0)
 TARGET = 1000.0   # updates/s at 50 landmarks

@@ -34,9 +34,9 @@ import time  # noqa: E402
 import numpy as np  # noqa: E402
 from _util import print_table  # noqa: E402
 
-from assocbench.models.range_bearing import predict, wrap  # noqa: E402
 from assocbench.estimators.base import FrameData, Motion  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
+from assocbench.models.range_bearing import predict, wrap  # noqa: E402
 from assocbench.tracks.planar.isam2 import PlanarISAM2, import_gtsam  # noqa: E402
 
 SPACING, STEP, ROW_GAP, MAX_RANGE, FOV = 2.0, 0.5, 6.0, 5.0, 2 * np.pi
@@ -116,7 +116,7 @@ def isam2_frame_rate(n_landmarks: int, frames: int = 30, seed: int = 0) -> dict:
         where = {int(p): i for i, p in enumerate(labels)}
         a = np.array([where.get(tie.get(int(m), -2), -1) for m in problem.landmark_ids], dtype=np.int64)
         est.update(a)
-        est.pose   # sends this frame's measurement factors to iSAM2
+        est.pose  # noqa: B018 - reading it sends this frame's measurement factors to iSAM2
         if timing:
             rows_out["frame"].append(time.perf_counter() - resumed + paused - start)
             rows_out["isam2 update"].append(isam_update.spent)

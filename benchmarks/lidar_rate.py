@@ -20,12 +20,12 @@ import time
 import numpy as np
 from _util import print_table
 
-from assocbench.tracks.planar.geometric_sensor import geometric_detections
 from assocbench.sim.lidar import LidarConfig, scan
 from assocbench.sim.planar_scene import load_planar_scene
-from assocbench.tracks.planar.sequence import PlanarSequenceSpec, lidar_frame
 from assocbench.sim.planar_trajectory import planar_trajectory
+from assocbench.tracks.planar.geometric_sensor import geometric_detections
 from assocbench.tracks.planar.post_detect import PostDetectorConfig, detect_posts, label_detections
+from assocbench.tracks.planar.sequence import PlanarSequenceSpec, lidar_frame
 
 
 def rate(fn, items) -> float:

@@ -31,9 +31,9 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))   # the t
 from line_synth_seq import line_seq  # noqa: E402
 
 from assocbench import make_associator  # noqa: E402
-from assocbench.tracks.lines.belief import clutter_lines  # noqa: E402
 from assocbench.estimators.base import FrameData  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
+from assocbench.tracks.lines.belief import clutter_lines  # noqa: E402
 from assocbench.tracks.lines.ekf import LineEKF  # noqa: E402
 
 STAGES = ("predict", "problem", "associate", "update")

@@ -13,13 +13,13 @@ from _util import print_table
 
 from assocbench.associators.registry import BUILTINS, make_associator
 from assocbench.belief.config import BeliefConfig
-from assocbench.tracks.camera.belief import make_problem
 from assocbench.harness.runner import warm_up
-from assocbench.tracks.camera.detect import DetectorConfig, detect
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
-from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 from assocbench.sim.trajectory import make_trajectory, rig_for
+from assocbench.tracks.camera.belief import make_problem
+from assocbench.tracks.camera.detect import DetectorConfig, detect
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 from assocbench.tracks.camera.truth import TruthConfig, label_features, visibility
 
 

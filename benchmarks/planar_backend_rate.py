@@ -26,14 +26,14 @@ for _var in ("OPENBLAS_NUM_THREADS", "OMP_NUM_THREADS", "MKL_NUM_THREADS"):
 
 import argparse  # noqa: E402
 import time  # noqa: E402
-from typing import Callable  # noqa: E402
+from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
 from _util import print_table, summary_ms  # noqa: E402
 
-from assocbench.models.range_bearing import predict, wrap  # noqa: E402
 from assocbench.estimators.base import Estimator, FrameData, Motion  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
+from assocbench.models.range_bearing import predict, wrap  # noqa: E402
 from assocbench.tracks.planar.ekf import PlanarEKF  # noqa: E402
 
 MAX_RANGE, FOV, STEP = 5.0, 2 * np.pi, 0.1

@@ -9,10 +9,10 @@ errors against the true line seen from the true pose, and the mean NEES of the f
 
 import sys
 
-from assocbench.tracks.lines.metrics import extraction_scores
-from assocbench.tracks.lines.extract import METHODS, LineExtractorConfig
 from assocbench.sim.line_scene import load_line_scene
 from assocbench.sim.scenegen.lines import LINE_SCENES
+from assocbench.tracks.lines.extract import METHODS, LineExtractorConfig
+from assocbench.tracks.lines.metrics import extraction_scores
 from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
 
 

@@ -9,10 +9,13 @@ import numpy as np
 from scipy.ndimage import uniform_filter
 
 from assocbench import _runtime  # noqa: F401  (MUJOCO_GL before mujoco loads)
+
+# isort: split
+import mujoco  # after assocbench: MUJOCO_GL is set before mujoco loads
+
+# isort: split
 from assocbench.models.camera import Intrinsics, look_at
 from assocbench.models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
-
-import mujoco  # noqa: E402
 
 SIGMA_BASE, SIGMA_QUAD = 0.0012, 0.0019
 K320 = Intrinsics.from_fovy(320, 240, 45.0)

@@ -8,8 +8,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig
 from assocbench.models.depth_frame import DepthFrame
+from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig
 
 
 @dataclass
@@ -22,7 +22,7 @@ class NumpyMap:
     geom: np.ndarray
 
     @classmethod
-    def of(cls, pmap) -> "NumpyMap":
+    def of(cls, pmap) -> NumpyMap:
         """A copy of a ``PointMap`` (or another ``NumpyMap``)."""
         return cls(*(np.array(getattr(pmap, a)) for a in ("positions", "normals", "weights", "last_seen",
                                                            "true_points", "geom")))

@@ -22,10 +22,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from assocbench.estimators.base import FrameData, Motion
 from assocbench.models.polar_line import line_from_points, predict
 from assocbench.models.range_bearing import wrap
 from assocbench.models.se2 import between, rot2
-from assocbench.estimators.base import FrameData, Motion
 from assocbench.sim.robot_path import PosesInPlane
 
 ROOM = (4.0, 3.0)                    # half sizes: the room is [−4, 4] × [−3, 3]

@@ -8,9 +8,9 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from assocbench.estimators.base import FrameData, Motion
 from assocbench.models.range_bearing import predict, wrap
 from assocbench.models.se2 import between, compose  # noqa: F401  (compose: for the tests that import it here)
-from assocbench.estimators.base import FrameData, Motion
 
 
 @dataclass

@@ -3,7 +3,9 @@ measurement images (or -1 for clutter and look-alikes), the true pairing of each
 which candidates were really visible. Scoring compares an ``Association`` with it."""
 
 from __future__ import annotations
+
 from dataclasses import dataclass
+
 import numpy as np
 
 

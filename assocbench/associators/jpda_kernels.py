@@ -252,7 +252,7 @@ def belief_propagation(off, nbr, lw, mf, tol, max_iter, beta):
     wnu = np.empty(ne)
     den = np.empty(ne)
     sweeps = 0
-    for sweeps in range(1, max_iter + 1):
+    for sweeps in range(1, max_iter + 1):  # noqa: B007 - the count of sweeps run is returned
         for e in range(ne):
             wnu[e] = w[e] * nu[e]
         for q in range(nl):

@@ -34,8 +34,8 @@ import numpy as np
 from ..association.compatibility import individually_compatible, joint_gates, wrap_mask
 from ..association.problem import Problem
 from ..validation import in_range
-from .base import CONFIDENCE, Associator
 from .anytime_search import anytime_jcbb
+from .base import CONFIDENCE, Associator
 from .rjc_kernels import adjacency, complete, make_work
 
 

@@ -7,9 +7,16 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ..association.compatibility import (LOG_2PI, advance_moments, append_rows, empty_factor,
-                                         individually_compatible, joint_gates, whitened_pair,
-                                         wrap_mask)
+from ..association.compatibility import (
+    LOG_2PI,
+    advance_moments,
+    append_rows,
+    empty_factor,
+    individually_compatible,
+    joint_gates,
+    whitened_pair,
+    wrap_mask,
+)
 from ..association.problem import Problem
 from .base import CONFIDENCE, Associator
 

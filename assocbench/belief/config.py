@@ -6,8 +6,11 @@ miscalibration``), so gating theory holds at ``k = 1``. ``prediction_covariance`
 (fixed per seed); ``true_association`` turns feature labels into the true pairing."""
 
 from __future__ import annotations
+
 from dataclasses import dataclass, field
+
 import numpy as np
+
 from ..association.problem import NO_MATCH
 from ..validation import in_range, validate_fields
 

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from .config import BeliefConfig
 from ..models.range_bearing import wrap
+from .config import BeliefConfig
 
 RANGE_MARGIN = 1.05   # candidates out to 5 % beyond max range: a post the estimate puts just outside may be seen
 

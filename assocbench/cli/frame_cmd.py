@@ -6,8 +6,8 @@ import argparse
 from pathlib import Path
 
 from ..harness.config import camera_only, load_run_config, run_spec
-from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
 from ..tracks.camera.truth_frame import draw_truth_frame, render_truth_frame
+from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
 from .common import add_run_options, check_output_file, resolution
 
 NAME = "frame"

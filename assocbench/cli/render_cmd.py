@@ -11,12 +11,12 @@ import numpy as np
 import pandas as pd
 from tqdm import tqdm
 
-from ..tracks.camera.belief import make_problem
 from ..harness.config import RunSpec, camera_only, load_run_config, run_spec
 from ..harness.loop_replay import replay_loop
 from ..harness.sandbox import execute
 from ..sim.render import FrameRenderer
 from ..sim.scene import load_scene
+from ..tracks.camera.belief import make_problem
 from ..tracks.camera.sequence import Sequence, load_sequence
 from ..viz.overlay import draw_association
 from ..viz.topview import top_view, view_bounds

@@ -13,8 +13,8 @@ import numpy as np
 from scipy.linalg.blas import dsyr2k
 from scipy.linalg.lapack import dpotrs
 
-from ..models.range_bearing import wrap
 from ..errors import UserError
+from ..models.range_bearing import wrap
 
 
 def paired_innovations(association: np.ndarray, n: int, z: np.ndarray, zhat: np.ndarray,

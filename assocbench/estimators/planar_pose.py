@@ -14,8 +14,8 @@ import math
 
 import numpy as np
 
-from ..models.se2 import compose, rz
 from ..errors import UserError
+from ..models.se2 import compose, rz
 from .base import Motion
 from .ekf_core import propagate_pose
 

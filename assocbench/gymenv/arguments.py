@@ -11,11 +11,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import UserError
-from ..harness.config import defaults, RunSpec, camera_only, merge, run_spec
+from ..harness.config import RunSpec, camera_only, defaults, merge, run_spec
 from ..harness.suite import shipped_difficulties
 from ..sim.render import MAX_SIDE, MIN_SIDE
 from ..validation import check_number
-
 
 
 def _plain(value: Any) -> Any:

@@ -45,14 +45,13 @@ from gymnasium.error import ResetNeeded
 
 from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
-from ..tracks.camera.belief import make_problem
 from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
 from ..scoring.metrics import score_frame, unscored_frame
+from ..tracks.camera.belief import make_problem
 from ..tracks.camera.sequence import Sequence, load_sequence
 from .actions import action_mask
 from .arguments import env_config
-
 
 _FORKED_AFTER_EGL = False   # this process was forked from one that had already rendered with EGL
 

@@ -7,12 +7,12 @@ stage (``DetectorConfig``, ``TruthConfig``, ``BeliefConfig``); unknown keys are 
 from __future__ import annotations
 
 import copy
-import re
 import difflib
+import re
 from dataclasses import asdict, dataclass
-from typing import Any
 from importlib import resources
 from pathlib import Path
+from typing import Any
 
 import yaml
 

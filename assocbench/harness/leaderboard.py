@@ -3,17 +3,17 @@
 from __future__ import annotations
 
 import json
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 import pandas as pd
 
 from ..atomic import atomic_path, write_text
-from ..tracks.base import track_for_scene
-from .loop_truth import REVISIT_GAP
 from ..scoring.aggregate import leaderboard_table
+from ..tracks.base import track_for_scene
 from ..viz.plots import pr_figure, runtime_figure, save_figure
+from .loop_truth import REVISIT_GAP
 
 MD_COLUMNS = [("method", "method"), ("precision", "precision"), ("recall", "recall"), ("f1", "F1"),
               ("perfect", "perfect frames"), ("surprisal_gap", "surprisal gap"),

@@ -18,8 +18,8 @@ import numpy as np
 
 from ..association.compatibility import pairwise_nis
 from ..association.problem import NO_MATCH, Problem
-from ..belief.config import BeliefConfig
 from ..association.truth import FrameTruth
+from ..belief.config import BeliefConfig
 from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
 from ..scoring.metrics import score_frame, true_mass

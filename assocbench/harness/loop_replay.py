@@ -10,7 +10,8 @@ deterministic, so the replayed estimate is the recorded one (``est_x`` … in th
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping, Sequence as Seq
+from collections.abc import Iterator, Mapping
+from collections.abc import Sequence as Seq
 from dataclasses import dataclass
 
 import numpy as np

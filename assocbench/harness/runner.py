@@ -10,17 +10,17 @@ edits its problem in place can change neither the scoring nor what later methods
 from __future__ import annotations
 
 import copy
-from dataclasses import dataclass
 import signal
 import time
 from collections.abc import Callable, Iterator
+from dataclasses import dataclass
 
 import numpy as np
 
 from ..association.problem import NO_MATCH, Problem, validate_association
+from ..association.truth import FrameTruth
 from ..associators.registry import make_associator
 from ..belief.config import BeliefConfig
-from ..association.truth import FrameTruth
 from ..errors import UserError
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..tracks.base import get_track

@@ -20,8 +20,8 @@ from ..associators.registry import associator_class
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
 from ..sim.scene import scene_digest
-from ..validation import check_number
 from ..tracks.base import GuardedMetric, Track, get_track, iter_tracks, track_for_run
+from ..validation import check_number
 from .config import check_method, defaults, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "backends", "methods", "seeds", "tolerance",

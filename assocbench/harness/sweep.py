@@ -86,7 +86,7 @@ def _dask_client(address: str | None):
 def _run_dask(todo: list[Job], out: Path, client, cache_dir: str | None, bar: tqdm) -> None:
     """Run ``todo`` on the dask cluster of ``client`` (opened by ``_dask_client``), storing each
     job as it finishes."""
-    from dask.distributed import as_completed as dask_completed   # importable: the client exists
+    from dask.distributed import as_completed as dask_completed  # importable: the client exists
 
     with client:
         futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}

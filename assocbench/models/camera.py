@@ -26,7 +26,7 @@ class Intrinsics:
     cy: float
 
     @classmethod
-    def from_fovy(cls, width: int, height: int, fovy_deg: float) -> "Intrinsics":
+    def from_fovy(cls, width: int, height: int, fovy_deg: float) -> Intrinsics:
         f = 0.5 * height / np.tan(np.deg2rad(fovy_deg) / 2)
         return cls(width, height, float(f), width / 2 - 0.5, height / 2 - 0.5)
 

@@ -21,8 +21,8 @@ SLAM frame, whose covariance is zero and NEES therefore NaN).
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 from scipy.linalg import LinAlgError, cholesky, solve_triangular

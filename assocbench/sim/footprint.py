@@ -7,11 +7,8 @@ against it.
 
 from __future__ import annotations
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
-
-from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
-
-import mujoco  # noqa: E402
 
 
 def clearance(scene, xy: np.ndarray) -> np.ndarray:

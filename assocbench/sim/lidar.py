@@ -15,14 +15,13 @@ from typing import TYPE_CHECKING
 
 import numpy as np
 
-from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..validation import in_range, one_of, validate_fields
 from .planar_scene import PlanarScene
 
 if TYPE_CHECKING:
     from .line_scene import LineScene
 
-import mujoco  # noqa: E402
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 
 MODES = ("lidar", "geometric")
 
@@ -90,7 +89,7 @@ class Scan:
         return self.ranges[:, None] * np.column_stack([np.cos(self.angles), np.sin(self.angles)])
 
 
-def cast(scene: "PlanarScene | LineScene", origin: np.ndarray, world_angles: np.ndarray,
+def cast(scene: PlanarScene | LineScene, origin: np.ndarray, world_angles: np.ndarray,
          cutoff: float) -> tuple[np.ndarray, np.ndarray]:
     """True distances (k,) (``inf``: nothing within ``cutoff``) and hit geom ids (k,) (−1) of
     horizontal rays from ``origin`` (3,) at ``world_angles`` (k,): one ``mj_multiRay`` call
@@ -104,7 +103,7 @@ def cast(scene: "PlanarScene | LineScene", origin: np.ndarray, world_angles: np.
     return np.where(beyond, np.inf, dist), np.where(beyond, -1, geom)
 
 
-def scan(scene: "PlanarScene | LineScene", pose: np.ndarray, cfg: LidarConfig, rng: np.random.Generator) -> Scan:
+def scan(scene: PlanarScene | LineScene, pose: np.ndarray, cfg: LidarConfig, rng: np.random.Generator) -> Scan:
     """Scan from ``pose = (x, y, θ)``: ``r_i = d_i + ε_i`` or NaN (no hit, beyond range, dropout).
     The generator draws B normals then B uniforms whatever the scene, so frames stay aligned."""
     angles = cfg.angles()

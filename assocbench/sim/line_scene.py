@@ -19,15 +19,13 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 
-from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
-from ..models.range_bearing import wrap
 from ..errors import UserError
+from ..models.range_bearing import wrap
 from . import footprint
 from .scene import WALL_PREFIX, Scene, mjcf_error, resolve_scene_path
-
-import mujoco  # noqa: E402
 
 if TYPE_CHECKING:
     from .lidar import Scan
@@ -73,8 +71,8 @@ class LineScene:
 
     name: str
     path: Path
-    model: "mujoco.MjModel"
-    data: "mujoco.MjData"
+    model: mujoco.MjModel
+    data: mujoco.MjData
     lines: np.ndarray          # (K, 2) world (α_w, r_w), α_w in [−π, π), r_w ≥ 0
     segments: np.ndarray       # (S, 2, 2) world end points of each mapped face
     segment_line: np.ndarray   # (S,) index into lines
@@ -109,7 +107,7 @@ def same_line(a: np.ndarray, b: np.ndarray) -> bool:
         (abs(float(wrap(d - np.pi))) < ALPHA_TOL and a[1] + b[1] < R_TOL)
 
 
-def _wall(model: "mujoco.MjModel", data: "mujoco.MjData", g: int, path: Path) -> Wall:
+def _wall(model: mujoco.MjModel, data: mujoco.MjData, g: int, path: Path) -> Wall:
     """The ``lw*`` geom ``g`` as an upright box (one-line errors: not a box, tilted, degenerate)."""
     name = model.geom(g).name
     if model.geom_type[g] != mujoco.mjtGeom.mjGEOM_BOX:
@@ -200,7 +198,7 @@ def check_scan_plane(scene: LineScene, height: float) -> None:
                             f"so it does not start with 'lw'")
 
 
-def beam_lines(scene: LineScene, scan: "Scan", pose: np.ndarray) -> np.ndarray:
+def beam_lines(scene: LineScene, scan: Scan, pose: np.ndarray) -> np.ndarray:
     """(B,) the map line each beam truly hits, −1 for none (no hit, clutter, an unmapped face).
     The true hit point ``p_i = (x, y) + d_i (cos(θ + α_i), sin(θ + α_i))`` uses the true distance
     ``d_i`` (``scan.distance``, else one ray against the hit wall alone) and belongs to the face

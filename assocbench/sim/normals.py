@@ -13,11 +13,8 @@ from __future__ import annotations
 
 import sys
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
-
-from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
-
-import mujoco  # noqa: E402
 
 # the geom groups mujoco.Renderer draws (mjvOption's default, 0-2): only these are imaged, so
 # only these carry a landmark, occlude one or stand in the camera's way (every ray uses this mask)
@@ -32,7 +29,7 @@ FACING_COS = 0.7     # a ring ray's hit faces the candidate within 45°: a side 
                      # a pillar does down to 7 mm radius (its normal turns asin(RING_M / radius))
 
 
-def unoriented_sites(spec: "mujoco.MjSpec", names: list[str]) -> np.ndarray:
+def unoriented_sites(spec: mujoco.MjSpec, names: list[str]) -> np.ndarray:
     """(L,) True for each named site the MJCF gives no orientation of its own: no
     ``euler``/``axisangle``/``xyaxes``/``zaxis`` (the spec keeps which was used), an identity
     ``quat`` (what MuJoCo stores when none is given) and no ``fromto``."""
@@ -220,7 +217,7 @@ def _fmt(v: np.ndarray) -> str:
     return ", ".join(f"{x:+.2f}" for x in v)
 
 
-def landmark_normals(spec: "mujoco.MjSpec", model, data, site_ids: list[int],
+def landmark_normals(spec: mujoco.MjSpec, model, data, site_ids: list[int],
                      scene_name: str) -> tuple[np.ndarray, np.ndarray]:
     """World unit normals (L, 3) of the landmark sites and which of them were inferred (L,).
 

@@ -11,11 +11,11 @@ from __future__ import annotations
 import numpy as np
 from scipy.spatial.transform import Rotation
 
+from ..estimators.base import Motion
+from ..estimators.config import EstimatorConfig
 from ..models.pinhole import exp_so3
 from ..models.range_bearing import wrap
 from ..models.se2 import between
-from ..estimators.base import Motion
-from ..estimators.config import EstimatorConfig
 
 
 def true_increment(R0: np.ndarray, p0: np.ndarray, R1: np.ndarray, p1: np.ndarray) -> np.ndarray:

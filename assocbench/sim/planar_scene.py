@@ -12,14 +12,12 @@ from __future__ import annotations
 from dataclasses import dataclass
 from pathlib import Path
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 
-from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
 from . import footprint
 from .scene import LANDMARK_PREFIX, Scene, mjcf_error, resolve_scene_path
-
-import mujoco  # noqa: E402
 
 RADIUS_TOLERANCE = 1e-6   # m: posts whose radii differ by more than this are not identical
 
@@ -30,8 +28,8 @@ class PlanarScene:
 
     name: str
     path: Path
-    model: "mujoco.MjModel"
-    data: "mujoco.MjData"
+    model: mujoco.MjModel
+    data: mujoco.MjData
     posts: np.ndarray          # (L, 2) world centres
     post_names: list[str]
     post_radius: float
@@ -47,7 +45,7 @@ class PlanarScene:
         return self.posts
 
 
-def _post_ids(model: "mujoco.MjModel", path: Path) -> np.ndarray:
+def _post_ids(model: mujoco.MjModel, path: Path) -> np.ndarray:
     """Geom ids of the ``lm*`` geoms, checked: cylinders, one radius (one-line errors)."""
     names = [model.geom(i).name for i in range(model.ngeom)]
     ids = np.array([i for i, n in enumerate(names) if n.startswith(LANDMARK_PREFIX)], dtype=int)

@@ -16,7 +16,8 @@ obstacle, or a one-line error when none fits.
 
 from __future__ import annotations
 
-from typing import TYPE_CHECKING, Callable
+from collections.abc import Callable
+from typing import TYPE_CHECKING
 
 import numpy as np
 
@@ -158,11 +159,12 @@ def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.n
     return np.column_stack([x, y, wrap(th)])
 
 
-def ellipse_curve(scene: "PlanarScene | LineScene", scale: float, shift: np.ndarray = np.zeros(2)) -> Curve:
+def ellipse_curve(scene: PlanarScene | LineScene, scale: float, shift: np.ndarray | None = None) -> Curve:
     """Ellipse around the scene's anchors' centroid (moved by ``shift`` × the semi-axes, along
     them) on their principal axes, semi-axes ``scale ×`` the anchors' spread (√2 × the standard
     deviation along each axis, at least 0.7 m). Anchors: a planar scene's posts, a lines scene's
     wall-face midpoints."""
+    shift = np.zeros(2) if shift is None else shift
     anchors = scene.anchors
     centre = anchors.mean(axis=0)
     cov = np.cov((anchors - centre).T) if len(anchors) > 1 else np.eye(2)
@@ -176,7 +178,7 @@ SHIFTS = sorted(((a, b) for a in np.linspace(-0.3, 0.3, 5) for b in np.linspace(
                 key=lambda ab: (np.hypot(*ab), ab))
 
 
-def default_ellipse(scene: "PlanarScene | LineScene", laps: float, frames: int, start: float) -> np.ndarray:
+def default_ellipse(scene: PlanarScene | LineScene, laps: float, frames: int, start: float) -> np.ndarray:
     """The first ellipse, largest scale (1.2 down to 0.3) and smallest shift first, whose path
     keeps ``CLEARANCE`` from every obstacle; a one-line error when none does."""
     for scale in np.linspace(1.2, 0.3, 10):
@@ -206,7 +208,7 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
     return float(laps), float(start), float(scale)
 
 
-def planar_trajectory(scene: "PlanarScene | LineScene", name: str | None, frames: int, seed: int = 0,
+def planar_trajectory(scene: PlanarScene | LineScene, name: str | None, frames: int, seed: int = 0,
                       **params) -> np.ndarray:
     """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
     default there) or ``ellipse`` (around the posts, the default for a user MJCF). The path is

@@ -5,16 +5,14 @@ from __future__ import annotations
 import os
 import warnings
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 
-from . import gl  # loads mujoco under MUJOCO_GL; GL_ERROR says if the backend could not load
 from ..errors import UserError
 from ..models.camera import CV_TO_MUJOCO, Intrinsics
 from ..models.depth_frame import NO_GEOM
+from . import gl  # loads mujoco under MUJOCO_GL; GL_ERROR says if the backend could not load
 from .scene import Scene
-
-import mujoco  # noqa: E402
-
 
 MAX_MSAA = 16
 FAR_SHARE = 0.999   # a depth within 0.1 % of the far plane is "nothing hit" (float32 readback)
@@ -43,7 +41,7 @@ def _gl_error(reason: str) -> UserError:
                      f"check it with: {GL_CHECK}")
 
 
-def _gl_renderer(model: "mujoco.MjModel", width: int, height: int) -> "mujoco.Renderer":
+def _gl_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
     """``mujoco.Renderer``, or a one-line ``UserError`` when the GL backend cannot give a context
     (glfw without a display raises ``FatalError`` after Python warnings that say why)."""
     if gl.GL_ERROR:   # the backend did not even load; mujoco was loaded without GL
@@ -63,7 +61,7 @@ def _gl_renderer(model: "mujoco.MjModel", width: int, height: int) -> "mujoco.Re
     return renderer
 
 
-def _geometry_only() -> "mujoco.MjvOption":
+def _geometry_only() -> mujoco.MjvOption:
     """Default visual options with every site group hidden: a depth sensor sees geoms only (the
     ``lm*`` sites are drawn as 1 cm spheres by default and would poke out of the surfaces)."""
     option = mujoco.MjvOption()
@@ -149,7 +147,7 @@ class FrameRenderer:
     def close(self) -> None:
         self._renderer.close()
 
-    def __enter__(self) -> "FrameRenderer":
+    def __enter__(self) -> FrameRenderer:
         return self
 
     def __exit__(self, *exc) -> None:

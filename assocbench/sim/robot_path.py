@@ -2,7 +2,9 @@
 poses in the plane read as 3-D rotations and positions (for TUM files and 3-D metrics)."""
 
 from __future__ import annotations
+
 import numpy as np
+
 from ..models.se2 import rz
 from .planar_trajectory import scripted
 from .scene import resolve_scene_path

@@ -15,13 +15,11 @@ from dataclasses import dataclass
 from importlib import resources
 from pathlib import Path
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 
-from .. import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ..errors import UserError
 from .normals import RENDERED_GROUPS, landmark_normals
-
-import mujoco  # noqa: E402
 
 CAMERA_NAME = "assocbench_eye"
 LANDMARK_PREFIX = "lm"
@@ -72,8 +70,8 @@ class Scene:
 
     name: str
     path: Path
-    model: "mujoco.MjModel"
-    data: "mujoco.MjData"
+    model: mujoco.MjModel
+    data: mujoco.MjData
     landmark_names: list[str]
     landmarks: np.ndarray      # (L, 3) world positions of the X-junctions
     normals: np.ndarray        # (L, 3) outward unit normals

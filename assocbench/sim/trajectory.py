@@ -14,14 +14,14 @@ jitter.
 from __future__ import annotations
 
 import inspect
+from collections.abc import Callable
 from dataclasses import dataclass
-from typing import Callable
 
 import numpy as np
 
 from ..errors import UserError
-from ..validation import check_number, in_range
 from ..models.camera import look_at
+from ..validation import check_number, in_range
 
 Poses = tuple[np.ndarray, np.ndarray]  # (N, 3, 3) rotations, (N, 3) positions
 FreeSpace = Callable[[np.ndarray, np.ndarray], np.ndarray]  # (origin, unit dirs (k, 3)) -> distances (k,)

@@ -6,8 +6,8 @@ its rank by name, so that methods on the very same spot show as concentric open 
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import Sequence
 
 import numpy as np
 import pandas as pd

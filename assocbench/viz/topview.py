@@ -69,7 +69,7 @@ class WorldToPixel:
     y0: float
 
     @classmethod
-    def fit(cls, bounds: Bounds, size: tuple[int, int], top: int = 0) -> "WorldToPixel":
+    def fit(cls, bounds: Bounds, size: tuple[int, int], top: int = 0) -> WorldToPixel:
         """Fit ``bounds`` into the rows below ``top`` (the header: title and scale bar)."""
         h, w = size
         x_min, x_max, y_min, y_max = bounds

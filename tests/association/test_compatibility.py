@@ -4,13 +4,13 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from problems import random_problem, reference_joint, reference_surprisal
 from scipy.stats import chi2
 
 from assocbench import Problem
 from assocbench.association import compatibility as C
 from assocbench.models.synthetic import lattice_problem, range_bearing_problem
 from assocbench.tracks.camera.synthetic import camera_problem
-from problems import random_problem, reference_joint, reference_surprisal
 
 
 @pytest.mark.parametrize("d,angular", [(2, ()), (3, ()), (2, (0,))])

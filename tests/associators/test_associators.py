@@ -4,11 +4,11 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from problems import random_problem, reference_joint, reference_surprisal
 
 from assocbench import Problem, make_associator, validate_association
-from assocbench.associators.registry import is_dense, available
+from assocbench.associators.registry import available, is_dense
 from assocbench.models.synthetic import lattice_problem, range_bearing_problem
-from problems import random_problem, reference_joint, reference_surprisal
 
 METHODS = sorted(m for m in available() if not is_dense(m))   # the dense ones: tests/tracks/dense
 

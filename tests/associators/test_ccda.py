@@ -7,13 +7,13 @@ import itertools
 
 import numpy as np
 import pytest
+from problems import random_problem, reference_joint, wrap
 from scipy.stats import chi2
 
 from assocbench import Problem, UserError, make_associator, validate_association
 from assocbench.association import compatibility as C
 from assocbench.associators.ccda import MAX_VERTICES, correspondence_graph, swap_descent
 from assocbench.associators.max_clique import max_clique, set_edge
-from problems import random_problem, reference_joint, wrap
 
 
 def reference_difference_nis(p: Problem, i: int, j: int, i2: int, j2: int) -> float:

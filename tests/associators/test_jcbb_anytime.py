@@ -7,12 +7,12 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from problems import exhaustive_best, reference_joint
 from scipy.stats import chi2
 
 from assocbench import Problem, make_associator
 from assocbench.association.compatibility import individually_compatible, jointly_compatible
 from assocbench.models.synthetic import range_bearing_problem
-from problems import exhaustive_best, reference_joint
 
 DATA = Path(__file__).resolve().parents[1] / "data"
 

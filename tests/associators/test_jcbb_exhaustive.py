@@ -4,9 +4,9 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from problems import exhaustive_best, random_spd
 
 from assocbench import Problem, make_associator
-from problems import exhaustive_best, random_spd
 
 
 def small_problem(rng, d: int = 2) -> Problem:

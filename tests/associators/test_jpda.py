@@ -7,13 +7,13 @@ import itertools
 
 import numpy as np
 import pytest
+from cli.test_cli import assert_one_line_error
+from problems import random_problem, random_spd, reference_joint
 from scipy.stats import chi2
 
 from assocbench import Problem, UserError, make_associator
 from assocbench.cli.main import main
 from assocbench.scoring.metrics import true_mass
-from problems import random_problem, random_spd, reference_joint
-from cli.test_cli import assert_one_line_error
 
 # BP (forced with max_events=1) against exact JPDA over the small problems below, measured:
 # max |Δβ| 0.250 (a 2 x 2 loop, where BP leans to the likelier assignment), mean over landmarks

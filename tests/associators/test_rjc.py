@@ -10,14 +10,19 @@ import sys
 
 import numpy as np
 import pytest
+from problems import random_problem
 
 from assocbench import UserError, make_associator, validate_association
-from assocbench.association.compatibility import (chi2_threshold, individually_compatible, joint_nis, jointly_compatible,
-                                                  pairwise_nis)
+from assocbench.association.compatibility import (
+    chi2_threshold,
+    individually_compatible,
+    joint_nis,
+    jointly_compatible,
+    pairwise_nis,
+)
 from assocbench.associators.rjc import ransac_iterations
 from assocbench.models.synthetic import lattice_problem, range_bearing_problem
 from assocbench.tracks.camera.synthetic import camera_problem
-from problems import random_problem
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
 

@@ -18,9 +18,9 @@ import pytest
 from assocbench.association.problem import Problem
 from assocbench.cli.main import main
 from assocbench.harness.leaderboard import write_leaderboard
+from assocbench.tracks.camera.truth_frame import TruthFrame, draw_truth_frame
 from assocbench.viz import draw
 from assocbench.viz.overlay import draw_association
-from assocbench.tracks.camera.truth_frame import TruthFrame, draw_truth_frame
 
 ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))   # the repository
 SMALL = ["--resolution", "64x48"]

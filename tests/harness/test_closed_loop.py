@@ -16,7 +16,7 @@ from assocbench.estimators.config import EstimatorConfig
 from assocbench.harness.loop import ClosedLoop, loop_records
 from assocbench.harness.runner import call_method
 from assocbench.scoring.aggregate import summarize
-from assocbench.scoring.trajectory import read_tum, ate_rmse
+from assocbench.scoring.trajectory import ate_rmse, read_tum
 from tests.cli.test_cli import run_cli
 
 FRAMES = 100
@@ -131,8 +131,8 @@ def test_invalid_association_is_a_failed_frame_and_does_not_touch_the_filter(roo
 
 def test_zero_or_nan_depth_makes_no_landmark():
     from assocbench.estimators.base import FrameData
-    from assocbench.tracks.camera.ekf import CameraEKF
     from assocbench.models.camera import Intrinsics
+    from assocbench.tracks.camera.ekf import CameraEKF
 
     K = Intrinsics.from_fovy(640, 480, 60)
     ekf = CameraEKF(K, EstimatorConfig(mode="slam"), np.eye(3), np.zeros(3), np.zeros((6, 6)), np.zeros((0, 3)),

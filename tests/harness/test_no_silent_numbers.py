@@ -8,6 +8,7 @@ import sys
 import numpy as np
 import pandas as pd
 import pytest
+from cli.test_cli import assert_one_line_error
 
 from assocbench import make_associator
 from assocbench.cli.main import main
@@ -15,8 +16,6 @@ from assocbench.errors import UserError
 from assocbench.harness.config import load_run_config, read_yaml, run_spec
 from assocbench.harness.suite import load_suite
 from assocbench.scoring.aggregate import OK, summarize
-
-from cli.test_cli import assert_one_line_error
 
 
 @pytest.mark.parametrize("setting,needles", [

@@ -7,9 +7,9 @@ import pytest
 
 from assocbench.association.compatibility import pairwise_nis
 from assocbench.belief.config import BeliefConfig, map_mask
-from assocbench.tracks.camera.belief import make_problem
-from assocbench.models.pinhole import perturb_pose, predict_bundle
 from assocbench.models.camera import Intrinsics, look_at
+from assocbench.models.pinhole import perturb_pose, predict_bundle
+from assocbench.tracks.camera.belief import make_problem
 from assocbench.tracks.camera.detect import DetectorConfig
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 

@@ -9,8 +9,8 @@ import numpy as np
 import pandas as pd
 
 from assocbench.association.truth import FrameTruth
-from assocbench.models.synthetic import range_bearing_problem
 from assocbench.harness.runner import frame_records
+from assocbench.models.synthetic import range_bearing_problem
 from assocbench.scoring.aggregate import leaderboard_table, summarize
 
 

@@ -12,7 +12,7 @@ from scipy.stats import chi2
 
 from assocbench.cli.main import main
 from assocbench.viz import topview
-from assocbench.viz.loop_plots import ORACLE_LABEL, ate_figure, map_figure, nees_figure, nees_band
+from assocbench.viz.loop_plots import ORACLE_LABEL, ate_figure, map_figure, nees_band, nees_figure
 from assocbench.viz.plots import save_figure
 from assocbench.viz.topview import top_view
 

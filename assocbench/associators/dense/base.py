@@ -62,7 +62,7 @@ class Pairs:
         return len(self.source)
 
     @classmethod
-    def empty(cls, considered: int = 0) -> "Pairs":
+    def empty(cls, considered: int = 0) -> Pairs:
         return cls(np.empty(0, np.int64), np.empty(0, np.int64), int(considered))
 
 

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
+
 from . import SCENES_DIR
 
 PATCH = 0.70          # side of a landmark patch (m): its outer edge corners lie PATCH/2 away

@@ -19,8 +19,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .camera import OFFSET, SceneBuilder, write_scene
 from . import SCENES_DIR
+from .camera import OFFSET, SceneBuilder, write_scene
 
 EXTENT = 10.0        # m: the pinned model extent MuJoCo scales znear and zfar by
 NEAR_M, FAR_M = 0.05, 20.0

@@ -15,9 +15,9 @@ from pathlib import Path
 
 import numpy as np
 
-from .planar import WALL_HALF_HEIGHT, WALL_HALF_THICKNESS, floor_scene_xml
 from ..planar_trajectory import CLEARANCE, SCENE_PATHS
 from . import SCENES_DIR
+from .planar import WALL_HALF_HEIGHT, WALL_HALF_THICKNESS, floor_scene_xml
 
 WALL_RGBA = "0.75 0.73 0.70 1"
 WOOD_RGBA = "0.55 0.38 0.22 1"

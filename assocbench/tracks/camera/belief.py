@@ -9,14 +9,13 @@ is ``P = J Σ Jᵀ`` with the analytic Jacobians of ``pinhole.predict_bundle``.
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ...association.problem import NO_MATCH, Problem
-from .sequence import Sequence
-from ...models.pinhole import perturb_pose, predict_bundle
 from ...association.truth import FrameTruth
 from ...belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
+from ...models.pinhole import perturb_pose, predict_bundle
+from .sequence import Sequence
 
 
 def bundle_covariance(J_pose: np.ndarray, J_l: np.ndarray, cfg: BeliefConfig) -> np.ndarray:

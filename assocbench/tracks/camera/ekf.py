@@ -22,12 +22,9 @@ with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a 
 
 from __future__ import annotations
 
-
 import numpy as np
 
 from ...association.problem import Problem
-from ...models.pinhole import exp_so3, predict_bundle, skew
-from ...models.camera import Intrinsics
 from ...estimators.base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from ...estimators.config import EstimatorConfig
 from ...estimators.ekf_core import (
@@ -39,6 +36,8 @@ from ...estimators.ekf_core import (
     remove,
     state_columns,
 )
+from ...models.camera import Intrinsics
+from ...models.pinhole import exp_so3, predict_bundle, skew
 from .two_view_init import TwoViewInitialiser
 
 POSE = np.arange(6)

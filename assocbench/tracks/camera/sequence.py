@@ -29,12 +29,12 @@ from ...atomic import CACHE, atomic_path
 from ...errors import UserError
 from ...fingerprint import sources_digest
 from ...models.camera import Intrinsics
-from .detect import DetectorConfig, detect
 from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
-from .truth import TruthConfig, label_features, visibility
 from ...sim.waypoints import file_digest, waypoint_path
+from .detect import DetectorConfig, detect
+from .truth import TruthConfig, label_features, visibility
 
 FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
 # the sources a cached sequence depends on: shared simulation, measurement models, this track

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import numpy as np
 
-from ...estimators.config import EstimatorConfig
 from ...errors import UserError
+from ...estimators.config import EstimatorConfig
 from ...sim.scene import load_scene
 from ...sim.scenegen.camera import SCENES
 from ...sim.trajectory import TRAJECTORIES, check_trajectory_params

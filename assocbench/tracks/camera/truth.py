@@ -4,15 +4,13 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 
-from ... import _runtime  # noqa: F401
-from ...validation import in_range, one_of, validate_fields
 from ...models.camera import Intrinsics, project
 from ...sim.normals import RENDERED_GROUPS
 from ...sim.scene import Scene
-
-import mujoco  # noqa: E402
+from ...validation import in_range, one_of, validate_fields
 
 
 @dataclass(frozen=True)

@@ -9,8 +9,8 @@ import numpy as np
 from ...errors import UserError
 from ...sim.render import FrameRenderer
 from ...sim.scene import load_scene
-from .sequence import SequenceSpec, process_frame, trajectory_poses
 from ...viz import draw
+from .sequence import SequenceSpec, process_frame, trajectory_poses
 
 
 @dataclass

@@ -15,9 +15,9 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import UserError
-from ...validation import in_range, validate_fields
 from ...models.camera import Intrinsics
 from ...models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
+from ...validation import in_range, validate_fields
 from .depth_smoothing import depth_edges, depth_gate, edge_aware_smoothed
 
 MAX_DOWNSAMPLE = 16

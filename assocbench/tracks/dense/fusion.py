@@ -141,7 +141,7 @@ class PointMap:
 
     @classmethod
     def from_arrays(cls, positions: np.ndarray, normals: np.ndarray, weights=1.0, last_seen=0,
-                    true_points: np.ndarray | None = None, geom=None) -> "PointMap":
+                    true_points: np.ndarray | None = None, geom=None) -> PointMap:
         """A map holding given points; scalars broadcast; no truth: NaN true points, ``NO_GEOM``."""
         pos = np.asarray(positions, dtype=np.float64).reshape(-1, 3)
         n = len(pos)
@@ -155,7 +155,7 @@ class PointMap:
         m._geom[:n] = np.broadcast_to(np.asarray(NO_GEOM if geom is None else geom, dtype=np.int64), (n,))
         return m
 
-    def copy(self) -> "PointMap":
+    def copy(self) -> PointMap:
         return PointMap.from_arrays(self.positions, self.normals, self.weights, self.last_seen,
                                     self.true_points, self.geom)
 
@@ -342,9 +342,9 @@ def warm_fusion() -> None:
     a 4x3 frame, with the note ``kernels.warm`` prints while they compile, so the first real frame
     is not the one that waits."""
     from ...kernels import warm
-    from .surface import warm_surface
     from ...models.camera import Intrinsics
     from ...models.depth_frame import normal_map, vertex_map
+    from .surface import warm_surface
 
     K = Intrinsics(4, 3, 3.0, 1.5, 1.0)
     depth = np.full((3, 4), 2.0)

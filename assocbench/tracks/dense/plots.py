@@ -35,7 +35,7 @@ def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarra
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     """A PNG of one panel per entry (``positions``, ``error_mm``, ``p_true``, ``p_est``, ``title``)."""
-    from matplotlib.figure import Figure   # no pyplot state (as viz.plots)
+    from matplotlib.figure import Figure  # no pyplot state (as viz.plots)
 
     cols = min(columns, len(panels))
     rows = -(-len(panels) // cols)

@@ -28,13 +28,13 @@ from ..._runtime import cache_root
 from ...atomic import CACHE, atomic_path
 from ...errors import UserError
 from ...fingerprint import sources_digest
-from ...validation import check_number
 from ...models.camera import Intrinsics
 from ...models.depth_frame import DepthFrame
-from .depth_sensor import DepthConfig, depth_frame
+from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
-from ...sim.camera_path import CameraPath
+from ...validation import check_number
+from .depth_sensor import DepthConfig, depth_frame
 
 FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixels)
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from

@@ -24,16 +24,14 @@ distance so far is skipped), so memory stays O(n): a million points is one pass,
 
 from __future__ import annotations
 
-from typing import Sequence
+from collections.abc import Sequence
 
+import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 from numba import njit
 
-from ... import _runtime  # noqa: F401  (sets MUJOCO_GL before mujoco loads)
 from ...errors import UserError
 from ...sim.normals import RENDERED_GROUPS
-
-import mujoco  # noqa: E402
 
 PLANE, SPHERE, CAPSULE, CYLINDER, BOX = (int(mujoco.mjtGeom.mjGEOM_PLANE), int(mujoco.mjtGeom.mjGEOM_SPHERE),
                                          int(mujoco.mjtGeom.mjGEOM_CAPSULE), int(mujoco.mjtGeom.mjGEOM_CYLINDER),
@@ -98,7 +96,7 @@ def _bound(kind: int, s: np.ndarray) -> float:
     return float(np.linalg.norm(s))
 
 
-def _model_data(scene) -> tuple["mujoco.MjModel", "mujoco.MjData"]:
+def _model_data(scene) -> tuple[mujoco.MjModel, mujoco.MjData]:
     """(model, data) of a Scene-like object (``.model``, ``.data`` after ``mj_forward``) or of a bare
     ``MjModel`` (posed at qpos0 by a fresh ``mj_forward``)."""
     if isinstance(scene, mujoco.MjModel):

@@ -14,11 +14,11 @@ from ..base import GuardedMetric, MethodCalls, Track, first_line, register_track
 from .depth_sensor import DepthConfig
 from .fusion import FusionConfig
 from .icp import IcpConfig
+from .leaderboard import dense_table, write_dense_leaderboard
+from .plots import map_writers
 from .run import dense_records
 from .sequence import DenseSequence, DenseSequenceSpec, load_dense_sequence
 from .spec import DenseConfig, dense_sequence_spec, dense_settings
-from .leaderboard import dense_table, write_dense_leaderboard
-from .plots import map_writers
 from .summary import DENSE_COLUMNS, summarize_dense
 from .warm import warm_dense
 

@@ -15,8 +15,8 @@ from __future__ import annotations
 import numpy as np
 
 from ...association.problem import Problem
-from ...belief.config import BeliefConfig, map_mask, true_association, with_clutter_labels
 from ...association.truth import FrameTruth
+from ...belief.config import BeliefConfig, map_mask, true_association, with_clutter_labels
 from ...belief.planar import (
     RANGE_MARGIN,
     clutter_detections,

@@ -18,14 +18,14 @@ from __future__ import annotations
 import numpy as np
 
 from ...association.problem import Problem
-from .belief import candidate_lines, pose_prediction_covariance
-from ...models.polar_line import ANGULAR, jacobians, predict
-from ...models.range_bearing import wrap
 from ...errors import UserError
 from ...estimators.base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport
 from ...estimators.config import EstimatorConfig
 from ...estimators.ekf_core import block_diag, joseph_update, paired_innovations
 from ...estimators.planar_pose import PlanarPoseViews, motion_step
+from ...models.polar_line import ANGULAR, jacobians, predict
+from ...models.range_bearing import wrap
+from .belief import candidate_lines, pose_prediction_covariance
 
 POSE = np.arange(3)
 NOT_SLAM = ("the lines track localises on a known map of walls: estimator.mode slam is not available there, "

@@ -43,10 +43,10 @@ from dataclasses import dataclass, field
 import numpy as np
 from numba import njit
 
-from ...models.range_bearing import wrap
 from ...errors import UserError
-from ...validation import check_number, in_range, one_of, validate_fields
+from ...models.range_bearing import wrap
 from ...sim.lidar import Scan
+from ...validation import check_number, in_range, one_of, validate_fields
 from .polar_fit import group_fits, line_from_sums, point_terms
 
 METHODS = ("polar", "split_merge", "ransac")
@@ -122,7 +122,7 @@ class LineDetections:
         return len(self.z)
 
     @staticmethod
-    def empty() -> "LineDetections":
+    def empty() -> LineDetections:
         return LineDetections(np.zeros((0, 2)), np.zeros((0, 2, 2)), np.zeros((0, 2, 2)), [])
 
 
@@ -137,7 +137,7 @@ class _Points:
     terms: np.ndarray     # (n, 6) the fit's per-point terms (uniform weights)
     full_circle: bool
 
-    def take(self, idx: np.ndarray) -> "_Points":
+    def take(self, idx: np.ndarray) -> _Points:
         return _Points(self.beam[idx], self.rho[idx], self.beta[idx], self.p[idx], self.terms[idx], self.full_circle)
 
 

@@ -37,8 +37,8 @@ from __future__ import annotations
 import numpy as np
 from numba import njit
 
-from ...models.range_bearing import wrap
 from ...errors import UserError
+from ...models.range_bearing import wrap
 
 N_SUMS = 6   # Σw, Σwρcosβ, Σwρsinβ, Σwρ²cos2β, Σwρ²sin2β, Σwρ²
 

@@ -15,10 +15,10 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...sim.lidar import LidarConfig, Scan, scan
-from .extract import LineExtractorConfig, extract_lines, label_lines
 from ...sim.line_scene import LineScene, beam_lines, check_scan_plane, load_line_scene, visible_lines
-from ...sim.robot_path import PosesInPlane, ScenePath
 from ...sim.planar_trajectory import planar_trajectory
+from ...sim.robot_path import PosesInPlane, ScenePath
+from .extract import LineExtractorConfig, extract_lines, label_lines
 
 
 @dataclass(frozen=True)

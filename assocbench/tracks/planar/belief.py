@@ -3,18 +3,20 @@ predicts each mapped post in range-bearing, ``P = H Σ Hᵀ``; measurements are 
 detections plus uniform clutter over range × bearing."""
 
 from __future__ import annotations
+
 import numpy as np
+
 from ...association.problem import NO_MATCH, Problem
-from ...belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
 from ...association.truth import FrameTruth
-from ...models.range_bearing import ANGULAR, jacobians, predict
+from ...belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
 from ...belief.planar import (
+    clutter_detections,
+    in_sensor_view,
+    nominal_noise,
     planar_pose_covariance,
     sample_planar_estimate,
-    in_sensor_view,
-    clutter_detections,
-    nominal_noise,
 )
+from ...models.range_bearing import ANGULAR, jacobians, predict
 
 
 def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:

@@ -24,7 +24,6 @@ from __future__ import annotations
 import numpy as np
 
 from ...association.problem import Problem
-from ...models.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
 from ...errors import UserError
 from ...estimators.base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
 from ...estimators.config import EstimatorConfig
@@ -38,6 +37,7 @@ from ...estimators.ekf_core import (
     state_columns,
 )
 from ...estimators.planar_pose import PlanarPoseViews, motion_step
+from ...models.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
 
 POSE = np.arange(3)
 MARGIN_SIGMAS = 3.0   # candidate bounds widened by this many σ of the predicted range / bearing

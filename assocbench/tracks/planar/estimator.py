@@ -16,7 +16,7 @@ def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed:
     with zero covariance and no map; ``localisation`` from the sampled pose and mapped posts
     (``belief.map_fraction``) with Σ = blockdiag(Σ_pose, Σ_L) reported."""
     if cfg.name == "isam2":
-        from .isam2 import PlanarISAM2 as cls   # gtsam is an extra: imported only when iSAM2 is asked for
+        from .isam2 import PlanarISAM2 as cls  # gtsam is an extra: imported only when iSAM2 is asked for
     else:
         cls = PlanarEKF
     if cfg.mode == "slam":

@@ -26,8 +26,8 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...validation import in_range, validate_fields
 from ...sim.lidar import Scan
+from ...validation import in_range, validate_fields
 
 COS_FLOOR = 0.3      # smallest |n·u| used for a residual's σ (a beam 72.5° off the surface normal)
 GN_STEPS = 6         # Gauss-Newton steps: from the pushed-back mean a post's fit converges in 3-4
@@ -69,7 +69,7 @@ class Detections:
         return len(self.z)
 
     @staticmethod
-    def empty() -> "Detections":
+    def empty() -> Detections:
         return Detections(np.zeros((0, 2)), np.zeros((0, 2, 2)), [])
 
 

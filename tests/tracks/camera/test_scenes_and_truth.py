@@ -6,10 +6,10 @@ import numpy as np
 import pytest
 
 from assocbench.models.camera import look_at
-from assocbench.tracks.camera.detect import DetectorConfig, detect
 from assocbench.sim.render import FrameRenderer
-from assocbench.tracks.base import scene_track
 from assocbench.sim.scene import load_scene, shipped_scenes
+from assocbench.tracks.base import scene_track
+from assocbench.tracks.camera.detect import DetectorConfig, detect
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, render_sequence
 from assocbench.tracks.camera.truth import TruthConfig, label_features, occluded_by_depth, visibility
 

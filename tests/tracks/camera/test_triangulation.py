@@ -6,8 +6,9 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from assocbench.models.pinhole import perturb_pose
 from assocbench.errors import UserError
+from assocbench.models.camera import Intrinsics, look_at
+from assocbench.models.pinhole import perturb_pose
 from assocbench.tracks.camera.triangulation import (
     camera_matrix,
     distance_mean_variance,
@@ -18,7 +19,6 @@ from assocbench.tracks.camera.triangulation import (
     triangulation_covariance,
     two_view_candidates,
 )
-from assocbench.models.camera import Intrinsics, look_at
 
 K = Intrinsics.from_fovy(640, 480, 60.0)  # f ≈ 416 px
 N_MC = 4000  # relative std of a sample variance: sqrt(2/N) ≈ 2.2 %, so 10 % is > 4 sigma

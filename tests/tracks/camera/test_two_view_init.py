@@ -13,15 +13,15 @@ from scipy.stats import chi2
 
 from assocbench.belief.config import BeliefConfig
 from assocbench.estimators.base import FrameData, Motion
-from assocbench.tracks.camera.ekf import CameraEKF, exp_so3
 from assocbench.estimators.config import EstimatorConfig
-from assocbench.tracks.camera.triangulation import camera_matrix, triangulate_dlt
-from assocbench.tracks.camera.two_view_init import MIN_PARALLAX_DEG, View, depth_spread, parallax_deg, two_view_landmark
 from assocbench.harness.loop import loop_records
+from assocbench.models.camera import Intrinsics, look_at, project
 from assocbench.scoring.aggregate import summarize
 from assocbench.scoring.trajectory import pose_error
-from assocbench.models.camera import Intrinsics, look_at, project
 from assocbench.sim.odometry import true_increment
+from assocbench.tracks.camera.ekf import CameraEKF, exp_so3
+from assocbench.tracks.camera.triangulation import camera_matrix, triangulate_dlt
+from assocbench.tracks.camera.two_view_init import MIN_PARALLAX_DEG, View, depth_spread, parallax_deg, two_view_landmark
 
 K = Intrinsics.from_fovy(640, 480, 60.0)   # f ≈ 416 px
 CFG = EstimatorConfig(mode="slam", init="triangulation")

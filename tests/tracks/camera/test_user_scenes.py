@@ -6,11 +6,11 @@ import numpy as np
 import pytest
 
 from assocbench.errors import UserError
-from assocbench.tracks.base import scene_track
 from assocbench.sim.scene import load_scene, shipped_scenes
 from assocbench.sim.scenegen.camera import HALL_VERTICES, SceneBuilder, polygon_hall, write_scene
-from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, trajectory_poses
 from assocbench.sim.trajectory import rig_for
+from assocbench.tracks.base import scene_track
+from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, trajectory_poses
 
 
 def angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:

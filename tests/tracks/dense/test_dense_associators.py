@@ -10,8 +10,8 @@ import pytest
 from dense_synthetic import ROOM, correct, perturb, render, room_frame, rotation, source_set
 
 from assocbench.associators.dense import DENSE_METHODS, Pairs
-from assocbench.associators.registry import make_dense_associator
 from assocbench.associators.dense.projective import associate_numpy
+from assocbench.associators.registry import make_dense_associator
 from assocbench.errors import UserError
 
 

@@ -3,9 +3,9 @@
 import numpy as np
 import pytest
 
-from assocbench.tracks.dense.metrics import has_partner, relative_pose_error, score_correspondences
 from assocbench.models.camera import Intrinsics
 from assocbench.models.depth_frame import DepthFrame, normal_map, vertex_map
+from assocbench.tracks.dense.metrics import has_partner, relative_pose_error, score_correspondences
 
 
 def wall_frame(z: float = 2.0, w: int = 40, h: int = 30) -> DepthFrame:

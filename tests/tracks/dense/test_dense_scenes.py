@@ -3,17 +3,16 @@ clear of the geometry, and depth frames that are mostly measured."""
 
 from __future__ import annotations
 
+import mujoco
 import numpy as np
 import pytest
 
-from assocbench.sim.scenegen.dense import BAY_PERIOD, DENSE_SCENES, generate
-from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene, shipped_scenes
-from assocbench.tracks.camera.sequence import SequenceSpec, trajectory_poses
+from assocbench.sim.scenegen.dense import BAY_PERIOD, DENSE_SCENES, generate
 from assocbench.sim.trajectory import CLEARANCE
-
-import mujoco
+from assocbench.tracks.camera.sequence import SequenceSpec, trajectory_poses
+from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
 
 ANALYTIC = {mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_CYLINDER}
 

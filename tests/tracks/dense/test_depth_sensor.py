@@ -5,17 +5,16 @@ from __future__ import annotations
 
 import warnings
 
+import mujoco
 import numpy as np
 import pytest
 
 from assocbench.errors import UserError
 from assocbench.models.camera import look_at
 from assocbench.models.depth_frame import NO_GEOM
-from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame, downsample_intrinsics
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
-
-import mujoco
+from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame, downsample_intrinsics
 
 W, H = 640, 480
 EXACT = DepthConfig(downsample=1, sigma_base=0.0, sigma_quad=0.0)   # full resolution, noise-free
@@ -64,7 +63,7 @@ def forward(p) -> tuple[np.ndarray, np.ndarray]:
     return look_at(p, p + [1.0, 0.0, 0.0]), p
 
 
-def sense(renderer: FrameRenderer, R, p, cfg: DepthConfig = DepthConfig(), k: int = 0):
+def sense(renderer: FrameRenderer, R, p, cfg: DepthConfig = DepthConfig(), k: int = 0):  # noqa: B008 - frozen
     depth, geom = renderer.render_depth(R, p)
     return depth_frame(depth, geom, R, p, renderer.K, cfg, np.random.default_rng([0, k, 17]))
 

@@ -2,17 +2,16 @@
 corner (``dense_world``): the merge formulas, accuracy and size of a fused static scene, addition,
 dormant and outlier removal, the truth carried along, the numpy reference, and bad settings."""
 
+import dense_world as dw
 import numpy as np
 import pytest
-
-import dense_world as dw
 from fusion_reference import NumpyMap, fuse_numpy
 
 from assocbench.errors import UserError
-from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig, PointMap, compression_ratio, fuse, warm_fusion
-from assocbench.tracks.dense.surface import surface_distance
 from assocbench.models.camera import Intrinsics
 from assocbench.models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
+from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig, PointMap, compression_ratio, fuse, warm_fusion
+from assocbench.tracks.dense.surface import surface_distance
 
 PLANES = ("floor", "back", "left", "new")
 

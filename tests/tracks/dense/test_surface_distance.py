@@ -7,10 +7,13 @@ import numpy as np
 import pytest
 
 from assocbench import _runtime  # noqa: F401
+
+# isort: split
+import mujoco  # after assocbench: MUJOCO_GL is set before mujoco loads
+
+# isort: split
 from assocbench.errors import UserError
 from assocbench.tracks.dense.surface import surface_distance
-
-import mujoco  # noqa: E402
 
 SCENE = """
 <mujoco>

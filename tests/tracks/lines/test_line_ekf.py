@@ -14,16 +14,16 @@ import pytest
 from line_synth_seq import line_seq
 
 from assocbench.belief.config import BeliefConfig, true_association
-from assocbench.tracks.lines.belief import candidate_lines
-from assocbench.models.polar_line import jacobians, predict
-from assocbench.models.range_bearing import pose_error, wrap
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData
 from assocbench.estimators.config import EstimatorConfig
+from assocbench.models.polar_line import jacobians, predict
+from assocbench.models.range_bearing import pose_error, wrap
+from assocbench.scoring.trajectory import anees_band, ate_rmse
+from assocbench.tracks.base import get_track
+from assocbench.tracks.lines.belief import candidate_lines
 from assocbench.tracks.lines.ekf import LineEKF
 from assocbench.tracks.planar.ekf import PlanarEKF
-from assocbench.tracks.base import get_track
-from assocbench.scoring.trajectory import anees_band, ate_rmse
 
 STEPS, SEEDS = 200, 10
 P0 = np.diag([0.05 ** 2, 0.05 ** 2, np.deg2rad(1.0) ** 2])

@@ -8,10 +8,10 @@ import pytest
 from line_synth import robot_lines, room, synth_scan
 from scipy.optimize import minimize
 
-from assocbench.models.range_bearing import wrap
 from assocbench.errors import UserError
-from assocbench.tracks.lines.extract import LineDetections, LineExtractorConfig, extract_lines, label_lines
+from assocbench.models.range_bearing import wrap
 from assocbench.sim.lidar import Scan
+from assocbench.tracks.lines.extract import LineDetections, LineExtractorConfig, extract_lines, label_lines
 from assocbench.tracks.lines.polar_fit import fit_polar_line
 
 # Lecture 24's numeric example: 17 beams at 0°, 5°, ..., 80°.

@@ -8,13 +8,13 @@ from pathlib import Path
 import numpy as np
 import pytest
 
-from assocbench.models.range_bearing import wrap
 from assocbench.errors import UserError
+from assocbench.models.range_bearing import wrap
 from assocbench.sim.lidar import LidarConfig, cast, scan
 from assocbench.sim.line_scene import beam_lines, load_line_scene, visible_lines
-from assocbench.tracks.base import scene_track
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory
 from assocbench.sim.scene import shipped_scenes
+from assocbench.tracks.base import scene_track
 
 LINES = ("office", "hallway", "furnished")
 

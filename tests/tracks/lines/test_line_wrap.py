@@ -8,13 +8,13 @@ import pytest
 from line_synth_seq import line_seq, room_map
 
 from assocbench import make_associator
-from assocbench.associators.registry import BUILTINS
 from assocbench.association.problem import Problem
+from assocbench.associators.registry import BUILTINS
 from assocbench.belief.config import BeliefConfig
-from assocbench.tracks.lines.belief import RANGE_MARGIN, candidate_lines, make_line_problem, pose_prediction_covariance
 from assocbench.belief.planar import planar_pose_covariance
 from assocbench.models.polar_line import ANGULAR, jacobians, predict
 from assocbench.models.range_bearing import wrap
+from assocbench.tracks.lines.belief import RANGE_MARGIN, candidate_lines, make_line_problem, pose_prediction_covariance
 
 METHODS = sorted(BUILTINS)
 # parameters for this scale: ENN's gate is a distance in measurement units (rad and m mixed here;

@@ -12,11 +12,11 @@ import pytest
 from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records
-from assocbench.tracks.lines.metrics import extraction_scores
-from assocbench.tracks.lines.extract import LineExtractorConfig
-from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
 from assocbench.tracks.base import track_of_spec
+from assocbench.tracks.lines.extract import LineExtractorConfig
+from assocbench.tracks.lines.metrics import extraction_scores
 from assocbench.tracks.lines.plots import segment_status
+from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
 
 
 def load_sequence(spec):

@@ -7,14 +7,13 @@ import sys
 
 import numpy as np
 import pytest
+from planar_synth import compose, synth_world, true_association
 from scipy.stats import chi2
 
-from planar_synth import compose, synth_world, true_association
-
-from assocbench.models.range_bearing import pose_error
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData, Motion
 from assocbench.estimators.config import EstimatorConfig
+from assocbench.models.range_bearing import pose_error
 from assocbench.tracks.planar.isam2 import PlanarISAM2, tangent_to_world
 
 try:
@@ -180,10 +179,10 @@ def test_dropped_tentative_landmark_leaves_the_graph():
     est.problem(frame)
     est.update(np.zeros(0, np.int64))
     [(map_id, _)] = est.initialise(frame, np.array([0]))
-    est.landmarks   # reading the estimate sends the pending factors to iSAM2
+    est.landmarks  # noqa: B018 - reading the estimate sends the pending factors to iSAM2
     factors = est.isam.getFactorsUnsafe().nrFactors()
     empty = FrameData(np.zeros((0, 2)), np.zeros((0, 2, 2)))
-    for k in range(2):
+    for _ in range(2):
         est.predict(Motion(np.zeros(3), np.diag([1e-4, 1e-4, 1e-4])))
         problem = est.problem(empty)
         assert list(problem.landmark_ids) == [map_id]
