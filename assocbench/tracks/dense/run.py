@@ -30,7 +30,6 @@ from pathlib import Path
 
 import numpy as np
 
-from ...errors import UserError
 from ...models.depth_frame import DepthFrame
 from ...scoring.trajectory import pose_columns
 from ...sim.scene import load_scene
@@ -65,14 +64,24 @@ def map_source(pmap: PointMap) -> Source:
     return Source(pmap.positions, pmap.normals, pmap.true_points, pmap.geom)
 
 
-def check_first_frame(seq: DenseSequence, first: DepthFrame) -> None:
-    """Refuse a sequence the track cannot start on: no measured pixel in the first frame (it seeds
-    the map) is one line, not a run of NaN."""
-    if not first.valid.any():
-        reason = "every pixel is beyond depth.max_depth or missing" if np.isfinite(seq.depths[0]).any() \
-            else "the camera sees nothing"
-        raise UserError(f"the first depth frame of {seq.scene!r} has no valid pixel ({reason}); it seeds the map: "
-                        "check depth.min_depth/max_depth/dropout and the scene's path")
+def unmeasurable(seq: DenseSequence, first: DepthFrame) -> str:
+    """Why the run cannot be measured at all, or "": no measured pixel in the first frame, which
+    seeds the map. Such a run is not ok (its frames fail with this error), and in a leaderboard it
+    fails alone."""
+    if first.valid.any():
+        return ""
+    reason = "every pixel is beyond depth.max_depth or missing" if np.isfinite(seq.depths[0]).any() \
+        else "the camera sees nothing"
+    return (f"the first depth frame of {seq.scene!r} has no valid pixel ({reason}); it seeds the map: check "
+            "depth.min_depth/max_depth/dropout and the scene's path")
+
+
+def unmeasured_records(seq: DenseSequence, first: int, error: str) -> Iterator[dict]:
+    """Records of a run that could not start: every frame failed with ``error``, poses held."""
+    for k in range(first, len(seq)):
+        yield {"frame": k, "icp_converged": False, "icp_failed": True, "icp_reason": "not measured", "error": error,
+               "map_points": 0, **pose_columns("true_", seq.rotations[k], seq.positions[k]),
+               **pose_columns("est_", seq.rotations[0], seq.positions[0])}
 
 
 def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: int = 0,
@@ -81,7 +90,10 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
     ``build()`` makes the run's associator (through ``calls``: its failure fails every frame)."""
     cfg, fusion, dense = spec.setting("icp"), spec.setting("fusion"), spec.setting("dense")
     frame = seq.frame(0)
-    check_first_frame(seq, frame)
+    error = unmeasurable(seq, frame)
+    if error:
+        yield from unmeasured_records(seq, first, error)
+        return
     associator, build_error = calls.build(build)
     pmap = PointMap()
     R_est, t_est = seq.rotations[0].copy(), seq.positions[0].copy()

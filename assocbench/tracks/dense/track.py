@@ -89,7 +89,8 @@ class DenseTrack(Track):
     def run_writers(self, frames: pd.DataFrame, artifacts: Path, out: Path, title: str) -> dict:
         """``map.ply`` (the fused map with its weight and distance to the true surface, mm) and
         ``map.png`` (its top view, coloured by that distance)."""
-        return map_writers(frames, artifacts / "map.npz", out, title)
+        fused = artifacts / "map.npz"   # absent when the run could not start (no map was fused)
+        return map_writers(frames, fused, out, title) if fused.is_file() else {}
 
     def check_metrics(self, loop: bool) -> tuple[GuardedMetric, ...]:
         """Correspondence precision and recall may fall by the suite's ``tolerance``; ATE and the

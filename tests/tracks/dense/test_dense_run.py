@@ -43,7 +43,6 @@ def test_same_seed_same_numbers_except_time(tmp_path):
 
 @pytest.mark.parametrize("args,needles", [
     (["--set", "depth.downsample=0"], ["depth.downsample"]),
-    (["--set", "depth.max_depth=0.01", "--set", "depth.min_depth=0.005"], ["first depth frame", "no valid pixel"]),
     (["--set", "params.d_thr=0"], ["d_thr"]),
     (["--set", "params.angle_deg=-5"], ["angle_deg"]),
     (["--set", "fusion.d_thr=0"], ["fusion.d_thr"]),
@@ -135,3 +134,20 @@ def test_a_dense_plugin_that_fails_fails_only_its_own_frames(tmp_path, monkeypat
     assert (frames["error"].fillna("") == "").iloc[:2].all()        # frame 0 (given pose) and frame 1 tracked
     assert (frames["error"].fillna("") != "").iloc[2:].any()
     assert "cannot be trusted" in capsys.readouterr().err
+
+
+def test_a_run_whose_frames_cannot_be_measured_exits_1_and_fails_alone_in_a_leaderboard(tmp_path, capsys):
+    """No valid pixel in the first frame (it seeds the map): the run is not ok (exit 1, the reason
+    named), not a crash; in a leaderboard that run fails alone and the other difficulty is scored."""
+    code, frames, summary = run(tmp_path, "dark", "--method", "projective", "--scene", "crates", *FAST,
+                                "--set", "depth.min_depth=5")
+    err = capsys.readouterr().err
+    assert code == 1 and summary["status"].iloc[0] != "ok" and "no valid pixel" in err
+    assert (frames["error"].str.contains("no valid pixel")).all()
+    suite = tmp_path / "dark.yaml"
+    suite.write_text("base: {frames: 4, resolution: [320, 240], depth: {downsample: 1}}\nscenes: [crates]\n"
+                     "methods: [projective]\nseeds: [0]\ndifficulties: {dark: {depth: {min_depth: 5}}, lit: {}}\n")
+    out = tmp_path / "board"
+    assert main(["leaderboard", "--suite", str(suite), "--out", str(out), "--quiet"]) == 1
+    table = pd.read_csv(out / "leaderboard.csv").set_index("difficulty")
+    assert table.loc["lit", "status"] == "ok" and table.loc["dark", "status"] != "ok"
