@@ -43,3 +43,36 @@ def test_each_track_digest_covers_its_own_folder(package_copy):
     _edit(package_copy / "tracks/dense/depth_sensor.py")
     assert fingerprint.sources_digest(*camera_sequence.CODE) == before[camera_sequence.CODE]
     assert fingerprint.sources_digest(*dense_sequence.CODE) != before[dense_sequence.CODE]
+
+
+def test_the_lidar_tracks_sequences_are_cached_and_heal(tmp_path, capsys):
+    """The planar and lines tracks use the one sequence cache: a second load reads the entry (the
+    same arrays), a damaged entry is discarded with one line and made again."""
+    import numpy as np
+
+    from assocbench.harness.config import load_run_config, run_spec
+
+    for scene in ("park", "office"):
+        spec = run_spec(load_run_config(None, [], method="jcbb", scene=scene, frames=5))
+        track = spec.track_impl
+        first = track.load_sequence(spec.sequence, tmp_path)
+        (entry,) = (tmp_path / track.name).glob("*.pkl")
+        again = track.load_sequence(spec.sequence, tmp_path)
+        assert all(np.array_equal(a, b) for a, b in zip(first.z, again.z)) and np.array_equal(first.poses, again.poses)
+        entry.write_bytes(entry.read_bytes()[:100])      # truncated
+        healed = track.load_sequence(spec.sequence, tmp_path)
+        assert np.array_equal(healed.poses, first.poses)
+        err = capsys.readouterr().err
+        assert "is unusable" in err and "rendering again" in err
+
+
+@pytest.mark.parametrize("track", ["planar", "lines"])
+def test_a_lidar_tracks_key_follows_its_models_not_another_track(package_copy, track):
+    from assocbench.tracks.base import get_track
+    code = __import__(f"assocbench.tracks.{track}.track", fromlist=["CODE"]).CODE
+    before = fingerprint.sources_digest(*code)
+    _edit(package_copy / "tracks/camera/detect.py")
+    assert fingerprint.sources_digest(*code) == before
+    _edit(package_copy / "models/range_bearing.py")
+    assert fingerprint.sources_digest(*code) != before
+    assert get_track(track).name == track

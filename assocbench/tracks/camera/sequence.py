@@ -11,10 +11,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import struct
-import sys
-import zipfile
-import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 from typing import ClassVar
@@ -25,10 +21,9 @@ import numpy as np
 from tqdm import tqdm
 
 from ..._runtime import cache_root
-from ...atomic import CACHE, atomic_path
-from ...errors import UserError
 from ...fingerprint import sources_digest
 from ...models.camera import Intrinsics
+from ...sim.cache import Unusable, cached_sequence
 from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
@@ -168,8 +163,8 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
 
 
 def _save(seq: Sequence, path: Path, key: str) -> None:
-    """Store ``seq`` at ``path`` atomically, with its cache ``key`` inside so a file that lands
-    under another key (copied, renamed) is recognised."""
+    """Write ``seq`` to ``path`` (the cache makes it atomic), with its cache ``key`` inside so a
+    file that lands under another key (copied, renamed) is recognised."""
     counts = np.array([len(f) for f in seq.features])
     arrays = dict(
         key=np.array(key),
@@ -184,27 +179,15 @@ def _save(seq: Sequence, path: Path, key: str) -> None:
         arrays["images"] = seq.images
     if seq.depths is not None:
         arrays["depths"] = np.concatenate(seq.depths) if counts.sum() else np.zeros(0)
-    with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
-
-
-class _Unusable(Exception):
-    """A cache entry that reads, but is not the sequence its key names."""
-
-
-# what reading a damaged .npz can raise: a truncated or flipped zip (BadZipFile, EOFError,
-# zlib.error, OSError), a damaged array header (ValueError, SyntaxError, MemoryError for an
-# absurd shape), a missing member (KeyError), or a pickle refusal for garbage (ValueError)
-_DAMAGED = (_Unusable, OSError, EOFError, ValueError, KeyError, IndexError, TypeError, SyntaxError,
-            MemoryError, NotImplementedError, RuntimeError, zipfile.BadZipFile, zlib.error, struct.error)
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, **arrays)
 
 
 def _load(path: Path, key: str, spec: SequenceSpec) -> Sequence:
-    """Read a cache entry and check it is the sequence of ``key``; raise one of ``_DAMAGED``."""
+    """Read a cache entry and check it is the sequence of ``key``; raise one of ``cache.DAMAGED``."""
     with np.load(path) as z:
         if "key" not in z.files or str(z["key"]) != key:
-            raise _Unusable("it was stored under another key")
+            raise Unusable("it was stored under another key")
         w, h, f, cx, cy = z["K"]
         counts = z["counts"]
         splits = np.cumsum(counts)[:-1]
@@ -220,7 +203,7 @@ def _load(path: Path, key: str, spec: SequenceSpec) -> Sequence:
 
 
 def _check_shapes(seq: Sequence, counts: np.ndarray, spec: SequenceSpec) -> None:
-    """Raise ``_Unusable`` unless every array has the shape ``spec`` implies."""
+    """Raise ``Unusable`` unless every array has the shape ``spec`` implies."""
     n, lms = spec.frames, len(seq.landmark_names)
     features = np.concatenate(seq.features) if len(seq.features) else np.zeros((0, 2))
     labels = np.concatenate(seq.labels) if len(seq.labels) else np.zeros(0, np.int64)
@@ -236,42 +219,15 @@ def _check_shapes(seq: Sequence, counts: np.ndarray, spec: SequenceSpec) -> None
                            (int(counts.sum()),) if spec.feature_depth else None)}
     for name, (got, want) in expected.items():
         if got != want:
-            raise _Unusable(f"{name} has shape {got}, expected {want}")
+            raise Unusable(f"{name} has shape {got}, expected {want}")
     if labels.size and (labels.min() < -1 or labels.max() >= lms):
-        raise _Unusable("a label names no landmark")
-
-
-def _cached(path: Path, key: str, spec: SequenceSpec) -> Sequence | None:
-    """The cache entry at ``path`` if it is there and sound. An entry that cannot be read or
-    is not the sequence of ``key`` is removed, with one line on stderr, and ``None`` returned."""
-    try:
-        if not path.is_file():
-            return None
-        return _load(path, key, spec)
-    except PermissionError as exc:  # a cache we may not read is a setting to fix, not damage
-        raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
-    except _DAMAGED as exc:
-        reason = str(exc) if isinstance(exc, _Unusable) else f"{type(exc).__name__}: {exc}".splitlines()[0][:120]
-    print(f"assocbench: cached sequence {path} is unusable ({reason}); discarding it and rendering again",
-          file=sys.stderr)
-    try:
-        path.unlink(missing_ok=True)
-    except OSError:
-        pass  # the fresh render is stored over it
-    return None
+        raise Unusable("a label names no landmark")
 
 
 def load_sequence(spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
-    """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
-    A damaged cache entry, or one that is not this spec's sequence, is rendered again."""
+    """The sequence of ``spec``: from the shared sequence cache (``sim.cache``) when present and
+    sound, else rendered and stored. A damaged entry, or one that is not this spec's sequence, is
+    rendered again."""
     scene = load_scene(spec.scene)
-    key = spec.key(scene)
-    path = Path(cache_dir or default_cache_dir()) / "sequences" / f"{key}.npz"
-    if use_cache:
-        seq = _cached(path, key, spec)
-        if seq is not None:
-            return seq
-    seq = render_sequence(spec, scene)
-    if use_cache:
-        _save(seq, path, key)
-    return seq
+    return cached_sequence("sequences", spec.key(scene), lambda: render_sequence(spec, scene), _save,
+                           lambda path, key: _load(path, key, spec), cache_dir, use_cache)

@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import hashlib
 import json
-import sys
 from dataclasses import asdict, dataclass, field, replace
 from pathlib import Path
 
@@ -24,12 +23,11 @@ import mujoco
 import numpy as np
 from tqdm import tqdm
 
-from ..._runtime import cache_root
-from ...atomic import CACHE, atomic_path
 from ...errors import UserError
 from ...fingerprint import sources_digest
 from ...models.camera import Intrinsics
 from ...models.depth_frame import DepthFrame
+from ...sim.cache import Unusable, cached_sequence
 from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
@@ -149,15 +147,14 @@ def _save(seq: DenseSequence, path: Path, key: str) -> None:
     arrays = dict(key=np.array(key), scene=np.array(seq.scene),
                   K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]), depths=seq.depths,
                   geoms=seq.geoms, rotations=seq.rotations, positions=seq.positions)
-    with atomic_path(path, suffix=".npz", role=CACHE) as tmp:
-        with open(tmp, "wb") as fh:
-            np.savez_compressed(fh, **arrays)
+    with open(path, "wb") as fh:
+        np.savez_compressed(fh, **arrays)
 
 
 def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
     with np.load(path) as z:
         if str(z["key"]) != key:
-            raise ValueError("it was stored under another key")
+            raise Unusable("it was stored under another key")
         w, h, f, cx, cy = z["K"]
         seq = DenseSequence(str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
                             z["depths"], z["geoms"], z["rotations"],
@@ -170,21 +167,9 @@ def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
 
 def load_dense_sequence(spec: DenseSequenceSpec, cache_dir: Path | None = None,
                         use_cache: bool = True) -> DenseSequence:
-    """The sequence of ``spec``: from the cache when present and sound, else rendered and stored.
-    A damaged entry (truncated, another key, wrong shapes) is discarded with one line on stderr."""
+    """The sequence of ``spec``: from the shared sequence cache (``sim.cache``) when present and
+    sound, else rendered and stored. A damaged entry (truncated, another key, wrong shapes) is
+    discarded with one line on stderr."""
     scene = load_scene(spec.scene)
-    key = spec.key(scene)
-    path = Path(cache_dir or cache_root()) / "dense" / f"{key}.npz"
-    if use_cache and path.is_file():
-        try:
-            return _load(path, key, spec)
-        except PermissionError as exc:
-            raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
-        except Exception as exc:  # noqa: BLE001 - any damage to a cache file means: render again
-            print(f"assocbench: cached depth sequence {path} is unusable ({type(exc).__name__}: "
-                  f"{str(exc).splitlines()[0][:120] if str(exc) else ''}); rendering again", file=sys.stderr)
-            path.unlink(missing_ok=True)
-    seq = render_dense(spec, scene)
-    if use_cache:
-        _save(seq, path, key)
-    return seq
+    return cached_sequence("dense", spec.key(scene), lambda: render_dense(spec, scene), _save,
+                           lambda path, key: _load(path, key, spec), cache_dir, use_cache, what="depth sequence")

@@ -6,6 +6,7 @@ from pathlib import Path
 
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
+from ...sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
 from ...sim.lidar import LidarConfig
 from ...sim.line_scene import load_line_scene
 from ...sim.scenegen.lines import LINE_SCENES
@@ -18,6 +19,9 @@ from .extract import LineExtractorConfig
 from .loop import LinesSensor
 from .plots import line_map_figure, snapshots
 from .sequence import LineSequence, LineSequenceSpec, make_line_sequence, warm_extraction
+
+# the sources a cached sequence depends on: shared simulation and belief, measurement models, this track
+CODE = ("sim", "models", "belief", "tracks/lines")
 
 
 class LinesTrack(Track):
@@ -52,9 +56,11 @@ class LinesTrack(Track):
         seq.check()
         return seq
 
-    def load_sequence(self, spec: LineSequenceSpec, cache_dir: Path | None = None,
-                      use_cache: bool = True) -> LineSequence:
-        return make_line_sequence(spec)
+    def load_sequence(self, spec, cache_dir: Path | None = None, use_cache: bool = True):
+        """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made
+        (the scans and what was extracted from them) and stored."""
+        return cached_sequence("lines", spec_key(spec, CODE), lambda: make_line_sequence(spec), save_pickled,
+                               load_pickled, cache_dir, use_cache, suffix=".pkl")
 
     def problems(self, seq: LineSequence, belief, seed: int) -> list:
         return [make_line_problem(seq, k, belief, seed) for k in range(len(seq))]

@@ -9,6 +9,7 @@ import numpy as np
 
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
+from ...sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
 from ...sim.lidar import LidarConfig
 from ...sim.planar_scene import load_planar_scene
 from ...sim.scenegen.planar import PLANAR_SCENES
@@ -19,6 +20,9 @@ from .belief import make_planar_problem
 from .estimator import make_planar_estimator
 from .post_detect import PostDetectorConfig
 from .sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
+
+# the sources a cached sequence depends on: shared simulation and belief, measurement models, this track
+CODE = ("sim", "models", "belief", "tracks/planar")
 
 
 class PlanarTrack(Track):
@@ -59,9 +63,11 @@ class PlanarTrack(Track):
         seq.check()
         return seq
 
-    def load_sequence(self, spec: PlanarSequenceSpec, cache_dir: Path | None = None,
-                      use_cache: bool = True) -> PlanarSequence:
-        return make_planar_sequence(spec)
+    def load_sequence(self, spec, cache_dir: Path | None = None, use_cache: bool = True):
+        """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made
+        (the scans and what was extracted from them) and stored."""
+        return cached_sequence("planar", spec_key(spec, CODE), lambda: make_planar_sequence(spec), save_pickled,
+                               load_pickled, cache_dir, use_cache, suffix=".pkl")
 
     def problems(self, seq: PlanarSequence, belief, seed: int) -> list:
         return [make_planar_problem(seq, k, belief, seed) for k in range(len(seq))]
