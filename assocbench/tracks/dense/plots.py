@@ -7,6 +7,7 @@ visible. The colour scale is fixed (0 to ``ERROR_SCALE_MM``) so panels compare a
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -28,7 +29,9 @@ def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarra
     ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
     ax.plot(*p_true[0, :2], "o", color="black", ms=4)
     ax.set_aspect("equal")
-    ax.set_title(title, fontsize=8)
+    ax.set_xlabel("x (m)", fontsize=7)
+    ax.set_ylabel("y (m)", fontsize=7)
+    ax.set_title(textwrap.fill(title, 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)
     return sc
 
@@ -47,7 +50,9 @@ def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
     if sc is not None:
-        fig.colorbar(sc, ax=axes, shrink=0.8, label=f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})")
+        bar = fig.colorbar(sc, ax=axes, shrink=0.6, fraction=0.03, pad=0.02)
+        bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7)
+        bar.ax.tick_params(labelsize=6)
         axes.flat[0].legend(fontsize=6, loc="upper right", markerscale=4)
     fig.savefig(path, dpi=110)
 
