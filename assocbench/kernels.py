@@ -86,7 +86,7 @@ def _compiling(cache) -> None:
     if _state["active"]:
         if _state["started"] is None:
             _state["started"] = time.perf_counter()
-            print(f"assocbench: compiling {_state['what']} (first run in this environment, ~{_state['expect']:.0f} s) ",
+            print(f"assocbench: compiling {_state['what']} (once per environment and version of the sources, ~{_state['expect']:.0f} s) ",
                   end="", file=sys.stderr, flush=True)
         print(".", end="", file=sys.stderr, flush=True)
     elif not _state["noted"] and _module(cache).startswith("assocbench"):

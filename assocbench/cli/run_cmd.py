@@ -16,7 +16,7 @@ from ..harness.config import load_run_config, run_spec
 from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
 from ..scoring.trajectory import tum_text
-from .common import add_run_options, check_output_folder, config_digest, print_table
+from .common import add_run_options, check_output_folder, config_digest, print_table, unit_of
 
 NAME = "run"
 HELP = "run one associator on one scene and print its scores"
@@ -70,7 +70,8 @@ def main(args: argparse.Namespace) -> int:
         write_group(writers)
     if args.format == "table":
         print(title)
-        print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values())}), "table")
+        print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values()),
+                                  "unit": [unit_of(m) for m in summary]}), "table")
         print("wrote " + ", ".join(str(p) for p in writers))
     else:
         print_table(summary_df, args.format)
