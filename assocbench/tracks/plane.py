@@ -1,9 +1,12 @@
-"""What the planar and lines tracks share in the closed loop: a robot in the plane with a 2-D
-lidar. ``PlanarSensor`` reads a frame's detections (their noise is the sensor's) plus clutter,
+"""What the planar and lines tracks share: a robot in the plane with a 2-D lidar. ``LidarTrack``
+is their common part as tracks (the robot's paths, the cached sequence); ``PlanarSensor`` reads a frame's detections (their noise is the sensor's) plus clutter,
 the planar odometry, and the 3-dof pose error ``[δx, δy, δθ]``; the lines track's sensor is this
 one with wall lines ``(α, r)`` for posts."""
 
 from __future__ import annotations
+
+from pathlib import Path
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -14,7 +17,9 @@ from ..estimators.config import EstimatorConfig
 from ..models.range_bearing import pose_error as planar_pose_error
 from ..models.se2 import compose
 from ..scoring.trajectory import nees_or_nan, pose_columns
+from ..sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
 from ..sim.odometry import planar_odometry
+from .base import Track
 
 # the paths of a robot in the plane (``sim.planar_trajectory``), as ``assocbench list`` shows them
 PLANE_TRAJECTORIES = [
@@ -22,6 +27,25 @@ PLANE_TRAJECTORIES = [
     ("ellipse", "an ellipse around the posts (lines: the wall faces) clear of every obstacle (laps, start, scale), "
                 "a user MJCF's default"),
 ]
+
+
+class LidarTrack(Track):
+    """A track of a robot in the plane with a 2-D lidar: its sequence is made by
+    ``make_sequence(spec)`` (the scans and what was extracted from them) and kept in the shared
+    sequence cache under a key of ``code``, the package folders it depends on."""
+
+    code: ClassVar[tuple[str, ...]] = ()
+
+    def make_sequence(self, spec: Any) -> Any:
+        raise self._missing("a sequence")
+
+    def load_sequence(self, spec: Any, cache_dir: Path | None = None, use_cache: bool = True) -> Any:
+        """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made and stored."""
+        return cached_sequence(self.name, spec_key(spec, self.code), lambda: self.make_sequence(spec), save_pickled,
+                               load_pickled, cache_dir, use_cache, suffix=".pkl")
+
+    def trajectories(self) -> list[tuple[str, str]]:
+        return PLANE_TRAJECTORIES
 
 
 class PlanarSensor:

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from plugins import install_entry_point
 from problems import random_problem, reference_joint, reference_surprisal
 
 from assocbench import Problem, make_associator, validate_association
@@ -153,14 +154,10 @@ def test_plugin_by_module_class_spec(tmp_path, monkeypatch):
 
 def test_plugin_by_entry_point(tmp_path, monkeypatch):
     """A package that declares the entry point group is listed and usable by name."""
-    (tmp_path / "fancy_assoc.py").write_text(
-        "import numpy as np\nfrom assocbench import Associator\n"
-        "class Fancy(Associator):\n    def associate(self, problem):\n        return np.full(problem.n, -1)\n")
-    dist = tmp_path / "fancy_assoc-1.0.dist-info"
-    dist.mkdir()
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: fancy-assoc\nVersion: 1.0\n")
-    (dist / "entry_points.txt").write_text("[assocbench.associators]\nfancy = fancy_assoc:Fancy\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
+    install_entry_point(tmp_path, monkeypatch, "fancy_assoc",
+                        "import numpy as np\nfrom assocbench import Associator\n"
+                        "class Fancy(Associator):\n    def associate(self, problem):\n        return np.full(problem.n, -1)\n",
+                        "fancy", "Fancy")
     assert "fancy" in available()
     p, _ = easy_problem()
     assert np.all(make_associator("fancy").associate(p) == -1)

@@ -11,6 +11,7 @@ import re
 from pathlib import Path
 
 import pytest
+from plugins import install_entry_point
 
 from assocbench.associators.registry import available
 from assocbench.cli.main import build_parser
@@ -45,16 +46,13 @@ def test_associator_page_lists_every_registered_method_with_its_parameters(refer
 
 
 def test_associator_page_lists_an_installed_plugin(reference, tmp_path, monkeypatch):
-    (tmp_path / "docs_plugin_assoc.py").write_text(
-        "from dataclasses import dataclass, field\nimport numpy as np\nfrom assocbench.validation import one_of\n"
-        "@dataclass\nclass Shy:\n    summary = 'never pairs anything'\n"
-        "    mood: str = field(default='calm', metadata=one_of('calm', 'shy'))\n"
-        "    def associate(self, problem):\n        return np.full(problem.n, -1)\n")
-    dist = tmp_path / "docs_plugin_assoc-1.0.dist-info"
-    dist.mkdir()
-    (dist / "METADATA").write_text("Metadata-Version: 2.1\nName: docs-plugin-assoc\nVersion: 1.0\n")
-    (dist / "entry_points.txt").write_text("[assocbench.associators]\nshy = docs_plugin_assoc:Shy\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
+    install_entry_point(tmp_path, monkeypatch, "docs_plugin_assoc",
+                        "from dataclasses import dataclass, field\nimport numpy as np\n"
+                        "from assocbench.validation import one_of\n"
+                        "@dataclass\nclass Shy:\n    summary = 'never pairs anything'\n"
+                        "    mood: str = field(default='calm', metadata=one_of('calm', 'shy'))\n"
+                        "    def associate(self, problem):\n        return np.full(problem.n, -1)\n",
+                        "shy", "Shy")
     row = next(line for line in reference.associators_markdown().splitlines() if line.startswith("| `shy` |"))
     assert "never pairs anything" in row and "one of `calm`, `shy`" in row
 

@@ -2,17 +2,14 @@
 
 from __future__ import annotations
 
-from pathlib import Path
-
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
-from ...sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
 from ...sim.lidar import LidarConfig
 from ...sim.line_scene import load_line_scene
 from ...sim.scenegen.lines import LINE_SCENES
 from ...validation import free_mapping, typed_section
-from ..base import SceneMarks, Track, first_line, register_track
-from ..plane import PLANE_TRAJECTORIES
+from ..base import SceneMarks, first_line, register_track
+from ..plane import LidarTrack
 from .belief import make_line_problem
 from .estimator import make_line_estimator
 from .extract import LineExtractorConfig
@@ -24,7 +21,7 @@ from .sequence import LineSequence, LineSequenceSpec, make_line_sequence, warm_e
 CODE = ("sim", "models", "belief", "tracks/lines")
 
 
-class LinesTrack(Track):
+class LinesTrack(LidarTrack):
     """Scenes whose map is ``lw*`` wall geoms (and no ``lm*`` landmarks)."""
 
     name = "lines"
@@ -32,6 +29,7 @@ class LinesTrack(Track):
     ci_suites = ("lines_ci",)
     suites = ("lines", "lines_ci")
     spec_type = LineSequenceSpec
+    code = CODE
 
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.wall_geoms > 0
@@ -56,11 +54,8 @@ class LinesTrack(Track):
         seq.check()
         return seq
 
-    def load_sequence(self, spec, cache_dir: Path | None = None, use_cache: bool = True):
-        """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made
-        (the scans and what was extracted from them) and stored."""
-        return cached_sequence("lines", spec_key(spec, CODE), lambda: make_line_sequence(spec), save_pickled,
-                               load_pickled, cache_dir, use_cache, suffix=".pkl")
+    def make_sequence(self, spec):
+        return make_line_sequence(spec)
 
     def problems(self, seq: LineSequence, belief, seed: int) -> list:
         return [make_line_problem(seq, k, belief, seed) for k in range(len(seq))]
@@ -76,9 +71,6 @@ class LinesTrack(Track):
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}
-
-    def trajectories(self) -> list[tuple[str, str]]:
-        return PLANE_TRAJECTORIES
 
     def map_figure(self, frames, scene: str, title: str):
         """Walls, not points: the map's faces and each method's last scan."""

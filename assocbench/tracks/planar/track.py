@@ -3,19 +3,17 @@
 from __future__ import annotations
 
 import importlib.util
-from pathlib import Path
 
 import numpy as np
 
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
-from ...sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
 from ...sim.lidar import LidarConfig
 from ...sim.planar_scene import load_planar_scene
 from ...sim.scenegen.planar import PLANAR_SCENES
 from ...validation import free_mapping, typed_section
-from ..base import SMOOTHED_ATE_GUARD, GuardedMetric, SceneMarks, Track, first_line, register_track
-from ..plane import PLANE_TRAJECTORIES, PlanarSensor
+from ..base import SMOOTHED_ATE_GUARD, GuardedMetric, SceneMarks, first_line, register_track
+from ..plane import LidarTrack, PlanarSensor
 from .belief import make_planar_problem
 from .estimator import make_planar_estimator
 from .post_detect import PostDetectorConfig
@@ -25,7 +23,7 @@ from .sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
 CODE = ("sim", "models", "belief", "tracks/planar")
 
 
-class PlanarTrack(Track):
+class PlanarTrack(LidarTrack):
     """Scenes whose landmarks are ``lm*`` cylinder geoms (posts)."""
 
     name = "planar"
@@ -33,6 +31,7 @@ class PlanarTrack(Track):
     ci_suites = ("planar_ci", "planar_isam2_ci")
     suites = ("planar", "planar_ci", "planar_isam2_ci")
     spec_type = PlanarSequenceSpec
+    code = CODE
 
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.landmark_geoms > 0
@@ -63,11 +62,8 @@ class PlanarTrack(Track):
         seq.check()
         return seq
 
-    def load_sequence(self, spec, cache_dir: Path | None = None, use_cache: bool = True):
-        """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made
-        (the scans and what was extracted from them) and stored."""
-        return cached_sequence("planar", spec_key(spec, CODE), lambda: make_planar_sequence(spec), save_pickled,
-                               load_pickled, cache_dir, use_cache, suffix=".pkl")
+    def make_sequence(self, spec):
+        return make_planar_sequence(spec)
 
     def problems(self, seq: PlanarSequence, belief, seed: int) -> list:
         return [make_planar_problem(seq, k, belief, seed) for k in range(len(seq))]
@@ -80,9 +76,6 @@ class PlanarTrack(Track):
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in PLANAR_SCENES.items()}
-
-    def trajectories(self) -> list[tuple[str, str]]:
-        return PLANE_TRAJECTORIES
 
     def landmarks(self, scene: str) -> np.ndarray:
         return load_planar_scene(scene).posts
