@@ -10,7 +10,7 @@ UNITS = {"ate_rmse": "m", "ate_smoothed": "m", "map_rmse": "m", "surprisal_gap":
          "true_mass": "probability (NaN: not a soft method)", "anees": "NEES / dof", "anees_lo": "NEES / dof",
          "anees_hi": "NEES / dof", "frames": "frames", "failures": "frames", "timed_out": "frames",
          "diverged_at": "frame (-1: never)", "icp_failures": "frames", "wrong_steps": "frames",
-         "clutter_accepted": "features", "map_size": "landmarks", "new_landmarks": "landmarks", "revisits": "re-sightings",
+         "clutter_accepted": "features", "no_depth": "features", "map_size": "landmarks", "new_landmarks": "landmarks", "revisits": "re-sightings",
          "loop_closures": "re-sightings",
          "map_points": "points", "duplicates": "landmarks", "false_landmarks": "landmarks"}
 SUFFIX_UNITS = (("_ms", "ms"), ("_mm", "mm"), ("_deg", "deg"), ("_pct", "%"), ("_s", "s"))

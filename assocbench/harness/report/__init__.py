@@ -19,13 +19,15 @@ from .suites import Suite, read_suite
 __all__ = ["build_report", "write_report"]
 
 
-def build_report(folders: Sequence[Path | str]) -> dict[str, bytes]:
+def build_report(folders: Sequence[Path | str], names: Sequence[str] | None = None) -> dict[str, bytes]:
     """The report's files for the leaderboards in ``folders`` (each a folder holding
-    ``leaderboard.csv``, or that file), in the order given."""
+    ``leaderboard.csv``, or that file), in the order given; ``names``: how the pages name each
+    source (default: the folder as given), so a report built elsewhere reads the same."""
     if not folders:
         raise UserError("no leaderboard given: name one or more folders written by `assocbench leaderboard`, "
                         "e.g. results results/planar")
-    suites = [read_suite(Path(f), str(f)) for f in folders]
+    names = [str(f) for f in folders] if names is None else list(names)
+    suites = [read_suite(Path(f), name) for f, name in zip(folders, names, strict=True)]
     _name(suites)
     files: dict[str, bytes] = {}
     for s in suites:

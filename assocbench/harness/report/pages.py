@@ -198,6 +198,7 @@ def _legend(suite: Suite, columns: list[Column]) -> str:
               "end: the estimator, the line extractor or the ICP target, where the suite names one)")]
     items += [(c.header, escape(c.meaning) + (f"; {BETTER[c.better]}" if c.better else "")
                + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
-    items += [(label, meaning) for k, (label, meaning) in COUNT_COLUMNS.items() if k in suite.table]
+    items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", meaning)
+              for k, (label, meaning) in COUNT_COLUMNS.items() if k in suite.table]
     items.append(("status", "ok, or why the harness could not trust the row's numbers"))
     return '<dl class="legend">' + "".join(f"<dt>{escape(h)}</dt><dd>{m}</dd>" for h, m in items) + "</dl>"
