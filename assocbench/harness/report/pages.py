@@ -70,7 +70,7 @@ def overview_body(suites: list[Suite]) -> str:
 
 def _ranking_table(suites: list[Suite]) -> str:
     table = overview(suites)
-    head = ['<th class="text sortable" data-type="text">method</th>']
+    head = ['<th class="text sortable" data-type="text">method<span class="unit"></span></th>']
     for s in suites:
         m = s.primary
         head.append(f'<th class="sortable" data-type="num" title="mean rank over the scenarios of {escape(s.title)}">'
@@ -155,7 +155,8 @@ def _table(suite: Suite, columns: list[Column]) -> str:
     t = suite.table
     backend = t["backend"].ne("").any()
     labels = [("scene", "scene"), ("difficulty", "difficulty")] + ([("backend", "back end")] if backend else [])
-    head = [f'<th class="text sortable" data-type="text">{label}</th>' for _, label in labels + [("method", "method")]]
+    head = [f'<th class="text sortable" data-type="text">{label}<span class="unit"></span></th>'
+            for _, label in labels + [("method", "method")]]
     for c in columns:
         head.append(f'<th class="sortable{"" if c.shown(suite.kind) else " more"}" data-type="num" title="{escape(c.meaning)}">'
                     f'{escape(c.label)}<span class="unit">{escape(c.unit) if c.unit else "&nbsp;"}</span></th>')
@@ -165,7 +166,7 @@ def _table(suite: Suite, columns: list[Column]) -> str:
     counts = [k for k in COUNT_COLUMNS if k in t]
     head += [f'<th class="sortable" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
              f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
-    head.append('<th class="text sortable" data-type="text">status</th>')
+    head.append('<th class="text sortable" data-type="text">status<span class="unit"></span></th>')
     rows = [_row(r, labels, columns, counts, suite.kind) for _, r in t.iterrows()]
     return (f'<div class="scroll"><table class="filterable"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
             + "\n".join(rows) + "\n</tbody></table></div>")
@@ -195,7 +196,8 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
 
 def _legend(suite: Suite, columns: list[Column]) -> str:
     items = [("scene / difficulty / back end", "the scenario, split from its name scene/difficulty-backend (the back "
-              "end: the estimator, the line extractor or the ICP target, where the suite names one)")]
+              "end: the estimator, the line extractor or the ICP target)") if suite.table["backend"].ne("").any()
+             else ("scene / difficulty", "the scenario, split from its name scene/difficulty")]
     items += [(c.header, escape(c.meaning) + (f"; {BETTER[c.better]}" if c.better else "")
                + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
     items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", meaning)

@@ -17,7 +17,7 @@ from ...errors import UserError
 from ...scoring.aggregate import OK
 from ...tracks.base import track_for_run
 from ..leaderboard import scenario_key
-from .columns import BY_KEY, Column
+from .columns import BY_KEY, COUNT_COLUMNS, Column
 
 CSV_NAME = "leaderboard.csv"
 LABEL_COLUMNS = ("scenario", "method", "status", "error", "scene", "difficulty")
@@ -86,9 +86,11 @@ def _parse(data: bytes, name: str) -> pd.DataFrame:
         raise UserError(f"{name} is not a leaderboard: none of the columns f1, ate_rmse, ate_mm; {fix}")
     if not len(table) or table[["scenario", "method"]].isna().any().any():
         raise UserError(f"{name} has no rows or a row without scenario or method; {fix}")
-    bad = [c for c in table if c not in LABEL_COLUMNS and not pd.api.types.is_numeric_dtype(table[c])]
+    text = [c for c in table if c not in LABEL_COLUMNS and not pd.api.types.is_numeric_dtype(table[c])]
+    bad = [c for c in text if c in BY_KEY or c in COUNT_COLUMNS or c in ("seed", "seeds", "frames")]
     if bad:
         raise UserError(f"{name}: column {bad[0]} holds text where numbers belong; {fix}")
+    table = table.drop(columns=text)   # labels a newer harness may add; the report ranks and sorts numbers
     if "status" not in table:
         table["status"] = OK
     table["status"] = table["status"].fillna(OK)
