@@ -86,6 +86,11 @@ def _parse(data: bytes, name: str) -> pd.DataFrame:
         raise UserError(f"{name} is not a leaderboard: none of the columns f1, ate_rmse, ate_mm; {fix}")
     if not len(table) or table[["scenario", "method"]].isna().any().any():
         raise UserError(f"{name} has no rows or a row without scenario or method; {fix}")
+    key = ["scenario", "method"] + (["seed"] if "seed" in table else [])
+    twice = table[table.duplicated(key)]
+    if len(twice):
+        r = twice.iloc[0]
+        raise UserError(f"{name} has two rows for method {r['method']} on {r['scenario']}; {fix}")
     text = [c for c in table if c not in LABEL_COLUMNS and not pd.api.types.is_numeric_dtype(table[c])]
     bad = [c for c in text if c in BY_KEY or c in COUNT_COLUMNS or c in ("seed", "seeds", "frames")]
     if bad:

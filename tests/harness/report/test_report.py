@@ -88,6 +88,7 @@ def test_dense_runs_are_averaged_over_seeds(tmp_path):
     (b"scenario,method,precision\nroom/easy,jcbb,0.9\n", ["none of the columns f1, ate_rmse, ate_mm"]),
     (b"scenario,method,f1\nroom/easy,jcbb,high\n", ["column f1 holds text"]),
     (b"scenario,method,f1\n", ["has no rows"]),
+    (b"scenario,method,f1\nroom/easy,jcbb,0.9\nroom/easy,jcbb,0.8\n", ["two rows for method jcbb on room/easy"]),
 ])
 def test_a_folder_that_is_no_leaderboard_is_refused(tmp_path, capsys, text, needles):
     folder = tmp_path / "lb"
