@@ -8,6 +8,7 @@ import errno
 import re
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from report_inputs import PLUGIN, RESULTS, copy_leaderboard, tiny_leaderboard, with_plugin
 
@@ -41,7 +42,8 @@ def test_the_committed_leaderboards_make_an_overview_and_a_page_per_suite(tmp_pa
     # every metric header carries its unit: ATE in m, runtime in ms, rotation in deg
     for label, unit in (("ATE", "m"), ("runtime median", "ms"), ("rotation RMSE", "deg"), ("ANEES", "NEES / dof")):
         assert re.search(rf">{re.escape(label)}<span class=\"unit\">{re.escape(unit)}</span></th>", planar), label
-    assert planar.count('data-scene="park"') == 24 and 'data-backend="isam2"' in planar
+    park = pd.read_csv(RESULTS / "planar/leaderboard.csv")["scenario"].str.startswith("park/").sum()
+    assert planar.count('data-scene="park"') == park > 0 and 'data-backend="isam2"' in planar
     index = files["index.html"].decode()
     assert "mean rank by ATE [m]" in index and "mean rank by F1 [share]" in index
     assert "http://" not in index + planar and "https://" not in index + planar   # nothing fetched at view time
