@@ -7,7 +7,9 @@ import numpy as np
 
 from ..models.se2 import rz
 from .planar_trajectory import scripted
+from .robot_waypoints import HOW
 from .scene import resolve_scene_path
+from .waypoints import file_digest, waypoint_path
 
 
 class ScenePath:
@@ -17,6 +19,13 @@ class ScenePath:
         """The trajectory's name: the given one, else the scene's default (``loop`` for a shipped
         scene, ``ellipse`` for a user MJCF)."""
         return self.trajectory or ("loop" if scripted(resolve_scene_path(self.scene)) else "ellipse")
+
+    def path_digest(self) -> str | None:
+        """A hash of the waypoint file's bytes when the path is ``waypoints`` (the sequence cache's
+        key holds it, so an edited file is driven again), else None."""
+        if self.resolved_trajectory() != "waypoints":
+            return None
+        return file_digest(waypoint_path(self.trajectory_params, resolve_scene_path(self.scene).parent, HOW))
 
 
 class PosesInPlane:
