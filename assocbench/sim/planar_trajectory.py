@@ -207,7 +207,8 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
     """(laps, start, scale) from user parameters, each checked (one-line errors)."""
     for key in params:
         if key not in PARAMS[name]:
-            raise UserError(f"trajectory {name!r} takes no parameter {key!r}; it takes {', '.join(PARAMS[name])}")
+            hint = "; a waypoint file needs --trajectory waypoints (trajectory: waypoints)" if key == "file" else ""
+            raise UserError(f"trajectory {name!r} takes no parameter {key!r}; it takes {', '.join(PARAMS[name])}{hint}")
     laps = check_number(params.get("laps", 1), "trajectory_params.laps", lo=0, hi=100, lo_open=True)
     start = check_number(params.get("start", 0.0), "trajectory_params.start", lo=0, hi=1, hi_open=True)
     scale = check_number(params.get("scale", 1.0), "trajectory_params.scale", lo=0, hi=10, lo_open=True)

@@ -7,9 +7,8 @@ import numpy as np
 
 from ..models.se2 import rz
 from .planar_trajectory import scripted
-from .robot_waypoints import HOW
 from .scene import resolve_scene_path
-from .waypoints import file_digest, waypoint_path
+from .waypoints import waypoint_digest
 
 
 class ScenePath:
@@ -23,9 +22,7 @@ class ScenePath:
     def path_digest(self) -> str | None:
         """A hash of the waypoint file's bytes when the path is ``waypoints`` (the sequence cache's
         key holds it, so an edited file is driven again), else None."""
-        if self.resolved_trajectory() != "waypoints":
-            return None
-        return file_digest(waypoint_path(self.trajectory_params, resolve_scene_path(self.scene).parent, HOW))
+        return waypoint_digest(self.resolved_trajectory(), self.trajectory_params, self.scene)
 
 
 class PosesInPlane:

@@ -35,7 +35,7 @@ import yaml
 from ..errors import UserError
 from ..models.camera import CV_TO_MUJOCO, look_at
 from .normals import warn_once
-from .scene import Scene
+from .scene import Scene, resolve_scene_path
 from .trajectory import Keyframes
 
 SUFFIXES = (".csv", ".yaml", ".yml")
@@ -67,10 +67,20 @@ def file_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
 
 
+def waypoint_digest(trajectory: str | None, params: dict, scene: str | Path) -> str | None:
+    """``file_digest`` of the waypoint file of a ``waypoints`` path on any track (found as
+    ``waypoint_path`` finds it, next to ``scene``'s MJCF), else None: what a key of a path read
+    from a file holds besides the file's name (a sequence cache entry, a stored leaderboard job)."""
+    if trajectory != "waypoints":
+        return None
+    return file_digest(waypoint_path(params, resolve_scene_path(scene).parent))
+
+
 def read_text(path: Path) -> str:
-    """The waypoint file's text; a one-line ``UserError`` when it cannot be read."""
+    """The waypoint file's text (UTF-8; a byte-order mark, as spreadsheets write one, is dropped);
+    a one-line ``UserError`` when it cannot be read."""
     try:
-        return path.read_text()
+        return path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"cannot read waypoint file {path}: {exc}") from None
 

@@ -64,6 +64,19 @@ def test_ill_formed_rows_are_one_line_errors(tmp_path, text, message):
     assert message in str(err.value) and "\n" not in str(err.value)
 
 
+def test_a_spreadsheets_csv_with_a_byte_order_mark_and_crlf_reads(tmp_path):
+    file = tmp_path / "excel.csv"
+    file.write_bytes("x,y\r\n1.5,1.2\r\n3.5,1.2\r\n".encode("utf-8-sig"))
+    assert read_robot_waypoints(file).points.tolist() == [[1.5, 1.2], [3.5, 1.2]]
+
+
+def test_a_waypoint_file_without_trajectory_waypoints_says_what_is_missing(room):
+    scene, folder = room
+    with pytest.raises(UserError, match="takes no parameter 'file'; it takes laps, start, scale; a waypoint file "
+                                        "needs --trajectory waypoints"):
+        planar_trajectory(scene, None, 5, file=str(path_csv(folder)))
+
+
 def test_the_ellipse_and_the_waypoints_share_one_clearance(room):
     """A path the check accepts keeps CLEARANCE everywhere between frames too (the robot is on
     the polyline); the same path moved 0.2 m towards a wall is refused naming that wall."""
