@@ -10,7 +10,7 @@ import pytest
 from user_room import PATH, path_csv, room_mjcf
 
 from assocbench.cli.main import main
-from tests.cli.test_cli import assert_one_line_error
+from tests.cli.test_cli import ROOT, assert_one_line_error
 
 
 def run_args(scene, out, file="path.csv", frames=30) -> list[str]:
@@ -74,3 +74,13 @@ def test_a_bad_waypoint_file_is_one_line_exit_2_and_no_output(tmp_path, capsys, 
     out = tmp_path / "out"
     assert_one_line_error(capsys, main(run_args(scene, out, file=name, frames=2)), *needles)
     assert not out.exists()
+
+
+def test_the_documented_example_room_is_the_tested_one(tmp_path):
+    """``examples/l_room/`` (the planar and lines pages' example) is what ``tests/user_room.py`` writes."""
+    from pathlib import Path
+
+    example = Path(ROOT) / "examples" / "l_room"
+    written = [room_mjcf(tmp_path, "planar"), room_mjcf(tmp_path, "lines"), path_csv(tmp_path)]
+    for path in written:
+        assert (example / path.name).read_text() == path.read_text(), path.name
