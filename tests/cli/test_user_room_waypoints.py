@@ -62,6 +62,7 @@ BAD = {
                                                      "y 2.60 m) to waypoint 3 passes 0.00 m from obstacle 'lm0'",
                                                      "add a waypoint to steer around it"]),
     "repeat.csv": ("x,y\n1.3,1.2\n1.3,1.2\n", ["line 3: the waypoint repeats the one before it"]),
+    "binary.csv": (b"x,y\n\xff\xfe\x00\n", ["cannot read waypoint file", "codec can't decode"]),
 }
 
 
@@ -69,7 +70,9 @@ BAD = {
 def test_a_bad_waypoint_file_is_one_line_exit_2_and_no_output(tmp_path, capsys, name):
     scene = room_mjcf(tmp_path, "planar")
     text, needles = BAD[name]
-    if text is not None:
+    if isinstance(text, bytes):
+        (tmp_path / name).write_bytes(text)
+    elif text is not None:
         (tmp_path / name).write_text(text)
     out = tmp_path / "out"
     assert_one_line_error(capsys, main(run_args(scene, out, file=name, frames=2)), *needles)
