@@ -20,7 +20,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     """The flags that pick a sequence and a belief (see configs/default.yaml)."""
     p.add_argument("--scene", help="shipped scene name or path to an MJCF file")
     p.add_argument("--trajectory", help="camera: circle | line | figure-eight | loop | waypoints | mjcf-cameras; "
-                   "planar and lines: loop | ellipse (assocbench list trajectories)")
+                   "planar and lines: loop | ellipse | waypoints (assocbench list trajectories)")
     p.add_argument("--frames", type=int, help="number of frames")
     p.add_argument("--seed", type=int, help="seed of trajectory jitter, belief errors and clutter")
     p.add_argument("--config", help="YAML run config (default: the shipped configs/default.yaml)")
