@@ -249,3 +249,15 @@ def test_a_frame_beyond_the_tracks_slots_is_a_one_line_error(toy_envs):
     with pytest.raises(RuntimeError, match=r"^frame 0 has 12 candidates .* 11 x 40 slots .* the toy track's "
                                            r"env_slots is not a bound$"):
         env.reset(seed=0)
+
+
+def test_the_classical_agent_example_runs_a_planar_loop_env(capsys, monkeypatch):
+    import runpy
+    import sys
+    from pathlib import Path
+
+    example = Path(__file__).resolve().parents[2] / "examples" / "classical_agent.py"
+    monkeypatch.setattr(sys, "argv", ["example", "jcbb", "assocbench/ParkLoop-v0"])
+    runpy.run_path(str(example), run_name="__main__")
+    out = capsys.readouterr().out
+    assert "jcbb: return" in out and "drawn" not in out and "final pose error 0.0" in out   # under 10 cm
