@@ -130,7 +130,7 @@ class Track:
     summary: ClassVar[str] = ""
     ci_suites: ClassVar[tuple[str, ...]] = ()   # shipped suites `assocbench check` runs by default
     suites: ClassVar[tuple[str, ...]] = ()       # its shipped suites (configs/<name>.yaml)
-    pictures: ClassVar[bool] = False              # `frame`, `render` and the Gymnasium envs serve it
+    pictures: ClassVar[bool] = False              # `frame`, `render` and the envs' render_mode serve it
     fallback: ClassVar[bool] = False              # claims every scene no other track claims
     spec_type: ClassVar[type | None] = None       # the class of its sequence specs
     has_problems: ClassVar[bool] = True           # frames are Problems (else: frame_records)
