@@ -1,17 +1,19 @@
-"""A classical associator driving the Gymnasium environment through ``info["problem"]``.
+"""A classical associator driving a Gymnasium environment through ``info["problem"]``.
 Run: python examples/classical_agent.py [method] [env id]   (default jcbb on assocbench/Room-v0;
-assocbench/RoomLoop-v0 is the closed loop: its actions update the filter that predicts the next frame)"""
+assocbench/RoomLoop-v0 is the closed loop: its actions update the filter that predicts the next frame;
+assocbench/ParkLoop-v0 and assocbench/Hallway-v0 are the planar and lines tracks' envs)"""
 
 import sys
 
 import gymnasium as gym
 
-import assocbench.gymenv  # noqa: F401  (registers assocbench/Room-v0 and friends)
-from assocbench.gymenv import classical_action
+from assocbench.gymenv import classical_action, env_ids  # importing assocbench.gymenv registers the envs
+from assocbench.tracks.base import get_track
 
 
 def main(method: str = "jcbb", env_id: str = "assocbench/Room-v0") -> None:
-    env = gym.make(env_id, frames=10, difficulty="medium", render_mode="rgb_array")
+    pictures = get_track(env_ids()[env_id][0]).pictures if env_id in env_ids() else True
+    env = gym.make(env_id, frames=10, difficulty="medium", render_mode="rgb_array" if pictures else None)
     obs, info = env.reset(seed=0)
     total = tp = fp = fn = 0
     done = False
@@ -19,9 +21,8 @@ def main(method: str = "jcbb", env_id: str = "assocbench/Room-v0") -> None:
         obs, reward, done, _, info = env.step(classical_action(info, env.action_space.shape[0], method))
         total += reward
         tp, fp, fn = (tp + info["step_metrics"]["tp"], fp + info["step_metrics"]["fp"], fn + info["step_metrics"]["fn"])
-    frame = env.render()
-    print(f"{method}: return {total:.0f}, precision {tp / max(tp + fp, 1):.3f}, recall {tp / max(tp + fn, 1):.3f}, "
-          f"last frame drawn {frame.shape}")
+    drawn = f", last frame drawn {env.render().shape}" if pictures else ""   # the planar and lines envs have no pictures
+    print(f"{method}: return {total:.0f}, precision {tp / max(tp + fp, 1):.3f}, recall {tp / max(tp + fn, 1):.3f}{drawn}")
     if "pos_err" in info:   # a closed-loop env: the filter's pose error after the last frame
         print(f"final pose error {info['pos_err']:.3f} m, {info['rot_err_deg']:.2f} deg, NEES {info['nees']:.1f}")
     env.close()

@@ -1,34 +1,47 @@
-"""Gymnasium environments: ``gymnasium.make("assocbench/Room-v0")`` and one id per shipped scene
-(open loop: the belief is sampled around the truth), and ``assocbench/RoomLoop-v0`` and friends
-(closed loop: the belief is a filter updated with the agent's own actions).
+"""Gymnasium environments: the ids come from the track registry (``Track.gym_envs``). Every
+track with association problems offers, per shipped scene, ``assocbench/<Scene>-v0`` (open loop:
+the belief is sampled around the truth) and ``assocbench/<Scene>Loop-v0`` (closed loop: the
+belief is the track's estimator updated with the agent's own actions): ``assocbench/Room-v0``,
+``assocbench/ParkLoop-v0``, ``assocbench/Hallway-v0``, ... ``env_ids()`` lists them.
 
 Importing this package registers them: ``import assocbench.gymenv``, or name the module in the
-id, ``gymnasium.make("assocbench.gymenv:assocbench/Room-v0")``."""
+id, ``gymnasium.make("assocbench.gymenv:assocbench/Room-v0")``. A track registered later (a
+module named in ``ASSOCBENCH_TRACKS`` imported afterwards) gets its ids from ``register_envs()``."""
 
 from __future__ import annotations
 
 import gymnasium as gym
 
+from ..errors import UserError
+from ..tracks.base import GymEnv, iter_tracks
 from .actions import action_mask, sample_mask, sample_valid_action
 from .env import AssociationEnv, classical_action
 from .loop_env import LoopAssociationEnv
 
-ENV_IDS = {"Room": "room", "Checkerboard": "checkerboard", "Corridor": "corridor"}
+ENTRY_POINTS = {False: "assocbench.gymenv.env:AssociationEnv", True: "assocbench.gymenv.loop_env:LoopAssociationEnv"}
+
+
+def env_ids() -> dict[str, tuple[str, GymEnv]]:
+    """Every registered track's Gymnasium envs: id -> (track name, ``GymEnv``), in the registry's
+    order; an id two tracks declare is a one-line ``UserError`` naming both."""
+    out: dict[str, tuple[str, GymEnv]] = {}
+    for track in iter_tracks():
+        for env in track.gym_envs():
+            if env.id in out and out[env.id][0] != track.name:
+                raise UserError(f"Gymnasium env id {env.id} is declared by the {out[env.id][0]} and {track.name} "
+                                "tracks: rename one track's scene")
+            out[env.id] = (track.name, env)
+    return out
 
 
 def register_envs() -> None:
-    """Register ``assocbench/<Scene>-v0`` and ``assocbench/<Scene>Loop-v0`` for every shipped
-    scene (idempotent)."""
-    entry_points = {"": "assocbench.gymenv.env:AssociationEnv",
-                    "Loop": "assocbench.gymenv.loop_env:LoopAssociationEnv"}
-    for name, scene in ENV_IDS.items():
-        for suffix, entry_point in entry_points.items():
-            env_id = f"assocbench/{name}{suffix}-v0"
-            if env_id not in gym.registry:
-                gym.register(id=env_id, entry_point=entry_point, kwargs={"scene": scene})
+    """Register every track's envs with Gymnasium (idempotent: ids already registered are kept)."""
+    for env_id, (_, env) in env_ids().items():
+        if env_id not in gym.registry:
+            gym.register(id=env_id, entry_point=ENTRY_POINTS[env.loop], kwargs={"scene": env.scene})
 
 
-__all__ = ["AssociationEnv", "ENV_IDS", "LoopAssociationEnv", "action_mask", "classical_action", "register_envs",
+__all__ = ["AssociationEnv", "LoopAssociationEnv", "action_mask", "classical_action", "env_ids", "register_envs",
            "sample_mask", "sample_valid_action"]
 
 register_envs()

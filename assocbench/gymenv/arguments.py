@@ -11,9 +11,10 @@ from typing import Any
 import numpy as np
 
 from ..errors import UserError
-from ..harness.config import RunSpec, camera_only, defaults, merge, run_spec
+from ..harness.config import RunSpec, defaults, merge, run_spec
 from ..harness.suite import shipped_difficulties
 from ..sim.render import MAX_SIDE, MIN_SIDE
+from ..tracks.base import Track
 from ..validation import check_number
 
 
@@ -60,4 +61,21 @@ def env_config(scene: Any, trajectory: Any, frames: Any, difficulty: Any, resolu
     cfg = merge(merge(defaults(), _difficulty(difficulty), "difficulty"), dict(config or {}), "config")
     cfg = merge(cfg, {"scene": os.fspath(scene), "trajectory": trajectory, "frames": frames,
                       "resolution": _resolution(resolution)}, "env arguments")
-    return cfg, camera_only(run_spec(cfg), "the Gymnasium env")
+    return cfg, run_spec(cfg)
+
+
+def env_track(spec: RunSpec) -> Track:
+    """The track of the env's run, if it offers this kind of env (one of its ``Track.gym_envs``
+    is open or closed loop as the run is); else a one-line ``UserError`` saying why."""
+    track = spec.track_impl
+    kinds = {env.loop for env in track.gym_envs()}
+    if spec.loop in kinds:
+        return track
+    where = f"scene {spec.sequence.scene!r}, method {spec.method!r}"
+    if not track.has_problems:
+        raise UserError(f"the {track.name} track ({where}) has no Gymnasium env: its frames are not association "
+                        f"problems with a pairing to choose (the dense track matches depth pixels inside ICP); "
+                        f"run it with `assocbench run`")
+    kind = "closed-loop" if spec.loop else "open-loop"
+    other = "only an open-loop one" if False in kinds else "only a closed-loop one" if kinds else "none at all"
+    raise UserError(f"the {track.name} track ({where}) offers no {kind} Gymnasium env ({other})")

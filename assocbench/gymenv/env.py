@@ -1,11 +1,16 @@
-"""Gymnasium environment: one episode is one pass along a rendered trajectory; each step is
-one frame's association problem.
+"""Gymnasium environment: one episode is one pass along a track's trajectory; each step is
+one frame's association problem. One class serves every track whose frames are ``Problem``s
+(camera, planar, lines): the scene picks the track, and the track says what differs
+(``Track.load_sequence``, ``Track.problems``, ``Track.env_slots``, ``Track.pictures``).
 
-Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works in both modes):
+Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works in both modes;
+d is the measurement's dimension, 2 on every built-in track):
 
-* ``features`` (M, 2) pixels, ``feature_cov`` (M, 2, 2) their noise R, ``feature_mask`` (M,);
-* ``predictions`` (N, 2), ``prediction_cov`` (N, 2, 2) the marginal blocks of P,
-  ``landmark_mask`` (N,). The full joint covariance with cross terms is in ``info["problem"]``.
+* ``features`` (M, d) the measurements in the track's units (camera: pixels; planar: range m,
+  bearing rad; lines: α rad, r m), ``feature_cov`` (M, d, d) their noise R, ``feature_mask`` (M,);
+* ``predictions`` (N, d), ``prediction_cov`` (N, d, d) the marginal blocks of P,
+  ``landmark_mask`` (N,). The full joint covariance with cross terms, and which dimensions are
+  angles that wrap (``angular``), are in ``info["problem"]``.
 
 The observation a terminating step returns is empty (both masks zero): no frame is left.
 
@@ -28,8 +33,9 @@ metrics ``step_metrics`` (``tp``, ``fp``, ``fn``, ...).
 
 After the step that returns ``terminated=True``, ``step()`` raises ``gymnasium.error.ResetNeeded``
 until ``reset()``: there is no frame left to score (vector envs reset on the next step
-themselves). A process forked from one that had already rendered cannot render (the GL driver
-does not survive ``fork``): ``reset`` there raises a one-line ``UserError`` instead of hanging.
+themselves). ``render_mode="rgb_array"`` serves tracks with pictures (the camera) only. A
+process forked from one that had already rendered cannot render (the GL driver does not survive
+``fork``): ``reset`` of a camera env there raises a one-line ``UserError`` instead of hanging.
 """
 
 from __future__ import annotations
@@ -48,10 +54,9 @@ from ..association.problem import NO_MATCH, Problem, validate_association
 from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
 from ..scoring.metrics import score_frame, unscored_frame
-from ..tracks.camera.belief import make_problem
-from ..tracks.camera.sequence import Sequence, load_sequence
+from ..tracks.base import EnvSlots
 from .actions import action_mask
-from .arguments import env_config
+from .arguments import env_config, env_track
 
 _FORKED_AFTER_EGL = False   # this process was forked from one that had already rendered with EGL
 
@@ -78,7 +83,7 @@ def _check_can_render() -> None:
 class AssociationEnv(gym.Env):
     """Data association on a MuJoCo scene as a Gymnasium environment (see module docstring)."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track without pictures
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
                  difficulty: str | dict = "medium", resolution: tuple[int, int] = (640, 480),
@@ -90,21 +95,26 @@ class AssociationEnv(gym.Env):
             raise UserError(f"invalid_action must be 'penalize' or 'raise', got {invalid_action!r}")
         self.invalid_action = invalid_action
         self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config)
-        n_max = self._landmark_slots(spec)
-        m_max = spec.sequence.detector.max_features + spec.belief.clutter
-        self.max_landmarks, self.max_features = n_max, m_max
+        self._track = env_track(spec)
+        if render_mode is not None and not self._track.pictures:
+            raise UserError(f"render_mode {render_mode!r} draws rendered frames, which the {self._track.name} track "
+                            f"(scene {spec.sequence.scene!r}) has not: pass render_mode=None")
+        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if self._track.pictures else []}
+        n_max, m_max, d = self._slots(spec)
+        self.max_landmarks, self.max_features, self.dim = n_max, m_max, d
         self.render_mode = render_mode
         big = np.float64(1e9)
         self.observation_space = spaces.Dict({
-            "features": spaces.Box(-big, big, (m_max, 2), np.float64),
-            "feature_cov": spaces.Box(-big, big, (m_max, 2, 2), np.float64),
+            "features": spaces.Box(-big, big, (m_max, d), np.float64),
+            "feature_cov": spaces.Box(-big, big, (m_max, d, d), np.float64),
             "feature_mask": spaces.MultiBinary(m_max),
-            "predictions": spaces.Box(-big, big, (n_max, 2), np.float64),
-            "prediction_cov": spaces.Box(-big, big, (n_max, 2, 2), np.float64),
+            "predictions": spaces.Box(-big, big, (n_max, d), np.float64),
+            "prediction_cov": spaces.Box(-big, big, (n_max, d, d), np.float64),
             "landmark_mask": spaces.MultiBinary(n_max),
         })
         self.action_space = spaces.MultiDiscrete(np.full(n_max, m_max + 1), start=np.full(n_max, NO_MATCH))
-        self._seq: Sequence | None = None
+        self._seq = None
+        self._problems: list = []
         self._seed = 0
         self._frame = 0
         self._problem = self._truth = None
@@ -118,12 +128,13 @@ class AssociationEnv(gym.Env):
         if options:
             raise UserError(f"AssociationEnv.reset takes no options, got {sorted(options)}; "
                             "pass settings to the constructor (gymnasium.make kwargs)")
-        _check_can_render()
+        if self._track.pictures:   # a track without pictures never renders: a forked worker may run it
+            _check_can_render()
         super().reset(seed=seed)
         self._seq = self._problem = self._truth = None   # a reset that fails leaves no episode to step
         seed = int(seed) if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
         spec = run_spec(merge(self._cfg, {"seed": seed}, "seed"))
-        self._seq = load_sequence(spec.sequence)
+        self._seq = self._track.load_sequence(spec.sequence)
         self._seed, self._spec, self._belief = seed, spec, spec.belief
         self._frame = 0
         self._last = None
@@ -160,14 +171,25 @@ class AssociationEnv(gym.Env):
     def _over(self) -> bool:
         return self._frame >= len(self._seq)
 
-    def _landmark_slots(self, spec: RunSpec) -> int:
-        """N, the candidate slots: every landmark of the scene."""
-        from ..sim.scene import load_scene
-
-        return len(load_scene(spec.sequence.scene).landmarks)
+    def _slots(self, spec: RunSpec) -> EnvSlots:
+        """N, M and d: the track's bounds (``Track.env_slots``)."""
+        return self._track.env_slots(spec)
 
     def _load_frame(self) -> None:
-        self._problem, self._truth = make_problem(self._seq, self._frame, self._belief, self._seed)
+        """The open loop's frame: every frame's problem is made at the episode's first frame (the
+        track's ``problems``, as ``assocbench run`` makes them), then read in turn."""
+        if self._frame == 0:
+            self._problems = self._track.problems(self._seq, self._belief, self._seed)
+        self._take(*self._problems[self._frame])
+
+    def _take(self, problem: Problem, truth) -> None:
+        """Make ``problem`` the current frame, refusing one larger than the padded spaces (a track
+        whose ``env_slots`` is not a bound: its bug, said in one line, never a broadcasting error)."""
+        if problem.n > self.max_landmarks or problem.m > self.max_features or problem.d != self.dim:
+            raise RuntimeError(f"frame {self._frame} has {problem.n} candidates and {problem.m} features of dimension "
+                               f"{problem.d}, beyond the env's {self.max_landmarks} x {self.max_features} slots of "
+                               f"dimension {self.dim}: the {self._track.name} track's env_slots is not a bound")
+        self._problem, self._truth = problem, truth
 
     def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
         """Act on the current frame's answer (None: refused with ``error``) before the next frame
@@ -187,11 +209,11 @@ class AssociationEnv(gym.Env):
     # -- observation ---------------------------------------------------------------------
     def _observation(self) -> dict[str, np.ndarray]:
         """The current frame padded to the space's sizes; all zeros (empty masks) once over."""
-        M, N = self.max_features, self.max_landmarks
+        M, N, d = self.max_features, self.max_landmarks, self.dim
         obs = {
-            "features": np.zeros((M, 2)), "feature_cov": np.zeros((M, 2, 2)),
-            "feature_mask": np.zeros(M, np.int8), "predictions": np.zeros((N, 2)),
-            "prediction_cov": np.zeros((N, 2, 2)), "landmark_mask": np.zeros(N, np.int8),
+            "features": np.zeros((M, d)), "feature_cov": np.zeros((M, d, d)),
+            "feature_mask": np.zeros(M, np.int8), "predictions": np.zeros((N, d)),
+            "prediction_cov": np.zeros((N, d, d)), "landmark_mask": np.zeros(N, np.int8),
         }
         if self._over:
             return obs

@@ -1,6 +1,8 @@
-"""Closed-loop Gymnasium environments: ``assocbench/RoomLoop-v0`` and one id per shipped scene.
+"""Closed-loop Gymnasium environments: ``assocbench/RoomLoop-v0`` and one id per shipped scene of
+every track with a closed loop (camera, planar, lines).
 
-The belief of each frame is the camera EKF's posterior after the agent's own earlier actions
+The belief of each frame is the track's estimator's posterior (camera and planar EKF, planar
+iSAM2, lines EKF localisation) after the agent's own earlier actions
 (``harness.loop.ClosedLoop``): ``reset`` starts the filter at frame 0 and observes frame 0's
 problem; ``step(action)`` scores the action, updates the filter with it (in ``slam`` mode the
 features it left unpaired become landmarks), predicts to the next frame with odometry and
@@ -10,15 +12,15 @@ corrupts the estimate, and the next observations with it.
 Observation, action, reward (TP − FP), ``info`` and the end of an episode are the open env's
 (``env.py``), with two differences:
 
-* candidate slots N: the scene's landmarks in ``localisation``; in ``slam`` the map grows from
-  the features up to ``estimator.max_landmarks`` entries (texture corners included), so
-  N = max(scene landmarks, ``estimator.max_landmarks``);
+* candidate slots N: the scene's map (``Track.env_slots``) in ``localisation``; in ``slam`` the
+  map grows from the features up to ``estimator.max_landmarks`` entries (texture corners
+  included), so N = max(scene landmarks, ``estimator.max_landmarks``);
 * an invalid action (with ``invalid_action="penalize"``) is a failed frame, as in ``--loop``
   runs: the filter is not updated, it only predicts through the frame.
 
 After each step ``info`` also holds the filter's state at ``scored_frame`` after the update
 (the per-frame columns of ``assocbench run --loop``), all scalars: ``pos_err`` (m),
-``rot_err_deg``, ``nees`` (pose NEES, 6 dof; NaN while the pose covariance is zero, as at
+``rot_err_deg``, ``nees`` (pose NEES: 6 dof on the camera track, 3 in the plane; NaN while the pose covariance is zero, as at
 slam's first frame) and ``map_size`` (confirmed landmarks).
 """
 
@@ -32,6 +34,7 @@ import numpy as np
 from ..errors import UserError
 from ..estimators.config import MODES
 from ..harness.config import RunSpec
+from ..tracks.base import EnvSlots
 from .env import AssociationEnv
 
 if TYPE_CHECKING:   # imported when an episode starts: `import assocbench` stays free of the harness
@@ -83,12 +86,12 @@ class LoopAssociationEnv(AssociationEnv):
         """The estimator of the current episode (None before the first reset)."""
         return self._loop.filter if self._loop is not None else None
 
-    def _landmark_slots(self, spec: RunSpec) -> int:
-        """N: the scene's landmarks; in slam, at least ``estimator.max_landmarks`` (the map grows)."""
-        scene_landmarks = super()._landmark_slots(spec)
+    def _slots(self, spec: RunSpec) -> EnvSlots:
+        """N: the scene's map; in slam, at least ``estimator.max_landmarks`` (the map grows)."""
+        slots = super()._slots(spec)
         if spec.estimator.mode == "slam":
-            return max(scene_landmarks, spec.estimator.max_landmarks)
-        return scene_landmarks
+            return slots._replace(landmarks=max(slots.landmarks, spec.estimator.max_landmarks))
+        return slots
 
     def _load_frame(self) -> None:
         """Frame ``k``'s problem from the filter: a new filter at frame 0 (reset), else the
@@ -97,7 +100,7 @@ class LoopAssociationEnv(AssociationEnv):
             from ..harness.loop import ClosedLoop
 
             self._loop = ClosedLoop(self._seq, self._belief, self._spec.estimator, self._seed)
-        self._problem, self._truth = self._loop.begin(self._frame)
+        self._take(*self._loop.begin(self._frame))
 
     def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
         """Update the filter with the action (None: a failed frame, no update) and report its state."""

@@ -19,7 +19,9 @@ envs ask the registry instead of switching on the track's name:
 * ``make_estimator`` / ``loop_sensor``: the closed loop's estimator at frame 0 and what it reads;
 * ``shipped_scenes`` / ``trajectories``: what ``assocbench list`` shows for it;
 * ``landmarks`` / ``map_figure``: the leaderboard's top view of a scene;
-* ``ci_suites`` and ``suites``: its shipped suites; ``assocbench check`` guards the CI ones.
+* ``ci_suites`` and ``suites``: its shipped suites; ``assocbench check`` guards the CI ones;
+* ``gym_modes`` / ``gym_envs`` / ``env_slots``: its Gymnasium envs (``assocbench.gymenv``
+  registers every track's ids) and the padded sizes of their observations and actions.
 
 Built-in tracks register here; a third party's track registers through the entry-point group
 ``assocbench.tracks`` (a ``Track`` subclass or an instance), or by a module that calls
@@ -38,7 +40,7 @@ from dataclasses import asdict, dataclass
 from functools import lru_cache
 from importlib import import_module, metadata
 from pathlib import Path
-from typing import Any, ClassVar, Protocol
+from typing import Any, ClassVar, NamedTuple, Protocol
 
 import mujoco
 
@@ -77,6 +79,26 @@ class GuardedMetric:
     required: bool = True            # False: compared only when the baseline has the column
 
 
+@dataclass(frozen=True)
+class GymEnv:
+    """One Gymnasium env a track offers: its ``id`` (``assocbench/<Scene>-v0``, ``<Scene>Loop-v0``
+    for the closed loop), the ``scene`` it runs and whether it is the closed ``loop``."""
+
+    id: str
+    scene: str
+    loop: bool = False
+
+
+class EnvSlots(NamedTuple):
+    """The padded sizes of a track's Gymnasium env: ``landmarks`` (N) candidate slots and
+    ``features`` (M) feature slots, bounds no frame of the run exceeds whatever the seed, and
+    ``dim`` (d) the measurement's dimension."""
+
+    landmarks: int
+    features: int
+    dim: int = 2
+
+
 ACCURACY_GUARDS = tuple(GuardedMetric(m, True, hi=1.0) for m in ("precision", "recall", "f1", "perfect"))
 ATE_GUARD = GuardedMetric("ate_rmse", False, "ate_tolerance")   # metres
 # a smoother's final estimate of every pose (the iSAM2 back end; an EKF's equals ate_rmse), metres
@@ -108,10 +130,11 @@ class Track:
     summary: ClassVar[str] = ""
     ci_suites: ClassVar[tuple[str, ...]] = ()   # shipped suites `assocbench check` runs by default
     suites: ClassVar[tuple[str, ...]] = ()       # its shipped suites (configs/<name>.yaml)
-    pictures: ClassVar[bool] = False              # `frame`, `render` and the Gymnasium envs serve it
+    pictures: ClassVar[bool] = False              # `frame`, `render` and the envs' render_mode serve it
     fallback: ClassVar[bool] = False              # claims every scene no other track claims
     spec_type: ClassVar[type | None] = None       # the class of its sequence specs
     has_problems: ClassVar[bool] = True           # frames are Problems (else: frame_records)
+    gym_modes: ClassVar[tuple[str, ...]] = ()     # its Gymnasium envs per shipped scene: "open", "loop"
 
     # --- which runs are its own ---------------------------------------------------------
     def claims_scene(self, marks: SceneMarks) -> bool:
@@ -230,6 +253,21 @@ class Track:
         """The leaderboard's top view of ``scene`` from the closed-loop ``frames`` of one seed, or
         None for the default view (true path, estimates and final maps over ``landmarks``)."""
         return None
+
+    # --- Gymnasium envs -------------------------------------------------------------------
+    def gym_envs(self) -> tuple[GymEnv, ...]:
+        """Its Gymnasium envs: for each shipped scene and each of ``gym_modes``, the id
+        ``assocbench/<Scene>-v0`` (``open``) or ``assocbench/<Scene>Loop-v0`` (``loop``), the
+        scene's name in CamelCase (``post_grid`` -> ``PostGrid``)."""
+        suffix = {"open": "", "loop": "Loop"}
+        camel = {scene: "".join(part.capitalize() for part in scene.split("_")) for scene in self.shipped_scenes()}
+        return tuple(GymEnv(f"assocbench/{name}{suffix[mode]}-v0", scene, mode == "loop")
+                     for scene, name in camel.items() for mode in self.gym_modes)
+
+    def env_slots(self, spec: Any) -> EnvSlots:
+        """The padded sizes of its Gymnasium env for the ``RunSpec`` ``spec``: candidate slots for
+        the scene's map (the closed loop's slam adds the map's cap) and feature slots."""
+        raise self._missing("Gymnasium env")
 
     def owns_spec(self, spec: Any) -> bool:
         """Whether ``spec`` is a sequence spec of this track."""

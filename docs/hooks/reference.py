@@ -9,7 +9,9 @@ A page asks for a generated part with a marker line, replaced in ``on_page_markd
   ``assocbench.harness.config.defaults()``; a section's dataclass (``BeliefConfig``,
   ``EstimatorConfig``, each registered track's ``section_types()``) gives the type, range and the
   meaning (its docstring's ``name: text`` lines), ``configs/default.yaml`` the run's default;
-* ``<!-- generated: cli -->``: every command and option of ``assocbench.cli.main.build_parser()``.
+* ``<!-- generated: cli -->``: every command and option of ``assocbench.cli.main.build_parser()``;
+* ``<!-- generated: gym_envs -->``: every registered Gymnasium env id (``assocbench.gymenv.env_ids()``,
+  from the track registry): track, scene, open or closed loop.
 
 ``on_files`` publishes the committed reference results (``results/``) into the site, so the
 benchmark pages can link to their tables and pictures, and the HTML leaderboard that
@@ -207,7 +209,21 @@ def cli_markdown() -> str:
     return "\n".join(out)
 
 
-GENERATORS = {"associators": associators_markdown, "settings": settings_markdown, "cli": cli_markdown}
+def gym_envs_markdown() -> str:
+    """One row per registered Gymnasium env id: its track, scene (with the scene's description) and loop."""
+    from assocbench.gymenv import env_ids
+    from assocbench.tracks.base import get_track
+
+    out = ["| id | track | scene | loop |", "|---|---|---|---|"]
+    for env_id, (track, env) in env_ids().items():
+        about = get_track(track).shipped_scenes().get(env.scene, "")
+        loop = "closed" if env.loop else "open"
+        out.append(f"| `{env_id}` | {track} | `{env.scene}`: {_cell(about)} | {loop} |")
+    return "\n".join(out)
+
+
+GENERATORS = {"associators": associators_markdown, "settings": settings_markdown, "cli": cli_markdown,
+              "gym_envs": gym_envs_markdown}
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:

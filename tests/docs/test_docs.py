@@ -84,3 +84,11 @@ def test_cli_page_lists_every_command_and_option(reference):
             if not isinstance(action, argparse._HelpAction):
                 for flag in action.option_strings:
                     assert f"`{flag}`" in page, (name, flag)
+
+
+def test_gymnasium_page_lists_every_registered_env_id(reference):
+    from assocbench.gymenv import env_ids
+
+    ids = env_ids()
+    assert {"assocbench/Room-v0", "assocbench/ParkLoop-v0", "assocbench/Hallway-v0"} <= set(ids)
+    assert table_names(reference.gym_envs_markdown()) == set(ids)

@@ -12,7 +12,7 @@ from ...sim.scene import load_scene
 from ...sim.scenegen.camera import SCENES
 from ...sim.trajectory import TRAJECTORIES, check_trajectory_params
 from ...validation import free_mapping, typed_section
-from ..base import SceneMarks, Track, first_line, register_track
+from ..base import EnvSlots, SceneMarks, Track, first_line, register_track
 from .belief import make_problem
 from .detect import DetectorConfig
 from .estimator import make_camera_estimator
@@ -29,6 +29,7 @@ class CameraTrack(Track):
     ci_suites = ("ci", "loop_ci")
     suites = ("leaderboard", "ci", "loop", "loop_ci")
     pictures = True
+    gym_modes = ("open", "loop")
     fallback = True
     spec_type = SequenceSpec
 
@@ -66,6 +67,11 @@ class CameraTrack(Track):
 
     def loop_sensor(self, seq: Sequence, belief, est: EstimatorConfig, seed: int) -> CameraSensor:
         return CameraSensor(seq, belief, est, seed)
+
+    def env_slots(self, spec) -> EnvSlots:
+        """N: every landmark of the scene; M: the detector's ``max_features`` plus ``belief.clutter``."""
+        return EnvSlots(len(load_scene(spec.sequence.scene).landmarks),
+                        spec.sequence.detector.max_features + spec.belief.clutter)
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in SCENES.items()}

@@ -8,7 +8,7 @@ from ...sim.lidar import LidarConfig
 from ...sim.line_scene import load_line_scene
 from ...sim.scenegen.lines import LINE_SCENES
 from ...validation import free_mapping, typed_section
-from ..base import SceneMarks, first_line, register_track
+from ..base import EnvSlots, SceneMarks, first_line, register_track
 from ..plane import LidarTrack
 from .belief import make_line_problem
 from .estimator import make_line_estimator
@@ -29,6 +29,7 @@ class LinesTrack(LidarTrack):
     ci_suites = ("lines_ci",)
     suites = ("lines", "lines_ci")
     spec_type = LineSequenceSpec
+    gym_modes = ("open", "loop")
     code = CODE
 
     def claims_scene(self, marks: SceneMarks) -> bool:
@@ -68,6 +69,16 @@ class LinesTrack(LidarTrack):
 
     def warm_up(self) -> None:
         warm_extraction()
+
+    def env_slots(self, spec) -> EnvSlots:
+        """N: every line of the scene's map; M: the most lines a scan can yield (one per
+        ``lines.min_points`` beams, each beam in one line; RANSAC stops at ``lines.max_lines``)
+        plus ``belief.clutter``."""
+        seq = spec.sequence
+        lines = seq.lidar.beams // seq.lines.min_points
+        if seq.lines.method == "ransac":
+            lines = min(lines, seq.lines.max_lines)
+        return EnvSlots(len(load_line_scene(seq.scene).lines), lines + spec.belief.clutter)
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}

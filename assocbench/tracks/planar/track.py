@@ -12,7 +12,7 @@ from ...sim.lidar import LidarConfig
 from ...sim.planar_scene import load_planar_scene
 from ...sim.scenegen.planar import PLANAR_SCENES
 from ...validation import free_mapping, typed_section
-from ..base import SMOOTHED_ATE_GUARD, GuardedMetric, SceneMarks, first_line, register_track
+from ..base import SMOOTHED_ATE_GUARD, EnvSlots, GuardedMetric, SceneMarks, first_line, register_track
 from ..plane import LidarTrack, PlanarSensor
 from .belief import make_planar_problem
 from .estimator import make_planar_estimator
@@ -31,6 +31,7 @@ class PlanarTrack(LidarTrack):
     ci_suites = ("planar_ci", "planar_isam2_ci")
     suites = ("planar", "planar_ci", "planar_isam2_ci")
     spec_type = PlanarSequenceSpec
+    gym_modes = ("open", "loop")
     code = CODE
 
     def claims_scene(self, marks: SceneMarks) -> bool:
@@ -73,6 +74,13 @@ class PlanarTrack(LidarTrack):
 
     def loop_sensor(self, seq: PlanarSequence, belief, est: EstimatorConfig, seed: int) -> PlanarSensor:
         return PlanarSensor(seq, belief, est, seed)
+
+    def env_slots(self, spec) -> EnvSlots:
+        """N: every post of the scene; M: the most posts a scan can yield (geometric mode: one per
+        post; lidar: one per ``posts.min_points`` beams, each beam in one fit) plus ``belief.clutter``."""
+        seq, posts = spec.sequence, len(load_planar_scene(spec.sequence.scene).posts)
+        detections = posts if seq.lidar.mode == "geometric" else seq.lidar.beams // seq.posts.min_points
+        return EnvSlots(posts, detections + spec.belief.clutter)
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in PLANAR_SCENES.items()}
