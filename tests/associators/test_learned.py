@@ -1,0 +1,123 @@
+"""The learned associator: trees as data that evaluate as scikit-learn does, training bit for bit,
+the shipped model's training data disjoint from every leaderboard, and its one-line refusals."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from cli_errors import assert_one_line_error
+from problems import random_problem
+
+from assocbench.associators.learned.associator import assign_log_odds
+from assocbench.associators.learned.features import FEATURES, pair_features
+from assocbench.associators.learned.forest import load_forest, parse_forest, shipped_path
+from assocbench.cli.main import main
+from assocbench.errors import UserError
+from assocbench.harness.config import shipped_config
+from assocbench.tracks.base import iter_tracks
+
+SHIPPED = json.loads(shipped_path("camera").read_text())
+
+
+def test_numpy_trees_give_scikit_learns_log_odds(rng):
+    ensemble = pytest.importorskip("sklearn.ensemble")
+    from assocbench.associators.learned.forest import forest_data
+    from assocbench.associators.learned.train import TREES, _tree
+
+    X = rng.normal(size=(600, len(FEATURES))) * rng.uniform(0.1, 100, len(FEATURES))
+    y = (X[:, 0] + 0.01 * X[:, 3] ** 2 + rng.normal(size=600) > 0).astype(int)
+    model = ensemble.GradientBoostingClassifier(**TREES).fit(X, y)
+    doc = forest_data([_tree(e.tree_, TREES["learning_rate"]) for e in model.estimators_[:, 0]], TREES["max_depth"],
+                      0.0, 0.0, "camera", (2, ()), 0.999, {})
+    forest = parse_forest(json.loads(json.dumps(doc)), "test")
+    X_new = rng.normal(size=(300, len(FEATURES))) * rng.uniform(0.1, 100, len(FEATURES))
+    np.testing.assert_allclose(forest.log_odds(X_new), model.decision_function(X_new), rtol=0, atol=1e-9)
+
+
+def test_features_are_finite_and_the_assignment_respects_the_no_match_cost(rng):
+    p = random_problem(rng, n=8, m=10)
+    feats, lms, X = pair_features(p)
+    assert X.shape == (len(feats), len(FEATURES)) and np.all(np.isfinite(X))
+    odds = np.linspace(-2, 2, len(feats))
+    high = assign_log_odds(feats, lms, odds, 10.0, p.m, p.n)      # nothing beats a cost of 10
+    assert np.all(high == -1)
+    low = assign_log_odds(feats, lms, odds, -10.0, p.m, p.n)
+    assert np.all(np.isin(low[low >= 0], feats)) and (low >= 0).sum() > 0
+
+
+def leaderboard_scenes_and_seeds() -> tuple[set, set]:
+    """Every scene (name or file stem) and seed of every shipped suite of every track."""
+    scenes, seeds = set(), set()
+    for track in iter_tracks():
+        for suite in track.suites:
+            raw = yaml.safe_load(shipped_config(f"{suite}.yaml").read_text())
+            scenes |= {Path(s).stem for s in raw["scenes"]}
+            seeds |= set(raw.get("seeds") or [0])
+    return scenes, seeds
+
+
+def test_the_shipped_model_never_saw_a_leaderboard_scene_or_seed():
+    scenes, seeds = leaderboard_scenes_and_seeds()
+    training = SHIPPED["meta"]["training"]
+    assert scenes and seeds and training["scenes"] and training["seeds"]
+    assert not {Path(s).stem for s in training["scenes"]} & scenes
+    assert not set(training["seeds"]) & seeds
+
+
+def test_the_shipped_model_loads_and_names_its_track_and_provenance():
+    forest = load_forest(shipped_path("camera"))
+    assert forest.track == "camera" and forest.signature == (2, ())
+    assert SHIPPED["meta"]["fitted_with"]["features"] == list(FEATURES)
+
+
+def small_export(folder: Path, rng) -> None:
+    from assocbench.association.truth import FrameTruth
+    from assocbench.dataset.writer import DatasetWriter
+
+    with DatasetWriter(folder, {"generated_by": {"suite_file": "synthetic"}}) as w:
+        for k in range(40):
+            p = random_problem(rng, n=6, m=8)
+            nis = np.linalg.norm(p.z[:6, None] - p.zhat[None], axis=2)
+            assoc = np.where(nis.min(axis=0) < 3, nis.argmin(axis=0), -1)   # a labelling the features can learn
+            assoc[np.r_[False, assoc[1:] == assoc[:-1]]] = -1
+            w.add({"track": "camera", "scene": "synthetic", "difficulty": "d", "seed": k % 3, "frame": k}, p,
+                  FrameTruth(np.full(p.m, -1), assoc, assoc >= 0))
+
+
+def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
+    pytest.importorskip("sklearn")
+    pytest.importorskip("pyarrow")
+    small_export(tmp_path / "data", rng)
+    for name in ("a.json", "b.json"):
+        assert main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / name)]) == 0
+    assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()
+    from assocbench import make_associator
+
+    p = random_problem(rng, n=5, m=6)
+    out = make_associator("learned", model=str(tmp_path / "a.json")).associate(p)
+    assert out.shape == (5,)
+
+
+def test_a_model_of_another_feature_version_or_track_is_refused_in_one_line(tmp_path, capsys):
+    old = dict(SHIPPED, feature_version=SHIPPED["feature_version"] - 1)
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    args = ["run", "--scene", "room", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")]
+    assert_one_line_error(capsys, main([*args, "--set", f"params.model={tmp_path / 'old.json'}"]),
+                          "feature version", "retrain")
+    planar = dict(SHIPPED, track="planar")
+    (tmp_path / "planar.json").write_text(json.dumps(planar))
+    assert_one_line_error(capsys, main([*args, "--set", f"params.model={tmp_path / 'planar.json'}"]),
+                          "trained on the planar track", "on the camera track")
+    (tmp_path / "junk.json").write_text("{")
+    with pytest.raises(UserError, match="not JSON"):
+        load_forest(tmp_path / "junk.json")
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_track_without_a_shipped_model_is_refused_in_one_line(tmp_path, capsys):
+    code = main(["run", "--scene", "park", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")])
+    assert_one_line_error(capsys, code, "no shipped model for the planar track")
