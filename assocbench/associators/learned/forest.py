@@ -1,5 +1,5 @@
 """The learned model as plain data: a boosted ensemble of regression trees in a JSON file, read
-and evaluated with numpy only (no scikit-learn, no pickle), so the shipped model loads in the
+and evaluated with numpy and numba only (no scikit-learn, no pickle), so the shipped model loads in the
 core install and on any library version.
 
 The log-odds of a pair with features ``x`` is ``f(x) = base + Σ_t v_t(leaf_t(x))``, where each
@@ -14,6 +14,7 @@ from importlib.resources import files
 from pathlib import Path
 
 import numpy as np
+from numba import njit
 
 from ...errors import UserError
 from .features import FEATURE_VERSION, FEATURES
@@ -41,16 +42,21 @@ class Forest:
 
     def log_odds(self, X: np.ndarray) -> np.ndarray:
         """``f(x)`` of each row of ``X`` (pairs, features)."""
-        x = X.astype(np.float32).astype(np.float64)
-        trees = np.arange(self.left.shape[0])[:, None]
-        rows = np.arange(len(x))[None, :]
-        node = np.zeros((self.left.shape[0], len(x)), np.int64)
-        for _ in range(self.depth):
-            leaf = self.left[trees, node] < 0
-            feat = np.where(leaf, 0, self.feature[trees, node])
-            go_left = x[rows, feat] <= self.threshold[trees, node]
-            node = np.where(leaf, node, np.where(go_left, self.left[trees, node], self.right[trees, node]))
-        return self.base + self.value[trees, node].sum(axis=0)
+        x = np.ascontiguousarray(X, dtype=np.float32).astype(np.float64)
+        return _forest_log_odds(x, self.left, self.right, self.feature, self.threshold, self.value, self.base)
+
+
+@njit(cache=True)
+def _forest_log_odds(x, left, right, feature, threshold, value, base):
+    """Each row's walk down every tree (pairs x trees x depth steps, no temporaries)."""
+    out = np.full(x.shape[0], base)
+    for r in range(x.shape[0]):
+        for t in range(left.shape[0]):
+            node = 0
+            while left[t, node] >= 0:
+                node = left[t, node] if x[r, feature[t, node]] <= threshold[t, node] else right[t, node]
+            out[r] += value[t, node]
+    return out
 
 
 def forest_data(trees: list[dict], depth: int, base: float, no_match: float, track: str, signature: tuple,
