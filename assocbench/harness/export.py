@@ -15,6 +15,7 @@ from collections.abc import Callable
 from pathlib import Path
 
 from .. import __version__
+from ..dataset.schema import pyarrow
 from ..dataset.writer import DatasetWriter
 from ..errors import UserError
 from ..fingerprint import package_digest
@@ -39,6 +40,7 @@ def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda 
     """Write every problem of suite ``name`` into ``out``; returns the card, with the write's
     ``seconds`` and rate (not written to the card: timing would break byte-for-byte output)."""
     check_export_folder(out)
+    pyarrow()   # an install without the learn extra is told so before anything runs or is created
     path = resolve_suite(name)
     suite = load_suite(path)
     track = suite.track_impl

@@ -4,6 +4,7 @@ the shipped model's training data disjoint from every leaderboard, and its one-l
 from __future__ import annotations
 
 import json
+import sys
 from pathlib import Path
 
 import numpy as np
@@ -24,7 +25,8 @@ SHIPPED = json.loads(shipped_path("camera").read_text())
 
 
 def test_numpy_trees_give_scikit_learns_log_odds(rng):
-    ensemble = pytest.importorskip("sklearn.ensemble")
+    from sklearn import ensemble
+
     from assocbench.associators.learned.forest import forest_data
     from assocbench.associators.learned.train import TREES, _tree
 
@@ -89,8 +91,6 @@ def small_export(folder: Path, rng) -> None:
 
 
 def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
-    pytest.importorskip("sklearn")
-    pytest.importorskip("pyarrow")
     small_export(tmp_path / "data", rng)
     for name in ("a.json", "b.json"):
         assert main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / name)]) == 0
@@ -100,6 +100,14 @@ def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
     p = random_problem(rng, n=5, m=6)
     out = make_associator("learned", model=str(tmp_path / "a.json")).associate(p)
     assert out.shape == (5,)
+
+
+def test_without_scikit_learn_train_says_how_to_install_it(tmp_path, capsys, monkeypatch, rng):
+    small_export(tmp_path / "data", rng)
+    monkeypatch.setitem(sys.modules, "sklearn", None)
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "m.json")]),
+                          "pip install 'assocbench[learn]'")
+    assert not (tmp_path / "m.json").exists()
 
 
 def test_a_model_of_another_feature_version_or_track_is_refused_in_one_line(tmp_path, capsys):

@@ -3,19 +3,19 @@ byte reproducible; ``assocbench export`` on the camera ci suite and its bad inpu
 
 from __future__ import annotations
 
+import sys
+
 import numpy as np
 import pytest
 from cli_errors import assert_one_line_error
 from problems import random_problem
 
-pytest.importorskip("pyarrow")
-
-from assocbench.association.truth import FrameTruth  # noqa: E402
-from assocbench.cli.main import main  # noqa: E402
-from assocbench.dataset import read_card, read_problems  # noqa: E402
-from assocbench.dataset.reader import count_frames  # noqa: E402
-from assocbench.dataset.schema import ROW_GROUP  # noqa: E402
-from assocbench.dataset.writer import DatasetWriter  # noqa: E402
+from assocbench.association.truth import FrameTruth
+from assocbench.cli.main import main
+from assocbench.dataset import read_card, read_problems
+from assocbench.dataset.reader import count_frames
+from assocbench.dataset.schema import ROW_GROUP
+from assocbench.dataset.writer import DatasetWriter
 
 
 def labelled(rng, count: int) -> list:
@@ -70,6 +70,13 @@ def test_a_failed_write_leaves_nothing(tmp_path, rng):
             w.add(*rows[0])
             raise RuntimeError("interrupted")
     assert not any(p.name in ("problems.parquet", "card.yaml") for p in (tmp_path / "d").iterdir())
+
+
+def test_without_pyarrow_export_says_how_to_install_it(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)   # import pyarrow now raises ImportError
+    assert_one_line_error(capsys, main(["export", "--suite", "ci", "--out", str(tmp_path / "d")]),
+                          "pip install 'assocbench[learn]'")
+    assert not (tmp_path / "d").exists()
 
 
 def test_reading_a_folder_that_is_no_export_is_one_line(tmp_path):
