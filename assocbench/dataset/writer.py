@@ -76,7 +76,7 @@ class DatasetWriter:
                  "bytes": len(data), "row_group_frames": ROW_GROUP}
         return {"schema_version": SCHEMA_VERSION, **self.card, "sizes": sizes,
                 "files": {PROBLEMS_FILE: {"sha256": hashlib.sha256(data).hexdigest(),
-                                          "writer": {k: v for k, v in WRITER_OPTIONS.items()}}},
+                                          "writer": dict(WRITER_OPTIONS)}},
                 "schema": schema_description()}
 
 

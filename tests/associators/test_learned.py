@@ -141,3 +141,25 @@ def test_a_retrained_model_changes_the_package_digest_that_keys_stored_results(t
     before = fingerprint.package_digest()
     (tmp_path / "pkg" / "model.json").write_text('{"trees": [2, 3]}')
     assert fingerprint.package_digest() != before
+
+
+CORE_ONLY = """
+import sys
+sys.modules["sklearn"] = None   # as if neither were installed: importing one raises ImportError
+sys.modules["pyarrow"] = None
+import numpy as np
+from assocbench import make_associator
+from assocbench.tracks.camera.synthetic import camera_problem
+problem, truth = camera_problem(np.random.default_rng(0), n=30)
+out = make_associator("learned").associate(problem)
+print(int(np.sum((out >= 0) & (out == truth))), int(np.sum(truth >= 0)))
+"""
+
+
+def test_the_shipped_model_runs_without_scikit_learn_or_pyarrow():
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", CORE_ONLY], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    hits, true = map(int, out.stdout.split()[-2:])
+    assert true > 0 and hits >= 0.8 * true   # it associates, not merely returns
