@@ -12,6 +12,7 @@ from pathlib import Path
 import pandas as pd
 
 from ..errors import UserError
+from ..scoring.units import unit_of  # noqa: F401  (run's table imports it from here)
 from ..sim.render import MIN_SIDE  # a zero side made the camera rig divide by zero
 
 
@@ -19,7 +20,7 @@ def add_run_options(p: argparse.ArgumentParser) -> None:
     """The flags that pick a sequence and a belief (see configs/default.yaml)."""
     p.add_argument("--scene", help="shipped scene name or path to an MJCF file")
     p.add_argument("--trajectory", help="camera: circle | line | figure-eight | loop | waypoints | mjcf-cameras; "
-                   "planar and lines: loop | ellipse (assocbench list trajectories)")
+                   "planar and lines: loop | ellipse | waypoints (assocbench list trajectories)")
     p.add_argument("--frames", type=int, help="number of frames")
     p.add_argument("--seed", type=int, help="seed of trajectory jitter, belief errors and clutter")
     p.add_argument("--config", help="YAML run config (default: the shipped configs/default.yaml)")
@@ -57,26 +58,6 @@ def print_table(df: pd.DataFrame, fmt: str) -> None:
     else:
         with pd.option_context("display.width", 200, "display.max_columns", 50, "display.float_format", "{:.4g}".format):
             print(df.to_string(index=False))
-
-
-# units of summary columns that do not end in one (``_ms``, ``_mm``, ``_deg``, ``_pct``, ``_s``)
-UNITS = {"ate_rmse": "m", "ate_smoothed": "m", "map_rmse": "m", "surprisal_gap": "nats", "fps": "frames/s",
-         "precision": "share", "recall": "share", "f1": "share", "perfect": "share of frames",
-         "jc_share": "share of frames", "proven_optimal": "share of frames (NaN: not reported)",
-         "true_mass": "probability (NaN: not a soft method)", "anees": "NEES / dof", "anees_lo": "NEES / dof",
-         "anees_hi": "NEES / dof", "frames": "frames", "failures": "frames", "timed_out": "frames",
-         "diverged_at": "frame (-1: never)", "icp_failures": "frames", "wrong_steps": "frames",
-         "clutter_accepted": "features", "map_size": "landmarks", "new_landmarks": "landmarks", "revisits": "frames",
-         "loop_closures": "revisits",
-         "map_points": "points", "duplicates": "landmarks", "false_landmarks": "landmarks"}
-SUFFIX_UNITS = (("_ms", "ms"), ("_mm", "mm"), ("_deg", "deg"), ("_pct", "%"), ("_s", "s"))
-
-
-def unit_of(metric: str) -> str:
-    """The unit a summary column is printed in ("" where it is a plain count or a label)."""
-    if metric in UNITS:
-        return UNITS[metric]
-    return next((unit for suffix, unit in SUFFIX_UNITS if metric.endswith(suffix)), "")
 
 
 def check_output_folder(path: Path, flag: str = "--out") -> Path:

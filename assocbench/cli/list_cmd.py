@@ -39,11 +39,12 @@ def main(args: argparse.Namespace) -> int:
 
 
 def _trajectories(tracks: list) -> dict[str, str]:
-    """Each trajectory once, tagged with every track that has it."""
-    owners: dict[str, list[str]] = {}
-    lines: dict[str, str] = {}
+    """Each trajectory once, tagged with every track that has it; where tracks describe it
+    differently (``loop``, ``waypoints``: a camera's path and a robot's), each description after
+    the tracks it belongs to."""
+    described: dict[str, dict[str, list[str]]] = {}
     for t in tracks:
         for name, line in t.trajectories():
-            owners.setdefault(name, []).append(t.name)
-            lines.setdefault(name, line)
-    return {name: f"[{', '.join(owners[name])}] {lines[name]}" for name in lines}
+            described.setdefault(name, {}).setdefault(line, []).append(t.name)
+    return {name: "; ".join(f"[{', '.join(owners)}] {line.rstrip('.')}" for line, owners in lines.items())
+            for name, lines in described.items()}

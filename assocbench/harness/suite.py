@@ -20,6 +20,7 @@ from ..associators.registry import associator_class
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
 from ..sim.scene import scene_digest
+from ..sim.waypoints import waypoint_digest
 from ..tracks.base import GuardedMetric, Track, get_track, iter_tracks, track_for_run
 from ..validation import check_number
 from .config import check_method, defaults, merge, read_yaml, run_spec
@@ -54,9 +55,17 @@ class Job:
         under another."""
         code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests()
         code.append(scene_digest(self.scene))   # the scene's content, not its path: an edited MJCF recomputes
+        code += self._waypoint_digests()         # likewise a waypoint file's
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
+
+    def _waypoint_digests(self) -> list[str]:
+        """The content of each run's waypoint file (``trajectory: waypoints``, any track): its
+        name alone is in the settings, and an edited file must drive the new path."""
+        digests = (waypoint_digest(cfg.get("trajectory"), cfg.get("trajectory_params") or {}, self.scene)
+                   for _, cfg in self.runs)
+        return [d for d in digests if d is not None]
 
     def _track_digests(self) -> list[str]:
         """Digests of the job's tracks that live outside this package (a user's track module):

@@ -92,10 +92,15 @@ def _read(path: Path, key: str, load: Callable[[Path, str], T], what: str) -> T 
 
 def spec_key(spec: object, code: tuple[str, ...], fmt: int = 1) -> str:
     """A cache key (20 hex digits) for a dataclass ``spec`` whose ``scene`` names an MJCF: its
-    settings, the scene's files (``scene_digest``), the sources under ``code`` (folders of the
-    package: ``("sim", "models", "tracks/planar")``), the entry format and MuJoCo's version."""
+    settings, the scene's files (``scene_digest``), the content of a file its path is read from
+    (``spec.path_digest()`` where it has one: a robot's waypoint file, whose name alone is in
+    the settings), the sources under ``code`` (folders of the package: ``("sim", "models",
+    "tracks/planar")``), the entry format and MuJoCo's version."""
     payload = {"spec": asdict(spec), "scene": scene_digest(spec.scene), "code": sources_digest(*code), "format": fmt,
                "mujoco": mujoco.__version__}
+    path_file = spec.path_digest() if callable(getattr(spec, "path_digest", None)) else None
+    if path_file is not None:   # only then: the keys of every other path stay what they were
+        payload["path_file"] = path_file
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 

@@ -11,7 +11,8 @@ rounded square through the grid's gaps, ``colonnade``: down the corridor and bac
 track's ``office``: through every room and door, ``hallway``: down the corridor and back,
 ``furnished``: around the table); a user MJCF gets an ellipse around the posts' centroid (a lines
 scene: its wall faces' midpoints), the largest of a few sizes that keeps ``CLEARANCE`` from every
-obstacle, or a one-line error when none fits.
+obstacle, or a one-line error when none fits that says how to give a path of one's own:
+``waypoints`` from a CSV or YAML file (``robot_waypoints``), checked for the same clearance.
 """
 
 from __future__ import annotations
@@ -24,12 +25,13 @@ import numpy as np
 from ..errors import UserError
 from ..models.range_bearing import wrap
 from ..validation import check_number
+from .footprint import CLEARANCE
+from .robot_waypoints import robot_path
 
 if TYPE_CHECKING:
     from .line_scene import LineScene
     from .planar_scene import PlanarScene
 
-CLEARANCE = 0.5      # m from the robot's centre to any obstacle's footprint (a 0.3 m robot + margin)
 DENSE = 4000         # samples of one lap before re-parametrising by arc length
 
 Curve = Callable[[np.ndarray], np.ndarray]   # t (M,) -> points (M, 2)
@@ -139,8 +141,12 @@ FULL_RUN = 500   # frames in which a shipped path's default laps are driven; few
 # the hallway starts at its west end on the lower lane heading +x
 DEFAULT_START = {"colonnade": (22.0 + 1.5 * np.pi * 0.6) / (44.0 + 2 * np.pi * 0.6),
                  "hallway": (27.2 + 1.5 * np.pi * 0.4) / (54.4 + 2 * np.pi * 0.4)}
-TRAJECTORIES = ("loop", "ellipse")   # loop: the scene's own path; ellipse: around the posts
-PARAMS = {"loop": ("laps", "start"), "ellipse": ("laps", "start", "scale")}
+TRAJECTORIES = ("loop", "ellipse", "waypoints")   # the scene's own path; around the posts; the user's file
+PARAMS = {"loop": ("laps", "start"), "ellipse": ("laps", "start", "scale"), "waypoints": ("file",)}
+# how to give a path of one's own, for the messages that refuse another
+OWN_PATH = ("give the robot's own path: --trajectory waypoints --set trajectory_params.file=path.csv, a CSV "
+            "with the header 'x,y' and one waypoint (m) a line, e.g. '0,0', '3,0', '3,2' (docs: the planar "
+            "and lines track pages)")
 
 
 def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.ndarray:
@@ -188,8 +194,8 @@ def default_ellipse(scene: PlanarScene | LineScene, laps: float, frames: int, st
                 return resample(curve, laps, frames, start)
     raise UserError(f"no collision-free default loop in {scene.path.name}: no ellipse around the {_what(scene)} keeps "
                     f"{CLEARANCE} m from every obstacle; "
-                    + ("use trajectory 'loop', the scene's own path" if scripted(scene.path)
-                       else f"give the {_what(scene)} room or use a shipped scene"))
+                    + ("use trajectory 'loop', the scene's own path, or " if scripted(scene.path) else "")
+                    + OWN_PATH)
 
 
 def _what(scene) -> str:
@@ -201,7 +207,8 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
     """(laps, start, scale) from user parameters, each checked (one-line errors)."""
     for key in params:
         if key not in PARAMS[name]:
-            raise UserError(f"trajectory {name!r} takes no parameter {key!r}; it takes {', '.join(PARAMS[name])}")
+            hint = "; a waypoint file needs --trajectory waypoints (trajectory: waypoints)" if key == "file" else ""
+            raise UserError(f"trajectory {name!r} takes no parameter {key!r}; it takes {', '.join(PARAMS[name])}{hint}")
     laps = check_number(params.get("laps", 1), "trajectory_params.laps", lo=0, hi=100, lo_open=True)
     start = check_number(params.get("start", 0.0), "trajectory_params.start", lo=0, hi=1, hi_open=True)
     scale = check_number(params.get("scale", 1.0), "trajectory_params.scale", lo=0, hi=10, lo_open=True)
@@ -211,8 +218,9 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
 def planar_trajectory(scene: PlanarScene | LineScene, name: str | None, frames: int, seed: int = 0,
                       **params) -> np.ndarray:
     """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
-    default there) or ``ellipse`` (around the posts, the default for a user MJCF). The path is
-    fixed: ``seed`` is accepted for the common signature and changes nothing."""
+    default there), ``ellipse`` (around the posts, the default for a user MJCF) or ``waypoints``
+    (the user's file, ``robot_waypoints``). The path is fixed: ``seed`` is accepted for the
+    common signature and changes nothing."""
     del seed
     own = scripted(scene.path)
     name = name or ("loop" if own else "ellipse")
@@ -220,6 +228,8 @@ def planar_trajectory(scene: PlanarScene | LineScene, name: str | None, frames: 
         raise UserError(f"unknown planar trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")
     if isinstance(frames, bool) or not isinstance(frames, int) or frames < 1:
         raise UserError(f"frames must be a positive integer, got {frames!r}")
+    if name == "waypoints":
+        return robot_path(scene, params, frames)
     # the robot's speed is the scene's (its laps in FULL_RUN frames: 0.10-0.17 m a frame), so a
     # short run drives part of the loop rather than the whole loop in strides odometry cannot follow
     laps = DEFAULT_LAPS.get(scene.name, 1) * min(1.0, frames / FULL_RUN)
@@ -228,14 +238,15 @@ def planar_trajectory(scene: PlanarScene | LineScene, name: str | None, frames: 
     laps, start, scale = _params(name, params)
     if name == "loop":
         if not own:
-            raise UserError(f"scene {scene.name!r} has no scripted loop: use trajectory 'ellipse' "
-                            f"(loops exist for {', '.join(SCENE_PATHS)})")
+            raise UserError(f"scene {scene.name!r} has no scripted loop (loops exist for {', '.join(SCENE_PATHS)}): "
+                            f"use trajectory 'ellipse', or {OWN_PATH}")
         return resample(SCENE_PATHS[scene.name], laps, frames, start)
     if "scale" in params:
         curve = ellipse_curve(scene, scale)
         if scene.clearance(curve(np.linspace(0, 2 * np.pi, 400))).min() < CLEARANCE:
             raise UserError(f"trajectory_params.scale {scale} drives the robot within {CLEARANCE} m of an obstacle in "
-                            f"{scene.path.name}; pick another scale or leave it out (the default ellipse keeps clear)")
+                            f"{scene.path.name}; pick another scale, leave it out (the default ellipse keeps clear) "
+                            f"or {OWN_PATH}")
         return resample(curve, laps, frames, start)
     return default_ellipse(scene, laps, frames, start)
 

@@ -8,6 +8,7 @@ import numpy as np
 from ..models.se2 import rz
 from .planar_trajectory import scripted
 from .scene import resolve_scene_path
+from .waypoints import waypoint_digest
 
 
 class ScenePath:
@@ -17,6 +18,11 @@ class ScenePath:
         """The trajectory's name: the given one, else the scene's default (``loop`` for a shipped
         scene, ``ellipse`` for a user MJCF)."""
         return self.trajectory or ("loop" if scripted(resolve_scene_path(self.scene)) else "ellipse")
+
+    def path_digest(self) -> str | None:
+        """A hash of the waypoint file's bytes when the path is ``waypoints`` (the sequence cache's
+        key holds it, so an edited file is driven again), else None."""
+        return waypoint_digest(self.resolved_trajectory(), self.trajectory_params, self.scene)
 
 
 class PosesInPlane:

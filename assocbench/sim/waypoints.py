@@ -15,6 +15,10 @@ YAML (a list, or a mapping with ``waypoints:``)::
 
     - {position: [0, 0, 1.5], look_at: [3, 0, 1.5]}
     - {position: [1, 0, 1.5], yaw: 90, t: 2.0}
+
+Finding, reading and hashing a waypoint file (``waypoint_path``, ``read_text``, ``csv_table``,
+``yaml_list``, ``number``, ``vector``, ``file_digest``) also serve the robot's waypoints of the
+planar and lines tracks (``robot_waypoints``): one reader for both.
 """
 
 from __future__ import annotations
@@ -31,19 +35,20 @@ import yaml
 from ..errors import UserError
 from ..models.camera import CV_TO_MUJOCO, look_at
 from .normals import warn_once
-from .scene import Scene
+from .scene import Scene, resolve_scene_path
 from .trajectory import Keyframes
 
 SUFFIXES = (".csv", ".yaml", ".yml")
 _HOW = "a CSV or YAML file of camera positions with look-at points or headings"
 
 
-def waypoint_path(params: dict, scene_dir: Path | None = None) -> Path:
+def waypoint_path(params: dict, scene_dir: Path | None = None, how: str = _HOW) -> Path:
     """The file named by ``trajectory_params.file``: as given (relative to the working folder),
-    else next to the scene's MJCF. One-line error when it is missing or not CSV/YAML."""
+    else next to the scene's MJCF. One-line error when it is missing or not CSV/YAML (``how``
+    says what the file holds: the camera's or the robot's waypoints)."""
     name = params.get("file")
     if not isinstance(name, str) or not name:
-        raise UserError(f"trajectory waypoints needs trajectory_params.file: {_HOW}; got {name!r}")
+        raise UserError(f"trajectory waypoints needs trajectory_params.file: {how}; got {name!r}")
     path = Path(name).expanduser()
     tried = [path]
     if not path.is_absolute() and scene_dir is not None:
@@ -51,10 +56,10 @@ def waypoint_path(params: dict, scene_dir: Path | None = None) -> Path:
     for candidate in tried:
         if candidate.is_file():
             if candidate.suffix.lower() not in SUFFIXES:
-                raise UserError(f"waypoint file {candidate} must be .csv, .yaml or .yml ({_HOW})")
+                raise UserError(f"waypoint file {candidate} must be .csv, .yaml or .yml ({how})")
             return candidate.resolve()
     where = " or ".join(str(t) for t in tried)
-    raise UserError(f"waypoint file {name!r} not found (looked for {where}); trajectory_params.file names {_HOW}")
+    raise UserError(f"waypoint file {name!r} not found (looked for {where}); trajectory_params.file names {how}")
 
 
 def file_digest(path: Path) -> str:
@@ -62,12 +67,27 @@ def file_digest(path: Path) -> str:
     return hashlib.sha256(path.read_bytes()).hexdigest()[:16]
 
 
-def read_waypoints(path: Path) -> Keyframes:
-    """Parse and check a waypoint file; one-line ``UserError`` naming the file and line."""
+def waypoint_digest(trajectory: str | None, params: dict, scene: str | Path) -> str | None:
+    """``file_digest`` of the waypoint file of a ``waypoints`` path on any track (found as
+    ``waypoint_path`` finds it, next to ``scene``'s MJCF), else None: what a key of a path read
+    from a file holds besides the file's name (a sequence cache entry, a stored leaderboard job)."""
+    if trajectory != "waypoints":
+        return None
+    return file_digest(waypoint_path(params, resolve_scene_path(scene).parent))
+
+
+def read_text(path: Path) -> str:
+    """The waypoint file's text (UTF-8; a byte-order mark, as spreadsheets write one, is dropped);
+    a one-line ``UserError`` when it cannot be read."""
     try:
-        text = path.read_text()
+        return path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
         raise UserError(f"cannot read waypoint file {path}: {exc}") from None
+
+
+def read_waypoints(path: Path) -> Keyframes:
+    """Parse and check a waypoint file; one-line ``UserError`` naming the file and line."""
+    text = read_text(path)
     rows = _csv_rows(path, text) if path.suffix.lower() == ".csv" else _yaml_rows(path, text)
     if len(rows) < 2:
         raise UserError(f"waypoint file {path} has {len(rows)} waypoint(s); give at least 2")
@@ -78,7 +98,8 @@ def read_waypoints(path: Path) -> Keyframes:
 Row = tuple[str, np.ndarray, np.ndarray | None, tuple[float, float] | None, float | None]
 
 
-def _number(path: Path, where: str, name: str, value) -> float:
+def number(path: Path, where: str, name: str, value) -> float:
+    """``value`` as a finite float, else a one-line ``UserError`` naming the file, row and column."""
     try:
         if isinstance(value, bool):
             raise TypeError
@@ -90,24 +111,36 @@ def _number(path: Path, where: str, name: str, value) -> float:
     return x
 
 
-def _csv_rows(path: Path, text: str) -> list[Row]:
+def csv_table(path: Path, text: str) -> tuple[str, list[str], list[tuple[str, list[str]]]]:
+    """A waypoint CSV's header (where it is written, its lower-case column names) and each data
+    row's cells with where it is written (``line N``); blank lines and ``#`` comments skipped. A
+    row with another number of cells than the header is a one-line ``UserError``."""
     lines = [(k + 1, line) for k, line in enumerate(text.splitlines())
              if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
-        return []
+        return "line 1", [], []
     header = [h.strip().lower() for h in next(csv.reader(io.StringIO(lines[0][1])))]
-    has_look = {"look_x", "look_y", "look_z"} <= set(header)
-    if not {"x", "y", "z"} <= set(header) or not (has_look or "yaw" in header) or len(set(header)) != len(header):
-        raise UserError(f"waypoint file {path} line {lines[0][0]}: the header must name x, y, z and either look_x, "
-                        f"look_y, look_z or yaw (pitch, t optional), each once; got {', '.join(header)}")
     rows = []
     for lineno, line in lines[1:]:
         cells = [c.strip() for c in next(csv.reader(io.StringIO(line)))]
-        where = f"line {lineno}"
         if len(cells) != len(header):
-            raise UserError(f"waypoint file {path} {where}: {len(cells)} values for {len(header)} columns")
+            raise UserError(f"waypoint file {path} line {lineno}: {len(cells)} values for {len(header)} columns")
+        rows.append((f"line {lineno}", cells))
+    return f"line {lines[0][0]}", header, rows
+
+
+def _csv_rows(path: Path, text: str) -> list[Row]:
+    at, header, table = csv_table(path, text)
+    if not header:
+        return []
+    has_look = {"look_x", "look_y", "look_z"} <= set(header)
+    if not {"x", "y", "z"} <= set(header) or not (has_look or "yaw" in header) or len(set(header)) != len(header):
+        raise UserError(f"waypoint file {path} {at}: the header must name x, y, z and either look_x, "
+                        f"look_y, look_z or yaw (pitch, t optional), each once; got {', '.join(header)}")
+    rows = []
+    for where, cells in table:
         # empty cells are allowed where a row uses the other way of looking (look-at or yaw)
-        v = {h: _number(path, where, h, c) for h, c in zip(header, cells) if c != "" or h in ("x", "y", "z")}
+        v = {h: number(path, where, h, c) for h, c in zip(header, cells) if c != "" or h in ("x", "y", "z")}
         pos = np.array([v["x"], v["y"], v["z"]])
         given = [k in v for k in ("look_x", "look_y", "look_z")]
         if any(given) and not all(given):
@@ -118,7 +151,9 @@ def _csv_rows(path: Path, text: str) -> list[Row]:
     return rows
 
 
-def _yaml_rows(path: Path, text: str) -> list[Row]:
+def yaml_list(path: Path, text: str, each: str) -> list:
+    """A waypoint YAML's list (or the list under ``waypoints:``); one-line ``UserError`` for
+    malformed YAML or anything else (``each`` says what one waypoint looks like)."""
     try:
         data = yaml.safe_load(text)
     except yaml.YAMLError as exc:
@@ -128,8 +163,12 @@ def _yaml_rows(path: Path, text: str) -> list[Row]:
     if isinstance(data, dict) and set(data) == {"waypoints"}:
         data = data["waypoints"]
     if not isinstance(data, list):
-        raise UserError(f"waypoint file {path} must hold a list of waypoints (or waypoints: [...]), "
-                        f"each {{position: [x, y, z], look_at: [x, y, z]}} or {{position: ..., yaw: deg}}")
+        raise UserError(f"waypoint file {path} must hold a list of waypoints (or waypoints: [...]), each {each}")
+    return data
+
+
+def _yaml_rows(path: Path, text: str) -> list[Row]:
+    data = yaml_list(path, text, "{position: [x, y, z], look_at: [x, y, z]} or {position: ..., yaw: deg}")
     rows = []
     for k, item in enumerate(data):
         where = f"waypoint {k + 1}"
@@ -137,20 +176,21 @@ def _yaml_rows(path: Path, text: str) -> list[Row]:
         if not isinstance(item, dict) or "position" not in item or not set(item) <= known:
             raise UserError(f"waypoint file {path} {where}: expected a mapping with position and look_at or yaw "
                             f"(pitch, t optional), got {item!r}")
-        pos = _vector(path, where, "position", item["position"])
-        look = _vector(path, where, "look_at", item["look_at"]) if "look_at" in item else None
+        pos = vector(path, where, "position", item["position"])
+        look = vector(path, where, "look_at", item["look_at"]) if "look_at" in item else None
         heading = None
         if look is None and "yaw" in item:
-            heading = (_number(path, where, "yaw", item["yaw"]), _number(path, where, "pitch", item.get("pitch", 0.0)))
-        t = _number(path, where, "t", item["t"]) if "t" in item else None
+            heading = (number(path, where, "yaw", item["yaw"]), number(path, where, "pitch", item.get("pitch", 0.0)))
+        t = number(path, where, "t", item["t"]) if "t" in item else None
         rows.append(_row(path, where, pos, look, heading, t))
     return rows
 
 
-def _vector(path: Path, where: str, name: str, value) -> np.ndarray:
-    if not isinstance(value, (list, tuple)) or len(value) != 3:
-        raise UserError(f"waypoint file {path} {where}: {name} must be [x, y, z], got {value!r}")
-    return np.array([_number(path, where, f"{name}[{i}]", c) for i, c in enumerate(value)])
+def vector(path: Path, where: str, name: str, value, axes: str = "x, y, z") -> np.ndarray:
+    """``value`` as a list of finite numbers, one per name in ``axes``; else a one-line ``UserError``."""
+    if not isinstance(value, (list, tuple)) or len(value) != len(axes.split(",")):
+        raise UserError(f"waypoint file {path} {where}: {name} must be [{axes}], got {value!r}")
+    return np.array([number(path, where, f"{name}[{i}]", c) for i, c in enumerate(value)])
 
 
 def _row(path: Path, where: str, pos, look, heading, t) -> Row:

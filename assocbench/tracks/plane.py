@@ -26,6 +26,8 @@ PLANE_TRAJECTORIES = [
     ("loop", "a shipped planar or lines scene's own path (laps, start), its default"),
     ("ellipse", "an ellipse around the posts (lines: the wall faces) clear of every obstacle (laps, start, scale), "
                 "a user MJCF's default"),
+    ("waypoints", "the user's own path through the x, y [, heading] waypoints (m, deg) of a CSV or YAML file "
+                  "(file), checked to keep 0.5 m from every obstacle"),
 ]
 
 

@@ -12,7 +12,8 @@ A page asks for a generated part with a marker line, replaced in ``on_page_markd
 * ``<!-- generated: cli -->``: every command and option of ``assocbench.cli.main.build_parser()``.
 
 ``on_files`` publishes the committed reference results (``results/``) into the site, so the
-benchmark pages can link to their tables and pictures. ``tests/docs/test_docs.py`` imports this
+benchmark pages can link to their tables and pictures, and the HTML leaderboard that
+``assocbench report`` builds from them under ``report/`` (``REPORT_SUITES``, each where present). ``tests/docs/test_docs.py`` imports this
 file to check that the generated pages list every method and every setting.
 """
 
@@ -24,6 +25,8 @@ import re
 from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
+# the committed leaderboards the site's report is built from, in its order (a missing one is skipped)
+REPORT_SUITES = ("results", "results/loop", "results/planar", "results/lines", "results/dense")
 MARKER = re.compile(r"^<!-- generated: (\w+) -->$", re.M)
 
 
@@ -221,4 +224,14 @@ def on_files(files, config):
         rel = path.relative_to(ROOT / "results")
         if path.is_file() and rel.parts[0] != "runs" and path.suffix in {".md", ".png", ".csv"}:
             files.append(File(f"results/{rel.as_posix()}", str(ROOT), config["site_dir"], config["use_directory_urls"]))
+    for rel, data in report_files().items():
+        files.append(File.generated(config, f"report/{rel}", content=data))
     return files
+
+
+def report_files() -> dict[str, bytes]:
+    """The HTML leaderboard of the committed results (``assocbench report`` of ``REPORT_SUITES``)."""
+    from assocbench.harness.report import build_report
+
+    present = [name for name in REPORT_SUITES if (ROOT / name / "leaderboard.csv").is_file()]
+    return build_report([ROOT / name for name in present], names=present)

@@ -147,3 +147,10 @@ def test_render_writes_a_video_of_the_run(tmp_path, suffix):
 
 def test_render_rejects_an_unknown_video_format(capsys, tmp_path):
     assert_one_line_error(capsys, main(["render", "-o", str(tmp_path / "run.avi")]), ".mp4 or .gif")
+
+
+def test_list_gives_each_tracks_own_description_of_a_shared_trajectory(capsys):
+    """``waypoints`` is a camera's path on one track and a robot's on the lidar tracks: both said."""
+    assert main(["list", "trajectories"]) == 0
+    line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("  waypoints "))
+    assert "[camera] Through the waypoints" in line and "[planar, lines] the user's own path" in line, line

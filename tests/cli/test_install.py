@@ -43,6 +43,12 @@ def test_fresh_venv_pip_install_then_assocbench_run(tmp_path):
     assert f"{run_dir.relative_to(work)}/summary.csv" in proc.stdout
     summary = pd.read_csv(run_dir / "summary.csv")
     assert summary.loc[0, "frames"] == 3 and summary.loc[0, "precision"] > 0.5
+    # the report's stylesheet and script are package data, inlined into its pages
+    proc = subprocess.run([str(env_dir / "bin" / "assocbench"), "report", str(ROOT / "results" / "planar"), "--out",
+                           "report"], capture_output=True, text=True, cwd=work, env=env)
+    assert proc.returncode == 0, proc.stderr
+    page = (work / "report" / "planar-closed-loop.html").read_text()
+    assert "th.sortable" in page and "function sortBy" in page
 
 
 def test_compiled_kernels_are_cached_per_source_version(tmp_path):

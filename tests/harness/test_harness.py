@@ -107,6 +107,21 @@ def test_editing_a_plugin_invalidates_its_stored_results(tmp_path, plugins):
     assert len(list((tmp_path / "runs" / "jobs").glob("*.summary.csv"))) == 2
 
 
+def test_editing_a_waypoint_file_invalidates_its_stored_results(tmp_path):
+    """A stored job is keyed by the waypoint file's content, not its name (as by the scene's):
+    after the file is edited, the same suite drives the new path instead of reusing old numbers."""
+    from user_room import PATH, path_csv, room_mjcf
+
+    scene, file = room_mjcf(tmp_path, "planar"), path_csv(tmp_path)
+    suite_path = tmp_path / "suite.yaml"
+    suite_path.write_text(f"base: {{frames: 4, trajectory: waypoints, trajectory_params: {{file: {file}}}}}\n"
+                          f"scenes: [{scene}]\ndifficulties:\n  easy: {{}}\nmethods: [jcbb]\nseeds: [0]\n")
+    run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
+    path_csv(tmp_path, [(7.5, 1.3)] + PATH[1:])
+    run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
+    assert len(list((tmp_path / "runs" / "jobs").glob("*.summary.csv"))) == 2
+
+
 def test_check_passes_against_its_own_baseline_and_catches_a_degraded_plugin(tmp_path, plugins, capsys):
     good = write_suite(tmp_path, "[{name: mine, method: jcbb}]", scenes="[room]", frames=4, name="good.yaml",
                        difficulty="{sigma_position: 0.03, sigma_rotation: 0.5}")

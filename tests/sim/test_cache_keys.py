@@ -76,3 +76,25 @@ def test_a_lidar_tracks_key_follows_its_models_not_another_track(package_copy, t
     _edit(package_copy / "models/range_bearing.py")
     assert fingerprint.sources_digest(*code) != before
     assert get_track(track).name == track
+
+
+@pytest.mark.parametrize("track", ["planar", "lines"])
+def test_editing_a_waypoint_file_drives_the_path_again(tmp_path, track):
+    """The key holds the waypoint file's content, not only its name: the same spec after the
+    file was edited is another entry, and the robot drives the new path."""
+    from user_room import PATH, path_csv, room_mjcf
+
+    from assocbench.harness.config import load_run_config, run_spec
+    from assocbench.sim.cache import spec_key
+
+    file = path_csv(tmp_path)
+    sets = ["trajectory=waypoints", f"trajectory_params.file={file}"]
+    spec = run_spec(load_run_config(None, sets, method="jcbb", scene=str(room_mjcf(tmp_path, track)), frames=4))
+    impl, cache = spec.track_impl, tmp_path / "cache"
+    before = spec_key(spec.sequence, impl.code)
+    first = impl.load_sequence(spec.sequence, cache)
+    assert spec_key(spec.sequence, impl.code) == before and first.poses[0, :2].tolist() == list(PATH[0])
+    path_csv(tmp_path, [(7.5, 1.3)] + PATH[1:])                 # the first waypoint moved 10 cm
+    assert spec_key(spec.sequence, impl.code) != before
+    again = impl.load_sequence(spec.sequence, cache)
+    assert again.poses[0, :2].tolist() == [7.5, 1.3] and len(list((cache / track).glob("*.pkl"))) == 2

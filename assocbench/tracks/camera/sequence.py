@@ -27,7 +27,7 @@ from ...sim.cache import Unusable, cached_sequence
 from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
-from ...sim.waypoints import file_digest, waypoint_path
+from ...sim.waypoints import waypoint_digest
 from .detect import DetectorConfig, detect
 from .truth import TruthConfig, label_features, visibility
 
@@ -74,7 +74,7 @@ class SequenceSpec:
                                   "format": FORMAT_VERSION, "code": sources_digest(*CODE),
                                   "mujoco": mujoco.__version__, "opencv": cv2.__version__}
         if payload["trajectory"] == "waypoints":
-            payload["waypoints"] = file_digest(waypoint_path(self.trajectory_params, scene.path.parent))
+            payload["waypoints"] = waypoint_digest("waypoints", self.trajectory_params, scene.path)
         return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 

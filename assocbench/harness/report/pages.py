@@ -1,0 +1,206 @@
+"""The report's HTML: an overview page that ranks the methods and a page per suite with its
+sortable, filterable table, the legend of its columns and its pictures. Every page carries its CSS
+and script inline and names its pictures by relative paths, so the folder opens from ``file://``
+with no network; the text depends only on the inputs (no dates), so the same inputs give the same bytes."""
+
+from __future__ import annotations
+
+import math
+from html import escape
+from importlib import resources
+
+import pandas as pd
+
+from ..leaderboard import ORACLE_LABEL
+from .columns import BY_KEY, COUNT_COLUMNS, NOT_METRICS, Column, column
+from .ranking import REFERENCE_METHODS, overview
+from .ranking import __doc__ as RANK_RULE
+from .suites import Suite, caption
+
+FILTERS = (("scene", "scene"), ("difficulty", "difficulty"), ("backend", "back end"), ("method", "method"))
+BETTER = {"high": "higher is better", "low": "lower is better", "": ""}
+
+
+def _static(name: str) -> str:
+    return resources.files(__package__).joinpath("static", name).read_text()
+
+
+def document(title: str, here: str, suites: list[Suite], body: str) -> str:
+    """A whole page: the navigation bar (overview, then each suite), ``body``, the sources."""
+    links = [("index", "Overview")] + [(s.slug, s.title) for s in suites]
+    nav = "".join(f'<a href="{slug}.html"{" class=here" if slug == here else ""}>{escape(name)}</a>'
+                  for slug, name in links)
+    sources = "".join(f"<li><code>{escape(s.source)}</code> (sha256 {s.digest[:12]})</li>" for s in suites)
+    return (f'<!DOCTYPE html>\n<html lang="en">\n<head>\n<meta charset="utf-8">\n'
+            f'<meta name="viewport" content="width=device-width, initial-scale=1">\n'
+            f'<meta name="generator" content="assocbench report">\n<title>{escape(title)}</title>\n'
+            f'<style>\n{_static("report.css")}</style>\n<script>\n{_static("report.js")}</script>\n</head>\n'
+            f'<body>\n<header><span class="brand">assocbench leaderboard</span>{nav}</header>\n<main>\n{body}</main>\n'
+            f'<footer>Built by <code>assocbench report</code> from the leaderboards:<ul>{sources}</ul></footer>\n'
+            f'</body>\n</html>\n')
+
+
+def _num(value: float, digits: int, none: str = "n/a") -> str:
+    return none if value is None or math.isnan(value) else f"{value:.{digits}f}"
+
+
+def _v(value: float) -> str:
+    """The exact value a cell sorts by ("" for none)."""
+    return "" if value is None or math.isnan(value) else format(float(value), ".10g")
+
+
+# --- overview -------------------------------------------------------------------------------
+def overview_body(suites: list[Suite]) -> str:
+    """The ranking rule, one ranking table per kind of method (feature associators; dense
+    associators), and the list of suites."""
+    rule = " ".join(RANK_RULE.split("\n\n", 1)[1].split())
+    out = ["<h1>Leaderboard across tracks</h1>",
+           '<p class="lead">Every method of every leaderboard in this report, ranked in each scenario '
+           "(a scene at a difficulty, with its back end) by its track's primary metric. Each track's page has the "
+           "full table (every metric, mean &plusmn; std over seeds), its plots and top views.</p>",
+           f'<div class="rule"><b>Rank rule.</b> {escape(rule)}</div>']
+    groups = (("Feature associators (camera, planar, lines)", [s for s in suites if s.kind != "dense"]),
+              ("Dense associators (depth frames)", [s for s in suites if s.kind == "dense"]))
+    for heading, members in groups:
+        if members:
+            out += [f"<h2>{heading}</h2>", _ranking_table(members)]
+    out += ["<h2>Leaderboards in this report</h2>", _suite_list(suites)]
+    return "\n".join(out) + "\n"
+
+
+def _ranking_table(suites: list[Suite]) -> str:
+    table = overview(suites)
+    head = ['<th class="text sortable" data-type="text">method<span class="unit"></span></th>']
+    for s in suites:
+        m = s.primary
+        head.append(f'<th class="sortable" data-type="num" title="mean rank over the scenarios of {escape(s.title)}">'
+                    f'<a href="{s.slug}.html">{escape(s.title)}</a><span class="unit">mean rank by {escape(m.header)}'
+                    f'</span></th>')
+    head += ['<th class="sortable" data-type="num" title="mean of (rank - 1) / (n - 1) over every scenario">'
+             'overall<span class="unit">normalised rank, 0 best, 1 last</span></th>',
+             '<th class="sortable" data-type="num">scenarios<span class="unit">ranked in</span></th>',
+             '<th class="sortable" data-type="num" title="scenarios where its row is not ok (ranked last)">'
+             'not ok<span class="unit">scenarios</span></th>']
+    rows = []
+    for _, r in table.iterrows():
+        cells = [f'<td class="text" data-v="{escape(r["method"])}">{escape(r["method"])}</td>']
+        cells += [f'<td data-v="{_v(r[s.slug])}">{_num(r[s.slug], 2, "&ndash;")}</td>' for s in suites]
+        cells += [f'<td data-v="{_v(r["overall"])}"><b>{_num(r["overall"], 3)}</b></td>',
+                  f'<td data-v="{r["scenarios"]}">{r["scenarios"]}</td>', f'<td data-v="{r["not_ok"]}">{r["not_ok"]}</td>']
+        rows.append("<tr>" + "".join(cells) + "</tr>")
+    return (f'<div class="scroll"><table class="ranking"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
+            + "\n".join(rows) + "\n</tbody></table></div>")
+
+
+def _suite_list(suites: list[Suite]) -> str:
+    rows = ["<tr><th class=text>page</th><th class=text>track</th><th class=text>ranked by</th><th>scenarios</th>"
+            "<th>methods</th><th>seeds</th><th class=text>source</th></tr>"]
+    for s in suites:
+        t = s.table
+        seeds = "" if "seeds" not in t else f"{int(t['seeds'].min())}" + (
+            f"&ndash;{int(t['seeds'].max())}" if t["seeds"].max() != t["seeds"].min() else "")
+        rows.append(f'<tr><td class="text"><a href="{s.slug}.html">{escape(s.title)}</a></td>'
+                    f'<td class="text">{escape(s.track or "?")}, {s.loop_words}</td>'
+                    f'<td class="text">{escape(s.primary.header)}, {BETTER[s.primary.better]}</td>'
+                    f'<td>{t["scenario"].nunique()}</td><td>{t["method"].nunique()}</td><td>{seeds}</td>'
+                    f'<td class="text"><code>{escape(s.source)}</code></td></tr>')
+    return '<table class="suites">' + "\n".join(rows) + "</table>"
+
+
+# --- one suite --------------------------------------------------------------------------------
+def metric_columns(suite: Suite) -> list[Column]:
+    """The metric columns to show: the primary metric, the catalogue's others in its order, then
+    unknown numeric ones; a column with no value in any row is left out."""
+    table = suite.table
+    first = [suite.primary] + [c for c in BY_KEY.values() if c != suite.primary]
+    known = [c for c in first if c.key in table and table[c.key].notna().any()]
+    other = [column(k) for k in table if k not in BY_KEY and k not in NOT_METRICS and k != "backend"
+             and not k.endswith("_std") and table[k].notna().any()]
+    return known + other
+
+
+def suite_body(suite: Suite, pictures: list[str]) -> str:
+    """The suite's heading, filters, table, column legend and pictures (``pictures``: relative paths)."""
+    t = suite.table
+    columns = metric_columns(suite)
+    seeds = f"over {int(t['seeds'].max())} seeds" if "seeds" in t else ""
+    out = [f"<h1>{escape(suite.title)}</h1>",
+           f'<p class="lead">{escape(suite.track or "unknown")} track, {suite.loop_words}. One row per scenario and '
+           f"method: the mean &plusmn; std {seeds}. Click a column's header to sort by it; pick a scene, difficulty, "
+           f"back end or method to filter. Ranked on the overview by {escape(suite.primary.header)} "
+           f"({BETTER[suite.primary.better]}). Rows in <i>italics</i>: the true association, a reference, not a "
+           f"method; rows in red are <b>not ok</b> (numbers the harness could not trust; the status says why).</p>",
+           _filters(t), _table(suite, columns), "<h2>Columns</h2>", _legend(suite, columns)]
+    if pictures:
+        figures = "".join(f'<figure><a href="{p}"><img src="{p}" alt="{escape(caption(name, suite))}"></a>'
+                          f"<figcaption>{escape(caption(name, suite))}</figcaption></figure>"
+                          for p, (name, _) in zip(pictures, suite.pictures))
+        out += ["<h2>Plots and top views</h2>", f'<div class="gallery">{figures}</div>']
+    return "\n".join(out) + "\n"
+
+
+def _filters(t: pd.DataFrame) -> str:
+    out = []
+    for key, label in FILTERS:
+        values = list(dict.fromkeys(t[key]))
+        if len(values) > 1:
+            options = "".join(f'<option value="{escape(v)}">{escape(v)}</option>' for v in values)
+            out.append(f'<label>{label}<select data-filter="{key}"><option value="">all</option>{options}</select></label>')
+    out.append('<label><span>&nbsp;</span><span><input type="checkbox" id="more"> more columns</span></label>'
+               '<span class="count"></span>')
+    return f'<div class="controls">{"".join(out)}</div>'
+
+
+def _table(suite: Suite, columns: list[Column]) -> str:
+    t = suite.table
+    backend = t["backend"].ne("").any()
+    labels = [("scene", "scene"), ("difficulty", "difficulty")] + ([("backend", "back end")] if backend else [])
+    head = [f'<th class="text sortable" data-type="text">{label}<span class="unit"></span></th>'
+            for _, label in labels + [("method", "method")]]
+    for c in columns:
+        head.append(f'<th class="sortable{"" if c.shown(suite.kind) else " more"}" data-type="num" title="{escape(c.meaning)}">'
+                    f'{escape(c.label)}<span class="unit">{escape(c.unit) if c.unit else "&nbsp;"}</span></th>')
+    if "anees_lo" in t:
+        head.append('<th title="two-sided 95 % chi-square band of one run\'s ANEES">ANEES band'
+                    '<span class="unit">95 %, NEES / dof</span></th>')
+    counts = [k for k in COUNT_COLUMNS if k in t]
+    head += [f'<th class="sortable" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
+             f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
+    head.append('<th class="text sortable" data-type="text">status<span class="unit"></span></th>')
+    rows = [_row(r, labels, columns, counts, suite.kind) for _, r in t.iterrows()]
+    return (f'<div class="scroll"><table class="filterable"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
+            + "\n".join(rows) + "\n</tbody></table></div>")
+
+
+def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str) -> str:
+    oracle = r["method"] in REFERENCE_METHODS
+    name = ORACLE_LABEL if oracle else r["method"]
+    attrs = "".join(f' data-{k}="{escape(str(r[k]))}"' for k in ("scene", "difficulty", "backend", "method"))
+    look = ' class="oracle"' if oracle else ' class="notok"' if r["status"] != "ok" else ""
+    cells = [f'<td class="text" data-v="{escape(str(r[k]))}">{escape(str(r[k]))}</td>' for k, _ in labels]
+    cells.append(f'<td class="text" data-v="{escape(name)}">{escape(name)}</td>')
+    for c in columns:
+        std = r.get(c.key + "_std")
+        spread = f' <span class="std">&plusmn; {_num(std, c.digits)}</span>' if std is not None and pd.notna(
+            std) and pd.notna(r[c.key]) else ""
+        cells.append(f'<td{"" if c.shown(kind) else " class=more"} data-v="{_v(r[c.key])}">{_num(r[c.key], c.digits)}'
+                     f"{spread}</td>")
+    if "anees_lo" in r:
+        cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]</td>')
+    for k in counts:
+        of = r["seeds"] if k == "diverged" else r.get("frames", float("nan"))
+        cells.append(f'<td data-v="{_v(r[k])}">{_num(r[k], 0)} / {_num(of, 0)}</td>')
+    cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}</td>')
+    return f"<tr{look}{attrs}>" + "".join(cells) + "</tr>"
+
+
+def _legend(suite: Suite, columns: list[Column]) -> str:
+    items = [("scene / difficulty / back end", "the scenario, split from its name scene/difficulty-backend (the back "
+              "end: the estimator, the line extractor or the ICP target)") if suite.table["backend"].ne("").any()
+             else ("scene / difficulty", "the scenario, split from its name scene/difficulty")]
+    items += [(c.header, escape(c.meaning) + (f"; {BETTER[c.better]}" if c.better else "")
+               + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
+    items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", meaning)
+              for k, (label, meaning) in COUNT_COLUMNS.items() if k in suite.table]
+    items.append(("status", "ok, or why the harness could not trust the row's numbers"))
+    return '<dl class="legend">' + "".join(f"<dt>{escape(h)}</dt><dd>{m}</dd>" for h, m in items) + "</dl>"

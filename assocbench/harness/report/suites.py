@@ -1,0 +1,156 @@
+"""Read one leaderboard folder (``assocbench leaderboard --out``) into what the report shows: its
+table (one row per scenario x method), which track and loop it is, its primary metric, its pictures.
+
+Every way a folder can be unusable is a one-line ``UserError`` naming the file and what to do."""
+
+from __future__ import annotations
+
+import hashlib
+import io
+from dataclasses import dataclass, field
+from pathlib import Path
+
+import numpy as np
+import pandas as pd
+
+from ...errors import UserError
+from ...scoring.aggregate import OK
+from ...tracks.base import track_for_run
+from ..leaderboard import scenario_key
+from .columns import BY_KEY, COUNT_COLUMNS, Column
+
+CSV_NAME = "leaderboard.csv"
+LABEL_COLUMNS = ("scenario", "method", "status", "error", "scene", "difficulty")
+# the metric a suite's methods are ranked by, first match: a dense suite's, a closed loop's, an open loop's
+PRIMARY = (("ate_mm", "dense"), ("ate_rmse", "loop"), ("f1", "open"))
+# the pictures `leaderboard` writes, in the order a reader wants them; others follow by name
+PICTURE_ORDER = ("leaderboard_pr.png", "leaderboard_ate.png", "leaderboard_nees.png", "leaderboard_runtime.png",
+                 "leaderboard_map.png")
+CAPTIONS = {"pr": "precision against recall, a panel per scene and difficulty",
+            "ate": "ATE per method and scenario", "nees": "pose NEES over time against its chi-square band",
+            "runtime": "runtime of associate() against the number of candidates", "map": "top view"}
+
+
+@dataclass
+class Suite:
+    """One leaderboard: ``table`` has a row per scenario x method and the columns ``scene``,
+    ``difficulty``, ``backend`` split from the scenario (``scene/difficulty-backend``)."""
+
+    source: str
+    digest: str
+    table: pd.DataFrame
+    kind: str                       # open | loop | dense
+    track: str                      # camera, planar, lines, dense, ... ("" when no track claims its scenes)
+    pictures: list[tuple[str, bytes]] = field(default_factory=list)
+    title: str = ""
+    slug: str = ""
+
+    @property
+    def primary(self) -> Column:
+        """The column its methods are ranked by: F1 (open loop), ATE (closed loop, dense)."""
+        return BY_KEY[next(key for key, kind in PRIMARY if kind == self.kind)]
+
+    @property
+    def loop_words(self) -> str:
+        return {"open": "open loop", "loop": "closed loop", "dense": "ICP tracking and fusion"}[self.kind]
+
+
+def read_suite(path: Path, source: str) -> Suite:
+    """The leaderboard in ``path`` (a folder holding ``leaderboard.csv``, or that file)."""
+    csv = path / CSV_NAME if path.is_dir() else path
+    if not csv.is_file():
+        raise UserError(f"{source} holds no {CSV_NAME}: give folders written by `assocbench leaderboard --out DIR` "
+                        f"(e.g. results/planar)")
+    data = csv.read_bytes()
+    table = _parse(data, source if csv == path else f"{source}/{CSV_NAME}")
+    kind = next(kind for key, kind in PRIMARY if key in table)
+    track = _track_name(table)
+    if "seed" in table:   # the dense track writes every run; the report shows the mean over seeds
+        table = _per_scenario(table)
+    table = _with_parts(table)
+    pictures = [(p.name, p.read_bytes()) for p in _pictures(csv.parent)] if csv.parent.is_dir() else []
+    return Suite(source, hashlib.sha256(data).hexdigest(), table, kind, track, pictures)
+
+
+def _parse(data: bytes, name: str) -> pd.DataFrame:
+    """The CSV's table, checked: the label columns, a metric to rank by, numbers in every other column."""
+    fix = "regenerate it with `assocbench leaderboard`"
+    try:
+        table = pd.read_csv(io.BytesIO(data), dtype={"scenario": str, "method": str, "status": str})
+    except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:
+        raise UserError(f"{name} is not a readable CSV ({str(exc).splitlines()[0]}); {fix}") from None
+    missing = [c for c in ("scenario", "method") if c not in table]
+    if missing:
+        raise UserError(f"{name} is not a leaderboard: no {' or '.join(missing)} column; {fix}")
+    if not any(key in table for key, _ in PRIMARY):
+        raise UserError(f"{name} is not a leaderboard: none of the columns f1, ate_rmse, ate_mm; {fix}")
+    if not len(table) or table[["scenario", "method"]].isna().any().any():
+        raise UserError(f"{name} has no rows or a row without scenario or method; {fix}")
+    key = ["scenario", "method"] + (["seed"] if "seed" in table else [])
+    twice = table[table.duplicated(key)]
+    if len(twice):
+        r = twice.iloc[0]
+        raise UserError(f"{name} has two rows for method {r['method']} on {r['scenario']}; {fix}")
+    text = [c for c in table if c not in LABEL_COLUMNS and not pd.api.types.is_numeric_dtype(table[c])]
+    bad = [c for c in text if c in BY_KEY or c in COUNT_COLUMNS or c in ("seed", "seeds", "frames")]
+    if bad:
+        raise UserError(f"{name}: column {bad[0]} holds text where numbers belong; {fix}")
+    table = table.drop(columns=text)   # labels a newer harness may add; the report ranks and sorts numbers
+    if "status" not in table:
+        table["status"] = OK
+    table["status"] = table["status"].fillna(OK)
+    return table
+
+
+def _track_name(table: pd.DataFrame) -> str:
+    """The track of the first row's scene and method; "" when its scene is not at hand (a user's
+    MJCF file elsewhere): the report is then titled by its folder."""
+    scene = table["scenario"].iloc[0].rpartition("/")[0]
+    try:
+        return track_for_run(scene, table["method"].iloc[0]).name
+    except (UserError, OSError, ValueError):
+        return ""
+
+
+def _per_scenario(runs: pd.DataFrame) -> pd.DataFrame:
+    """Mean (and std, ddof 0) over seeds per scenario x method of a CSV that lists every run;
+    status is ok only when every seed's was."""
+    metrics = [c for c in runs if c not in LABEL_COLUMNS and c != "seed"]
+    grouped = runs.groupby(["scenario", "method"], sort=False)
+    table = grouped[metrics].agg(lambda col: col.mean(skipna=False))
+    table = table.join(grouped[[c for c in metrics if c in BY_KEY]].std(ddof=0).fillna(0.0).add_suffix("_std"))
+    table["status"] = grouped["status"].agg(lambda s: OK if (s == OK).all() else next(v for v in s if v != OK))
+    table["seeds"] = grouped.size()
+    if "frames" in runs:
+        table["frames"] = grouped["frames"].sum()
+    return table.reset_index()
+
+
+def _with_parts(table: pd.DataFrame) -> pd.DataFrame:
+    """Scene, difficulty and back end split from ``scene/difficulty-backend``, rows in leaderboard
+    order (scene, easy to hard), then by the order the CSV gave."""
+    split = table["scenario"].str.rpartition("/")
+    parts = split[2].str.partition("-")
+    table = table.assign(scene=split[0], difficulty=parts[0], backend=parts[2])
+    rank = {s: k for k, s in enumerate(sorted(table["scenario"].unique(), key=scenario_key))}
+    order = np.argsort(table["scenario"].map(rank).to_numpy(), kind="stable")
+    return table.iloc[order].reset_index(drop=True)
+
+
+def _pictures(folder: Path) -> list[Path]:
+    """The folder's PNG pictures, the known ones first in reading order."""
+    found = sorted(folder.glob("*.png"))
+    known = [folder / name for name in PICTURE_ORDER if (folder / name).is_file()]
+    return known + [p for p in found if p not in known]
+
+
+def caption(name: str, suite: Suite) -> str:
+    """Words for a leaderboard picture's file name (``leaderboard_map_park.png``: top view, park;
+    ``leaderboard_map.png`` is the first scene's, or the dense track's fused maps)."""
+    stem = name.removesuffix(".png").removeprefix("leaderboard_")
+    kind, _, scene = stem.partition("_")
+    if stem == "map":
+        return "top view of the fused maps" if suite.kind == "dense" else f"top view, {suite.table['scene'].iloc[0]}"
+    if kind in CAPTIONS:
+        return CAPTIONS[kind] + (f", {scene}" if scene else "")
+    return stem.replace("_", " ")

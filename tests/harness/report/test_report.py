@@ -1,0 +1,131 @@
+"""``assocbench report``: the pages from the committed leaderboards, a plugin beside the built-ins,
+units in the headers, the same bytes from the same inputs, and bad input refused in one line with
+nothing half-written."""
+
+from __future__ import annotations
+
+import errno
+import re
+from pathlib import Path
+
+import pandas as pd
+import pytest
+from report_inputs import PLUGIN, RESULTS, copy_leaderboard, tiny_leaderboard, with_plugin
+
+from assocbench.cli.main import main
+from assocbench.errors import UserError
+from assocbench.harness.report import build_report, write_report
+
+
+def _tree(folder: Path) -> dict[str, bytes]:
+    return {p.relative_to(folder).as_posix(): p.read_bytes() for p in sorted(folder.rglob("*")) if p.is_file()}
+
+
+def _one_line_error(capsys, code: int, *needles: str) -> None:
+    err = capsys.readouterr().err
+    assert code == 2 and err.count("\n") == 1 and err.startswith("assocbench: error:"), err
+    for needle in needles:
+        assert needle in err, err
+
+
+def test_the_committed_leaderboards_make_an_overview_and_a_page_per_suite(tmp_path, capsys):
+    out = tmp_path / "report"
+    folders = [str(RESULTS / name) for name in ("", "loop", "planar", "lines")]
+    assert main(["report", *folders, "--out", str(out)]) == 0
+    assert "wrote" in capsys.readouterr().out
+    files = _tree(out)
+    assert {"index.html", "camera-open-loop.html", "camera-closed-loop.html", "planar-closed-loop.html",
+            "lines-closed-loop.html"} <= set(files)
+    assert files["img/planar-closed-loop/leaderboard_map_park.png"] == (RESULTS / "planar/leaderboard_map_park.png").read_bytes()
+    planar = files["planar-closed-loop.html"].decode()
+    assert 'src="img/planar-closed-loop/leaderboard_map_park.png"' in planar
+    # every metric header carries its unit: ATE in m, runtime in ms, rotation in deg
+    for label, unit in (("ATE", "m"), ("runtime median", "ms"), ("rotation RMSE", "deg"), ("ANEES", "NEES / dof")):
+        assert re.search(rf">{re.escape(label)}<span class=\"unit\">{re.escape(unit)}</span></th>", planar), label
+    park = pd.read_csv(RESULTS / "planar/leaderboard.csv")["scenario"].str.startswith("park/").sum()
+    assert planar.count('data-scene="park"') == park > 0 and 'data-backend="isam2"' in planar
+    index = files["index.html"].decode()
+    assert "mean rank by ATE [m]" in index and "mean rank by F1 [share]" in index
+    assert "http://" not in index + planar and "https://" not in index + planar   # nothing fetched at view time
+
+
+def test_a_plugin_is_ranked_beside_the_builtins(tmp_path):
+    planar = with_plugin(copy_leaderboard(RESULTS / "planar", tmp_path / "planar"))
+    camera = with_plugin(copy_leaderboard(RESULTS, tmp_path / "camera"), best=False)
+    files = build_report([camera, planar])
+    index = files["index.html"].decode()
+    rows = re.findall(r'<tr><td class="text" data-v="([^"]+)">', index)
+    assert PLUGIN in rows and "jcbb" in rows
+    # last of 10 in each of the 9 camera scenarios (normalised 1), first in each of the 12 planar ones (0):
+    # mean rank 10 and 1, overall 9 / 21, every scenario counted once
+    plugin_row = index[index.index(f'data-v="{PLUGIN}"'):].split("</tr>")[0]
+    assert '<td data-v="10">10.00</td><td data-v="1">1.00</td><td data-v="0.4285714286"><b>0.429</b>' in plugin_row
+    assert f'data-method="{PLUGIN}"' in files["planar-closed-loop.html"].decode()
+
+
+def test_same_inputs_same_bytes(tmp_path):
+    folders = [RESULTS / "lines", RESULTS]
+    first, second = tmp_path / "a", tmp_path / "b"
+    write_report(build_report(folders, names=["lines", "camera"]), first)
+    write_report(build_report(folders, names=["lines", "camera"]), second)
+    assert _tree(first) == _tree(second)
+
+
+def test_dense_runs_are_averaged_over_seeds(tmp_path):
+    # as the dense track writes them: one row per run, with its labels and its error text
+    rows = [{"scenario": "crates/easy-model", "scene": "crates", "difficulty": "easy-model", "method": m, "seed": s,
+             "status": "ok", "frames": 10, "ate_mm": a, "precision": 0.9, "error": "", "note": "x"}
+            for m, s, a in (("projective", 0, 1.0), ("projective", 1, 3.0), ("kdtree", 0, 5.0))]
+    page = build_report([tiny_leaderboard(tmp_path / "dense", rows)])
+    name = next(n for n in page if n.endswith(".html") and n != "index.html")
+    html = page[name].decode()
+    assert 'data-v="2">2.0 <span class="std">&plusmn; 1.0</span>' in html   # mean and std of 1 and 3 mm
+    assert "Dense associators" in page["index.html"].decode()
+
+
+@pytest.mark.parametrize("text,needles", [
+    (None, ["holds no leaderboard.csv", "assocbench leaderboard --out"]),
+    (b"\xff\xfe\x00garbage", ["is not a readable CSV"]),
+    (b"a,b\n1,2\n", ["no scenario or method column"]),
+    (b"scenario,method,precision\nroom/easy,jcbb,0.9\n", ["none of the columns f1, ate_rmse, ate_mm"]),
+    (b"scenario,method,f1\nroom/easy,jcbb,high\n", ["column f1 holds text"]),
+    (b"scenario,method,f1\n", ["has no rows"]),
+    (b"scenario,method,f1\nroom/easy,jcbb,0.9\nroom/easy,jcbb,0.8\n", ["two rows for method jcbb on room/easy"]),
+])
+def test_a_folder_that_is_no_leaderboard_is_refused(tmp_path, capsys, text, needles):
+    folder = tmp_path / "lb"
+    folder.mkdir()
+    if text is not None:
+        (folder / "leaderboard.csv").write_bytes(text)
+    out = tmp_path / "out"
+    _one_line_error(capsys, main(["report", str(folder), "--out", str(out)]), *needles)
+    assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["lb"]
+
+
+def test_an_out_that_is_a_file_or_holds_other_things_is_refused(tmp_path, capsys):
+    afile = tmp_path / "notes.txt"
+    afile.write_text("mine")
+    _one_line_error(capsys, main(["report", str(RESULTS), "--out", str(afile)]), "is a file")
+    other = tmp_path / "other"
+    other.mkdir()
+    (other / "keep.txt").write_text("mine")
+    _one_line_error(capsys, main(["report", str(RESULTS), "--out", str(other)]), "holds other files")
+    assert afile.read_text() == "mine" and _tree(other) == {"keep.txt": b"mine"}
+
+
+def test_an_earlier_report_is_replaced_whole_or_kept(tmp_path, monkeypatch):
+    out = tmp_path / "report"
+    write_report(build_report([RESULTS / "lines"]), out)
+    (out / "stale.html").write_text("old page")
+    write_report(build_report([RESULTS]), out)
+    assert "stale.html" not in _tree(out) and "camera-open-loop.html" in _tree(out)
+    before = _tree(out)
+
+    def full_disk(self, data):
+        raise OSError(errno.ENOSPC, "No space left on device", str(self))
+
+    monkeypatch.setattr(Path, "write_bytes", full_disk)
+    with pytest.raises(UserError, match="No space left on device"):
+        write_report(build_report([RESULTS / "planar"]), out)
+    monkeypatch.undo()
+    assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["report"]   # no temporary left
