@@ -76,7 +76,7 @@ def test_the_shipped_model_loads_and_names_its_track_and_provenance():
     assert SHIPPED["meta"]["fitted_with"]["features"] == list(FEATURES)
 
 
-def small_export(folder: Path, rng) -> None:
+def small_export(folder: Path, rng, seeds: int = 3) -> None:
     from assocbench.association.truth import FrameTruth
     from assocbench.dataset.writer import DatasetWriter
 
@@ -86,7 +86,7 @@ def small_export(folder: Path, rng) -> None:
             nis = np.linalg.norm(p.z[:6, None] - p.zhat[None], axis=2)
             assoc = np.where(nis.min(axis=0) < 3, nis.argmin(axis=0), -1)   # a labelling the features can learn
             assoc[np.r_[False, assoc[1:] == assoc[:-1]]] = -1
-            w.add({"track": "camera", "scene": "synthetic", "difficulty": "d", "seed": k % 3, "frame": k}, p,
+            w.add({"track": "camera", "scene": "synthetic", "difficulty": "d", "seed": k % seeds, "frame": k}, p,
                   FrameTruth(np.full(p.m, -1), assoc, assoc >= 0))
 
 
@@ -100,6 +100,16 @@ def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
     p = random_problem(rng, n=5, m=6)
     out = make_associator("learned", model=str(tmp_path / "a.json")).associate(p)
     assert out.shape == (5,)
+
+
+def test_train_refuses_an_export_of_one_seed_and_a_folder_that_is_no_export(tmp_path, capsys, rng):
+    small_export(tmp_path / "data", rng, seeds=1)
+    out = str(tmp_path / "m.json")
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "data"), "--out", out]), "has one seed")
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path), "--out", out]), "not an assocbench export")
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "m.txt")]),
+                          "a model is a .json file")
+    assert not (tmp_path / "m.json").exists()
 
 
 def test_without_scikit_learn_train_says_how_to_install_it(tmp_path, capsys, monkeypatch, rng):
