@@ -56,8 +56,11 @@ def _digest(base: Path, stamp: tuple) -> str:
 
 
 def package_digest(subpackage: str = "") -> str:
-    """Digest of this package's sources (or of one subpackage, e.g. ``"sim"``)."""
-    return source_digest(PACKAGE_ROOT / subpackage if subpackage else PACKAGE_ROOT)
+    """Digest of this package's sources (or of one subpackage, e.g. ``"sim"``) and of the models
+    shipped as data (``*.json``: the learned associator's trees), so a retrained model never
+    reuses the numbers of the old one."""
+    root = PACKAGE_ROOT / subpackage if subpackage else PACKAGE_ROOT
+    return files_digest(tuple(sorted(root.rglob("*.py")) + sorted(root.rglob("*.json"))), root.parent)
 
 
 def sources_digest(*subpackages: str) -> str:

@@ -135,6 +135,23 @@ def pairs_within(problem: Problem, limit: float) -> tuple[np.ndarray, np.ndarray
     return _sweep_gate(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem), float(limit))
 
 
+def pair_innovations(problem: Problem, feats: np.ndarray, lms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """Innovations ``y_ij = wrap(z_i - zhat_j)`` (k, d) and covariances ``S_ij = P_jj + R_i``
+    (k, d, d) of the listed pairs (feature ``feats[t]``, landmark ``lms[t]``)."""
+    y = wrap_angles(problem.z[feats] - problem.zhat[lms], problem.angular)
+    return y, marginal_blocks(problem)[lms] + problem.R[feats]
+
+
+def stacked_nis(y: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``yᵀ S⁻¹ y`` of a stack of vectors (k, d) and covariances (k, d, d): ``S = L Lᵀ``
+    (Cholesky), ``L w = y`` by forward substitution, ``NIS = wᵀw``; no inverse."""
+    L = np.linalg.cholesky(S)
+    w = np.empty_like(y)
+    for a in range(y.shape[1]):
+        w[:, a] = (y[:, a] - np.einsum("kb,kb->k", L[:, a, :a], w[:, :a])) / L[:, a, a]
+    return np.einsum("ka,ka->k", w, w)
+
+
 def joint_terms(problem: Problem, association: np.ndarray) -> tuple[float, float, int]:
     """``(NIS(A), log det S_A, |A|)`` of a whole hypothesis, grown pairing by pairing."""
     factor = JointFactor(problem)

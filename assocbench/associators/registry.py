@@ -20,6 +20,7 @@ from .dense import DENSE_METHODS, DenseAssociator
 from .enn import ENN
 from .jcbb import JCBB
 from .jpda import JPDA
+from .learned import Learned
 from .lsa import LSA
 from .ml import ML
 from .mnn import MNN
@@ -28,7 +29,7 @@ from .rjc import RJC
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive, Learned)}
 ALL_BUILTINS: dict[str, type] = {**BUILTINS, **DENSE_METHODS}
 
 

@@ -10,9 +10,9 @@ from contextlib import contextmanager
 
 from ..errors import UserError
 from ..harness.sandbox import TaskFailed
-from . import check_cmd, frame_cmd, leaderboard_cmd, list_cmd, render_cmd, report_cmd, run_cmd
+from . import check_cmd, export_cmd, frame_cmd, leaderboard_cmd, list_cmd, render_cmd, report_cmd, run_cmd, train_cmd
 
-COMMANDS = (run_cmd, leaderboard_cmd, report_cmd, check_cmd, list_cmd, frame_cmd, render_cmd)
+COMMANDS = (run_cmd, leaderboard_cmd, report_cmd, check_cmd, list_cmd, frame_cmd, render_cmd, export_cmd, train_cmd)
 
 
 class _Parser(argparse.ArgumentParser):

@@ -232,7 +232,7 @@ def run_spec(cfg: dict) -> RunSpec:
     settings = track.run_settings(cfg)
     params = free_mapping(cfg, "params")
     if track.has_problems:
-        check_method(cfg["method"], params, cfg["loop"])
+        check_method(cfg["method"], params, cfg["loop"], track.name)
     else:
         track.check_method(cfg["method"], params, cfg["loop"])
     return RunSpec(seq, typed_section(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
@@ -272,9 +272,10 @@ def camera_only(spec: RunSpec, what: str) -> RunSpec:
     return spec
 
 
-def check_method(method: str, params: dict, loop: bool) -> None:
+def check_method(method: str, params: dict, loop: bool, track: str | None = None) -> None:
     """Refuse an unknown method or bad parameters now (built once and thrown away). ``oracle``
-    (the true association) exists only in the closed loop, as its reference row."""
+    (the true association) exists only in the closed loop, as its reference row. A method whose
+    class has ``check_track(track, params)`` (a learned model of one track) is asked about ``track``."""
     if method == ORACLE:
         if not loop:
             raise UserError("method 'oracle' (the true association) is the closed loop's reference; "
@@ -282,4 +283,7 @@ def check_method(method: str, params: dict, loop: bool) -> None:
         if params:
             raise UserError(f"method 'oracle' takes no parameters, got {sorted(params)}")
         return
-    make_associator(method, **params)
+    associator = make_associator(method, **params)
+    hook = getattr(type(associator), "check_track", None)
+    if track is not None and callable(hook):
+        hook(track, params)

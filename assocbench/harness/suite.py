@@ -172,7 +172,7 @@ def load_suite(path: str | Path) -> Suite:
     track = suite_track(methods, scenes, base, str(path))
     for m in methods:   # unknown methods, broken plugins, bad parameters: now
         if track.has_problems:
-            check_method(m.method, m.params, loop)
+            check_method(m.method, m.params, loop, track.name)
         else:
             track.check_method(m.method, m.params, loop)
     tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)

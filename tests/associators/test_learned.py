@@ -1,0 +1,175 @@
+"""The learned associator: trees as data that evaluate as scikit-learn does, training bit for bit,
+the shipped model's training data disjoint from every leaderboard, and its one-line refusals."""
+
+from __future__ import annotations
+
+import json
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+import yaml
+from cli_errors import assert_one_line_error
+from problems import random_problem
+
+from assocbench.associators.learned.associator import assign_log_odds
+from assocbench.associators.learned.features import FEATURES, pair_features
+from assocbench.associators.learned.forest import load_forest, parse_forest, shipped_path
+from assocbench.cli.main import main
+from assocbench.errors import UserError
+from assocbench.harness.config import shipped_config
+from assocbench.tracks.base import iter_tracks
+
+SHIPPED = json.loads(shipped_path("camera").read_text())
+
+
+def test_numpy_trees_give_scikit_learns_log_odds(rng):
+    from sklearn import ensemble
+
+    from assocbench.associators.learned.forest import forest_data
+    from assocbench.associators.learned.train import TREES, _tree
+
+    X = rng.normal(size=(600, len(FEATURES))) * rng.uniform(0.1, 100, len(FEATURES))
+    y = (X[:, 0] + 0.01 * X[:, 3] ** 2 + rng.normal(size=600) > 0).astype(int)
+    model = ensemble.GradientBoostingClassifier(**TREES).fit(X, y)
+    doc = forest_data([_tree(e.tree_, TREES["learning_rate"]) for e in model.estimators_[:, 0]], TREES["max_depth"],
+                      0.0, 0.0, "camera", (2, ()), 0.999, {})
+    forest = parse_forest(json.loads(json.dumps(doc)), "test")
+    X_new = rng.normal(size=(300, len(FEATURES))) * rng.uniform(0.1, 100, len(FEATURES))
+    np.testing.assert_allclose(forest.log_odds(X_new), model.decision_function(X_new), rtol=0, atol=1e-9)
+
+
+def test_features_are_finite_and_the_assignment_respects_the_no_match_cost(rng):
+    p = random_problem(rng, n=8, m=10)
+    feats, lms, X = pair_features(p)
+    assert X.shape == (len(feats), len(FEATURES)) and np.all(np.isfinite(X))
+    odds = np.linspace(-2, 2, len(feats))
+    high = assign_log_odds(feats, lms, odds, 10.0, p.m, p.n)      # nothing beats a cost of 10
+    assert np.all(high == -1)
+    low = assign_log_odds(feats, lms, odds, -10.0, p.m, p.n)
+    assert np.all(np.isin(low[low >= 0], feats)) and (low >= 0).sum() > 0
+
+
+def leaderboard_scenes_and_seeds() -> tuple[set, set]:
+    """Every scene (name or file stem) and seed of every shipped suite of every track."""
+    scenes, seeds = set(), set()
+    for track in iter_tracks():
+        for suite in track.suites:
+            raw = yaml.safe_load(shipped_config(f"{suite}.yaml").read_text())
+            scenes |= {Path(s).stem for s in raw["scenes"]}
+            seeds |= set(raw.get("seeds") or [0])
+    return scenes, seeds
+
+
+def test_the_shipped_model_never_saw_a_leaderboard_scene_or_seed():
+    scenes, seeds = leaderboard_scenes_and_seeds()
+    training = SHIPPED["meta"]["training"]
+    assert scenes and seeds and training["scenes"] and training["seeds"]
+    assert not {Path(s).stem for s in training["scenes"]} & scenes
+    assert not set(training["seeds"]) & seeds
+
+
+def test_the_shipped_model_loads_and_names_its_track_and_provenance():
+    forest = load_forest(shipped_path("camera"))
+    assert forest.track == "camera" and forest.signature == (2, ())
+    assert SHIPPED["meta"]["fitted_with"]["features"] == list(FEATURES)
+
+
+def small_export(folder: Path, rng, seeds: int = 3) -> None:
+    from assocbench.association.truth import FrameTruth
+    from assocbench.dataset.writer import DatasetWriter
+
+    with DatasetWriter(folder, {"generated_by": {"suite_file": "synthetic"}}) as w:
+        for k in range(40):
+            p = random_problem(rng, n=6, m=8)
+            nis = np.linalg.norm(p.z[:6, None] - p.zhat[None], axis=2)
+            assoc = np.where(nis.min(axis=0) < 3, nis.argmin(axis=0), -1)   # a labelling the features can learn
+            assoc[np.r_[False, assoc[1:] == assoc[:-1]]] = -1
+            w.add({"track": "camera", "scene": "synthetic", "difficulty": "d", "seed": k % seeds, "frame": k}, p,
+                  FrameTruth(np.full(p.m, -1), assoc, assoc >= 0))
+
+
+def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
+    small_export(tmp_path / "data", rng)
+    for name in ("a.json", "b.json"):
+        assert main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / name)]) == 0
+    assert (tmp_path / "a.json").read_bytes() == (tmp_path / "b.json").read_bytes()
+    from assocbench import make_associator
+
+    p = random_problem(rng, n=5, m=6)
+    out = make_associator("learned", model=str(tmp_path / "a.json")).associate(p)
+    assert out.shape == (5,)
+
+
+def test_train_refuses_an_export_of_one_seed_and_a_folder_that_is_no_export(tmp_path, capsys, rng):
+    small_export(tmp_path / "data", rng, seeds=1)
+    out = str(tmp_path / "m.json")
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "data"), "--out", out]), "has one seed")
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path), "--out", out]), "not an assocbench export")
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "m.txt")]),
+                          "a model is a .json file")
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_without_scikit_learn_train_says_how_to_install_it(tmp_path, capsys, monkeypatch, rng):
+    small_export(tmp_path / "data", rng)
+    monkeypatch.setitem(sys.modules, "sklearn", None)
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "data"), "--out", str(tmp_path / "m.json")]),
+                          "pip install 'assocbench[learn]'")
+    assert not (tmp_path / "m.json").exists()
+
+
+def test_a_model_of_another_feature_version_or_track_is_refused_in_one_line(tmp_path, capsys):
+    old = dict(SHIPPED, feature_version=SHIPPED["feature_version"] - 1)
+    (tmp_path / "old.json").write_text(json.dumps(old))
+    args = ["run", "--scene", "room", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")]
+    assert_one_line_error(capsys, main([*args, "--set", f"params.model={tmp_path / 'old.json'}"]),
+                          "feature version", "retrain")
+    planar = dict(SHIPPED, track="planar")
+    (tmp_path / "planar.json").write_text(json.dumps(planar))
+    assert_one_line_error(capsys, main([*args, "--set", f"params.model={tmp_path / 'planar.json'}"]),
+                          "trained on the planar track", "on the camera track")
+    (tmp_path / "junk.json").write_text("{")
+    with pytest.raises(UserError, match="not JSON"):
+        load_forest(tmp_path / "junk.json")
+    assert not (tmp_path / "r").exists()
+
+
+def test_a_track_without_a_shipped_model_is_refused_in_one_line(tmp_path, capsys):
+    code = main(["run", "--scene", "park", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")])
+    assert_one_line_error(capsys, code, "no shipped model for the planar track")
+
+
+def test_a_retrained_model_changes_the_package_digest_that_keys_stored_results(tmp_path, monkeypatch):
+    from assocbench import fingerprint
+
+    (tmp_path / "pkg").mkdir()
+    (tmp_path / "pkg" / "mod.py").write_text("x = 1\n")
+    (tmp_path / "pkg" / "model.json").write_text('{"trees": [1]}')
+    monkeypatch.setattr(fingerprint, "PACKAGE_ROOT", tmp_path / "pkg")
+    before = fingerprint.package_digest()
+    (tmp_path / "pkg" / "model.json").write_text('{"trees": [2, 3]}')
+    assert fingerprint.package_digest() != before
+
+
+CORE_ONLY = """
+import sys
+sys.modules["sklearn"] = None   # as if neither were installed: importing one raises ImportError
+sys.modules["pyarrow"] = None
+import numpy as np
+from assocbench import make_associator
+from assocbench.tracks.camera.synthetic import camera_problem
+problem, truth = camera_problem(np.random.default_rng(0), n=30)
+out = make_associator("learned").associate(problem)
+print(int(np.sum((out >= 0) & (out == truth))), int(np.sum(truth >= 0)))
+"""
+
+
+def test_the_shipped_model_runs_without_scikit_learn_or_pyarrow():
+    import subprocess
+
+    out = subprocess.run([sys.executable, "-c", CORE_ONLY], capture_output=True, text=True, timeout=300)
+    assert out.returncode == 0, out.stderr[-2000:]
+    hits, true = map(int, out.stdout.split()[-2:])
+    assert true > 0 and hits >= 0.8 * true   # it associates, not merely returns

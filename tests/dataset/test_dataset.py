@@ -1,0 +1,123 @@
+"""The dataset: rows written and read back as the same problems and truth, in batches, byte for
+byte reproducible; ``assocbench export`` on the camera ci suite and its bad inputs."""
+
+from __future__ import annotations
+
+import sys
+
+import numpy as np
+import pytest
+from cli_errors import assert_one_line_error
+from problems import random_problem
+
+from assocbench.association.truth import FrameTruth
+from assocbench.cli.main import main
+from assocbench.dataset import read_card, read_problems
+from assocbench.dataset.reader import count_frames
+from assocbench.dataset.schema import ROW_GROUP
+from assocbench.dataset.writer import DatasetWriter
+
+
+def labelled(rng, count: int) -> list:
+    out = []
+    for k in range(count):
+        angular = (1,) if k % 3 == 0 else ()
+        p = random_problem(rng, n=int(rng.integers(0, 6)), m=int(rng.integers(0, 7)), angular=angular)
+        assoc = np.full(p.n, -1)
+        assoc[: min(p.n, p.m)] = np.arange(min(p.n, p.m))
+        labels = np.full(p.m, -1)
+        labels[assoc[assoc >= 0]] = p.landmark_ids[assoc >= 0]
+        truth = FrameTruth(labels, assoc, assoc >= 0)
+        out.append(({"track": "camera", "scene": f"s{k % 2}", "difficulty": "easy", "seed": k % 4, "frame": k}, p, truth))
+    return out
+
+
+def write(folder, rows) -> None:
+    with DatasetWriter(folder, {"title": "test"}) as w:
+        for labels, p, t in rows:
+            w.add(labels, p, t)
+
+
+def test_round_trip_gives_back_the_same_problems_truth_and_labels_in_batches(tmp_path, rng):
+    rows = labelled(rng, 2 * ROW_GROUP + 5)   # two full row groups and a partial one
+    write(tmp_path / "d", rows)
+    batches = list(read_problems(tmp_path / "d", batch_size=7))
+    assert [len(b) for b in batches][:-1] == [7] * (len(batches) - 1)
+    got = [item for b in batches for item in b]
+    assert len(got) == len(rows) == count_frames(tmp_path / "d")
+    for item, (labels, p, t) in zip(got, rows):
+        assert item.problem == p and item.problem.angular == p.angular
+        assert np.array_equal(item.problem.landmark_ids, p.landmark_ids)
+        for name in ("feature_labels", "association", "visible"):
+            assert np.array_equal(getattr(item.truth, name), getattr(t, name))
+        assert (item.track, item.scene, item.difficulty, item.seed, item.frame) == tuple(labels.values())
+    card = read_card(tmp_path / "d")
+    assert card["sizes"]["frames"] == len(rows) and {c["name"] for c in card["schema"]} >= {"P", "association"}
+
+
+def test_the_same_rows_give_the_same_bytes(tmp_path, rng):
+    rows = labelled(rng, ROW_GROUP + 3)
+    write(tmp_path / "a", rows)
+    write(tmp_path / "b", rows)
+    for name in ("problems.parquet", "card.yaml"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+
+
+def test_a_failed_write_leaves_nothing(tmp_path, rng):
+    rows = labelled(rng, 3)
+    with pytest.raises(RuntimeError):
+        with DatasetWriter(tmp_path / "d", {}) as w:
+            w.add(*rows[0])
+            raise RuntimeError("interrupted")
+    assert not any(p.name in ("problems.parquet", "card.yaml") for p in (tmp_path / "d").iterdir())
+
+
+def test_without_pyarrow_export_says_how_to_install_it(tmp_path, capsys, monkeypatch):
+    monkeypatch.setitem(sys.modules, "pyarrow", None)   # import pyarrow now raises ImportError
+    assert_one_line_error(capsys, main(["export", "--suite", "ci", "--out", str(tmp_path / "d")]),
+                          "pip install 'assocbench[learn]'")
+    assert not (tmp_path / "d").exists()
+
+
+def test_reading_a_folder_that_is_no_export_is_one_line(tmp_path):
+    from assocbench.errors import UserError
+
+    with pytest.raises(UserError, match="is not an assocbench export"):
+        next(read_problems(tmp_path))
+
+
+def test_export_refuses_a_non_empty_folder_an_unknown_suite_and_the_dense_track(tmp_path, capsys):
+    busy = tmp_path / "busy"
+    busy.mkdir()
+    (busy / "keep.txt").write_text("mine")
+    assert_one_line_error(capsys, main(["export", "--suite", "ci", "--out", str(busy)]), "is not empty")
+    assert (busy / "keep.txt").read_text() == "mine" and len(list(busy.iterdir())) == 1
+    assert_one_line_error(capsys, main(["export", "--suite", "nosuch", "--out", str(tmp_path / "a")]),
+                          "neither a file nor a shipped suite")
+    assert_one_line_error(capsys, main(["export", "--suite", "dense_ci", "--out", str(tmp_path / "b")]),
+                          "dense track", "not Problems")
+    assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
+
+
+@pytest.mark.slow
+def test_export_of_the_camera_ci_suite_is_reproducible_and_round_trips(tmp_path):
+    """Written twice: the same bytes; read back: the very problems the harness scores."""
+    from assocbench.harness.config import run_spec
+    from assocbench.harness.suite import load_suite, resolve_suite
+
+    assert main(["export", "--suite", "ci", "--out", str(tmp_path / "a"), "--quiet"]) == 0
+    assert main(["export", "--suite", "ci", "--out", str(tmp_path / "b"), "--quiet"]) == 0
+    for name in ("problems.parquet", "card.yaml"):
+        assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
+    suite = load_suite(resolve_suite("ci"))
+    expected = []
+    for job in suite.jobs:
+        for _, cfg in job.runs:
+            spec = run_spec(cfg)
+            seq = spec.track_impl.load_sequence(spec.sequence)
+            expected += spec.track_impl.problems(seq, spec.belief, spec.seed)
+    got = [item for batch in read_problems(tmp_path / "a", batch_size=5) for item in batch]
+    assert len(got) == len(expected) == read_card(tmp_path / "a")["sizes"]["frames"]
+    for item, (problem, truth) in zip(got, expected):
+        assert item.problem == problem and np.array_equal(item.truth.association, truth.association)
+        assert np.array_equal(item.truth.feature_labels, truth.feature_labels)
