@@ -107,7 +107,8 @@ def _draw_map(ax, f: PlaneFrame) -> None:
     for confirmed, color in ((True, EST_COLOR), (False, TENTATIVE_COLOR)):
         xy = f.est_map[f.est_confirmed == confirmed]
         if len(xy):
-            ax.scatter(xy[:, 0], xy[:, 1], s=40, marker="+", color=color, linewidths=1.4, zorder=3)
+            # larger than a feature's dot and over it: the cross's arms show round a detection paired with it
+            ax.scatter(xy[:, 0], xy[:, 1], s=160, marker="+", color=color, linewidths=1.1, zorder=9)
 
 
 def _draw_paths(ax, f: PlaneFrame, arrow: float) -> None:
@@ -129,7 +130,7 @@ def _draw_features(ax, f: PlaneFrame) -> None:
     colors = [FEATURE_KINDS[s][1] for s in f.status]
     n = len(f.points)
     if n:
-        ax.scatter(f.points[:, 0], f.points[:, 1], s=28, c=colors[:n], edgecolors="k", linewidths=0.5, zorder=8)
+        ax.scatter(f.points[:, 0], f.points[:, 1], s=40, c=colors[:n], edgecolors="k", linewidths=0.5, zorder=8)
     if len(f.segments):
         ax.add_collection(LineCollection(f.segments, colors=colors[n:], linewidths=3.2, zorder=7))
 
@@ -151,9 +152,9 @@ def _key(fig, ax, f: PlaneFrame) -> None:
     if len(f.walls):
         handles.append(Line2D([], [], color=MAP_COLOR, lw=2.0, label="wall (map)"))
     if len(f.est_map):
-        handles.append(Line2D([], [], color=EST_COLOR, marker="+", ls="none", ms=7, mew=1.4, label="the filter's map"))
+        handles.append(Line2D([], [], color=EST_COLOR, marker="+", ls="none", ms=11, mew=1.3, label="the filter's map"))
         if not np.all(f.est_confirmed):
-            handles.append(Line2D([], [], color=TENTATIVE_COLOR, marker="+", ls="none", ms=7, mew=1.4,
+            handles.append(Line2D([], [], color=TENTATIVE_COLOR, marker="+", ls="none", ms=11, mew=1.3,
                                   label="the filter's map, tentative"))
     if f.kinds == ("landmark", "spurious"):
         handles.append(Line2D([], [], color=UNSEEN_COLOR, marker="o", mfc="none", ls="none", ms=10, alpha=0.8,
