@@ -3,7 +3,8 @@
 The supervising process hears each call the worker makes and each frame it finishes
 (``Supervisor(watch=...)``); the bar says which phase the run is in: the worker preparing the
 sequence (simulated, or read from the cache), building and warming up the method, then the frames.
-It is refreshed at least every ``REFRESH_S`` so the elapsed time moves while a phase is silent.
+On a terminal it is redrawn at every ``tick`` (``sandbox.WATCH_TICK_S``), so the elapsed time
+moves while a phase is silent; a log file (``--progress`` forced) gets a line per event only.
 The size is the terminal's (one that reports none, such as a fresh pseudo-terminal, gets
 ``shutil``'s 80 x 24: tqdm hides a bar on a screen of 0 rows). tqdm's monitor thread is off: a second thread in this process would make the workers start from
 a forkserver instead of a fork (``sandbox._context``).
@@ -19,8 +20,6 @@ from tqdm import tqdm
 
 from .runner import WARM_UP
 
-REFRESH_S = 0.5
-
 
 class _Bar(tqdm):
     monitor_interval = 0   # no monitor thread (module docstring)
@@ -32,6 +31,7 @@ class RunProgress:
     def __init__(self, method: str, frames: int, file: TextIO | None = None) -> None:
         self.method, self.frames, self.file = method, int(frames), file or sys.stderr
         self.bar: tqdm | None = None
+        self.live = bool(getattr(self.file, "isatty", lambda: False)())
 
     def watch(self, event: str, k: int) -> None:
         """``start`` (a worker was launched), ``call`` (the method is called on frame ``k``;
@@ -45,7 +45,8 @@ class RunProgress:
         elif event == "frame":
             self.bar.set_description(self.method, refresh=False)
             self.bar.update(k + 1 - self.bar.n)
-        self.bar.refresh()
+        if event != "tick" or self.live:   # a log file gets the events, a terminal the clock too
+            self.bar.refresh()
 
     def close(self) -> None:
         if self.bar is not None:

@@ -4,11 +4,14 @@ results are the same either way."""
 
 from __future__ import annotations
 
+import io
 import os
 import pty
 import subprocess
 import sys
+import types
 
+from assocbench import kernels
 from assocbench.cli.main import main
 from assocbench.harness.progress import RunProgress
 from assocbench.harness.runner import WARM_UP
@@ -66,3 +69,24 @@ def test_a_terminal_gets_the_bar_without_asking(tmp_path):
     err = b"".join(chunks).decode(errors="replace")
     assert proc.returncode == 0, err
     assert "5/5" in err and "jcbb" in err and b"precision" in out
+
+
+class _Terminal(io.StringIO):
+    def isatty(self) -> bool:
+        return True
+
+
+def test_a_workers_compile_note_on_a_terminal_replaces_the_bars_line(monkeypatch):
+    """Numba compiling in the worker prints a note while the bar is shown: on a terminal it first
+    erases the bar's line (the bar redraws below), in a log it is a plain line."""
+    def kernel():
+        return None
+
+    kernel.__module__ = "assocbench.tracks.some_module"
+    cache = types.SimpleNamespace(_py_func=kernel)
+    for stream, start in ((_Terminal(), "\r\033[Kassocbench: compiling"), (io.StringIO(), "assocbench: compiling")):
+        monkeypatch.setattr(sys, "stderr", stream)
+        monkeypatch.setitem(kernels._state, "noted", False)
+        monkeypatch.setitem(kernels._state, "active", False)
+        kernels._compiling(cache)
+        assert stream.getvalue().startswith(start), repr(stream.getvalue())
