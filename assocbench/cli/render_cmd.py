@@ -29,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_run_options(p)
     p.add_argument("-o", "--output", default="run.mp4", help="video file, .mp4 or .gif")
     p.add_argument("--fps", type=float, default=8.0, help="frames per second, in (0, 100]")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bars (there are none when stderr is not a terminal)")
 
 
 def main(args: argparse.Namespace) -> int:
@@ -44,12 +44,13 @@ def main(args: argparse.Namespace) -> int:
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = with_pictures(run_spec(cfg), "render")
     track = get_track(spec.track)
-    records, _ = execute(spec, associations=True)
+    bars = not args.quiet and sys.stderr.isatty()   # the run's, then the drawing's
+    records, _ = execute(spec, associations=True, progress=bars)
     seq = track.load_sequence(spec.sequence)   # cached by execute: nothing is simulated twice
     failures = [f"frame {r.frame}: {r.error}" for r in records.itertuples() if r.error]
     pictures = track.run_pictures(spec, seq, replay_run(spec, seq, records))
     count = write_video(output, tqdm(pictures, total=len(records), desc=f"render {spec.method}", unit="frame",
-                                     disable=args.quiet or not sys.stderr.isatty()), fps)
+                                     disable=not bars), fps)
     print(f"wrote {output} ({count} frames)")
     if failures:
         print(f"assocbench: {spec.method} failed on {len(failures)} of {count} frames (drawn as failed, "
