@@ -44,6 +44,14 @@ def _shapes(track, seq, k: int, z: np.ndarray, pose: np.ndarray) -> dict:
     return {"segments": to_world(pose, segs.reshape(-1, 2)).reshape(-1, 2, 2)}
 
 
+def view_box(track, seq, the_map: dict) -> tuple[float, float, float, float]:
+    """The box a whole run is drawn in: the map, the path and every detection of the sequence (at
+    the true pose: a spurious detection beyond the map stays in view)."""
+    seen = [next(iter(_shapes(track, seq, k, seq.z[k], seq.poses[k]).values())).reshape(-1, 2)
+            for k in range(len(seq))]
+    return plane_bounds(seq.poses[:, :2], *the_map.values(), *seen)
+
+
 def frame_picture(track, spec, index: int) -> tuple[np.ndarray, str]:
     """Frame ``index`` as the lidar saw it, at the true pose: the scan, each feature marked as a
     landmark's or spurious, and the landmarks it could have detected but did not."""
@@ -59,7 +67,7 @@ def frame_picture(track, spec, index: int) -> tuple[np.ndarray, str]:
     the_map = track.picture_map(seq)
     title = (f"{seq.scene} {seq_spec.resolved_trajectory()} frame {k}: what the {track.name} track's lidar "
              f"saw (its truth)")
-    view = PlaneFrame(title, plane_bounds(seq.poses[:, :2], *the_map.values()), seq.poses[:k + 1, :2], pose,
+    view = PlaneFrame(title, view_box(track, seq, the_map), seq.poses[:k + 1, :2], pose,
                       to_world(pose, scan_points(seq, k)), status=status, kinds=("landmark", "spurious"),
                       **the_map, **_shapes(track, seq, k, seq.z[k], pose), **track.unseen(seq, unseen))
     line = (f"{title}: {len(labels)} features, {status.count('landmark')} of a landmark, "
@@ -84,7 +92,7 @@ def run_pictures(track, spec, frames: Iterable[RunFrame]) -> Iterator[np.ndarray
     closed loop, the frame's draw in the open loop), on a box fixed for the whole video."""
     seq = scan_sequence(track, spec)
     the_map = track.picture_map(seq)
-    bounds = plane_bounds(seq.poses[:, :2], *the_map.values())
+    bounds = view_box(track, seq, the_map)
     est_path: list[np.ndarray] = []
     for rf in frames:
         k = rf.k

@@ -11,8 +11,8 @@ from PIL import Image
 from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.tracks.base import RunFrame, get_track
-from assocbench.tracks.plane_pictures import _caption
-from assocbench.viz.plane_view import DPI, FEATURE_KINDS, WIDTH_IN, figure_size, plane_bounds
+from assocbench.tracks.plane_pictures import _caption, view_box
+from assocbench.viz.plane_view import DPI, FEATURE_KINDS, WIDTH_IN, figure_size
 
 RIGHT_FEATURES_PX = 300   # the key's mark alone is about 60 pixels
 
@@ -44,7 +44,7 @@ def test_frame_draws_a_top_view_of_the_scan_and_its_truth(tmp_path, capsys, scen
     img = read_png(out)
     seq = get_track(track).load_sequence(run_spec(load_run_config(None, [], scene=scene, frames=6)).sequence)
     the_map = get_track(track).picture_map(seq)
-    w, h = figure_size(plane_bounds(seq.poses[:, :2], *the_map.values()))
+    w, h = figure_size(view_box(get_track(track), seq, the_map))
     assert img.shape == (round(h * DPI), round(w * DPI), 3)
     assert pixels_of(img, FEATURE_KINDS["landmark"][1]) > 50   # the key's mark and the features
     assert pixels_of(img, FEATURE_KINDS["spurious"][1]) > 20   # at least the key's mark
