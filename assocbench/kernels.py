@@ -91,8 +91,17 @@ def _compiling(cache) -> None:
         print(".", end="", file=sys.stderr, flush=True)
     elif not _state["noted"] and _module(cache).startswith("assocbench"):
         _state["noted"] = True  # compiled outside warm(): a plain line, once
-        print(f"assocbench: compiling {_module(cache)} kernels at their first use (once per environment)",
-              file=sys.stderr, flush=True)
+        print(f"{_fresh_line()}assocbench: compiling {_module(cache)} kernels at their first use (once per "
+              f"environment)", file=sys.stderr, flush=True)
+
+
+def _fresh_line() -> str:
+    """On a terminal, a carriage return and an erase of the line: a worker's note then replaces a
+    progress bar's line (``run``'s bar redraws itself below) instead of running on after it."""
+    try:
+        return "\r\033[K" if sys.stderr.isatty() else ""
+    except (AttributeError, ValueError):   # a replaced or closed stderr
+        return ""
 
 
 def _discard(cache, exc: Exception) -> None:

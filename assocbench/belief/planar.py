@@ -44,6 +44,14 @@ def sample_planar_estimate(pose: np.ndarray, posts: np.ndarray, cfg: BeliefConfi
     return est, posts + e_map
 
 
+def open_loop_pose(pose: np.ndarray, cfg: BeliefConfig, seed: int, frame: int) -> np.ndarray:
+    """The open loop's pose estimate (3,) of ``frame``: the first draw of the frame's generator
+    ``default_rng([seed, frame, 101])``, which the planar and lines problems make first
+    (``sample_planar_estimate``), so the pictures show the pose the problem was predicted from."""
+    rng = np.random.default_rng([seed, frame, 101])
+    return sample_planar_estimate(pose, np.zeros((0, 2)), cfg, rng)[0]
+
+
 def in_sensor_view(zhat: np.ndarray, max_range: float, fov: float) -> np.ndarray:
     """Predictions inside the sensor's range (with ``RANGE_MARGIN``) and field of view (n,)."""
     return (zhat[:, 0] <= RANGE_MARGIN * max_range) & (np.abs(zhat[:, 1]) <= fov / 2 + 1e-12)

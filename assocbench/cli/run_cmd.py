@@ -27,6 +27,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     add_run_options(p)
     p.add_argument("--out", help="output folder (default results/runs/<scene>-<method>-seed<seed>-<config digest>)")
     p.add_argument("--format", choices=("table", "csv", "json"), default="table", help="how to print the summary")
+    p.add_argument("--progress", action=argparse.BooleanOptionalAction, default=None,
+                   help="a progress bar over the frames on stderr (default: when stderr is a terminal)")
 
 
 def default_out(cfg: dict, scene: str, method: str, seed: int) -> Path:
@@ -55,7 +57,8 @@ def main(args: argparse.Namespace) -> int:
     out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
                                                                            spec.seed))
     with tempfile.TemporaryDirectory(prefix="assocbench-run-") as artifacts:   # end-of-run files of the worker
-        frames, summary = execute(spec, artifacts=Path(artifacts))
+        show = sys.stderr.isatty() if args.progress is None else args.progress
+        frames, summary = execute(spec, artifacts=Path(artifacts), progress=show)
         row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
                "method": spec.method, "seed": spec.seed, **track.run_labels(spec),
                **{k: summary[k] for k in track.summary_columns(spec.loop)}}

@@ -1,7 +1,7 @@
 """Gymnasium environment: one episode is one pass along a track's trajectory; each step is
 one frame's association problem. One class serves every track whose frames are ``Problem``s
 (camera, planar, lines): the scene picks the track, and the track says what differs
-(``Track.load_sequence``, ``Track.problems``, ``Track.env_slots``, ``Track.pictures``).
+(``Track.load_sequence``, ``Track.problems``, ``Track.env_slots``, ``Track.renders_frames``).
 
 Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works in both modes;
 d is the measurement's dimension, 2 on every built-in track):
@@ -33,7 +33,7 @@ metrics ``step_metrics`` (``tp``, ``fp``, ``fn``, ...).
 
 After the step that returns ``terminated=True``, ``step()`` raises ``gymnasium.error.ResetNeeded``
 until ``reset()``: there is no frame left to score (vector envs reset on the next step
-themselves). ``render_mode="rgb_array"`` serves tracks with pictures (the camera) only. A
+themselves). ``render_mode="rgb_array"`` serves tracks whose frames are rendered images (``Track.renders_frames``: the camera) only. A
 process forked from one that had already rendered cannot render (the GL driver does not survive
 ``fork``): ``reset`` of a camera env there raises a one-line ``UserError`` instead of hanging.
 """
@@ -83,7 +83,7 @@ def _check_can_render() -> None:
 class AssociationEnv(gym.Env):
     """Data association on a MuJoCo scene as a Gymnasium environment (see module docstring)."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track without pictures
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track whose frames are not rendered images
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
                  difficulty: str | dict = "medium", resolution: tuple[int, int] = (640, 480),
@@ -96,10 +96,10 @@ class AssociationEnv(gym.Env):
         self.invalid_action = invalid_action
         self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config)
         self._track = env_track(spec)
-        if render_mode is not None and not self._track.pictures:
+        if render_mode is not None and not self._track.renders_frames:
             raise UserError(f"render_mode {render_mode!r} draws rendered frames, which the {self._track.name} track "
                             f"(scene {spec.sequence.scene!r}) has not: pass render_mode=None")
-        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if self._track.pictures else []}
+        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if self._track.renders_frames else []}
         n_max, m_max, d = self._slots(spec)
         self.max_landmarks, self.max_features, self.dim = n_max, m_max, d
         self.render_mode = render_mode
@@ -128,7 +128,7 @@ class AssociationEnv(gym.Env):
         if options:
             raise UserError(f"AssociationEnv.reset takes no options, got {sorted(options)}; "
                             "pass settings to the constructor (gymnasium.make kwargs)")
-        if self._track.pictures:   # a track without pictures never renders: a forked worker may run it
+        if self._track.renders_frames:   # a track of no GL images never renders: a forked worker may run it
             _check_can_render()
         super().reset(seed=seed)
         self._seq = self._problem = self._truth = None   # a reset that fails leaves no episode to step

@@ -261,14 +261,14 @@ def check_every_section(cfg: dict, track: Track) -> None:
         raise UserError(f"estimator.{changed} applies to the closed loop only: add --loop (loop: true) or drop it")
 
 
-def camera_only(spec: RunSpec, what: str) -> RunSpec:
-    """``spec``, or a one-line error when its track has no pictures and ``what`` serves only
-    tracks that have (rendered frames, the Gymnasium envs)."""
-    name = spec.track
-    if not get_track(name).pictures:
-        suite = next(iter(get_track(name).suites), name)
-        raise UserError(f"{what} serves the camera track; this run is on the {name} track: run it with "
-                        f"`assocbench run`, and see its pictures in `assocbench leaderboard --suite {suite}`")
+def with_pictures(spec: RunSpec, what: str) -> RunSpec:
+    """``spec``, or a one-line error saying where to look instead when its track has no pictures
+    for ``what`` (``frame``, ``render``: ``Track.pictures``)."""
+    track = get_track(spec.track)
+    if not track.pictures:
+        instead = track.pictures_elsewhere or f"`assocbench leaderboard --suite {next(iter(track.suites), track.name)}`"
+        raise UserError(f"{what} does not serve the {track.name} track (scene {spec.sequence.scene!r}): "
+                        f"see its runs in {instead}")
     return spec
 
 

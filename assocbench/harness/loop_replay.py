@@ -1,65 +1,73 @@
-"""Replay a recorded closed-loop run in this process, for pictures.
+"""Replay a recorded run in this process, for pictures (``assocbench render``).
 
 The method ran elsewhere (``execute``: a worker, a time limit, validated answers) and its
-per-frame associations were recorded. Feeding them back through ``ClosedLoop.frame`` rebuilds,
-frame by frame, the problem the method was given and the filter after the frame's update, without
-calling the method again. A failed frame (any recorded error) is replayed as a failure, as the
-worker's own resume does (``sandbox``): the filter only predicts through it. The filter is
-deterministic, so the replayed estimate is the recorded one (``est_x`` … in the record).
+per-frame associations were recorded. The open loop's problems are rebuilt from the belief's
+seeded errors. In the closed loop, feeding the recorded associations back through
+``ClosedLoop.begin``/``finish`` rebuilds, frame by frame, the problem the method was given and the
+filter after the frame's update, without calling the method again. A failed frame (any recorded
+error) is replayed as a failure, as the worker's own resume does (``sandbox``): the filter only
+predicts through it. The filter is deterministic, so the replayed estimate is the recorded one
+(``est_x`` … in the record); a drift beyond ``REPLAY_TOLERANCE_M`` is reported on stderr.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterator, Mapping
-from collections.abc import Sequence as Seq
-from dataclasses import dataclass
+import sys
+from collections.abc import Iterator
 
 import numpy as np
+import pandas as pd
 
-from ..association.problem import Problem
-from ..tracks.camera.sequence import Sequence
+from ..tracks.base import RunFrame, get_track
 from .config import RunSpec
 from .loop import ClosedLoop, recorded_answer
 
-
-@dataclass(frozen=True)
-class LoopFrame:
-    """One replayed frame: the ``problem`` the method saw, its recorded ``association`` (n,) and
-    ``error`` ("" when it succeeded), the replayed ``record`` (``ClosedLoop.frame``'s columns) and
-    the filter after the frame: pose ``R`` (3, 3) camera-to-world and ``p`` (3,), the map's
-    ``landmarks`` (N, 3), their marginal covariances ``landmark_covs`` (N, 3, 3) and ``confirmed`` (N,)."""
-
-    k: int
-    problem: Problem
-    association: np.ndarray
-    error: str
-    record: dict
-    R: np.ndarray
-    p: np.ndarray
-    landmarks: np.ndarray
-    landmark_covs: np.ndarray
-    confirmed: np.ndarray
+REPLAY_TOLERANCE_M = 1e-6   # the replayed filter must put the sensor where the run did
+POSITION_COLUMNS = ("est_x", "est_y", "est_z")
 
 
-def landmark_blocks(P: np.ndarray, n: int) -> np.ndarray:
-    """The (n, 3, 3) diagonal blocks of the landmarks in a state ``[pose (6), l₁ (3), …, lₙ (3)]``."""
-    if n == 0:
-        return np.zeros((0, 3, 3))
-    L = P[6:6 + 3 * n, 6:6 + 3 * n].reshape(n, 3, n, 3)
-    idx = np.arange(n)
-    return L[idx, :, idx, :].copy()
+def replay_run(spec: RunSpec, seq, records: pd.DataFrame) -> Iterator[RunFrame]:
+    """The recorded frames of ``spec``'s run on ``seq`` (``records``: its frames table with an
+    ``association`` column, as ``execute(spec, associations=True)`` returns it), in frame order."""
+    rows = {int(r["frame"]): r for r in records.to_dict("records")}
+    yield from (_closed_loop if spec.loop else _open_loop)(spec, seq, rows)
 
 
-def replay_loop(spec: RunSpec, seq: Sequence, recorded: Mapping[int, tuple[Seq[int], str]]) -> Iterator[LoopFrame]:
-    """Frames 0, 1, … of ``spec``'s closed loop on ``seq`` with the recorded ``recorded[k] =
-    (association, error)``; a frame missing from ``recorded`` is replayed as failed."""
+def _shown(association, n: int) -> np.ndarray:
+    """The recorded association as drawn: all −1 where none was recorded (a failed frame)."""
+    if association is None or (not isinstance(association, (list, np.ndarray)) and pd.isna(association)):
+        return np.full(n, -1, np.int64)
+    return np.asarray(association, np.int64)
+
+
+def _open_loop(spec: RunSpec, seq, rows: dict) -> Iterator[RunFrame]:
+    problems = get_track(spec.track).problems(seq, spec.belief, spec.seed)
+    for k, row in sorted(rows.items()):
+        problem, truth = problems[k]
+        yield RunFrame(k, problem, truth, _shown(row.get("association"), problem.n), row.get("error") or "", row)
+
+
+def _closed_loop(spec: RunSpec, seq, rows: dict) -> Iterator[RunFrame]:
+    recorded = {k: (r.get("association"), r.get("error") or "") for k, r in rows.items()}
     loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
+    warned = False
     for k in range(len(seq)):
-        problem, _ = loop.begin(k)
+        problem, truth = loop.begin(k)
         answer = recorded_answer(recorded, k)
-        record = loop.finish(*answer)
-        association = recorded.get(k, (None, ""))[0]   # drawn even when the frame failed after it
-        shown = np.full(problem.n, -1, np.int64) if association is None else np.asarray(association, np.int64)
-        f, means = loop.filter, loop.filter.landmarks
-        yield LoopFrame(k, problem, shown, answer[3], record,
-                        f.R.copy(), f.p.copy(), means, landmark_blocks(f.covariance, len(means)), f.book.confirmed)
+        replayed = loop.finish(*answer)
+        if k not in rows:
+            continue
+        row = rows[k]
+        drift = _drift(replayed, row)
+        if drift > REPLAY_TOLERANCE_M and not warned:
+            print(f"assocbench: warning: the replayed filter is {drift:.3g} m from the run's estimate at frame {k}; "
+                  f"the picture shows the replay", file=sys.stderr)
+            warned = True
+        # the association is drawn even when the frame failed after it (a filter update that failed)
+        yield RunFrame(k, problem, truth, _shown(row.get("association"), problem.n), answer[3], row, loop.filter)
+
+
+def _drift(replayed: dict, recorded: dict) -> float:
+    """Distance (m) between the replayed and the recorded estimate of the frame's position."""
+    cols = [c for c in POSITION_COLUMNS if c in replayed and c in recorded]
+    return float(np.linalg.norm([replayed[c] - recorded[c] for c in cols])) if cols else 0.0

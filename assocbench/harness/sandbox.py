@@ -39,10 +39,12 @@ from ..errors import UserError
 from ..tracks.base import get_track
 from .config import RunSpec
 from .loop import loop_records
+from .progress import RunProgress
 from .runner import WARM_UP, GuardedCalls, describe, frame_problems, frame_records
 
 # modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
 # from re-running the main script, and the preload module loads the built-ins' kernels
+WATCH_TICK_S = 0.5   # a watched run hears "tick" at least this often (the bar's clock moves)
 PRELOAD = ["__main__", "assocbench.harness.worker_preload"]
 _GUARD = ("a script that runs assocbench from a process with threads (workers then come from a "
           "forkserver, which imports the script) must keep its top level under "
@@ -218,11 +220,16 @@ class Supervisor:
     """Runs tasks in at most ``slots`` worker processes at once and enforces each call's limit.
 
     ``report(line)`` is told, once per method and run, that frames failed because a worker died
-    or overran (the records say it for every frame)."""
+    or overran (the records say it for every frame). ``watch(event, k)``, when given, hears each
+    worker start (``start``), each call it makes (``call``, frame k), each frame it finishes
+    (``frame``) and, at least every ``WATCH_TICK_S`` while it runs, ``tick`` (a progress bar)."""
 
-    def __init__(self, slots: int = 1, report: Callable[[str], None] = _stderr) -> None:
+    def __init__(self, slots: int = 1, report: Callable[[str], None] = _stderr,
+                 watch: Callable[[str, int], None] | None = None) -> None:
         self.slots = max(1, int(slots))
         self.report = report
+        self.watch = watch or (lambda event, k: None)
+        self.tick = WATCH_TICK_S if watch is not None else None
 
     def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict], None]) -> None:
         """Run ``tasks``; ``on_done(task, records)`` as each finishes, with ``records[(run, method)]``
@@ -235,7 +242,9 @@ class Supervisor:
                 while pending and len(live) < self.slots:
                     task = pending.popleft()
                     live.append(self._launch(task, _Progress()))
-                wait([w.conn for w in live] + [w.process.sentinel for w in live], _timeout(live))
+                    self.watch("start", 0)
+                wait([w.conn for w in live] + [w.process.sentinel for w in live], _timeout(live, self.tick))
+                self.watch("tick", 0)
                 for w in list(live):
                     outcome = self._step(w)
                     if outcome is None:
@@ -292,10 +301,12 @@ class Supervisor:
             w.heard = True
             if msg[0] == "call":
                 w.call = (*msg[1:], time.monotonic())
+                self.watch("call", msg[3])
             elif msg[0] == "frame":
                 r, mi, k, record = msg[1:]
                 w.progress.records.setdefault((r, mi), {})[k] = record
                 w.call = None
+                self.watch("frame", k)
             elif msg[0] == "done":
                 _stop(w, grace=5.0)
                 return "done"
@@ -340,9 +351,11 @@ def _deadline(w: _Running) -> float | None:
     return w.call[4] + w.call[3]
 
 
-def _timeout(live: list[_Running]) -> float | None:
-    deadlines = [d for d in map(_deadline, live) if d is not None]
-    return max(0.0, min(deadlines) - time.monotonic()) if deadlines else None
+def _timeout(live: list[_Running], tick: float | None = None) -> float | None:
+    """Seconds to wait for a worker: until the first deadline, at most ``tick`` (None: no bound)."""
+    waits = [max(0.0, d - time.monotonic()) for d in map(_deadline, live) if d is not None]
+    waits += [tick] if tick is not None else []
+    return min(waits) if waits else None
 
 
 def _stop(w: _Running, grace: float = 0.0) -> None:
@@ -370,15 +383,22 @@ class _allow_children:
 
 
 def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False,
-            artifacts: Path | None = None) -> tuple[pd.DataFrame, dict]:
+            artifacts: Path | None = None, progress: bool = False) -> tuple[pd.DataFrame, dict]:
     """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
     records and the summary (the track's). ``associations=True`` keeps each frame's association
     (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
-    ``artifacts``: a folder for the run's end-of-run files (the dense track's map)."""
+    ``artifacts``: a folder for the run's end-of-run files (the dense track's map); ``progress``:
+    a bar over the frames on stderr (``RunProgress``)."""
     name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
     task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
                 str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)
-    frames = pd.DataFrame(Supervisor(1).run_one(task)[(0, 0)])
+    bar = RunProgress(spec.method, spec.sequence.frames) if progress else None
+    try:
+        records = Supervisor(1, watch=bar.watch if bar else None).run_one(task)[(0, 0)]
+    finally:
+        if bar is not None:
+            bar.close()
+    frames = pd.DataFrame(records)
     if not associations and "association" in frames:
         frames = frames.drop(columns="association")
     return frames, spec.track_impl.summarize(frames)

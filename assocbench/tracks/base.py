@@ -19,6 +19,8 @@ envs ask the registry instead of switching on the track's name:
 * ``make_estimator`` / ``loop_sensor``: the closed loop's estimator at frame 0 and what it reads;
 * ``shipped_scenes`` / ``trajectories``: what ``assocbench list`` shows for it;
 * ``landmarks`` / ``map_figure``: the leaderboard's top view of a scene;
+* ``frame_picture`` / ``run_pictures`` (where ``pictures`` is set): what ``assocbench frame`` and
+  ``assocbench render`` draw; ``pictures_elsewhere`` says where a track without them shows its runs;
 * ``ci_suites`` and ``suites``: its shipped suites; ``assocbench check`` guards the CI ones;
 * ``gym_modes`` / ``gym_envs`` / ``env_slots``: its Gymnasium envs (``assocbench.gymenv``
   registers every track's ids) and the padded sizes of their observations and actions.
@@ -35,7 +37,7 @@ from __future__ import annotations
 
 import os
 import sys
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import asdict, dataclass
 from functools import lru_cache
 from importlib import import_module, metadata
@@ -43,7 +45,10 @@ from pathlib import Path
 from typing import Any, ClassVar, NamedTuple, Protocol
 
 import mujoco
+import numpy as np
 
+from ..association.problem import Problem
+from ..association.truth import FrameTruth
 from ..errors import UserError
 from ..scoring.aggregate import SUMMARY_COLUMNS, leaderboard_table, summarize
 from ..scoring.loop_summary import LOOP_COLUMNS
@@ -105,6 +110,23 @@ ATE_GUARD = GuardedMetric("ate_rmse", False, "ate_tolerance")   # metres
 SMOOTHED_ATE_GUARD = GuardedMetric("ate_smoothed", False, "ate_tolerance", required=False)
 
 
+@dataclass(frozen=True)
+class RunFrame:
+    """One frame of a recorded run, rebuilt for its picture (``assocbench render``): the ``problem``
+    the method was given and its ``truth``, the recorded ``association`` (n,) (all −1 on a failed
+    frame) and ``error`` ("" when it succeeded), the run's ``record`` of the frame (a row of its
+    frames table), and in the closed loop the ``estimator`` after the frame's update (live: valid
+    until the next frame is replayed; None in the open loop)."""
+
+    k: int
+    problem: Problem
+    truth: FrameTruth
+    association: np.ndarray
+    error: str
+    record: dict
+    estimator: Any = None
+
+
 class MethodCalls(Protocol):
     """The plugin boundary a track's own frame loop calls its method through (the harness
     implements it): each call is announced to the supervising process, timed, and anything it
@@ -130,7 +152,9 @@ class Track:
     summary: ClassVar[str] = ""
     ci_suites: ClassVar[tuple[str, ...]] = ()   # shipped suites `assocbench check` runs by default
     suites: ClassVar[tuple[str, ...]] = ()       # its shipped suites (configs/<name>.yaml)
-    pictures: ClassVar[bool] = False              # `frame`, `render` and the envs' render_mode serve it
+    pictures: ClassVar[bool] = False              # `frame` and `render` serve it (frame_picture, run_pictures)
+    renders_frames: ClassVar[bool] = False        # sequences are MuJoCo GL images: the envs' render_mode draws them, no fork after
+    pictures_elsewhere: ClassVar[str] = ""        # without pictures: where its runs are seen instead
     fallback: ClassVar[bool] = False              # claims every scene no other track claims
     spec_type: ClassVar[type | None] = None       # the class of its sequence specs
     has_problems: ClassVar[bool] = True           # frames are Problems (else: frame_records)
@@ -253,6 +277,16 @@ class Track:
         """The leaderboard's top view of ``scene`` from the closed-loop ``frames`` of one seed, or
         None for the default view (true path, estimates and final maps over ``landmarks``)."""
         return None
+
+    def frame_picture(self, spec: Any, index: int) -> tuple[np.ndarray, str]:
+        """``assocbench frame``: frame ``index`` of the run ``spec``'s sequence with its truth drawn,
+        as an RGB image (H, W, 3) uint8, and one line of what the frame holds and what the marks mean."""
+        raise self._missing("pictures of single frames")
+
+    def run_pictures(self, spec: Any, seq: Any, frames: Iterable[RunFrame]) -> Iterator[np.ndarray]:
+        """``assocbench render``: one RGB picture (H, W, 3) uint8 per recorded frame, all of one
+        size, showing what the method decided on ``seq`` (the run's sequence)."""
+        raise self._missing("pictures of a run")
 
     # --- Gymnasium envs -------------------------------------------------------------------
     def gym_envs(self) -> tuple[GymEnv, ...]:

@@ -5,6 +5,7 @@ one with wall lines ``(α, r)`` for posts."""
 
 from __future__ import annotations
 
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 from typing import Any, ClassVar
 
@@ -19,7 +20,8 @@ from ..models.se2 import compose
 from ..scoring.trajectory import nees_or_nan, pose_columns
 from ..sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
 from ..sim.odometry import planar_odometry
-from .base import Track
+from . import plane_pictures
+from .base import RunFrame, Track
 
 # the paths of a robot in the plane (``sim.planar_trajectory``), as ``assocbench list`` shows them
 PLANE_TRAJECTORIES = [
@@ -37,6 +39,7 @@ class LidarTrack(Track):
     sequence cache under a key of ``code``, the package folders it depends on."""
 
     code: ClassVar[tuple[str, ...]] = ()
+    pictures = True   # a top view per frame (tracks.plane_pictures)
 
     def make_sequence(self, spec: Any) -> Any:
         raise self._missing("a sequence")
@@ -48,6 +51,35 @@ class LidarTrack(Track):
 
     def trajectories(self) -> list[tuple[str, str]]:
         return PLANE_TRAJECTORIES
+
+    # --- pictures: the shared top view, with what each track's map and features look like -------
+    def frame_picture(self, spec: Any, index: int) -> tuple[np.ndarray, str]:
+        return plane_pictures.frame_picture(self, spec, index)
+
+    def run_pictures(self, spec: Any, seq: Any, frames: Iterable[RunFrame]) -> Iterator[np.ndarray]:
+        return plane_pictures.run_pictures(self, spec, frames)
+
+    def picture_map(self, seq: Any) -> dict[str, np.ndarray]:
+        """The map as the top view draws it: ``{"posts": (L, 2)}`` or ``{"walls": (S, 2, 2)}`` (m)."""
+        raise self._missing("a map to draw")
+
+    def feature_shapes(self, seq: Any, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
+        """Frame ``k``'s features ``z`` (the sensor's, then any clutter) in the robot frame:
+        ``{"points": (m, 2)}`` or ``{"segments": (m, 2, 2)}``."""
+        raise self._missing("features to draw")
+
+    def unseen(self, seq: Any, landmarks: np.ndarray) -> dict[str, np.ndarray]:
+        """The detectable ``landmarks`` the sensor did not detect, as ``PlaneFrame`` draws them."""
+        return {}
+
+    def estimated_map(self, estimator: Any) -> tuple[np.ndarray, np.ndarray]:
+        """The filter's map to draw: landmarks (k, 2) and which are confirmed (k,); none by
+        default (a map of lines, known)."""
+        return np.zeros((0, 2)), np.zeros(0, bool)
+
+    def picture_note(self) -> str:
+        """One line under the top view's key: what it does not draw."""
+        return ""
 
 
 class PlanarSensor:

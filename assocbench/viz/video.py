@@ -42,7 +42,9 @@ def write_video(path: Path, frames: Iterable[np.ndarray], fps: float = 8.0) -> i
         if path.suffix.lower() == ".gif":
             from PIL import Image
 
-            images = [Image.fromarray(f) for f in frames]
+            # octree quantisation keeps a colour that covers a few pixels (a key's swatch), which
+            # PIL's default median cut merged into its neighbours (a red swatch drawn brown)
+            images = [Image.fromarray(f).quantize(256, method=Image.Quantize.FASTOCTREE) for f in frames]
             if not images:
                 raise UserError("no frames to write")
             images[0].save(tmp, format="GIF", save_all=True, append_images=images[1:],

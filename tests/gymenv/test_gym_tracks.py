@@ -21,7 +21,7 @@ CAMERA = {"resolution": (320, 240)}                # small frames: the camera tr
 
 def kwargs(env_id: str, **extra) -> dict:
     track = get_track(IDS[env_id][0])
-    return {**SHORT, **(CAMERA if track.pictures else {}), **extra}
+    return {**SHORT, **(CAMERA if track.renders_frames else {}), **extra}
 
 
 def first_per_track_and_mode() -> list[str]:
@@ -51,8 +51,8 @@ def test_checker_masks_and_a_bad_action(env_id):
     real feature on the n real ones; masked samples stay inside it; the true association scores
     every true pair; a feature used twice is refused (raise) or penalised with -n."""
     track = get_track(IDS[env_id][0])
-    env = gym.make(env_id, **kwargs(env_id, render_mode="rgb_array" if track.pictures else None))
-    check_env(env.unwrapped, skip_render_check=not track.pictures)
+    env = gym.make(env_id, **kwargs(env_id, render_mode="rgb_array" if track.renders_frames else None))
+    check_env(env.unwrapped, skip_render_check=not track.renders_frames)
     obs, info = env.reset(seed=3)
     rng, done = np.random.default_rng(0), False
     while not done:
@@ -87,9 +87,9 @@ def test_checker_masks_and_a_bad_action(env_id):
 def vector_episodes(env_id: str, mode: str) -> list:
     """Two envs over two whole 3-frame episodes each (autoreset included), acting with valid random
     actions drawn from a fixed generator: everything each step returns."""
-    # a track with pictures spawns its workers (a forked one cannot render once this process has);
+    # a track of rendered frames spawns its workers (a forked one cannot render once this process has);
     # the others fork theirs, which they may: they never render
-    spawn = mode == "async" and get_track(IDS[env_id][0]).pictures
+    spawn = mode == "async" and get_track(IDS[env_id][0]).renders_frames
     envs = gym.make_vec(env_id, num_envs=2, vectorization_mode=mode,
                         vector_kwargs={"context": "spawn"} if spawn else {}, **kwargs(env_id, frames=3))
     obs, info = envs.reset(seed=[21, 22])
@@ -141,7 +141,7 @@ def test_an_unknown_scene_is_a_one_line_error(env_id):
 
 
 @pytest.mark.parametrize("env_id", ["assocbench/Park-v0", "assocbench/HallwayLoop-v0"])
-def test_a_track_without_pictures_refuses_render_mode(env_id):
+def test_a_track_of_no_rendered_frames_refuses_render_mode(env_id):
     with pytest.raises(UserError, match="render_mode 'rgb_array' draws rendered frames, which the (planar|lines) track"):
         gym.make(env_id, render_mode="rgb_array", **SHORT)
     assert gym.make(env_id, **SHORT).unwrapped.metadata["render_modes"] == []

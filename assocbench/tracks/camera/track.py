@@ -17,6 +17,7 @@ from .belief import make_problem
 from .detect import DetectorConfig
 from .estimator import make_camera_estimator
 from .loop import CameraSensor
+from .pictures import frame_picture, run_pictures
 from .sequence import Sequence, SequenceSpec, load_sequence
 from .truth import TruthConfig
 
@@ -29,6 +30,7 @@ class CameraTrack(Track):
     ci_suites = ("ci", "loop_ci")
     suites = ("leaderboard", "ci", "loop", "loop_ci")
     pictures = True
+    renders_frames = True
     gym_modes = ("open", "loop")
     fallback = True
     spec_type = SequenceSpec
@@ -55,6 +57,12 @@ class CameraTrack(Track):
         )
         check_trajectory_params(seq.resolved_trajectory(), seq.trajectory_params)
         return seq
+
+    def frame_picture(self, spec, index: int) -> tuple[np.ndarray, str]:
+        return frame_picture(spec, index)
+
+    def run_pictures(self, spec, seq: Sequence, frames):
+        return run_pictures(spec, seq, frames)
 
     def load_sequence(self, spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
         return load_sequence(spec, cache_dir, use_cache)

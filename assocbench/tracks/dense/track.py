@@ -42,6 +42,10 @@ class DenseTrack(Track):
     ci_suites = ("dense_ci",)
     spec_type = DenseSequenceSpec
     has_problems = False
+    # per-frame pictures would need the depth frames rendered again and ICP's correspondences kept
+    pictures_elsewhere = ("map.png (the fused map from above, coloured by its distance to the true surface) and "
+                          "map.ply, which `assocbench run --out DIR` writes for a dense method; frame and render "
+                          "draw the same scene's camera frames with a feature method (e.g. --method jcbb)")
 
     def claims_method(self, method: str) -> bool:
         return isinstance(method, str) and is_dense(method)

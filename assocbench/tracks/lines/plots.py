@@ -17,28 +17,23 @@ import numpy as np
 import pandas as pd
 
 from ...models.se2 import rot2
+from ...scoring.decisions import feature_decisions
 from ...viz.loop_plots import label, method_order
 
 STATUS_COLORS = {"right": "#2ca02c", "wrong": "#d62728", "missed": "#ff7f0e", "clutter": "#9467bd"}
+FIGURE_WORDS = {"also": "right", "new": "missed"}   # the decisions this figure does not tell apart
 ESTIMATE_COLOR = "#1f77b4"   # one colour in every panel: the status colours must stay unambiguous
 
 
 def segment_status(labels: np.ndarray, landmark_ids: np.ndarray, association: np.ndarray, m: int) -> list[str]:
-    """What a method did with each of the first ``m`` features (the extracted lines): ``right``
-    (paired with its true map line, or unpaired while another piece of that line was: one wall
-    split by a doorway gives several), ``wrong`` (paired with another line), ``missed`` (unpaired,
-    on a map line no feature was rightly paired with) or ``clutter`` (unpaired, on none). ``association[j]`` is candidate j's feature."""
-    paired = {int(f): int(landmark_ids[j]) for j, f in enumerate(association) if f >= 0}
-    used = {line for i, line in paired.items() if line == labels[i]}   # lines updated by a right pairing
-    out = []
-    for i in range(m):
-        if i in paired:
-            out.append("right" if paired[i] == labels[i] else "wrong")
-        elif labels[i] >= 0:   # another piece of the same wall's line may have been paired right
-            out.append("right" if labels[i] in used else "missed")
-        else:
-            out.append("clutter")
-    return out
+    """What a method did with each of the first ``m`` features (the extracted lines), in the four
+    words of this figure (``scoring.decisions`` in fewer kinds): ``right`` (paired with its true
+    map line, or unpaired while another piece of that line was: one wall split by a doorway gives
+    several), ``wrong`` (paired with another line), ``missed`` (unpaired, on a map line no feature
+    was rightly paired with) or ``clutter`` (unpaired, on none). ``association[j]`` is candidate j's feature."""
+    labels = np.asarray(labels, np.int64)
+    decided = feature_decisions(landmark_ids, labels, association, labels >= 0)[:m]
+    return [FIGURE_WORDS.get(d, d) for d in decided]
 
 
 def snapshot_json(pose: np.ndarray, points: np.ndarray, endpoints: np.ndarray, status: list[str]) -> str:

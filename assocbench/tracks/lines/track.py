@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import numpy as np
+
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
 from ...sim.lidar import LidarConfig
@@ -19,6 +21,7 @@ from .sequence import LineSequence, LineSequenceSpec, make_line_sequence, warm_e
 
 # the sources a cached sequence depends on: shared simulation and belief, measurement models, this track
 CODE = ("sim", "models", "belief", "tracks/lines")
+CLUTTER_PIECE_M = 1.0   # how long the top view draws a clutter line, which has no extent
 
 
 class LinesTrack(LidarTrack):
@@ -82,6 +85,24 @@ class LinesTrack(LidarTrack):
 
     def shipped_scenes(self) -> dict[str, str]:
         return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}
+
+    def picture_map(self, seq: LineSequence) -> dict[str, np.ndarray]:
+        return {"walls": seq.segments}
+
+    def feature_shapes(self, seq: LineSequence, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
+        """The extracted lines' segments; a clutter line ``(α, r)`` has none, so a piece of
+        ``CLUTTER_PIECE_M`` centred on its foot point ``r (cos α, sin α)``."""
+        ends = np.asarray(seq.endpoints[k], float).reshape(-1, 2, 2)
+        clutter = np.asarray(z, float).reshape(-1, 2)[len(ends):]
+        foot = clutter[:, 1:] * np.column_stack([np.cos(clutter[:, 0]), np.sin(clutter[:, 0])])
+        along = CLUTTER_PIECE_M / 2 * np.column_stack([-np.sin(clutter[:, 0]), np.cos(clutter[:, 0])])
+        return {"segments": np.concatenate([ends, np.stack([foot - along, foot + along], axis=1)])}
+
+    def unseen(self, seq: LineSequence, landmarks: np.ndarray) -> dict[str, np.ndarray]:
+        return {"unseen_walls": seq.segments[np.isin(seq.segment_line, landmarks)]}
+
+    def picture_note(self) -> str:
+        return f"a clutter line (alpha, r) is drawn as a {CLUTTER_PIECE_M:g} m piece at its foot point"
 
     def map_figure(self, frames, scene: str, title: str):
         """Walls, not points: the map's faces and each method's last scan."""

@@ -88,5 +88,21 @@ class PlanarTrack(LidarTrack):
     def landmarks(self, scene: str) -> np.ndarray:
         return load_planar_scene(scene).posts
 
+    def picture_map(self, seq: PlanarSequence) -> dict[str, np.ndarray]:
+        return {"posts": seq.posts}
+
+    def feature_shapes(self, seq: PlanarSequence, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
+        """Each detection ``(r, φ)`` at ``r (cos φ, sin φ)``."""
+        z = np.asarray(z, float).reshape(-1, 2)
+        return {"points": z[:, :1] * np.column_stack([np.cos(z[:, 1]), np.sin(z[:, 1])])}
+
+    def unseen(self, seq: PlanarSequence, landmarks: np.ndarray) -> dict[str, np.ndarray]:
+        return {"unseen_posts": seq.posts[landmarks]}
+
+    def estimated_map(self, estimator) -> tuple[np.ndarray, np.ndarray]:
+        """The filter's posts and which are confirmed."""
+        xy = np.asarray(estimator.landmarks, float).reshape(-1, 2)
+        return xy, np.asarray(estimator.book.confirmed, bool).reshape(len(xy))
+
 
 register_track(PlanarTrack)

@@ -107,11 +107,6 @@ def test_bad_settings_are_one_line_errors(tmp_path, capsys, sets, message):
     assert len(err.splitlines()) == 1 and message in err and "Traceback" not in err
 
 
-def test_render_refuses_a_lines_scene(tmp_path, capsys):
-    assert main(["render", "--scene", "office", "-o", str(tmp_path / "x.mp4")]) == 2
-    assert "lines" in capsys.readouterr().err
-
-
 def test_zero_length_wall_in_a_user_mjcf_is_a_one_line_error(tmp_path, capsys):
     path = tmp_path / "room.xml"
     path.write_text('<mujoco><worldbody><geom name="floor" type="plane" size="9 9 0.1"/>'

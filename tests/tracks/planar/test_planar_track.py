@@ -103,12 +103,10 @@ def test_an_mjcf_without_posts_or_landmarks_says_both_conventions(capsys, tmp_pa
     assert "cylinder geoms named lm0" in err and "site" in err
 
 
-def test_isam2_on_a_camera_scene_and_render_on_a_planar_one_are_refused(capsys, tmp_path):
+def test_isam2_on_a_camera_scene_is_refused(capsys, tmp_path):
     assert main(["run", "--method", "jcbb", "--scene", "room", "--loop", "--set", "estimator.name=isam2",
                  "--out", str(tmp_path / "o")]) == 2
     assert "serves the planar track only" in capsys.readouterr().err
-    assert main(["render", "--scene", "park", "--out", str(tmp_path / "v.gif")]) == 2
-    assert "serves the camera track" in capsys.readouterr().err
 
 
 def test_frames_without_detections_are_scored_not_crashed(tmp_path):

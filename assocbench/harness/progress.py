@@ -1,0 +1,53 @@
+"""A progress bar over a run's frames on stderr (``assocbench run`` on a terminal).
+
+The supervising process hears each call the worker makes and each frame it finishes
+(``Supervisor(watch=...)``); the bar says which phase the run is in: the worker preparing the
+sequence (simulated, or read from the cache), building and warming up the method, then the frames.
+On a terminal it is redrawn at every ``tick`` (``sandbox.WATCH_TICK_S``), so the elapsed time
+moves while a phase is silent; a log file (``--progress`` forced) gets a line per event only.
+The size is the terminal's (one that reports none, such as a fresh pseudo-terminal, gets
+``shutil``'s 80 x 24: tqdm hides a bar on a screen of 0 rows). tqdm's monitor thread is off: a second thread in this process would make the workers start from
+a forkserver instead of a fork (``sandbox._context``).
+"""
+
+from __future__ import annotations
+
+import shutil
+import sys
+from typing import TextIO
+
+from tqdm import tqdm
+
+from .runner import WARM_UP
+
+
+class _Bar(tqdm):
+    monitor_interval = 0   # no monitor thread (module docstring)
+
+
+class RunProgress:
+    """The bar of one run of ``frames`` frames of ``method`` (``watch`` is the Supervisor's hook)."""
+
+    def __init__(self, method: str, frames: int, file: TextIO | None = None) -> None:
+        self.method, self.frames, self.file = method, int(frames), file or sys.stderr
+        self.bar: tqdm | None = None
+        self.live = bool(getattr(self.file, "isatty", lambda: False)())
+
+    def watch(self, event: str, k: int) -> None:
+        """``start`` (a worker was launched), ``call`` (the method is called on frame ``k``;
+        ``WARM_UP``: built and warmed up), ``frame`` (frame ``k`` is done), ``tick`` (time passed)."""
+        if self.bar is None:   # made here, after any compile in this process has printed its line
+            size = shutil.get_terminal_size()   # 80 x 24 where the terminal reports 0 (tqdm would hide the bar)
+            self.bar = _Bar(total=self.frames, desc="preparing the sequence", unit="frame", file=self.file,
+                            ncols=size.columns, nrows=size.lines, mininterval=0.2)
+        if event == "call" and k == WARM_UP:
+            self.bar.set_description(f"building and warming up {self.method}", refresh=False)
+        elif event == "frame":
+            self.bar.set_description(self.method, refresh=False)
+            self.bar.update(k + 1 - self.bar.n)
+        if event != "tick" or self.live:   # a log file gets the events, a terminal the clock too
+            self.bar.refresh()
+
+    def close(self) -> None:
+        if self.bar is not None:
+            self.bar.close()
