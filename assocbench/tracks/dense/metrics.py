@@ -14,6 +14,7 @@ Both are NaN when their denominator is 0, never 0 or 1 by default.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -63,14 +64,25 @@ def has_partner(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, t
 def score_correspondences(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, source: np.ndarray,
                           pixel: np.ndarray, tol: float) -> CorrespondenceScore:
     """Precision and recall of the pairs (``source``, ``pixel``) against the frame's truth."""
-    right = true_pairs(src_true, src_geom, frame, source, pixel, tol)
+    return score_associations(src_true, src_geom, frame, [(source, pixel)], tol)[0]
+
+
+def score_associations(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame,
+                       associations: Sequence[tuple[np.ndarray, np.ndarray]], tol: float) -> list[CorrespondenceScore]:
+    """``score_correspondences`` of several associations (source, pixel) of one source set with one
+    frame (ICP's first and last): the partners (``has_partner``) depend on those two only, so they
+    are found once."""
     partner = has_partner(src_true, src_geom, frame, tol)
-    found = np.zeros(len(src_true), bool)
-    found[source[right]] = True
     n_partner = int(partner.sum())
-    precision = float(right.sum() / len(source)) if len(source) else float("nan")
-    recall = float((found & partner).sum() / n_partner) if n_partner else float("nan")
-    return CorrespondenceScore(len(source), int(right.sum()), n_partner, precision, recall)
+    scores = []
+    for source, pixel in associations:
+        right = true_pairs(src_true, src_geom, frame, source, pixel, tol)
+        found = np.zeros(len(src_true), bool)
+        found[source[right]] = True
+        precision = float(right.sum() / len(source)) if len(source) else float("nan")
+        recall = float((found & partner).sum() / n_partner) if n_partner else float("nan")
+        scores.append(CorrespondenceScore(len(source), int(right.sum()), n_partner, precision, recall))
+    return scores
 
 
 def relative_pose_error(R0_true: np.ndarray, t0_true: np.ndarray, R1_true: np.ndarray, t1_true: np.ndarray,

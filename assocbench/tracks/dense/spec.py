@@ -18,6 +18,7 @@ from .icp import IcpConfig
 from .sequence import DenseSequenceSpec
 
 TRACKING = ("model", "frame", "truth")
+PREDICTION = ("view", "map")
 
 
 @dataclass(frozen=True)
@@ -27,10 +28,16 @@ class DenseConfig:
     tracking: str = "model"     # model: frame-to-model ICP | frame: frame-to-frame | truth: fuse at true poses
     truth_tol: float = 0.03     # m: a pair is true when both lie on one geom with true positions this close
     path_frames: int = 200      # the path is laid out over this many frames; a run takes its first ones
+    # the source of model (and truth) tracking: view: the map splatted into the predicted view, one
+    # point a pixel (tracks.dense.prediction, KinectFusion's predicted maps) | map: every map point
+    # (the homework's whole-map projection, O(map) in each ICP iteration; the reference)
+    prediction: str = "view"
 
     def check(self) -> None:
         if self.tracking not in TRACKING:
             raise UserError(f"dense.tracking must be one of {', '.join(TRACKING)}, got {self.tracking!r}")
+        if self.prediction not in PREDICTION:
+            raise UserError(f"dense.prediction must be one of {', '.join(PREDICTION)}, got {self.prediction!r}")
         check_number(self.truth_tol, "dense.truth_tol", lo=0, hi=1, lo_open=True)
         check_number(self.path_frames, "dense.path_frames", integer=True, lo=2)
 
