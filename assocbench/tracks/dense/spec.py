@@ -23,15 +23,24 @@ PREDICTION = ("view", "map")
 
 @dataclass(frozen=True)
 class DenseConfig:
-    """Section ``dense:``: how frames are tracked and how truth is judged."""
+    """Section ``dense:``: how frames are tracked and how truth is judged.
 
-    tracking: str = "model"     # model: frame-to-model ICP | frame: frame-to-frame | truth: fuse at true poses
-    truth_tol: float = 0.03     # m: a pair is true when both lie on one geom with true positions this close
-    path_frames: int = 200      # the path is laid out over this many frames; a run takes its first ones
-    # the source of model (and truth) tracking: view: the map splatted into the predicted view, one
-    # point a pixel (tracks.dense.prediction, KinectFusion's predicted maps) | map: every map point
-    # (the homework's whole-map projection, O(map) in each ICP iteration; the reference)
+    tracking: what ICP registers each frame to: model (the fused map, the homework's frame-to-model),
+        frame (the previous frame's points, frame-to-frame) or truth (the map fused at the true
+        poses, ICP from the previous true pose: one step's error without drift).
+    prediction: the source of model and truth tracking: view (the map rendered into the predicted
+        view, one point a pixel, ``tracks.dense.prediction``: KinectFusion's predicted maps; each
+        ICP iteration costs the pixel count) or map (every map point, the homework's whole-map
+        projection: each ICP iteration costs the map's size; the reference).
+    truth_tol: a pair is true when map point and pixel lie on one geom with true positions this
+        close (m).
+    path_frames: the camera path is laid out over this many frames; a run takes its first ones.
+    """
+
+    tracking: str = "model"
     prediction: str = "view"
+    truth_tol: float = 0.03
+    path_frames: int = 200
 
     def check(self) -> None:
         if self.tracking not in TRACKING:
