@@ -5,7 +5,10 @@ Per frame k ≥ 1 (frame 0 seeds the map at its true pose, as the homework's fir
 
 1. the source is the fused map (``dense.tracking: model``, the homework's frame-to-model) or the
    previous frame's points placed at their estimated pose (``frame``); ``truth`` fuses at the true
-   poses and runs ICP from the previous true pose, which isolates one step's error from drift;
+   poses and runs ICP from the previous true pose, which isolates one step's error from drift. The
+   map enters as the model rendered into the view at the previous pose (``dense.prediction:
+   view``, ``prediction``: at most one point a pixel, so an ICP iteration costs the pixel count)
+   or as every map point (``map``, the homework's whole-map projection);
 2. ICP from the previous estimate pairs source points with pixels (the run's method: projective,
    kdtree or a user's ``DenseAssociator``) and solves for the pose. That is the method's call: the
    harness times it, kills it past ``time_limit_s`` and records what it raises as the frame's
