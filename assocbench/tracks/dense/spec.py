@@ -28,10 +28,10 @@ class DenseConfig:
     tracking: what ICP registers each frame to: model (the fused map, the homework's frame-to-model),
         frame (the previous frame's points, frame-to-frame) or truth (the map fused at the true
         poses, ICP from the previous true pose: one step's error without drift).
-    prediction: the source of model and truth tracking: view (the map rendered into the predicted
-        view, one point a pixel, ``tracks.dense.prediction``: KinectFusion's predicted maps; each
-        ICP iteration costs the pixel count) or map (every map point, the homework's whole-map
-        projection: each ICP iteration costs the map's size; the reference).
+    prediction: the map as ICP's source when tracking the model or the truth, either view (the map
+        rendered into the predicted view, one point a pixel, KinectFusion's predicted maps, see
+        ``tracks.dense.prediction``; an ICP iteration costs the pixel count) or map (every map
+        point, the homework's whole-map projection; an ICP iteration costs the map's size).
     truth_tol: a pair is true when map point and pixel lie on one geom with true positions this
         close (m).
     path_frames: the camera path is laid out over this many frames; a run takes its first ones.
