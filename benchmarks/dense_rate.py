@@ -18,9 +18,10 @@ per-frame records' medians (ms): ``depth frame`` (``DenseSequence.frame``: noise
 vertex and normal maps), of which ``smoothing`` (the edge-aware Gaussian, timed here on the same
 frames), ``prediction`` (the splat; 0 for ``map``), ``association`` (all of ICP's associator calls
 in that frame), ``ICP`` (the whole call, association included), ``fusion``, ``scoring`` (the
-correspondences against per-pixel truth, the pose errors). ``flat?``: the per-frame stage total
-(ms) over the first and the last tenth of the run, with the map's size there: a cost that
-depends on the pixel count stays level while the map grows.
+correspondences against per-pixel truth, the pose errors). The last three columns compare the
+first and the last tenth of the run (medians): the map's size, the source points ICP is handed,
+and the association's time per ICP iteration (the iteration count falls as the path settles, so
+per frame would mislead): a cost that follows the pixel count stays level while the map grows.
 
 A second table registers frame pairs (k, k+1) of the same sequence with ours and with small_gicp
 (``registrations``), where installed (the ``bench`` extra; one line says when it is not).
@@ -100,13 +101,14 @@ def smoothing_ms(seq, frames: int) -> float:
 def row(label: str, frames: int, walls: list[float], records: pd.DataFrame, smooth: float) -> list:
     """One table row: end-to-end fps, stage medians (ms), the stage total early and late in the run."""
     ms = {col: 1000 * float(records[col].dropna().median()) if col in records else 0.0 for _, col in STAGES}
-    total = 1000 * records[[c for _, c in STAGES if c in records]].fillna(0).sum(axis=1)
     tenth = max(1, len(records) // 10)
-    early, late = total.iloc[1:tenth + 1].median(), total.iloc[-tenth:].median()
-    maps = records["map_points"]
+    early, late = records.iloc[1:tenth + 1], records.iloc[-tenth:]
+    per_iteration = lambda part: 1000 * float((part["associate_s"] / part["icp_iterations"].clip(lower=1)).median())  # noqa: E731
     return [label, frames, frames / float(np.median(walls)), 1000 * float(np.median(walls)) / frames,
             ms["frame_s"], smooth, ms["predict_s"], ms["associate_s"], ms["icp_s"], ms["fusion_s"], ms["score_s"],
-            f"{early:.1f} ({maps.iloc[tenth] / 1000:.0f}k) -> {late:.1f} ({maps.iloc[-1] / 1000:.0f}k)"]
+            f"{early['map_points'].median() / 1000:.0f}k -> {late['map_points'].median() / 1000:.0f}k",
+            f"{early['source_points'].median() / 1000:.0f}k -> {late['source_points'].median() / 1000:.0f}k",
+            f"{per_iteration(early):.2f} -> {per_iteration(late):.2f}"]
 
 
 def main() -> None:
@@ -132,7 +134,8 @@ def main() -> None:
                 rows.append(row(f"{prediction}{' (baseline)' if prediction == 'map' else ''}", n, walls,
                                 results[0][1], smooth))
     print_table(["source", "frames", "e2e fps", "e2e ms/frame", "depth frame", "smoothing", "prediction",
-                 "association", "ICP", "fusion", "scoring", "stages ms/frame (map) first -> last tenth"], rows)
+                 "association", "ICP", "fusion", "scoring", "map points", "ICP source points",
+                 "association ms/iteration"], rows)
     print("stage columns: median ms per frame; smoothing is part of the depth frame; association is part of ICP")
     registrations(render_once(args.scene, min(args.frames)), args.pairs, args.runs)
 
