@@ -75,6 +75,7 @@ and from the crates pairs above:
 
 from __future__ import annotations
 
+import time
 from dataclasses import dataclass, field, replace
 
 import numpy as np
@@ -147,6 +148,7 @@ class IcpResult:
     rms: float
     inlier_share: float
     condition: float
+    associate_s: float = 0.0   # wall time spent in the associator's calls (a stage of the benchmark)
 
 
 # Relative eigenvalue of S below which a motion is numerically unconstrained (rounding level of
@@ -328,7 +330,8 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     TR, Tt = R0.T.copy(), -R0.T @ t0
     if not frame.valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
-    pairs = associator.associate(points, normals, frame, R0, t0)
+    clock = _Clock()
+    pairs = clock.timed(associator.associate, points, normals, frame, R0, t0)
     if len(pairs) < cfg.min_pairs:
         return _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
                        f"guess ({pairs.considered} source points considered)")
@@ -337,7 +340,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
 
     def linearised_at(delta: np.ndarray) -> _Linearised:
         TRn, Ttn = cur.stepped(delta)
-        pairs = associator.associate(points, normals, frame, *_pose(TRn, Ttn))
+        pairs = clock.timed(associator.associate, points, normals, frame, *_pose(TRn, Ttn))
         return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
 
     radius_max = float(associator.d_thr)
@@ -369,9 +372,25 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
             converged = True
             break
     if not converged:
-        return _result(cur.TR, cur.Tt, cur.pairs, first, f"no convergence in {cfg.max_iterations} iterations "
-                       f"(last update {step_deg:.3g} deg, {step_m:.3g} m)", cur, it)
-    return _result(cur.TR, cur.Tt, cur.pairs, first, _judged(cur, cfg, R0, t0), cur, it, converged=True)
+        res = _result(cur.TR, cur.Tt, cur.pairs, first, f"no convergence in {cfg.max_iterations} iterations "
+                      f"(last update {step_deg:.3g} deg, {step_m:.3g} m)", cur, it)
+    else:
+        res = _result(cur.TR, cur.Tt, cur.pairs, first, _judged(cur, cfg, R0, t0), cur, it, converged=True)
+    return replace(res, associate_s=clock.seconds)
+
+
+class _Clock:
+    """Wall time summed over the calls it makes (the association's share of ICP)."""
+
+    def __init__(self) -> None:
+        self.seconds = 0.0
+
+    def timed(self, fn, *args):
+        start = time.perf_counter()
+        try:
+            return fn(*args)
+        finally:
+            self.seconds += time.perf_counter() - start
 
 
 def _judged(cur: _Linearised, cfg: IcpConfig, R0: np.ndarray, t0: np.ndarray) -> str:

@@ -14,9 +14,11 @@ Both are NaN when their denominator is 0, never 0 or 1 by default.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from ...models.depth_frame import DepthFrame
 from ...scoring.trajectory import rotation_errors_deg
@@ -34,43 +36,89 @@ class CorrespondenceScore:
 def true_pairs(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, source: np.ndarray,
                pixel: np.ndarray, tol: float) -> np.ndarray:
     """Mask of the pairs (``source[i]``, flat ``pixel[i]``) that are true: same geom, true positions
-    within ``tol``."""
-    q = frame.true_points.reshape(-1, 3)[pixel]
-    same = frame.geom.reshape(-1)[pixel] == src_geom[source]
-    close = np.linalg.norm(q - src_true[source], axis=1) < tol
-    return same & close
+    within ``tol``: ``g_s = g_q`` and ``|X_s − X_q|² < tol²``."""
+    tp, geom = _truth_maps(frame)
+    out = np.empty(len(source), np.bool_)
+    _true_pairs_kernel(_f64(src_true), np.ascontiguousarray(src_geom, dtype=np.int64), tp, geom,
+                       np.ascontiguousarray(source, dtype=np.int64), np.ascontiguousarray(pixel, dtype=np.int64),
+                       float(tol) ** 2, out)
+    return out
 
 
 def has_partner(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, tol: float) -> np.ndarray:
     """Mask of source points whose true position, seen from the frame's true pose, lands on a
-    measured pixel of the same geom within ``tol`` (the nearest pixel to its projection)."""
+    measured pixel of the same geom within ``tol`` (the nearest pixel to its projection,
+    ``u = rint(f x/z + cx)``, ``v = rint(f y/z + cy)`` of ``(x, y, z) = Rᵀ (X − t)``)."""
     K = frame.K
-    rc = (src_true - frame.t) @ frame.R
-    z = rc[:, 2]
-    ok = np.isfinite(z) & (z > 0)
-    with np.errstate(divide="ignore", invalid="ignore"):
-        u = np.rint(K.f * rc[:, 0] / z + K.cx)
-        v = np.rint(K.f * rc[:, 1] / z + K.cy)
-    ok &= (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
-    idx = np.flatnonzero(ok)
-    pix = v[idx].astype(np.int64) * K.width + u[idx].astype(np.int64)
-    measured = frame.valid.reshape(-1)[pix]
-    partner = np.zeros(len(src_true), bool)
-    partner[idx] = measured & true_pairs(src_true, src_geom, frame, idx, pix, tol)
-    return partner
+    tp, geom = _truth_maps(frame)
+    out = np.zeros(len(src_true), np.bool_)
+    _partner_kernel(_f64(src_true), np.ascontiguousarray(src_geom, dtype=np.int64), tp, geom,
+                    np.ascontiguousarray(frame.valid.reshape(-1)), _f64(frame.R), _f64(frame.t).reshape(3),
+                    float(K.f), float(K.cx), float(K.cy), int(K.width), int(K.height), float(tol) ** 2, out)
+    return out
+
+
+def _f64(a: np.ndarray) -> np.ndarray:
+    return np.ascontiguousarray(a, dtype=np.float64)
+
+
+def _truth_maps(frame: DepthFrame) -> tuple[np.ndarray, np.ndarray]:
+    """The frame's true points (H·W, 3) and geoms (H·W,) flat, as the kernels take them."""
+    return _f64(frame.true_points).reshape(-1, 3), np.ascontiguousarray(frame.geom, dtype=np.int64).reshape(-1)
+
+
+@njit(cache=True)
+def _is_true(src_true, src_geom, tp, geom, i, j, tol2):
+    """Source point i and pixel j: one geom, true positions closer than √tol2 (NaN: not)."""
+    if geom[j] != src_geom[i]:
+        return False
+    dx, dy, dz = tp[j, 0] - src_true[i, 0], tp[j, 1] - src_true[i, 1], tp[j, 2] - src_true[i, 2]
+    return dx * dx + dy * dy + dz * dz < tol2
+
+
+@njit(cache=True)
+def _true_pairs_kernel(src_true, src_geom, tp, geom, source, pixel, tol2, out):
+    for k in range(source.shape[0]):
+        out[k] = _is_true(src_true, src_geom, tp, geom, source[k], pixel[k], tol2)
+
+
+@njit(cache=True)
+def _partner_kernel(src_true, src_geom, tp, geom, valid, R, t, f, cx, cy, width, height, tol2, out):
+    for i in range(src_true.shape[0]):
+        dx, dy, dz = src_true[i, 0] - t[0], src_true[i, 1] - t[1], src_true[i, 2] - t[2]
+        z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
+        if not z > 0.0:   # also NaN
+            continue
+        u = np.rint(f * (R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz) / z + cx)
+        v = np.rint(f * (R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz) / z + cy)
+        if not (u >= 0.0 and u < width and v >= 0.0 and v < height):
+            continue
+        j = int(v) * width + int(u)
+        out[i] = valid[j] and _is_true(src_true, src_geom, tp, geom, i, j, tol2)
 
 
 def score_correspondences(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, source: np.ndarray,
                           pixel: np.ndarray, tol: float) -> CorrespondenceScore:
     """Precision and recall of the pairs (``source``, ``pixel``) against the frame's truth."""
-    right = true_pairs(src_true, src_geom, frame, source, pixel, tol)
+    return score_associations(src_true, src_geom, frame, [(source, pixel)], tol)[0]
+
+
+def score_associations(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame,
+                       associations: Sequence[tuple[np.ndarray, np.ndarray]], tol: float) -> list[CorrespondenceScore]:
+    """``score_correspondences`` of several associations (source, pixel) of one source set with one
+    frame (ICP's first and last): the partners (``has_partner``) depend on those two only, so they
+    are found once."""
     partner = has_partner(src_true, src_geom, frame, tol)
-    found = np.zeros(len(src_true), bool)
-    found[source[right]] = True
     n_partner = int(partner.sum())
-    precision = float(right.sum() / len(source)) if len(source) else float("nan")
-    recall = float((found & partner).sum() / n_partner) if n_partner else float("nan")
-    return CorrespondenceScore(len(source), int(right.sum()), n_partner, precision, recall)
+    scores = []
+    for source, pixel in associations:
+        right = true_pairs(src_true, src_geom, frame, source, pixel, tol)
+        found = np.zeros(len(src_true), bool)
+        found[source[right]] = True
+        precision = float(right.sum() / len(source)) if len(source) else float("nan")
+        recall = float((found & partner).sum() / n_partner) if n_partner else float("nan")
+        scores.append(CorrespondenceScore(len(source), int(right.sum()), n_partner, precision, recall))
+    return scores
 
 
 def relative_pose_error(R0_true: np.ndarray, t0_true: np.ndarray, R1_true: np.ndarray, t1_true: np.ndarray,

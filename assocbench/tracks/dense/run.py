@@ -5,7 +5,10 @@ Per frame k ≥ 1 (frame 0 seeds the map at its true pose, as the homework's fir
 
 1. the source is the fused map (``dense.tracking: model``, the homework's frame-to-model) or the
    previous frame's points placed at their estimated pose (``frame``); ``truth`` fuses at the true
-   poses and runs ICP from the previous true pose, which isolates one step's error from drift;
+   poses and runs ICP from the previous true pose, which isolates one step's error from drift. The
+   map enters as the model rendered into the view at the previous pose (``dense.prediction:
+   view``, ``prediction``: at most one point a pixel, so an ICP iteration costs the pixel count)
+   or as every map point (``map``, the homework's whole-map projection);
 2. ICP from the previous estimate pairs source points with pixels (the run's method: projective,
    kdtree or a user's ``DenseAssociator``) and solves for the pose. That is the method's call: the
    harness times it, kills it past ``time_limit_s`` and records what it raises as the frame's
@@ -36,7 +39,8 @@ from ...sim.scene import load_scene
 from ..base import MethodCalls
 from .fusion import PointMap, compression_ratio, fuse
 from .icp import IcpConfig, icp
-from .metrics import relative_pose_error, score_correspondences
+from .metrics import relative_pose_error, score_associations
+from .prediction import Splatter
 from .sequence import DenseSequence
 from .surface import surface_distance
 
@@ -61,7 +65,21 @@ def frame_source(frame: DepthFrame, R: np.ndarray, t: np.ndarray) -> Source:
 
 
 def map_source(pmap: PointMap) -> Source:
+    """Every map point (``dense.prediction: map``: the homework's projection of the whole map,
+    O(map) in every ICP iteration)."""
     return Source(pmap.positions, pmap.normals, pmap.true_points, pmap.geom)
+
+
+def view_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray) -> Source:
+    """The map points visible from the predicted pose ``(R, t)``, one per pixel (``prediction``:
+    the model rendered into the view, ``dense.prediction: view``)."""
+    i = splatter.predict(pmap.positions, pmap.weights, R, t).source
+    return Source(pmap.positions[i], pmap.normals[i], pmap.true_points[i], pmap.geom[i])
+
+
+def model_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, prediction: str) -> Source:
+    """The source of frame-to-model tracking from the predicted pose ``(R, t)``."""
+    return view_source(pmap, splatter, R, t) if prediction == "view" else map_source(pmap)
 
 
 def unmeasurable(seq: DenseSequence, first: DepthFrame) -> str:
@@ -95,7 +113,7 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
         yield from unmeasured_records(seq, first, error)
         return
     associator, build_error = calls.build(build)
-    pmap = PointMap()
+    pmap, splatter = PointMap(), Splatter(seq.K, fusion.d_thr)   # the band: fusion's same surface
     R_est, t_est = seq.rotations[0].copy(), seq.positions[0].copy()
     start = time.perf_counter()
     fuse(pmap, frame, R_est, t_est, 0, fusion)
@@ -106,11 +124,17 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
     for k in range(1, len(seq)):
         if record["frame"] >= first:
             yield record
+        start = time.perf_counter()
         frame = seq.frame(k)
+        frame_s = time.perf_counter() - start
         R_prev, t_prev = (seq.rotations[k - 1], seq.positions[k - 1]) if dense.tracking == "truth" else (R_est, t_est)
-        source = frame_source(previous, R_prev, t_prev) if dense.tracking == "frame" else map_source(pmap)
+        start = time.perf_counter()
+        source = frame_source(previous, R_prev, t_prev) if dense.tracking == "frame" else \
+            model_source(pmap, splatter, R_prev, t_prev, dense.prediction)
+        predict_s = time.perf_counter() - start
         record, R_k, t_k = track_frame(k, seq, frame, source, associator, build_error, calls, R_prev, t_prev, cfg,
                                        dense.truth_tol)
+        record |= {"frame_s": frame_s, "predict_s": predict_s}
         if not record["icp_failed"] or dense.tracking == "truth":
             R_fuse, t_fuse = (seq.rotations[k], seq.positions[k]) if dense.tracking == "truth" else (R_k, t_k)
             start = time.perf_counter()
@@ -137,18 +161,19 @@ def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, a
     if res is None:
         return held | {"icp_reason": "the method failed", "icp_s": elapsed, "error": error}, R0, t0
     R_k, t_k = (R0, t0) if res.failed else (res.R, res.t)
-    first = score_correspondences(source.true_points, source.geom, frame, res.first_pairs.source,
-                                  res.first_pairs.pixel, tol)
-    last = score_correspondences(source.true_points, source.geom, frame, res.pairs.source, res.pairs.pixel, tol)
+    start = time.perf_counter()
+    first, last = score_associations(source.true_points, source.geom, frame, [
+        (res.first_pairs.source, res.first_pairs.pixel), (res.pairs.source, res.pairs.pixel)], tol)
     rpe_t, rpe_r = relative_pose_error(seq.rotations[k - 1], seq.positions[k - 1], seq.rotations[k],
                                        seq.positions[k], R0, t0, R_k, t_k)
     rec = {"frame": k, "icp_converged": bool(res.converged), "icp_failed": bool(res.failed),
-           "icp_reason": res.reason, "icp_iterations": int(res.iterations), "icp_s": elapsed, "error": "",
+           "icp_reason": res.reason, "icp_iterations": int(res.iterations), "icp_s": elapsed,
+           "associate_s": res.associate_s, "error": "",
            "source_points": len(source.points), "pairs_start": first.pairs, "pairs": last.pairs,
            "precision_start": first.precision, "recall_start": first.recall,
            "precision": last.precision, "recall": last.recall, "partners": last.partners,
            "inlier_share": float(res.inlier_share), "icp_rms_mm": 1000 * float(res.rms),
-           "step_error_mm": 1000 * rpe_t, "step_error_deg": rpe_r,
+           "step_error_mm": 1000 * rpe_t, "step_error_deg": rpe_r, "score_s": time.perf_counter() - start,
            **pose_columns("true_", seq.rotations[k], seq.positions[k]), **pose_columns("est_", R_k, t_k)}
     return rec, R_k, t_k
 

@@ -18,19 +18,35 @@ from .icp import IcpConfig
 from .sequence import DenseSequenceSpec
 
 TRACKING = ("model", "frame", "truth")
+PREDICTION = ("view", "map")
 
 
 @dataclass(frozen=True)
 class DenseConfig:
-    """Section ``dense:``: how frames are tracked and how truth is judged."""
+    """Section ``dense:``: how frames are tracked and how truth is judged.
 
-    tracking: str = "model"     # model: frame-to-model ICP | frame: frame-to-frame | truth: fuse at true poses
-    truth_tol: float = 0.03     # m: a pair is true when both lie on one geom with true positions this close
-    path_frames: int = 200      # the path is laid out over this many frames; a run takes its first ones
+    tracking: what ICP registers each frame to: model (the fused map, the homework's frame-to-model),
+        frame (the previous frame's points, frame-to-frame) or truth (the map fused at the true
+        poses, ICP from the previous true pose: one step's error without drift).
+    prediction: the map as ICP's source when tracking the model or the truth, either view (the map
+        rendered into the predicted view, one point a pixel, KinectFusion's predicted maps, see
+        ``tracks.dense.prediction``; an ICP iteration costs the pixel count) or map (every map
+        point, the homework's whole-map projection; an ICP iteration costs the map's size).
+    truth_tol: a pair is true when map point and pixel lie on one geom with true positions this
+        close (m).
+    path_frames: the camera path is laid out over this many frames; a run takes its first ones.
+    """
+
+    tracking: str = "model"
+    prediction: str = "view"
+    truth_tol: float = 0.03
+    path_frames: int = 200
 
     def check(self) -> None:
         if self.tracking not in TRACKING:
             raise UserError(f"dense.tracking must be one of {', '.join(TRACKING)}, got {self.tracking!r}")
+        if self.prediction not in PREDICTION:
+            raise UserError(f"dense.prediction must be one of {', '.join(PREDICTION)}, got {self.prediction!r}")
         check_number(self.truth_tol, "dense.truth_tol", lo=0, hi=1, lo_open=True)
         check_number(self.path_frames, "dense.path_frames", integer=True, lo=2)
 

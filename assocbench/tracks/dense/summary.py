@@ -78,6 +78,11 @@ def _last(frames: pd.DataFrame, col: str) -> float:
     return float(frames[col].iloc[-1]) if col in frames and len(frames) else float("nan")
 
 
+# the method's work a frame, the time ``fps`` divides by: the model's prediction (the splat into
+# the view), ICP and fusion; the sensor's simulation (the depth frame) and the scoring are not the method's
+METHOD_SECONDS = ("predict_s", "icp_s", "fusion_s")
+
+
 def summarize_dense(frames: pd.DataFrame) -> dict:
     """The summary row (``DENSE_COLUMNS``) of a run's per-frame records; the map's facts are the
     last record's (``run.run_end``)."""
@@ -87,7 +92,7 @@ def summarize_dense(frames: pd.DataFrame) -> dict:
     tracked = frames[frames["frame"] > 0]
     ms = lambda col: 1000 * float(frames[col].dropna().median()) if col in frames and frames[col].notna().any() \
         else float("nan")  # noqa: E731
-    seconds = frames[[c for c in ("icp_s", "fusion_s") if c in frames]].fillna(0).to_numpy().sum()
+    seconds = frames[[c for c in METHOD_SECONDS if c in frames]].fillna(0).to_numpy().sum()
     return {
         "frames": len(frames), "status": dense_status(frames),
         "failures": int((frames["error"] != "").sum()) if "error" in frames else 0,

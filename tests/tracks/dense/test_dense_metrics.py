@@ -84,3 +84,33 @@ def test_wrong_poses_and_lost_frames_are_counted_results_not_untrusted_runs():
     assert wrong_accepted(frames) == 0 and dense_status(frames) == "ok"
     frames["pairs"] = [0, 0, 0, 0]
     assert dense_status(frames) == "no correspondences in any frame"
+
+
+def test_compiled_truth_equals_its_numpy_definition():
+    """``true_pairs`` and ``has_partner`` (compiled) against the definitions written in numpy, on a
+    frame of two geoms with noisy source truth, NaN truth and points outside the view."""
+    f = wall_frame(w=64, h=48)
+    rng = np.random.default_rng(4)
+    n = 3000
+    pix = rng.integers(0, 64 * 48, n)
+    src = f.true_points.reshape(-1, 3)[pix] + rng.normal(0, 0.02, (n, 3))
+    src[::50] = np.nan
+    src[1::70] += [9.0, 0.0, 0.0]
+    geom = f.geom.reshape(-1)[pix].copy()
+    geom[::7] = 3 - geom[::7]
+    q, g = f.true_points.reshape(-1, 3), f.geom.reshape(-1)
+    source = rng.integers(0, n, 2 * n)
+    pixel = rng.integers(0, 64 * 48, 2 * n)
+    pixel[::2] = pix[source[::2]]
+    want = (g[pixel] == geom[source]) & (np.linalg.norm(q[pixel] - src[source], axis=1) < 0.03)
+    from assocbench.tracks.dense.metrics import true_pairs
+    np.testing.assert_array_equal(true_pairs(src, geom, f, source, pixel, 0.03), want)
+    assert 0 < want.sum() < len(want)
+    K = f.K
+    with np.errstate(invalid="ignore", divide="ignore"):
+        u, v = np.rint(K.f * src[:, 0] / src[:, 2] + K.cx), np.rint(K.f * src[:, 1] / src[:, 2] + K.cy)
+        inside = (src[:, 2] > 0) & (u >= 0) & (u < K.width) & (v >= 0) & (v < K.height)
+    j = np.where(inside, np.nan_to_num(v) * K.width + np.nan_to_num(u), 0).astype(int)
+    partner = inside & f.valid.reshape(-1)[j] & (g[j] == geom) & (np.linalg.norm(q[j] - src, axis=1) < 0.03)
+    np.testing.assert_array_equal(has_partner(src, geom, f, 0.03), partner)
+    assert 0 < partner.sum() < n

@@ -41,6 +41,19 @@ def test_same_seed_same_numbers_except_time(tmp_path):
     pd.testing.assert_frame_equal(a.drop(columns=timing), b.drop(columns=timing))
 
 
+def test_the_view_and_the_whole_map_track_alike(tmp_path):
+    """Frame-to-model against the map rendered into the view (the default) and against every map
+    point (``dense.prediction=map``, the reference): both track within a millimetre of the truth,
+    and the view hands ICP at most one source point a pixel while the whole map hands it more."""
+    runs = {p: run(tmp_path, p, "--method", "projective", "--scene", "crates", *FAST, "--set", f"dense.prediction={p}")
+            for p in ("view", "map")}
+    for code, _, summary in runs.values():
+        assert code == 0 and summary.iloc[0]["status"] == "ok" and summary.iloc[0]["ate_mm"] < 1.5
+    view, whole = runs["view"][1].iloc[1:], runs["map"][1].iloc[1:]
+    assert (view["source_points"] <= 320 * 240).all() and (whole["source_points"] > 320 * 240).any()
+    assert (view["predict_s"] > 0).all() and (view["associate_s"] <= view["icp_s"]).all()
+
+
 @pytest.mark.parametrize("args,needles", [
     (["--set", "depth.downsample=0"], ["depth.downsample"]),
     (["--set", "params.d_thr=0"], ["d_thr"]),
@@ -48,6 +61,7 @@ def test_same_seed_same_numbers_except_time(tmp_path):
     (["--set", "fusion.d_thr=0"], ["fusion.d_thr"]),
     (["--set", "icp.max_rms=0"], ["icp.max_rms"]),
     (["--set", "dense.tracking=magic"], ["dense.tracking"]),
+    (["--set", "dense.prediction=splat"], ["dense.prediction", "view, map"]),
     (["--set", "dense.truth_tol=0"], ["dense.truth_tol"]),
     (["--set", "dense.path_frames=1000000000"], ["dense.path_frames", "limits.frames"]),
     (["--loop"], ["drop --loop"]),

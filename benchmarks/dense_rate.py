@@ -1,0 +1,204 @@
+"""The dense track end to end and per stage, as the map grows: `assocbench run --method projective
+--scene crates` at 320x240 on one core, frame-to-model tracking against the model rendered into the
+view (``dense.prediction: view``) beside the whole-map projection (``map``, the baseline, timed in
+the same process).
+
+What it runs. ``assocbench run --method projective --scene crates --frames N`` with
+``resolution=[320,240]``, ``depth.downsample=1`` and the crates circle laid out so that the camera
+moves as far a frame as on the default 200-frame path whatever N (``turns = 0.07 · max(N, 200) / 200``),
+its sequence cached beforehand (rendering is not timed: a cached run is the case stated). The
+command runs in this process (``cli.main.main``), after one untimed warm-up run, so the numbers
+exclude Python's start and numba's compilation but include everything else the command does:
+the harness, its worker, the depth frames (noise, smoothing, normals), prediction, ICP, fusion,
+scoring, the map's distance to the true surfaces, and writing the run's files (``map.png``,
+``map.ply``, CSV).
+
+Columns. ``e2e fps``: N / the command's wall time (median of ``--runs``). The stages are the
+per-frame records' medians (ms): ``depth frame`` (``DenseSequence.frame``: noise, smoothing,
+vertex and normal maps), of which ``smoothing`` (the edge-aware Gaussian, timed here on the same
+frames), ``prediction`` (the splat; 0 for ``map``), ``association`` (all of ICP's associator calls
+in that frame), ``ICP`` (the whole call, association included), ``fusion``, ``scoring`` (the
+correspondences against per-pixel truth, the pose errors). The last three columns compare the
+first and the last tenth of the run (medians): the map's size, the source points ICP is handed,
+and the association's time per ICP iteration (the iteration count falls as the path settles, so
+per frame would mislead): a cost that follows the pixel count stays level while the map grows.
+
+A second table registers frame pairs (k, k+1) of the same sequence with ours and with small_gicp
+(``registrations``), where installed (the ``bench`` extra; one line says when it is not).
+
+Usage: python benchmarks/dense_rate.py [--frames 50 200 500] [--runs 3] [--baseline-frames 50 200] [--pairs 8]
+"""
+
+from __future__ import annotations
+
+import argparse
+import contextlib
+import io
+import os
+import sys
+import tempfile
+import time
+import uuid
+from pathlib import Path
+
+os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from _util import print_table  # noqa: E402
+
+from assocbench.cli.main import main as cli  # noqa: E402
+from assocbench.harness.config import load_run_config  # noqa: E402
+from assocbench.tracks.dense.depth_smoothing import depth_gate, edge_aware_smoothed  # noqa: E402
+from assocbench.tracks.dense.sequence import load_dense_sequence  # noqa: E402
+from assocbench.tracks.dense.spec import dense_sequence_spec  # noqa: E402
+
+STAGES = (("depth frame", "frame_s"), ("prediction", "predict_s"), ("association", "associate_s"),
+          ("ICP", "icp_s"), ("fusion", "fusion_s"), ("scoring", "score_s"))
+
+
+def settings(scene: str, frames: int, prediction: str) -> list[str]:
+    """The command's ``--set`` options: 320x240, the default path's speed a frame, the prediction."""
+    path = max(frames, 200)
+    return ["--set", "resolution=[320,240]", "--set", "depth.downsample=1", "--set", f"dense.path_frames={path}",
+            "--set", f"limits.frames={max(path, 1000)}", "--set", "trajectory=circle",
+            "--set", f"trajectory_params.turns={0.07 * path / 200:.6g}", "--set", f"dense.prediction={prediction}"]
+
+
+def render_once(scene: str, frames: int) -> object:
+    """Load (rendering and caching when absent) the run's depth sequence, untimed."""
+    sets = settings(scene, frames, "view")[1::2]
+    cfg = load_run_config(None, sets, method="projective", scene=scene, frames=frames)
+    return load_dense_sequence(dense_sequence_spec(cfg))
+
+
+def run(scene: str, frames: int, prediction: str, out: Path) -> tuple[float, pd.DataFrame]:
+    """Wall time (s) of the command and its per-frame records."""
+    argv = ["run", "--method", "projective", "--scene", scene, "--frames", str(frames), *settings(scene, frames, prediction),
+            "--out", str(out), "--format", "csv"]
+    start = time.perf_counter()
+    with contextlib.redirect_stdout(io.StringIO()):
+        code = cli(argv)
+    wall = time.perf_counter() - start
+    if code != 0:
+        raise SystemExit(f"`assocbench {' '.join(argv)}` exited {code}")
+    return wall, pd.read_csv(out / "frames.csv")
+
+
+def smoothing_ms(seq, frames: int) -> float:
+    """Median time (ms) of the edge-aware smoothing on the run's own noisy frames."""
+    cfg, times = seq.depth_cfg, []
+    for k in range(0, frames, max(1, frames // 20)):
+        depth = seq.frame(k).depth
+        gate = depth_gate(depth, cfg.sigma(depth))
+        start = time.perf_counter()
+        edge_aware_smoothed(depth, cfg.normal_smooth_px, gate)
+        times.append(time.perf_counter() - start)
+    return 1000 * float(np.median(times))
+
+
+def row(label: str, frames: int, walls: list[float], records: pd.DataFrame, smooth: float) -> list:
+    """One table row: end-to-end fps, stage medians (ms), the stage total early and late in the run."""
+    ms = {col: 1000 * float(records[col].dropna().median()) if col in records else 0.0 for _, col in STAGES}
+    tenth = max(1, len(records) // 10)
+    early, late = records.iloc[1:tenth + 1], records.iloc[-tenth:]
+    per_iteration = lambda part: 1000 * float((part["associate_s"] / part["icp_iterations"].clip(lower=1)).median())  # noqa: E731
+    return [label, frames, frames / float(np.median(walls)), 1000 * float(np.median(walls)) / frames,
+            ms["frame_s"], smooth, ms["predict_s"], ms["associate_s"], ms["icp_s"], ms["fusion_s"], ms["score_s"],
+            f"{early['map_points'].median() / 1000:.0f}k -> {late['map_points'].median() / 1000:.0f}k",
+            f"{early['source_points'].median() / 1000:.0f}k -> {late['source_points'].median() / 1000:.0f}k",
+            f"{per_iteration(early):.2f} -> {per_iteration(late):.2f}"]
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--frames", type=int, nargs="+", default=[50, 200, 500])
+    ap.add_argument("--baseline-frames", type=int, nargs="*", default=[50, 200],
+                    help="run lengths at which the whole-map baseline is timed too (it is the slow one)")
+    ap.add_argument("--runs", type=int, default=3)
+    ap.add_argument("--scene", default="crates")
+    ap.add_argument("--pairs", type=int, default=8, help="frame pairs of the registration table")
+    args = ap.parse_args()
+    print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} on {os.cpu_count()} cores "
+          f"(the machine is shared: timings are noisy)", file=sys.stderr)
+    rows = []
+    with tempfile.TemporaryDirectory() as tmp:
+        for n in args.frames:
+            seq = render_once(args.scene, n)
+            smooth = smoothing_ms(seq, n)
+            for prediction in ("view", "map") if n in args.baseline_frames else ("view",):
+                run(args.scene, min(n, 20), prediction, Path(tmp) / uuid.uuid4().hex)   # warm-up, untimed
+                results = [run(args.scene, n, prediction, Path(tmp) / uuid.uuid4().hex) for _ in range(args.runs)]
+                walls = [w for w, _ in results]
+                rows.append(row(f"{prediction}{' (baseline)' if prediction == 'map' else ''}", n, walls,
+                                results[0][1], smooth))
+    print_table(["source", "frames", "e2e fps", "e2e ms/frame", "depth frame", "smoothing", "prediction",
+                 "association", "ICP", "fusion", "scoring", "map points", "ICP source points",
+                 "association ms/iteration"], rows)
+    print("stage columns: median ms per frame; smoothing is part of the depth frame; association is part of ICP")
+    registrations(render_once(args.scene, min(args.frames)), args.pairs, args.runs)
+
+
+def registrations(seq, pairs: int, runs: int) -> None:
+    """Ours beside small_gicp (and Open3D) per registration, on the same frame pairs (k, k+1) of the
+    run's sequence, frame-to-frame from frame k's true pose, one thread: ours is ``icp`` with the
+    projective associator and the run's defaults; small_gicp is ``align(..., "PLANE_ICP")`` on the
+    same points (target in frame k+1's camera, source in world coordinates, so its
+    ``T_target_source`` is frame k+1's world-to-camera pose), with its own normals, no downsampling
+    below 5 mm, the same 5 cm correspondence distance, our convergence thresholds (5e-3 deg, 0.1 mm)
+    and our 100 iterations at most. Errors: the
+    estimated camera's distance (mm) and angle (deg) to frame k+1's true pose; time: median of
+    ``runs`` calls (ms)."""
+    from assocbench.associators.registry import make_dense_associator
+    from assocbench.tracks.dense.icp import IcpConfig, icp, step_from
+    from assocbench.tracks.dense.run import frame_source
+
+    try:
+        import small_gicp
+    except ImportError:
+        small_gicp = None
+    rows, cfg = [], IcpConfig()
+    for k in np.linspace(0, len(seq) - 2, pairs).astype(int):
+        A, B = seq.frame(k), seq.frame(k + 1)
+        src = frame_source(A, A.R, A.t)
+        assoc = make_dense_associator("projective")
+        res, t_ours = timed_median(lambda: icp(src.points, src.normals, B, assoc, A.R, A.t, cfg), runs)
+        row = [int(k), 1000 * step_from(B.R, B.t, res.R, res.t)[0], step_from(B.R, B.t, res.R, res.t)[1],
+               "failed" if res.failed else "ok", 1000 * t_ours]
+        if small_gicp is not None:
+            target = B.vertices[B.valid]
+            T0 = np.eye(4)
+            T0[:3, :3], T0[:3, 3] = A.R.T, -A.R.T @ A.t
+            out, t_theirs = timed_median(lambda: small_gicp.align(
+                target, src.points, T0, "PLANE_ICP", downsampling_resolution=0.005, max_correspondence_distance=0.05,
+                num_threads=1, max_iterations=cfg.max_iterations, rotation_epsilon=np.deg2rad(cfg.converge_rot_deg),
+                translation_epsilon=cfg.converge_trans), runs)
+            R = out.T_target_source[:3, :3].T
+            moved_m, moved_deg = step_from(B.R, B.t, R, -R @ out.T_target_source[:3, 3])
+            row += [1000 * moved_m, moved_deg, 1000 * t_theirs]
+        rows.append(row)
+    headers = ["pair k->k+1", "ours mm", "ours deg", "ours", "ours ms"]
+    if small_gicp is not None:
+        headers += ["small_gicp mm", "small_gicp deg", "small_gicp ms"]
+    print_table(headers, rows)
+    for name in ("small_gicp", "open3d"):
+        try:
+            __import__(name)
+        except ImportError:
+            print(f"per registration beside {name}: skipped, not installed (pip install -e '.[bench]')")
+    print("Open3D on the same pairs, with its own and with our normals: python benchmarks/dense_vs_open3d.py")
+
+
+def timed_median(fn, runs: int) -> tuple[object, float]:
+    """(the last result, the median wall time in seconds) of ``runs`` calls of ``fn``."""
+    times, out = [], None
+    for _ in range(runs):
+        start = time.perf_counter()
+        out = fn()
+        times.append(time.perf_counter() - start)
+    return out, float(np.median(times))
+
+
+if __name__ == "__main__":
+    main()
