@@ -128,7 +128,7 @@ class Incumbent:
         """The incumbent a compiled step left (``jcbb_quick.quick_jcbb``): its hypothesis, the nodes
         spent and its history (h, 3) of ``(nodes, pairings, NIS)``."""
         best = cls(feats, lms, float(history[-1, 2]), int(nodes))
-        best.history = [(int(a), int(b), float(c)) for a, b, c in history]
+        best.history = [(int(a), int(b), c) for a, b, c in history.tolist()]
         return best
 
     def offer(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
@@ -142,7 +142,8 @@ class Incumbent:
         """Branch and bound from the incumbent with ``budget`` nodes; True if it timed out."""
         feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(*args, budget, prefix_test, self.feats,
                                                                        self.lms, self.nis)
-        self.history += [(self.nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
+        self.history += [(self.nodes + a, b, c) for a, b, c in zip(h_nodes[1:].tolist(), h_k[1:].tolist(),
+                                                                   h_nis[1:].tolist())]
         self.feats, self.lms, self.nis = feats, lms, self.history[-1][2]
         self.nodes += min(int(used), max(budget, 0))
         return bool(timed_out)

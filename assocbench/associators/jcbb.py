@@ -123,13 +123,21 @@ class JCBB(Associator):
         wrap, gate = wrap_mask(problem), joint_gates(problem.d, problem.n, self.confidence)
         max_nodes = None if self.max_nodes is None else int(self.max_nodes)
         quick, budget = budget_tables(problem.n, max_nodes)
-        feats, lms, _, nodes, timed_out, history, ic, candidates = quick_jcbb(
+        feats, lms, nis, nodes, timed_out, dive_k, history, ic, candidates = quick_jcbb(
             problem.P, problem.z, problem.zhat, problem.R, wrap, chi2_threshold(problem.d, self.confidence), gate,
             quick, budget, bool(self.prefix_test))
+        out[lms] = feats
+        if not timed_out:       # proven by the quick search (most small problems): done
+            self.info = {"timed_out": False, "proven_optimal": not self.prefix_test, "nodes": int(nodes),
+                         "dive_pairings": None if dive_k < 0 else int(dive_k),
+                         "history": [(int(a), int(b), c) for a, b, c in history.tolist()]}
+            return out
         best = Incumbent.resumed(feats, lms, nodes, history)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap, gate)
         feats, lms, self.info = later_steps(args, candidates, best, timed_out, int(budget[len(candidates)]),
                                             bool(self.prefix_test), lambda *a: self._restarts(problem, *a))
+        self.info["dive_pairings"] = int(dive_k)
+        out[:] = -1
         out[lms] = feats
         return out
 

@@ -251,10 +251,10 @@ def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G,
 
 
 @njit(cache=True)
-def _is_matching(ic, adj_start):
-    """Whether no landmark and no feature has two individually compatible partners."""
+def is_matching(ic):
+    """Whether no landmark and no feature has two individually compatible partners in ``ic`` (m, n)."""
     for j in range(ic.shape[1]):
-        if adj_start[j + 1] - adj_start[j] > 1:
+        if np.sum(ic[:, j]) > 1:
             return False
     for i in range(ic.shape[0]):
         if np.sum(ic[i]) > 1:
@@ -278,7 +278,7 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
     adj_feat = np.empty(adj_start[n], np.int64)
     for j in range(n):
         adj_feat[adj_start[j]:adj_start[j + 1]] = np.flatnonzero(ic[:, j])
-    if max_nodes >= 1 and init_i.shape[0] == adj_start[n] and _is_matching(ic, adj_start):
+    if max_nodes >= 1 and init_i.shape[0] == adj_start[n] and is_matching(ic):
         # the incumbent holds every individually compatible pairing and none shares a landmark or
         # a feature: it is the only hypothesis of its size and none is larger, so the root proves it
         return (init_i.copy(), init_j.copy(), 1, False, np.zeros(1, np.int64), np.full(1, init_i.shape[0]),

@@ -83,7 +83,8 @@ def test_never_worse_than_the_classic_dive_whatever_the_budget(max_nodes):
         out = jcbb.associate(problem)
         k = int(np.sum(out >= 0))
         assert jointly_compatible(problem, out)
-        assert k >= jcbb.info["dive_pairings"]
+        # None: the quick exact search proved the answer before any dive, so no dive can beat it
+        assert jcbb.info["proven_optimal"] if jcbb.info["dive_pairings"] is None else k >= jcbb.info["dive_pairings"]
         # only the classic dive runs whatever the budget; the restarts may add their small sample searches
         assert jcbb.info["nodes"] <= max(max_nodes, problem.n) + 200
         if jcbb.info["timed_out"]:
@@ -153,22 +154,31 @@ def test_the_fail_first_order():
 
 
 @pytest.mark.parametrize("n", [10, 20, 40, 80])
-def test_the_compiled_first_step_is_the_three_kernels(n):
-    """``jcbb_quick.quick_jcbb`` (gate, dive and quick search in one call) against the same steps
-    called one by one (``anytime_jcbb``): the same answer, nodes and history."""
+def test_small_problems_cost_what_the_plain_exact_search_costs(n):
+    """Issue 28: the quick step (``jcbb_quick.quick_jcbb``, one compiled call) proves a problem in
+    the nodes of the plain exact search from the empty hypothesis (or, where the compatible pairs
+    form a matching, in the classic dive and one root node), and its answer is the one of the
+    separate steps (``anytime_jcbb``: the dive, then the search from it), which also proves it."""
     from assocbench.association.compatibility import joint_gates, wrap_mask
     from assocbench.associators.anytime_search import anytime_jcbb, default_budgets
+    from assocbench.associators.jcbb_search import is_matching, jcbb_search
 
     jcbb = make_associator("jcbb")
+    compared = 0
     for seed in range(5):
         problem, _ = range_bearing_problem(np.random.default_rng(100 + seed), n=n)
         out = jcbb.associate(problem)
         ic = individually_compatible(problem)
-        later, quick = default_budgets(int(ic.any(axis=0).sum()))
+        candidates = int(ic.any(axis=0).sum())
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem), joint_gates(2, n, 0.99))
-        feats, lms, info = anytime_jcbb(args, later + quick, restarts=lambda *a: jcbb._restarts(problem, *a),
-                                        quick_nodes=quick)
+        feats, lms, info = anytime_jcbb(args, sum(default_budgets(candidates)))
         expected = np.full(n, -1)
         expected[lms] = feats
+        if not (jcbb.info["proven_optimal"] and info["proven_optimal"]):
+            continue
         assert out.tolist() == expected.tolist()
-        assert {k: jcbb.info[k] for k in info} == info
+        none = np.zeros(0, np.int64)
+        plain = candidates + 1 if is_matching(ic) else jcbb_search(*args, 10**6, False, none, none, 0.0)[2]
+        assert jcbb.info["nodes"] == plain
+        compared += 1
+    assert compared >= 2
