@@ -15,14 +15,42 @@ SMALL_FACTOR = 40   # P up to this order is factorised by the compiled loop, bey
 
 
 def _as_float(name: str, value, shape: tuple) -> np.ndarray:
-    arr = np.array(value, dtype=np.float64)  # a copy: the caller's arrays stay writeable
+    """A float64 copy (the caller's arrays stay writeable) of the given shape; finiteness is
+    ``_screen``'s."""
+    arr = np.array(value, dtype=np.float64)
     if arr.shape != shape:
         raise ValueError(f"Problem.{name} has shape {arr.shape}, expected {shape}")
-    # a finite sum proves every entry finite (NaN and ±inf propagate); only an overflowing
-    # sum of finite entries needs the entry-by-entry test
-    if not np.isfinite(arr.sum()) and not np.all(np.isfinite(arr)):
-        raise ValueError(f"Problem.{name} contains NaN or infinite values")
     return arr
+
+
+FIELDS_SCREENED = ("zhat", "z", "R", "P")   # _screen's order: its verdict 1..4 names one of them
+
+
+@njit(cache=True)
+def _screen(zhat, z, R, P, small):
+    """Every check of a problem's arrays in one compiled pass, where it can decide them: 0 when
+    every entry is finite, ``R`` passes ``_check_spd`` strictly and ``P`` (order up to ``small``)
+    semidefinitely, both by the compiled Cholesky; ``1..4`` the first of ``FIELDS_SCREENED``
+    with a NaN or infinite entry; 5 when ``R`` and 6 when ``P`` need ``_check_spd`` itself
+    (asymmetric, a failed factorisation that only the eigenvalues can judge, or ``P`` above
+    ``small``: LAPACK's turn)."""
+    for code, arr in ((1, zhat.ravel()), (2, z.ravel()), (3, R.ravel()), (4, P.ravel())):
+        for v in arr:
+            if not np.isfinite(v):
+                return code
+    if R.shape[0]:
+        scale, asymmetry = _scale_and_asymmetry(R)
+        if asymmetry > 1e-9 * max(scale, 1e-300) or _first_unfactorised(R, 0.0) >= 0:
+            return 5
+    if P.shape[0]:
+        if P.shape[0] > small:
+            return 6
+        stack = P.reshape((1, P.shape[0], P.shape[1]))
+        scale, asymmetry = _scale_and_asymmetry(stack)
+        scale = max(scale, 1e-300)
+        if asymmetry > 1e-9 * scale or _first_unfactorised(stack, 1e-10 * scale) >= 0:
+            return 6
+    return 0
 
 
 def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) -> None:
@@ -136,8 +164,13 @@ class Problem:
         if any(a < 0 or a >= d for a in ang):
             raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
         set_("angular", ang)
-        _check_spd("R", self.R)
-        _check_spd("P", self.P, allow_semidefinite=True)
+        verdict = _screen(self.zhat, self.z, self.R, self.P, SMALL_FACTOR)
+        if 1 <= verdict <= 4:
+            raise ValueError(f"Problem.{FIELDS_SCREENED[verdict - 1]} contains NaN or infinite values")
+        if verdict == 5:                # the slow path decides (and names the matrix), or passes
+            _check_spd("R", self.R)
+        if verdict >= 5:
+            _check_spd("P", self.P, allow_semidefinite=True)
         for name in ("z", "R", "zhat", "P", "landmark_ids"):
             # one problem is shared by every method of a sweep: none may change it for the next
             getattr(self, name).flags.writeable = False
