@@ -37,13 +37,13 @@ def eigen_check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = Fals
         raise ValueError(f"Problem.{name} is not positive {'semi' if allow_semidefinite else ''}definite")
 
 
-def eigen_screen(zhat, z, R, P, small) -> int:
+def eigen_screen(zhat, z, R, P, small) -> tuple[int, float]:
     """The screen before the compiled one: finiteness by numpy, then both matrices to the slow
     path (``_check_spd``, here ``eigen_check_spd``)."""
     for code, arr in enumerate((zhat, z, R, P), start=1):
         if not np.isfinite(arr.sum()) and not np.all(np.isfinite(arr)):
-            return code
-    return 5
+            return code, 0.0
+    return 5, 0.0
 
 
 def build(p: Problem) -> Problem:

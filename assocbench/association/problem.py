@@ -28,29 +28,32 @@ FIELDS_SCREENED = ("zhat", "z", "R", "P")   # _screen's order: its verdict 1..4 
 
 @njit(cache=True)
 def _screen(zhat, z, R, P, small):
-    """Every check of a problem's arrays in one compiled pass, where it can decide them: 0 when
-    every entry is finite, ``R`` passes ``_check_spd`` strictly and ``P`` (order up to ``small``)
-    semidefinitely, both by the compiled Cholesky; ``1..4`` the first of ``FIELDS_SCREENED``
-    with a NaN or infinite entry; 5 when ``R`` and 6 when ``P`` need ``_check_spd`` itself
-    (asymmetric, a failed factorisation that only the eigenvalues can judge, or ``P`` above
-    ``small``: LAPACK's turn)."""
+    """Every check of a problem's arrays in one compiled pass, where it can decide them:
+    (verdict, ``max|P|``). Verdict 0 when every entry is finite, ``R`` passes ``_check_spd``
+    strictly and ``P`` semidefinitely, both by the compiled Cholesky (``P`` up to order
+    ``small``); ``1..4`` the first of ``FIELDS_SCREENED`` with a NaN or infinite entry; 5 when
+    ``R`` and 6 when ``P`` need ``_check_spd`` itself (asymmetric, or a failed factorisation
+    that only the eigenvalues can judge); 7 when ``P``, symmetric, is above ``small``: LAPACK's
+    factorisation (``_decide_definite``)."""
     for code, arr in ((1, zhat.ravel()), (2, z.ravel()), (3, R.ravel()), (4, P.ravel())):
         for v in arr:
             if not np.isfinite(v):
-                return code
+                return code, 0.0
     if R.shape[0]:
         scale, asymmetry = _scale_and_asymmetry(R)
         if asymmetry > 1e-9 * max(scale, 1e-300) or _first_unfactorised(R, 0.0) >= 0:
-            return 5
+            return 5, 0.0
     if P.shape[0]:
-        if P.shape[0] > small:
-            return 6
         stack = P.reshape((1, P.shape[0], P.shape[1]))
         scale, asymmetry = _scale_and_asymmetry(stack)
         scale = max(scale, 1e-300)
-        if asymmetry > 1e-9 * scale or _first_unfactorised(stack, 1e-10 * scale) >= 0:
-            return 6
-    return 0
+        if asymmetry > 1e-9 * scale:
+            return 6, scale
+        if P.shape[0] > small:
+            return 7, scale
+        if _first_unfactorised(stack, 1e-10 * scale) >= 0:
+            return 6, scale
+    return 0, 0.0
 
 
 def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) -> None:
@@ -70,7 +73,14 @@ def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) ->
     scale = max(scale, 1e-300)
     if asymmetry > 1e-9 * scale:
         raise ValueError(f"Problem.{name} is not symmetric")
-    tolerance = 1e-10 * scale if allow_semidefinite else 0.0
+    _decide_definite(name, mats, 1e-10 * scale if allow_semidefinite else 0.0)
+
+
+def _decide_definite(name: str, mats: np.ndarray, tolerance: float) -> None:
+    """``_check_spd``'s verdict on a symmetric stack: a Cholesky factorisation of each
+    ``A + tolerance·I`` (compiled up to ``SMALL_FACTOR``, LAPACK in place beyond), the
+    eigenvalues (``λ >= -tolerance``) only where one fails; raises naming the matrix."""
+    stack = mats if mats.ndim == 3 else mats[None]
     if mats.shape[-1] <= SMALL_FACTOR:
         factorised = _first_unfactorised(stack, tolerance) < 0
     else:
@@ -84,7 +94,7 @@ def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) ->
     bad = np.linalg.eigvalsh(mats).min(axis=-1) < -tolerance
     if np.any(bad):
         where = "" if mats.ndim == 2 else f"[{int(np.flatnonzero(bad)[0])}]"
-        raise ValueError(f"Problem.{name}{where} is not positive {'semi' if allow_semidefinite else ''}definite")
+        raise ValueError(f"Problem.{name}{where} is not positive {'semi' if tolerance > 0 else ''}definite")
 
 
 @njit(cache=True)
@@ -164,13 +174,15 @@ class Problem:
         if any(a < 0 or a >= d for a in ang):
             raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
         set_("angular", ang)
-        verdict = _screen(self.zhat, self.z, self.R, self.P, SMALL_FACTOR)
+        verdict, scale = _screen(self.zhat, self.z, self.R, self.P, SMALL_FACTOR)
         if 1 <= verdict <= 4:
             raise ValueError(f"Problem.{FIELDS_SCREENED[verdict - 1]} contains NaN or infinite values")
         if verdict == 5:                # the slow path decides (and names the matrix), or passes
             _check_spd("R", self.R)
-        if verdict >= 5:
+        if verdict in (5, 6):
             _check_spd("P", self.P, allow_semidefinite=True)
+        if verdict == 7:
+            _decide_definite("P", self.P, 1e-10 * scale)
         for name in ("z", "R", "zhat", "P", "landmark_ids"):
             # one problem is shared by every method of a sweep: none may change it for the next
             getattr(self, name).flags.writeable = False

@@ -6,13 +6,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import chi2_threshold, gated_pairs, individually_compatible, joint_gates, wrap_mask
+from ..association.compatibility import (chi2_threshold, gate_mask, gated_pairs, individually_compatible, joint_gates,
+                                         wrap_mask)
 from ..association.problem import Problem
 from ..validation import in_range
 from .anytime_search import Incumbent, anytime_jcbb, budget_tables, default_budget, later_steps
 from .base import CONFIDENCE, Associator
 from .jcbb_dive import classic_dive
-from .jcbb_quick import quick_jcbb
+from .jcbb_quick import quick_jcbb_into
 from .lsa import LSA
 from .rjc import RJC
 
@@ -27,17 +28,20 @@ class JCBB(Associator):
     compatible partner leave the search. Anytime, in three steps, each starting from the best
     hypothesis so far (the incumbent):
 
-    1. **The classic first dive** (``jcbb_dive.classic_dive``): landmarks in index order, each
-       takes the pairing with the smallest joint NIS increase that passes the prefix test, or
-       none. Always run in full, so the answer is never worse than classic JCBB's first dive.
-       Then, up to ``QUICK_MAX_CANDIDATES`` candidates, a quick exact search from it (about 30
-       nodes per candidate, ``anytime_search.quick_budget``): it proves most problems up to
-       n ≈ 40 alone (all 40 measured there; about half at n = 80), as cheaply as a plain exact
-       search would, and those skip step 2, whose restarts cost more than that search needs
-       there. The search proves at its root a problem whose individually compatible pairs form
-       a matching all in the dive's answer (most problems at n = 10). The gate, the dive and
-       this search run as one compiled call (``jcbb_quick.quick_jcbb``), so a problem it proves
-       costs one entry into compiled code.
+    1. **A quick exact search, and the classic first dive** (one compiled call,
+       ``jcbb_quick.quick_jcbb``, with the individual gate). Up to ``QUICK_MAX_CANDIDATES``
+       candidates the search gets about 30 nodes per candidate (``anytime_search.quick_budget``):
+       it proves most problems up to n ≈ 40 alone (all 40 measured there; about half at n = 80),
+       and those skip step 2, whose restarts cost more than the search needs there. Where the
+       individually compatible pairs form a matching (most problems at n = 10), the classic
+       dive runs first and the search proves at its root a dive that took them all; elsewhere
+       the plain search from the empty hypothesis runs first (what a proof costs at least: its
+       first path is a dive of its own, and the same search from the classic dive's answer
+       took the dive's time on top), and a problem it proves costs exactly its nodes. Where it
+       runs out (and always past ``QUICK_MAX_CANDIDATES``), **the classic first dive**
+       (``jcbb_dive.classic_dive``): landmarks in index order, each takes the pairing with the
+       smallest joint NIS increase that passes the prefix test, or none; run in full, so an
+       unproven answer is never worse than classic JCBB's first dive.
     2. **More starts**, each kept if it beats the incumbent: a global greedy dive (of all free
        pairings, the smallest NIS increase that passes the prefix test, until none does;
        ``jcbb_dive.greedy_dive``); ``REORDERED_DIVES`` classic dives, each with the landmarks
@@ -104,7 +108,8 @@ class JCBB(Associator):
     prefix_test: apply the joint test to every partial hypothesis (classic JCBB).
 
     ``info``: ``timed_out``, ``proven_optimal``, ``nodes`` (dives, restarts and search),
-    ``dive_pairings`` (the classic dive's count), ``history`` (one ``(nodes, pairings, NIS)``
+    ``dive_pairings`` (the classic dive's count; None where the quick search proved the problem
+    before any dive), ``history`` (one ``(nodes, pairings, NIS)``
     per improvement of the incumbent, nodes counted so far, the classic dive first: the
     anytime curve).
     """
@@ -117,22 +122,23 @@ class JCBB(Associator):
 
     def associate(self, problem: Problem) -> np.ndarray:
         out = self.empty(problem)
-        self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
         if problem.m == 0 or problem.n == 0:
+            self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
             return out
         wrap, gate = wrap_mask(problem), joint_gates(problem.d, problem.n, self.confidence)
         max_nodes = None if self.max_nodes is None else int(self.max_nodes)
         quick, budget = budget_tables(problem.n, max_nodes)
-        feats, lms, nis, nodes, timed_out, dive_k, history, ic, candidates = quick_jcbb(
-            problem.P, problem.z, problem.zhat, problem.R, wrap, chi2_threshold(problem.d, self.confidence), gate,
+        nis, nodes, timed_out, dive_k, history = quick_jcbb_into(
+            out, problem.P, problem.z, problem.zhat, problem.R, wrap, chi2_threshold(problem.d, self.confidence), gate,
             quick, budget, bool(self.prefix_test))
-        out[lms] = feats
         if not timed_out:       # proven by the quick search (most small problems): done
             self.info = {"timed_out": False, "proven_optimal": not self.prefix_test, "nodes": int(nodes),
                          "dive_pairings": None if dive_k < 0 else int(dive_k),
                          "history": [(int(a), int(b), c) for a, b, c in history.tolist()]}
             return out
-        best = Incumbent.resumed(feats, lms, nodes, history)
+        ic, candidates = gate_mask(problem, self.confidence)
+        lms = np.flatnonzero(out >= 0)
+        best = Incumbent.resumed(out[lms], lms, nodes, history)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap, gate)
         feats, lms, self.info = later_steps(args, candidates, best, timed_out, int(budget[len(candidates)]),
                                             bool(self.prefix_test), lambda *a: self._restarts(problem, *a))

@@ -184,7 +184,10 @@ def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
         if nb == bound:
             break
         bound = nb
-        q = _compact(lms, feats, dnis, q, nis, gate[k + bound])
+        kept = _compact(lms, feats, dnis, q, nis, gate[k + bound])
+        if kept == q:   # nothing left: the groups and the bound stand (the next pass would find so)
+            break
+        q = kept
     floor = nis
     if bound > 0 and k + bound >= best_k:
         # the loop ended on the groups of the final q (``seg``, ``nl``), which _open_node reads too

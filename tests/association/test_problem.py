@@ -115,3 +115,16 @@ def test_an_asymmetric_R_is_named():
     R = np.stack([np.eye(2), np.array([[1.0, 0.2], [0.0, 1.0]])])
     with pytest.raises(ValueError, match="Problem.R is not symmetric"):
         make(R=R)
+
+
+@pytest.mark.parametrize("n", [3, 30])          # P of order 6 (compiled Cholesky) and 60 (LAPACK)
+def test_the_same_refusals_of_P_at_either_size(n):
+    fields = dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((n, 2)))
+    asymmetric = np.eye(2 * n)
+    asymmetric[0, 1] = 0.5
+    with pytest.raises(ValueError, match="Problem.P is not symmetric"):
+        Problem(P=asymmetric, **fields)
+    with pytest.raises(ValueError, match="Problem.P is not positive semidefinite"):
+        Problem(P=np.diag(np.r_[-1.0, np.ones(2 * n - 1)]), **fields)
+    singular = np.kron(np.ones((n, n)), np.array([[2.0, 0.5], [0.5, 1.0]]))
+    assert Problem(P=singular, **fields).P.shape == (2 * n, 2 * n)
