@@ -6,8 +6,14 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import (chi2_threshold, gate_mask, gated_pairs, individually_compatible, joint_gates,
-                                         wrap_mask)
+from ..association.compatibility import (
+    chi2_threshold,
+    gate_mask,
+    gated_pairs,
+    individually_compatible,
+    joint_gates,
+    wrap_mask,
+)
 from ..association.problem import Problem
 from ..validation import in_range
 from .anytime_search import Incumbent, anytime_jcbb, budget_tables, default_budget, later_steps
