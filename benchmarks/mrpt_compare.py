@@ -134,10 +134,23 @@ def main() -> None:
     if reason is not None:
         print(f"mrpt_compare: skipped, {reason}")
         sys.exit(0)
+    load = os.getloadavg()[0]
     rows = [row for n in args.sizes for row in measure(n, args.problems, args.timeout)]
     print(f"ms per problem, median over {args.problems} range-bearing problems per n (confidence {CONFIDENCE}); "
-          "'its gate misses': share of the pairs inside the exact (wrapped) gate that its gate left out")
+          "'its gate misses': share of the pairs inside the exact (wrapped) gate that its gate left out; "
+          f"load average {load:.1f} at the start, {os.getloadavg()[0]:.1f} at the end, {os.cpu_count()} CPUs")
     print_table(["n", "method", "median ms", "over timeout", "JC", "pairings", "its gate misses"], rows)
+    print("ours / MRPT, the medians' ratio (below 1: ours faster; JCBB only where MRPT finished every problem)")
+    print_table(["n", "jcbb / MRPT JCBB", "mnn / MRPT NN (KD-tree gate)", "mnn / MRPT NN (exact gate)"],
+                [ratios(n, [r for r in rows if r[0] == n]) for n in args.sizes])
+
+
+def ratios(n: int, rows: list[list]) -> list:
+    """One row of the ratio table from ``measure``'s rows of one n."""
+    ms = {r[1]: r[2] for r in rows}
+    finished = {r[1]: r[3].startswith("0/") for r in rows}
+    jcbb = ms["jcbb"] / ms["MRPT JCBB"] if finished["MRPT JCBB"] else "MRPT over timeout"
+    return [n, jcbb, ms["mnn"] / ms["MRPT NN (KD-tree gate)"], ms["mnn"] / ms["MRPT NN (exact gate)"]]
 
 
 if __name__ == "__main__":

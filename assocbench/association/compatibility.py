@@ -107,8 +107,8 @@ def gate_mask(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, n
     the gate (ascending), from one compiled pass (``gated_pairs``)."""
     if problem.m == 0 or problem.n == 0:
         return np.zeros((problem.m, problem.n), np.bool_), np.zeros(0, np.int64)
-    return _gate_mask(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
-                      chi2_threshold(problem.d, confidence))
+    return gate_mask_kernel(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
+                            chi2_threshold(problem.d, confidence))
 
 
 def gated_pairs(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
@@ -384,7 +384,8 @@ def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
 
 
 @njit(cache=True)
-def _gate_mask(P, z, zhat, R, wrap, limit):
+def gate_mask_kernel(P, z, zhat, R, wrap, limit):
+    """``gate_mask`` on the problem's arrays, ``limit = χ²_d(c)``: callable from compiled code."""
     feats, lms, _, _ = _sweep_gate(P, z, zhat, R, wrap, limit, False)
     mask = np.zeros((z.shape[0], zhat.shape[0]), np.bool_)
     candidates = np.empty(lms.shape[0], np.int64)

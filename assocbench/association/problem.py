@@ -15,14 +15,45 @@ SMALL_FACTOR = 40   # P up to this order is factorised by the compiled loop, bey
 
 
 def _as_float(name: str, value, shape: tuple) -> np.ndarray:
-    arr = np.array(value, dtype=np.float64)  # a copy: the caller's arrays stay writeable
+    """A float64 copy (the caller's arrays stay writeable) of the given shape; finiteness is
+    ``_screen``'s."""
+    arr = np.array(value, dtype=np.float64)
     if arr.shape != shape:
         raise ValueError(f"Problem.{name} has shape {arr.shape}, expected {shape}")
-    # a finite sum proves every entry finite (NaN and ±inf propagate); only an overflowing
-    # sum of finite entries needs the entry-by-entry test
-    if not np.isfinite(arr.sum()) and not np.all(np.isfinite(arr)):
-        raise ValueError(f"Problem.{name} contains NaN or infinite values")
     return arr
+
+
+FIELDS_SCREENED = ("zhat", "z", "R", "P")   # _screen's order: its verdict 1..4 names one of them
+
+
+@njit(cache=True)
+def _screen(zhat, z, R, P, small):
+    """Every check of a problem's arrays in one compiled pass, where it can decide them:
+    (verdict, ``max|P|``). Verdict 0 when every entry is finite, ``R`` passes ``_check_spd``
+    strictly and ``P`` semidefinitely, both by the compiled Cholesky (``P`` up to order
+    ``small``); ``1..4`` the first of ``FIELDS_SCREENED`` with a NaN or infinite entry; 5 when
+    ``R`` and 6 when ``P`` need ``_check_spd`` itself (asymmetric, or a failed factorisation
+    that only the eigenvalues can judge); 7 when ``P``, symmetric, is above ``small``: LAPACK's
+    factorisation (``_decide_definite``)."""
+    for code, arr in ((1, zhat.ravel()), (2, z.ravel()), (3, R.ravel()), (4, P.ravel())):
+        for v in arr:
+            if not np.isfinite(v):
+                return code, 0.0
+    if R.shape[0]:
+        scale, asymmetry = _scale_and_asymmetry(R)
+        if asymmetry > 1e-9 * max(scale, 1e-300) or _first_unfactorised(R, 0.0) >= 0:
+            return 5, 0.0
+    if P.shape[0]:
+        stack = P.reshape((1, P.shape[0], P.shape[1]))
+        scale, asymmetry = _scale_and_asymmetry(stack)
+        scale = max(scale, 1e-300)
+        if asymmetry > 1e-9 * scale:
+            return 6, scale
+        if P.shape[0] > small:
+            return 7, scale
+        if _first_unfactorised(stack, 1e-10 * scale) >= 0:
+            return 6, scale
+    return 0, 0.0
 
 
 def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) -> None:
@@ -42,7 +73,14 @@ def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) ->
     scale = max(scale, 1e-300)
     if asymmetry > 1e-9 * scale:
         raise ValueError(f"Problem.{name} is not symmetric")
-    tolerance = 1e-10 * scale if allow_semidefinite else 0.0
+    _decide_definite(name, mats, 1e-10 * scale if allow_semidefinite else 0.0)
+
+
+def _decide_definite(name: str, mats: np.ndarray, tolerance: float) -> None:
+    """``_check_spd``'s verdict on a symmetric stack: a Cholesky factorisation of each
+    ``A + tolerance·I`` (compiled up to ``SMALL_FACTOR``, LAPACK in place beyond), the
+    eigenvalues (``λ >= -tolerance``) only where one fails; raises naming the matrix."""
+    stack = mats if mats.ndim == 3 else mats[None]
     if mats.shape[-1] <= SMALL_FACTOR:
         factorised = _first_unfactorised(stack, tolerance) < 0
     else:
@@ -56,7 +94,7 @@ def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) ->
     bad = np.linalg.eigvalsh(mats).min(axis=-1) < -tolerance
     if np.any(bad):
         where = "" if mats.ndim == 2 else f"[{int(np.flatnonzero(bad)[0])}]"
-        raise ValueError(f"Problem.{name}{where} is not positive {'semi' if allow_semidefinite else ''}definite")
+        raise ValueError(f"Problem.{name}{where} is not positive {'semi' if tolerance > 0 else ''}definite")
 
 
 @njit(cache=True)
@@ -136,8 +174,15 @@ class Problem:
         if any(a < 0 or a >= d for a in ang):
             raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
         set_("angular", ang)
-        _check_spd("R", self.R)
-        _check_spd("P", self.P, allow_semidefinite=True)
+        verdict, scale = _screen(self.zhat, self.z, self.R, self.P, SMALL_FACTOR)
+        if 1 <= verdict <= 4:
+            raise ValueError(f"Problem.{FIELDS_SCREENED[verdict - 1]} contains NaN or infinite values")
+        if verdict == 5:                # the slow path decides (and names the matrix), or passes
+            _check_spd("R", self.R)
+        if verdict in (5, 6):
+            _check_spd("P", self.P, allow_semidefinite=True)
+        if verdict == 7:
+            _decide_definite("P", self.P, 1e-10 * scale)
         for name in ("z", "R", "zhat", "P", "landmark_ids"):
             # one problem is shared by every method of a sweep: none may change it for the next
             getattr(self, name).flags.writeable = False

@@ -7,12 +7,15 @@ Its own module so that both ``jcbb`` (the associator, whose restarts are RJC's h
 
 from __future__ import annotations
 
+from functools import lru_cache
+
 import numpy as np
 
-from .jcbb_dive import classic_dive, greedy_dive
+from .jcbb_dive import classic_dive, fail_first_order, greedy_dive
 from .jcbb_search import jcbb_search
 
 REORDERED_DIVES = 3   # each ordered by the previous dive's answer; JCBB's docstring has the measurement
+FAIL_FIRST_REORDERED = 1   # dives after the fail-first one, ordered by its answer (JCBB's docstring)
 BUDGET_WORK, START_NODES, MAX_BUDGET = 320_000, 12, 20_000   # default_budget
 QUICK_NODES, QUICK_PER_CANDIDATE, QUICK_SHARE = 200, 30, 3   # quick_budget
 QUICK_MAX_CANDIDATES = 100   # beyond, a quick search proves none (0 of 20 at n = 160) and costs ~5 ms there
@@ -40,6 +43,22 @@ def default_budgets(candidates: int) -> tuple[int, int]:
     return later, quick_budget(candidates, later)
 
 
+@lru_cache(maxsize=1024)
+def budget_tables(n: int, max_nodes: int | None) -> tuple[np.ndarray, np.ndarray]:
+    """(quick search's nodes, whole budget) for each count 0..n of candidate landmarks, as
+    ``anytime_jcbb`` reckons them: ``default_budgets`` when ``max_nodes`` is None, else
+    ``max_nodes`` with ``quick_budget``'s share of it. Read-only, one pair per (n, max_nodes)."""
+    counts = range(n + 1)
+    if max_nodes is None:
+        later, quick = (np.array(col, np.int64) for col in zip(*(default_budgets(c) for c in counts)))
+        total = later + quick
+    else:
+        quick = np.array([quick_budget(c, max_nodes) for c in counts], np.int64)
+        total = np.full(n + 1, max_nodes, np.int64)
+    quick.flags.writeable = total.flags.writeable = False
+    return quick, total
+
+
 def quick_budget(candidates: int, room: int) -> int:
     """Nodes of the quick exact search from the classic dive: ``QUICK_PER_CANDIDATE`` per candidate
     (at least ``QUICK_NODES``) but at most ``room / QUICK_SHARE``; none past
@@ -57,9 +76,9 @@ def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False, restart
                  quick_nodes: int | None = None, candidates: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray, dict]:
     """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
-    (features, landmarks of the answer, ``info``). ``restarts(budget)``, when given, returns
-    one more jointly compatible hypothesis ``(features, landmarks, NIS, nodes)`` to start from,
-    found within about ``budget`` nodes, or None. ``quick_nodes``: the quick search's nodes,
+    (features, landmarks of the answer, ``info``). ``restarts(budget, args, candidates)``, when
+    given, returns more jointly compatible hypotheses ``(features, landmarks, NIS, nodes)`` to
+    start from, found within about ``budget`` nodes (possibly none). ``quick_nodes``: the quick search's nodes,
     charged to ``max_nodes`` (None: ``quick_budget(candidates, max_nodes)``; 0 skips it, so every
     step runs: ``JCBB.warm_up``). ``candidates``: the landmarks with an individually compatible
     feature, ascending, when the caller has them (``gate_mask``). RJC calls this on its samples'
@@ -70,10 +89,20 @@ def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False, restart
         quick_nodes = quick_budget(len(candidates), max_nodes)
     # unranked when a quick search follows: a problem it proves never needs the ranking
     feats, lms, nis, surest = classic_dive(*args, candidates, quick_nodes == 0)
-    best = _Incumbent(feats, lms, nis, len(candidates))
+    best = Incumbent(feats, lms, nis, len(candidates))
     timed_out = best.search(args, min(quick_nodes, max_nodes - best.nodes), prefix_test)
+    return later_steps(args, candidates, best, timed_out, max_nodes, prefix_test, restarts,
+                       None if quick_nodes else surest)
+
+
+def later_steps(args: tuple, candidates: np.ndarray, best: Incumbent, timed_out: bool, max_nodes: int,
+                prefix_test: bool, restarts=None, surest: np.ndarray | None = None
+                ) -> tuple[np.ndarray, np.ndarray, dict]:
+    """Steps 2 and 3 after the quick search left ``best`` (``timed_out``: it did not prove it):
+    more starts, then branch and bound with the nodes left; (features, landmarks, ``info``) as
+    ``anytime_jcbb``. ``surest``: the first dive's ranking, when it was computed."""
     if timed_out:
-        if quick_nodes:         # the ranking of the first dive, again (the same hypothesis): uncounted
+        if surest is None:      # the ranking of the first dive, again (the same hypothesis): uncounted
             surest = classic_dive(*args, candidates)[3]
         _more_starts(args, candidates, surest, best, max_nodes, restarts)
         timed_out = best.search(args, max_nodes - best.nodes, prefix_test)
@@ -86,13 +115,21 @@ def _better(k: int, nis: float, best_k: int, best_nis: float) -> bool:
     return k > best_k or (k == best_k and nis < best_nis)
 
 
-class _Incumbent:
+class Incumbent:
     """The best hypothesis so far (features, landmarks, NIS), the nodes spent and the history of
     improvements ``(nodes, pairings, NIS)``."""
 
     def __init__(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
         self.feats, self.lms, self.nis, self.nodes = feats, lms, float(nis), nodes
         self.history = [(nodes, len(lms), float(nis))]
+
+    @classmethod
+    def resumed(cls, feats: np.ndarray, lms: np.ndarray, nodes: int, history: np.ndarray) -> Incumbent:
+        """The incumbent a compiled step left (``jcbb_quick.quick_jcbb``): its hypothesis, the nodes
+        spent and its history (h, 3) of ``(nodes, pairings, NIS)``."""
+        best = cls(feats, lms, float(history[-1, 2]), int(nodes))
+        best.history = [(int(a), int(b), c) for a, b, c in history.tolist()]
+        return best
 
     def offer(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:
         """Count ``nodes`` spent finding a hypothesis; keep it if it is better."""
@@ -105,22 +142,36 @@ class _Incumbent:
         """Branch and bound from the incumbent with ``budget`` nodes; True if it timed out."""
         feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(*args, budget, prefix_test, self.feats,
                                                                        self.lms, self.nis)
-        self.history += [(self.nodes + int(a), int(b), float(c)) for a, b, c in zip(h_nodes[1:], h_k[1:], h_nis[1:])]
+        self.history += [(self.nodes + a, b, c) for a, b, c in zip(h_nodes[1:].tolist(), h_k[1:].tolist(),
+                                                                   h_nis[1:].tolist())]
         self.feats, self.lms, self.nis = feats, lms, self.history[-1][2]
         self.nodes += min(int(used), max(budget, 0))
         return bool(timed_out)
 
 
-def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: _Incumbent, max_nodes: int,
+def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: Incumbent, max_nodes: int,
                  restarts) -> None:
-    """Step 2: the greedy dive, the reordered dives and the restarts, each while the budget lasts."""
+    """Step 2: the greedy dive, the reordered dives, the fail-first dive and one reordered by its
+    answer, then the restarts, each while the budget lasts."""
     if best.nodes + len(candidates) <= max_nodes:
         best.offer(*greedy_dive(*args, candidates), len(candidates))
-    for _ in range(REORDERED_DIVES):
+    surest = _reordered_dives(args, candidates, surest, best, max_nodes, REORDERED_DIVES)
+    if best.nodes + len(candidates) <= max_nodes:
+        order = fail_first_order(*args[:6], candidates)
+        feats, lms, nis, surest = classic_dive(*args, order)
+        best.offer(feats, lms, nis, len(candidates))
+        _reordered_dives(args, candidates, surest, best, max_nodes, FAIL_FIRST_REORDERED)
+    for found in (restarts(max_nodes - best.nodes, args, candidates) if restarts is not None else ()):
+        best.offer(*found)
+
+
+def _reordered_dives(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: Incumbent, max_nodes: int,
+                     count: int) -> np.ndarray:
+    """Up to ``count`` classic dives, each in the order of the previous one's ranking ``surest``
+    (surest pairing first), while the budget lasts; returns the last ranking."""
+    for _ in range(count):
         if best.nodes + len(candidates) > max_nodes:
             break
         feats, lms, nis, surest = classic_dive(*args, candidates[np.argsort(surest[candidates], kind="stable")])
         best.offer(feats, lms, nis, len(candidates))
-    found = restarts(max_nodes - best.nodes) if restarts is not None else None
-    if found is not None:
-        best.offer(*found)
+    return surest

@@ -6,11 +6,21 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..association.compatibility import gate_mask, individually_compatible, joint_gates, wrap_mask
+from ..association.compatibility import (
+    chi2_threshold,
+    gate_mask,
+    gated_pairs,
+    individually_compatible,
+    joint_gates,
+    wrap_mask,
+)
 from ..association.problem import Problem
 from ..validation import in_range
-from .anytime_search import anytime_jcbb, default_budget, default_budgets
+from .anytime_search import Incumbent, anytime_jcbb, budget_tables, default_budget, later_steps
 from .base import CONFIDENCE, Associator
+from .jcbb_dive import classic_dive
+from .jcbb_quick import quick_jcbb_into
+from .lsa import LSA
 from .rjc import RJC
 
 __all__ = ["JCBB", "anytime_jcbb", "default_budget"]
@@ -24,15 +34,20 @@ class JCBB(Associator):
     compatible partner leave the search. Anytime, in three steps, each starting from the best
     hypothesis so far (the incumbent):
 
-    1. **The classic first dive** (``jcbb_dive.classic_dive``): landmarks in index order, each
-       takes the pairing with the smallest joint NIS increase that passes the prefix test, or
-       none. Always run in full, so the answer is never worse than classic JCBB's first dive.
-       Then, up to ``QUICK_MAX_CANDIDATES`` candidates, a quick exact search from it (about 30
-       nodes per candidate, ``anytime_search.quick_budget``): it proves most problems up to
-       n ≈ 40 alone (all 40 measured there; about half at n = 80), as cheaply as a plain exact
-       search would, and those skip step 2, whose restarts cost more than that search needs
-       there. The search proves at its root a problem whose individually compatible pairs form
-       a matching all in the dive's answer (most problems at n = 10).
+    1. **A quick exact search, and the classic first dive** (one compiled call,
+       ``jcbb_quick.quick_jcbb``, with the individual gate). Up to ``QUICK_MAX_CANDIDATES``
+       candidates the search gets about 30 nodes per candidate (``anytime_search.quick_budget``):
+       it proves most problems up to n ≈ 40 alone (all 40 measured there; about half at n = 80),
+       and those skip step 2, whose restarts cost more than the search needs there. Where the
+       individually compatible pairs form a matching (most problems at n = 10), the classic
+       dive runs first and the search proves at its root a dive that took them all; elsewhere
+       the plain search from the empty hypothesis runs first (what a proof costs at least: its
+       first path is a dive of its own, and the same search from the classic dive's answer
+       took the dive's time on top), and a problem it proves costs exactly its nodes. Where it
+       runs out (and always past ``QUICK_MAX_CANDIDATES``), **the classic first dive**
+       (``jcbb_dive.classic_dive``): landmarks in index order, each takes the pairing with the
+       smallest joint NIS increase that passes the prefix test, or none; run in full, so an
+       unproven answer is never worse than classic JCBB's first dive.
     2. **More starts**, each kept if it beats the incumbent: a global greedy dive (of all free
        pairings, the smallest NIS increase that passes the prefix test, until none does;
        ``jcbb_dive.greedy_dive``); ``REORDERED_DIVES`` classic dives, each with the landmarks
@@ -50,6 +65,13 @@ class JCBB(Associator):
        problems at n = 160-320, which the restarts closed (so JCBB is never below RJC with the
        same seed, by construction). Three reordered dives with the restarts lose nothing
        against eight and keep n = 160 within 50 ms (medians 30-48 ms over runs of the benchmarks).
+       Before the restarts, two more dives (issue 28): one in fail-first order (fewest
+       individually compatible features first, ``jcbb_dive.fail_first_order``) followed by one
+       reordered by its answer, and one guided by the optimal assignment (``_assignment_dive``).
+       On 100 problems at n = 160 the default budget had left 3 one pairing below a known
+       jointly compatible hypothesis (the true pairings on one, LSA's answer on two; 16 times
+       the budget closed none of them): these dives close all three, and none of the 100 is
+       below any known hypothesis.
     3. **Branch and bound** (compiled, ``jcbb_search``) from the incumbent with the remaining
        node budget. Each node takes the remaining landmark with the fewest feasible features
        (ties: the smallest least NIS increase) and tries, in order, the pairings that keep the
@@ -92,7 +114,8 @@ class JCBB(Associator):
     prefix_test: apply the joint test to every partial hypothesis (classic JCBB).
 
     ``info``: ``timed_out``, ``proven_optimal``, ``nodes`` (dives, restarts and search),
-    ``dive_pairings`` (the classic dive's count), ``history`` (one ``(nodes, pairings, NIS)``
+    ``dive_pairings`` (the classic dive's count; None where the quick search proved the problem
+    before any dive), ``history`` (one ``(nodes, pairings, NIS)``
     per improvement of the incumbent, nodes counted so far, the classic dive first: the
     anytime curve).
     """
@@ -105,20 +128,28 @@ class JCBB(Associator):
 
     def associate(self, problem: Problem) -> np.ndarray:
         out = self.empty(problem)
-        self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
         if problem.m == 0 or problem.n == 0:
+            self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
+            return out
+        wrap, gate = wrap_mask(problem), joint_gates(problem.d, problem.n, self.confidence)
+        max_nodes = None if self.max_nodes is None else int(self.max_nodes)
+        quick, budget = budget_tables(problem.n, max_nodes)
+        nis, nodes, timed_out, dive_k, history = quick_jcbb_into(
+            out, problem.P, problem.z, problem.zhat, problem.R, wrap, chi2_threshold(problem.d, self.confidence), gate,
+            quick, budget, bool(self.prefix_test))
+        if not timed_out:       # proven by the quick search (most small problems): done
+            self.info = {"timed_out": False, "proven_optimal": not self.prefix_test, "nodes": int(nodes),
+                         "dive_pairings": None if dive_k < 0 else int(dive_k),
+                         "history": [(int(a), int(b), c) for a, b, c in history.tolist()]}
             return out
         ic, candidates = gate_mask(problem, self.confidence)
-        args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
-                joint_gates(problem.d, problem.n, self.confidence))
-        if self.max_nodes is None:
-            later, quick = default_budgets(len(candidates))
-            budget = later + quick
-        else:
-            budget, quick = int(self.max_nodes), None
-        feats, lms, self.info = anytime_jcbb(args, budget, bool(self.prefix_test),
-                                             restarts=lambda budget: self._restarts(problem, budget),
-                                             quick_nodes=quick, candidates=candidates)
+        lms = np.flatnonzero(out >= 0)
+        best = Incumbent.resumed(out[lms], lms, nodes, history)
+        args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap, gate)
+        feats, lms, self.info = later_steps(args, candidates, best, timed_out, int(budget[len(candidates)]),
+                                            bool(self.prefix_test), lambda *a: self._restarts(problem, *a))
+        self.info["dive_pairings"] = int(dive_k)
+        out[:] = -1
         out[lms] = feats
         return out
 
@@ -129,16 +160,21 @@ class JCBB(Associator):
         ic = individually_compatible(problem, self.confidence)
         args = (ic, problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
                 joint_gates(problem.d, problem.n, self.confidence))
-        anytime_jcbb(args, 10_000, restarts=lambda budget: self._restarts(problem, budget), quick_nodes=0)
+        anytime_jcbb(args, 10_000, restarts=lambda *a: self._restarts(problem, *a), quick_nodes=0)
         RJC(confidence=self.confidence).warm_up(problem)
 
-    def _restarts(self, problem: Problem, budget: int) -> tuple[np.ndarray, np.ndarray, float, int] | None:
-        """RANSAC restarts at the shallow levels: RJC's hypothesis (exact search on random samples
-        of 4 features, then a jointly compatible completion), seeded, with as many iterations as
-        ``budget`` has room for at one node per feature a completion visits: (features,
-        landmarks, NIS, nodes: its search nodes plus those), or None when not even one fits."""
+    def _restarts(self, problem: Problem, budget: int, args: tuple, candidates: np.ndarray) -> list[tuple]:
+        """The last starts of step 2, each ``(features, landmarks, NIS, nodes)``: the assignment
+        dive (``_assignment_dive``) and RANSAC restarts at the shallow levels, RJC's hypothesis
+        (exact search on random samples of 4 features, then a jointly compatible completion),
+        seeded, with as many iterations as the budget left has room for at one node per feature
+        a completion visits (its nodes: its search nodes plus those); none that does not fit."""
+        found = []
+        if budget >= len(candidates):
+            found.append(self._assignment_dive(problem, args, candidates))
+            budget -= len(candidates)
         if budget < problem.m:
-            return None
+            return found
         rjc = self.__dict__.get("_rjc")
         if rjc is None or rjc.confidence != self.confidence:
             rjc = self.__dict__["_rjc"] = RJC(confidence=self.confidence)   # built (and checked) once: ~1 ms
@@ -146,4 +182,23 @@ class JCBB(Associator):
         answer = rjc.associate(problem)
         lms = np.flatnonzero(answer >= 0)
         nodes = rjc.info["nodes"] + rjc.info["iterations"] * problem.m
-        return answer[lms], lms, rjc.info["nis"], nodes
+        return [*found, (answer[lms], lms, rjc.info["nis"], nodes)]
+
+    def _assignment_dive(self, problem: Problem, args: tuple, candidates: np.ndarray) -> tuple:
+        """A classic dive guided by the optimal one-to-one assignment (``LSA``'s, on the individual
+        log-likelihoods): each landmark the assignment pairs may take only its assigned feature,
+        and the landmarks go in the order of their assigned pair's individual NIS, surest first;
+        ``(features, landmarks, NIS, nodes)``, one node per candidate. The assignment sees every
+        pairing at once, where a dive commits one landmark at a time."""
+        assigned = LSA(confidence=self.confidence).associate(problem)
+        feats, lms, nis, _ = gated_pairs(problem, self.confidence)
+        pair_nis = np.full(problem.n, np.inf)
+        chosen = assigned[lms] == feats
+        pair_nis[lms[chosen]] = nis[chosen]
+        ic = args[0].copy()
+        paired = np.flatnonzero(assigned >= 0)
+        ic[:, paired] = False
+        ic[assigned[paired], paired] = True
+        order = candidates[np.argsort(pair_nis[candidates], kind="stable")]
+        feats, lms, nis, _ = classic_dive(ic, *args[1:], order, False)
+        return feats, lms, nis, len(candidates)

@@ -104,3 +104,27 @@ def greedy_dive(ic, P, z, zhat, R, wrap, gate, candidates):
         nis += best_dn
         k += 1
     return pair_i[:k], pair_j[:k], nis
+
+
+@njit(cache=True)
+def fail_first_order(ic, P, z, zhat, R, wrap, candidates):
+    """The ``candidates`` ordered fail first: fewest individually compatible features, ties by the
+    smallest individual NIS among them (a stable order). The order the search's own first dive
+    takes, fixed once: a dive in it places the pose with the landmarks that have no choice."""
+    m = ic.shape[0]
+    d = z.shape[1]
+    n = zhat.shape[0]
+    C, G = np.zeros((n, d)), np.zeros((n, d, d))     # the empty hypothesis
+    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
+    degree = np.empty(candidates.shape[0])
+    least = np.full(candidates.shape[0], np.inf)
+    for t in range(candidates.shape[0]):
+        j = candidates[t]
+        count = 0
+        for i in range(m):
+            if ic[i, j]:
+                count += 1
+                least[t] = min(least[t], whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2))
+        degree[t] = count
+    by_least = np.argsort(least, kind="mergesort")
+    return candidates[by_least[np.argsort(degree[by_least], kind="mergesort")]]

@@ -22,13 +22,13 @@ from ..association.compatibility import advance_moments, append_rows, whitened_n
 @njit(cache=True)
 def make_work(n, m):
     """The bound's work arrays, allocated once per search so no node allocates: (tag, seg, lm_min,
-    f_min, f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l, visit_f, queue)
-    for ``n`` landmarks and ``m`` features. Stamps replace clearing: an entry counts as set only
+    f_min, f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l, visit_f, queue,
+    group_min) for ``n`` landmarks and ``m`` features. Stamps replace clearing: an entry counts as set only
     where its stamp equals the current tag, and the tag only grows."""
     i64 = np.int64
     return (np.zeros(1, i64), np.zeros(n + 1, i64), np.empty(n), np.empty(m), np.empty(m), np.zeros(m, i64),
             np.empty(m, i64), np.empty(n, i64), np.empty(m, i64), np.zeros(m, i64), np.empty(m, i64),
-            np.zeros(n, i64), np.zeros(m, i64), np.empty(n, i64))
+            np.zeros(n, i64), np.zeros(m, i64), np.empty(n, i64), np.empty(n))
 
 
 @njit(cache=True)
@@ -106,12 +106,23 @@ def _max_matching(feats, nl, work):
 
 
 @njit(cache=True)
+def _group_minima(dnis, nl, work):
+    """Least NIS increment of each landmark group (``_groups``), into ``work[14][:nl]``."""
+    seg, group_min = work[1], work[14]
+    for u in range(nl):
+        least = dnis[seg[u]]
+        for t in range(seg[u] + 1, seg[u + 1]):
+            least = min(least, dnis[t])
+        group_min[u] = least
+
+
+@njit(cache=True)
 def _least_increments(feats, dnis, q, nl, work):
     """Least NIS increment of each landmark group and of each feature, each list sorted
-    (``work[2][:nl]``, ``work[3][:nf]``); returns nf."""
-    seg, lm_min, f_min, f_val, f_stamp, f_list = work[1], work[2], work[3], work[4], work[5], work[6]
-    for u in range(nl):
-        lm_min[u] = dnis[seg[u]:seg[u + 1]].min()
+    (``work[2][:nl]``, ``work[3][:nf]``; the groups' also unsorted in ``work[14]``); returns nf."""
+    lm_min, f_min, f_val, f_stamp, f_list = work[2], work[3], work[4], work[5], work[6]
+    _group_minima(dnis, nl, work)
+    lm_min[:nl] = work[14][:nl]
     lm_min[:nl].sort()
     tag = _next_tag(work)
     nf = 0
@@ -161,8 +172,10 @@ def _compact(lms, feats, dnis, q, nis, limit):
 
 @njit(cache=True)
 def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
-    """(q, b, floor): the first ``q`` pairings (compacted in place) can still be part of a jointly
-    compatible completion, at most ``b`` more pairings can join, the final NIS is at least ``floor``."""
+    """(q, b, floor, nl): the first ``q`` pairings (compacted in place, in ``nl`` landmark groups,
+    ``work[1]``) can still be part of a jointly compatible completion, at most ``b`` more
+    pairings can join, the final NIS is at least ``floor``. Where ``b > 0`` and ``k + b`` reaches
+    ``best_k``, ``work[14][:nl]`` holds each group's least increment."""
     seg = work[1]
     bound = -1
     while True:     # a pairing that breaks the loosest gate it could still face leaves the subtree
@@ -171,10 +184,13 @@ def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
         if nb == bound:
             break
         bound = nb
-        q = _compact(lms, feats, dnis, q, nis, gate[k + bound])
+        kept = _compact(lms, feats, dnis, q, nis, gate[k + bound])
+        if kept == q:   # nothing left: the groups and the bound stand (the next pass would find so)
+            break
+        q = kept
     floor = nis
     if bound > 0 and k + bound >= best_k:
-        nl = _groups(lms, q, seg)
+        # the loop ended on the groups of the final q (``seg``, ``nl``), which _open_node reads too
         bound = _max_matching(feats, nl, work)
         # b more pairings use b distinct landmarks and b distinct features; the final NIS is at
         # least NIS(H + p) for each of its pairings p, so at least the b-th smallest of the
@@ -185,21 +201,21 @@ def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
             bound -= 1
         if bound > 0:
             floor = nis + max(lm_min[bound - 1], f_min[bound - 1])
-    return q, bound, floor
+    return q, bound, floor, nl
 
 
 @njit(cache=True)
-def _open_node(level, lms, feats, dnis, nis, gate_next, work, remaining, lvl_cand, lvl_dnis, lvl_cols):
+def _open_node(level, lms, feats, dnis, nl, nis, gate_next, work, remaining, lvl_cand, lvl_dnis, lvl_cols):
     """Set up a node's children: branch on the landmark with the fewest pairings (fail first, a
     narrow tree), ties to the smallest least NIS increase (the surest pairing first, so a dive
     that must stop early has pinned the pose with its most certain pairings); its candidates go to
     ``lvl_cand[level]`` sorted by NIS increase (stable), the other landmarks stay in play below.
+    The ``nl`` landmark groups and their least increments are ``_bound``'s (``work[1]``, ``work[14]``).
     Returns (landmark, candidates, candidates keeping NIS ≤ ``gate_next``, landmarks in play)."""
-    seg = work[1]
-    nl = _groups(lms, lms.shape[0], seg)
+    seg, group_min = work[1], work[14]
     pick, fewest, surest = -1, lms.shape[0] + 1, np.inf
     for u in range(nl):
-        count, least = seg[u + 1] - seg[u], dnis[seg[u]:seg[u + 1]].min()
+        count, least = seg[u + 1] - seg[u], group_min[u]
         if count < fewest or (count == fewest and least < surest):
             pick, fewest, surest = u, count, least
     nc = 0
@@ -238,10 +254,10 @@ def _push(level, k, i, j, lvl_cols, lvl_ncols, P, z, zhat, R, wrap, Mt, w, C, G,
 
 
 @njit(cache=True)
-def _is_matching(ic, adj_start):
-    """Whether no landmark and no feature has two individually compatible partners."""
+def is_matching(ic):
+    """Whether no landmark and no feature has two individually compatible partners in ``ic`` (m, n)."""
     for j in range(ic.shape[1]):
-        if adj_start[j + 1] - adj_start[j] > 1:
+        if np.sum(ic[:, j]) > 1:
             return False
     for i in range(ic.shape[0]):
         if np.sum(ic[i]) > 1:
@@ -265,7 +281,7 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
     adj_feat = np.empty(adj_start[n], np.int64)
     for j in range(n):
         adj_feat[adj_start[j]:adj_start[j + 1]] = np.flatnonzero(ic[:, j])
-    if max_nodes >= 1 and init_i.shape[0] == adj_start[n] and _is_matching(ic, adj_start):
+    if max_nodes >= 1 and init_i.shape[0] == adj_start[n] and is_matching(ic):
         # the incumbent holds every individually compatible pairing and none shares a landmark or
         # a feature: it is the only hypothesis of its size and none is larger, so the root proves it
         return (init_i.copy(), init_j.copy(), 1, False, np.zeros(1, np.int64), np.full(1, init_i.shape[0]),
@@ -333,13 +349,12 @@ def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, i
                 n_hist = slot + 1
             q = _forward_check(remaining[level], free, adj_start, adj_feat, P, z, zhat, R, wrap, C[k], G[k],
                                lms_buf, feats_buf, dnis_buf, pair_work)
-            q, bound, floor = _bound(lms_buf, feats_buf, dnis_buf, q, nis, k, gate, best_k, bound_work)
-            lms, feats, dnis = lms_buf[:q], feats_buf[:q], dnis_buf[:q]
+            q, bound, floor, nl = _bound(lms_buf, feats_buf, dnis_buf, q, nis, k, gate, best_k, bound_work)
             if bound == 0 or k + bound < best_k or (k + bound == best_k and floor >= best_nis):
                 lvl_done[level] = True
             else:
-                jstar, nc, n_jc, ncols = _open_node(level, lms, feats, dnis, nis, gate[k + 1], bound_work, remaining,
-                                                    lvl_cand, lvl_dnis, lvl_cols)
+                jstar, nc, n_jc, ncols = _open_node(level, lms_buf, feats_buf, dnis_buf, nl, nis, gate[k + 1],
+                                                    bound_work, remaining, lvl_cand, lvl_dnis, lvl_cols)
                 lvl_ncand[level] = nc
                 lvl_njc[level] = n_jc                        # children that stay jointly compatible
                 lvl_ncols[level] = ncols

@@ -96,3 +96,35 @@ def test_cholesky_validation_agrees_with_the_eigenvalue_test(rng, smallest):
             continue
         R = np.stack([np.eye(2), _with_smallest_eigenvalue(rng, 2, smallest)])
         assert _accepted("R", R, "Problem.R[1] is not positive definite") == _eigen_rule(R, False)
+
+
+@pytest.mark.parametrize("field", ["zhat", "z", "R", "P"])
+@pytest.mark.parametrize("bad", [np.nan, np.inf, -np.inf])
+@pytest.mark.parametrize("n", [3, 30])          # P of order 6 (compiled Cholesky) and 60 (LAPACK)
+def test_the_one_pass_screen_names_a_non_finite_field(field, bad, n):
+    """``_screen`` checks every entry in one compiled pass; the error names the field."""
+    fields = dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((n, 2)), P=np.eye(2 * n))
+    value = fields[field].copy()
+    value.flat[-1] = bad
+    fields[field] = value
+    with pytest.raises(ValueError, match=f"Problem.{field} contains NaN or infinite values"):
+        Problem(**fields)
+
+
+def test_an_asymmetric_R_is_named():
+    R = np.stack([np.eye(2), np.array([[1.0, 0.2], [0.0, 1.0]])])
+    with pytest.raises(ValueError, match="Problem.R is not symmetric"):
+        make(R=R)
+
+
+@pytest.mark.parametrize("n", [3, 30])          # P of order 6 (compiled Cholesky) and 60 (LAPACK)
+def test_the_same_refusals_of_P_at_either_size(n):
+    fields = dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((n, 2)))
+    asymmetric = np.eye(2 * n)
+    asymmetric[0, 1] = 0.5
+    with pytest.raises(ValueError, match="Problem.P is not symmetric"):
+        Problem(P=asymmetric, **fields)
+    with pytest.raises(ValueError, match="Problem.P is not positive semidefinite"):
+        Problem(P=np.diag(np.r_[-1.0, np.ones(2 * n - 1)]), **fields)
+    singular = np.kron(np.ones((n, n)), np.array([[2.0, 0.5], [0.5, 1.0]]))
+    assert Problem(P=singular, **fields).P.shape == (2 * n, 2 * n)

@@ -1,0 +1,96 @@
+"""JCBB's first step in one compiled call: the individual gate, the classic first dive and the
+quick exact search from it (``anytime_search``'s step 1).
+
+Most frames of a run are small problems that this step proves on its own, so their whole cost
+is this call: one entry into compiled code instead of three, and no intermediate array returned
+to Python (each dispatch and each array handed back costs about a microsecond, as much as a
+search node at n = 10). The arithmetic is that of the separate kernels, so the answer and the
+nodes counted are theirs, bit for bit.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from numba import njit
+
+from ..association.compatibility import gate_mask_kernel
+from .jcbb_dive import classic_dive
+from .jcbb_search import is_matching, jcbb_search
+
+
+@njit(cache=True)
+def quick_jcbb(P, z, zhat, R, wrap, limit, gate, quick_by_count, budget_by_count, prefix_test):
+    """Step 1 of the anytime JCBB on a problem's arrays: the individual gate ``χ²_d(c) = limit``
+    (``gate_mask_kernel``, ``gate[k] = χ²_{dk}(c)``), then, for ``c`` landmarks with a
+    compatible feature and ``q = min(quick_by_count[c], budget_by_count[c] - c)``
+    (``anytime_search.budget_tables``):
+
+    * where the compatible pairs form a matching, the classic dive, from which the search proves
+      at its root a dive that took them all;
+    * elsewhere, the plain exact search (from the empty hypothesis) with ``q`` nodes: what a
+      proof costs at least, since its first path is a dive of its own. Only where it runs out
+      does the classic dive follow (``c`` nodes), and the better of the two is the incumbent.
+
+    Returns (features, landmarks, NIS of the best hypothesis, nodes spent, timed out, the classic
+    dive's pairings (-1 where it did not run), history (h, 3) of ``(nodes, pairings, NIS)`` per
+    improvement, the mask ``ic`` (m, n) and the candidate landmarks). A call that did not time
+    out has proven its answer (unless ``prefix_test``); one that did hands ``ic`` and the
+    candidates to the later steps."""
+    ic, candidates = gate_mask_kernel(P, z, zhat, R, wrap, limit)
+    c = candidates.shape[0]
+    budget = min(quick_by_count[c], budget_by_count[c] - c)
+    if is_matching(ic):
+        return _from_dive(ic, P, z, zhat, R, wrap, gate, candidates, budget, prefix_test)
+    none = np.zeros(0, np.int64)
+    feats, lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(ic, P, z, zhat, R, wrap, gate, budget,
+                                                                   prefix_test, none, none, 0.0)
+    spent = min(used, max(budget, 0))
+    if not timed_out:
+        return feats, lms, h_nis[-1], spent, False, -1, _history(h_nodes, h_k, h_nis, 0), ic, candidates
+    d_feats, d_lms, d_nis, _ = classic_dive(ic, P, z, zhat, R, wrap, gate, candidates, False)
+    history = np.empty((2, 3))
+    history[0, 0], history[0, 1], history[0, 2] = c, d_lms.shape[0], d_nis
+    rows = 1
+    k, nis = lms.shape[0], h_nis[-1]
+    if k > d_lms.shape[0] or (k == d_lms.shape[0] and nis < d_nis):
+        history[1, 0], history[1, 1], history[1, 2] = c + spent, k, nis
+        rows = 2
+    else:
+        feats, lms, nis = d_feats, d_lms, d_nis
+    return feats, lms, nis, c + spent, True, d_lms.shape[0], history[:rows], ic, candidates
+
+
+@njit(cache=True)
+def _from_dive(ic, P, z, zhat, R, wrap, gate, candidates, budget, prefix_test):
+    """``quick_jcbb``'s first branch: the classic dive, then the search from it with ``budget`` nodes."""
+    c = candidates.shape[0]
+    feats, lms, nis, _ = classic_dive(ic, P, z, zhat, R, wrap, gate, candidates, False)
+    b_feats, b_lms, used, timed_out, h_nodes, h_k, h_nis = jcbb_search(ic, P, z, zhat, R, wrap, gate, budget,
+                                                                       prefix_test, feats, lms, nis)
+    history = _history(h_nodes, h_k, h_nis, c)     # the first row: the dive, at c nodes
+    return (b_feats, b_lms, h_nis[-1], c + min(used, max(budget, 0)), timed_out, lms.shape[0], history, ic,
+            candidates)
+
+
+@njit(cache=True)
+def _history(h_nodes, h_k, h_nis, offset):
+    """A search's improvements as rows ``(nodes + offset, pairings, NIS)``."""
+    out = np.empty((h_nodes.shape[0], 3))
+    for t in range(h_nodes.shape[0]):
+        out[t, 0], out[t, 1], out[t, 2] = h_nodes[t] + offset, h_k[t], h_nis[t]
+    return out
+
+
+@njit(cache=True)
+def quick_jcbb_into(out, P, z, zhat, R, wrap, limit, gate, quick_by_count, budget_by_count, prefix_test):
+    """``quick_jcbb`` that writes the hypothesis into ``out`` (n,) (the feature of each landmark,
+    -1 for none; ``out`` arrives all -1) and returns only (NIS, nodes, timed out, the dive's
+    pairings, history): each array handed back to Python costs about half a microsecond, as
+    much as the rest of a proven small problem's Python side. The later steps, when needed,
+    take the mask and the candidates again from ``compatibility.gate_mask``."""
+    feats, lms, nis, nodes, timed_out, dive_k, history, _, _ = quick_jcbb(P, z, zhat, R, wrap, limit, gate,
+                                                                          quick_by_count, budget_by_count,
+                                                                          prefix_test)
+    for t in range(lms.shape[0]):
+        out[lms[t]] = feats[t]
+    return nis, nodes, timed_out, dive_k, history
