@@ -19,7 +19,7 @@ import numpy as np
 from ..association.problem import Problem
 from ..tracks.camera.sequence import Sequence
 from .config import RunSpec
-from .loop import ClosedLoop, recorded_answer
+from .loop import ClosedLoop, EstimatorFailed, recorded_answer
 
 
 @dataclass(frozen=True)
@@ -52,12 +52,19 @@ def landmark_blocks(P: np.ndarray, n: int) -> np.ndarray:
 
 def replay_loop(spec: RunSpec, seq: Sequence, recorded: Mapping[int, tuple[Seq[int], str]]) -> Iterator[LoopFrame]:
     """Frames 0, 1, … of ``spec``'s closed loop on ``seq`` with the recorded ``recorded[k] =
-    (association, error)``; a frame missing from ``recorded`` is replayed as failed."""
-    loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
+    (association, error)``; a frame missing from ``recorded`` is replayed as failed. The frames
+    end where the estimator fails (``EstimatorFailed``), as the run's poses did."""
+    try:
+        loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
+    except EstimatorFailed:   # the run's estimator failed at its start: nothing to draw
+        return
     for k in range(len(seq)):
-        problem, _ = loop.begin(k)
-        answer = recorded_answer(recorded, k)
-        record = loop.finish(*answer)
+        try:
+            problem, _ = loop.begin(k)
+            answer = recorded_answer(recorded, k)
+            record = loop.finish(*answer)
+        except EstimatorFailed:   # where the run's estimator failed too: its later frames have no pose
+            return
         association = recorded.get(k, (None, ""))[0]   # drawn even when the frame failed after it
         shown = np.full(problem.n, -1, np.int64) if association is None else np.asarray(association, np.int64)
         f, means = loop.filter, loop.filter.landmarks

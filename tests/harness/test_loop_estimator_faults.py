@@ -113,3 +113,21 @@ def test_a_leaderboard_keeps_the_ekf_rows_when_isam2_fails(tmp_path, jobs=1):
     assert (isam2["status"] != OK).all()
     assert isam2["status"].str.contains(f"the estimator failed at frame {FAIL_AT}").all()
 
+
+
+def test_a_replay_for_pictures_ends_where_the_estimator_failed(room_sequence, monkeypatch):
+    """``render --loop`` replays the run: its frames end at the estimator's failure, with no traceback."""
+    from assocbench.harness.loop_replay import replay_loop
+    from assocbench.tracks.camera.ekf import CameraEKF
+
+    real, calls = CameraEKF.predict, []
+
+    def failing(self, motion):
+        calls.append(1)
+        if len(calls) >= 3:   # the prediction into frame 3
+            raise ValueError("array must not contain infs or NaNs")
+        return real(self, motion)
+    monkeypatch.setattr(CameraEKF, "predict", failing)
+    cfg = load_run_config(None, [], method="oracle", scene="room", trajectory=None, frames=len(room_sequence),
+                          seed=0, loop=True)
+    assert [lf.k for lf in replay_loop(run_spec(cfg), room_sequence, {})] == [0, 1, 2]
