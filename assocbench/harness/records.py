@@ -19,6 +19,8 @@ from itertools import islice
 
 import pandas as pd
 
+from ..errors import UserError
+
 CHUNK = 256   # records read back per piece of the table
 
 
@@ -27,16 +29,23 @@ class RecordSpool:
     frame sent twice, e.g. again after a resumed worker, counts once: its last record)."""
 
     def __init__(self) -> None:
-        self._file = tempfile.TemporaryFile(prefix="assocbench-records-")
+        try:
+            self._file = tempfile.TemporaryFile(prefix="assocbench-records-")
+        except OSError as exc:
+            raise _spool_error(exc) from None
         self._frames = array("q")    # frame of each record written
         self._offsets = array("q")   # where it starts in the file
 
     def add(self, frame: int, record: dict) -> None:
         """Write frame ``frame``'s record at the end of the file."""
-        self._file.seek(0, 2)
+        try:
+            self._file.seek(0, 2)
+            offset = self._file.tell()
+            pickle.dump(record, self._file, protocol=pickle.HIGHEST_PROTOCOL)
+        except OSError as exc:   # a full or unwritable temporary folder: one line, not a traceback
+            raise _spool_error(exc) from None
         self._frames.append(int(frame))
-        self._offsets.append(self._file.tell())
-        pickle.dump(record, self._file, protocol=pickle.HIGHEST_PROTOCOL)
+        self._offsets.append(offset)
 
     def _order(self) -> list[tuple[int, int]]:
         """(frame, offset) of each frame's last record, by frame."""
@@ -56,6 +65,11 @@ class RecordSpool:
 
     def close(self) -> None:
         self._file.close()
+
+
+def _spool_error(exc: OSError) -> UserError:
+    return UserError(f"cannot write the run's per-frame records to the temporary folder {tempfile.gettempdir()} "
+                     f"({exc.strerror or exc}): free space there or point TMPDIR at another folder")
 
 
 def frame_table(records: Iterable[dict], drop: tuple[str, ...] = ()) -> pd.DataFrame:

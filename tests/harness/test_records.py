@@ -11,6 +11,7 @@ import numpy as np
 import pandas as pd
 import pytest
 
+from assocbench.errors import UserError
 from assocbench.harness import records
 from assocbench.harness.records import RecordSpool, frame_table
 from assocbench.harness.sandbox import Supervisor, _Progress, _Running
@@ -79,3 +80,16 @@ def test_the_table_read_in_pieces_is_the_one_table(monkeypatch, chunk):
     assert list(pieces.columns) == list(one.columns) and pieces.dtypes.equals(one.dtypes)
     assert pieces.to_csv(index=False) == one.to_csv(index=False)
     assert "association" not in frame_table(RECORDS, drop=("association",))
+
+
+def test_a_full_temporary_folder_is_one_line_naming_it(monkeypatch):
+    spool = RecordSpool()
+
+    def full(*args, **kwargs):
+        raise OSError(28, "No space left on device")
+    monkeypatch.setattr(records.pickle, "dump", full)
+    with pytest.raises(UserError, match=r"^cannot write the run's per-frame records to the temporary folder .*"
+                                         r"No space left on device.*TMPDIR"):
+        spool.add(0, {"frame": 0})
+    assert len(spool) == 0   # nothing half-recorded
+    spool.close()
