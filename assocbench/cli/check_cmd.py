@@ -6,6 +6,8 @@ import argparse
 import tempfile
 from pathlib import Path
 
+import pandas as pd
+
 from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
 from ..harness.suite import Suite, load_suite, resolve_suite
 from ..harness.sweep import run_suite
@@ -13,7 +15,7 @@ from ..tracks.base import iter_tracks
 from .common import check_output_folder, print_table
 
 NAME = "check"
-HELP = "guard accuracy in CI: compare a small suite with results/baseline.csv"
+HELP = "guard accuracy in CI: compare a small suite with a clone's results/baseline*.csv (run from its root)"
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -51,20 +53,29 @@ def main(args: argparse.Namespace) -> int:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
         suites = ["ci"] if args.baseline is not None else default_suites()
-    loaded = [load_suite(resolve_suite(s)) for s in suites]   # all checked before any runs
-    return max(check_suite(suite, args) for suite in loaded)
+    loaded = [load_suite(resolve_suite(s)) for s in suites]
+    # every suite and baseline checked before any suite runs: a missing last baseline must not
+    # be found only after the first suites ran for minutes
+    baselines = [baseline_of(suite, args) for suite in loaded]
+    return max(check_suite(suite, path, baseline, args) for suite, (path, baseline) in zip(loaded, baselines))
 
 
-def check_suite(suite: Suite, args: argparse.Namespace) -> int:
-    """Run one suite and compare it with its baseline (or rewrite the baseline): exit status. The
-    columns compared are the suite's track's (``Track.check_metrics``)."""
+def baseline_of(suite: Suite, args: argparse.Namespace) -> tuple[Path, pd.DataFrame | None]:
+    """The baseline's path and its table (None with ``--update``, whose folder must be writable)."""
+    path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
+    if args.update:
+        check_output_folder(path.parent, "--baseline")   # before the suite runs, not after
+        return path, None
+    return path, read_baseline(path, suite.guards(), suite.name, default=args.baseline is None)
+
+
+def check_suite(suite: Suite, baseline_path: Path, baseline: pd.DataFrame | None, args: argparse.Namespace) -> int:
+    """Run one suite and compare it with its ``baseline`` (None: rewrite the baseline at
+    ``baseline_path``): exit status. The columns compared are the suite's track's
+    (``Track.check_metrics``)."""
     tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
     tolerances = suite.tolerances() | {"tolerance": tolerance}
     guards = suite.guards()
-    baseline_path = Path(args.baseline) if args.baseline else default_baseline(suite.name)
-    baseline = None if args.update else read_baseline(baseline_path, guards, suite.name)
-    if args.update:
-        check_output_folder(baseline_path.parent, "--baseline")   # before the suite runs, not after
     with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run
         summaries, _ = run_suite(suite, Path(scratch), args.jobs, progress=not args.quiet)
     table = suite.track_impl.leaderboard_table(summaries)

@@ -8,6 +8,7 @@ import tempfile
 from functools import partial
 from pathlib import Path
 
+import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
@@ -40,7 +41,11 @@ def default_out(cfg: dict, scene: str, method: str, seed: int) -> Path:
 
 def tum_writers(frames: pd.DataFrame, out: Path) -> dict:
     """Writers of ``truth.txt`` and ``estimate.txt`` (TUM: ``t x y z qx qy qz qw``, one line per
-    frame, t = frame index in seconds), for ``evo_ape tum truth.txt estimate.txt``."""
+    frame with a pose, t = frame index in seconds), for ``evo_ape tum truth.txt estimate.txt``. A
+    frame with no pose (its estimator had failed: NaN) has no line in either file."""
+    columns = [f"{p}{c}" for p in ("true_", "est_") for c in ("x", "y", "z", "qx", "qy", "qz", "qw")]
+    frames = frames[np.isfinite(frames[columns].to_numpy(dtype=float)).all(axis=1)]
+
     def writer(prefix: str):
         p = frames[[f"{prefix}{c}" for c in ("x", "y", "z")]].to_numpy(dtype=float)
         R = Rotation.from_quat(frames[[f"{prefix}{c}" for c in ("qx", "qy", "qz", "qw")]].to_numpy(dtype=float))

@@ -31,14 +31,19 @@ def check_tolerance(value, where: str = "--tolerance") -> float:
     return float(check_number(value, where, lo=0))
 
 
-def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "ci") -> pd.DataFrame:
+def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "ci",
+                  default: bool = False) -> pd.DataFrame:
     """The baseline CSV (``scenario, method`` and every guarded column, each in its range), or a
     one-line error: a missing, empty, truncated or non-numeric baseline, or one that lacks a column
-    the suite guards (a closed loop's ``ate_rmse``), cannot vouch for anything."""
+    the suite guards (a closed loop's ``ate_rmse``), cannot vouch for anything. ``default``: the
+    path is the default one, relative to the working folder (a clone's ``results/``)."""
     if not path.is_file():
         how = "" if suite == "ci" else f" --suite {suite}"
-        raise UserError(f"baseline {path} not found (run check from the repository root, or create it with "
-                        f"`assocbench check{how} --update`)")
+        where = (f" in {Path.cwd()}: check guards a clone of assocbench (its baselines are the clone's results/); "
+                 f"run it from the clone's root, pass --baseline PATH, or write one for your own suite with "
+                 f"`assocbench check{how} --update`") if default else \
+            f" (pass the path of an existing baseline, or write one with `assocbench check{how} --update`)"
+        raise UserError(f"baseline {path} not found{where}")
     try:
         base = pd.read_csv(path, dtype={"scenario": str, "method": str})
     except (pd.errors.ParserError, pd.errors.EmptyDataError, UnicodeDecodeError, ValueError) as exc:

@@ -7,12 +7,18 @@ returned, and in slam mode make landmarks of the features left unassociated. A f
 method fails (raises, times out, returns an invalid association) updates nothing: the filter
 only predicts through it. ``replay`` gives the associations of frames already recorded, so a
 worker that resumes after a killed call rebuilds the same filter without calling the method.
+
+An estimator that raises while the loop uses it (GTSAM's iSAM2 in ``update``, in a marginal for
+the problem, in ``predict``) ends its own run only: that frame and every later one are recorded
+failed with the error (``EstimatorFailed at frame k: ...``), so the run is counted (``failures``)
+and not ok, and a leaderboard job's other runs (the EKF rows of the same scene and seed) keep
+their results.
 """
 
 from __future__ import annotations
 
 import json
-from collections.abc import Callable, Iterator
+from collections.abc import Callable, Iterable, Iterator
 
 import numpy as np
 
@@ -20,13 +26,46 @@ from ..association.compatibility import pairwise_nis
 from ..association.problem import NO_MATCH, Problem
 from ..association.truth import FrameTruth
 from ..belief.config import BeliefConfig
+from ..errors import UserError
 from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
+from ..scoring.loop_summary import ESTIMATOR_FAILED
 from ..scoring.metrics import score_frame, true_mass
 from ..tracks.base import get_track
 from .config import ORACLE
 from .loop_truth import MapTruth, RevisitCounter, loop_truth, map_quality
-from .runner import WARM_UP, _build, call_method, failed_record, warm_up
+from .runner import WARM_UP, _build, call_method, describe, failed_record, warm_up
+
+
+class EstimatorFailed(RuntimeError):
+    """The estimator raised while the closed loop used it: its run cannot go on (module docstring)."""
+
+
+def _guarded(fn: Callable, *args, **kwargs):
+    """``fn(*args, **kwargs)``, with anything it raises turned into ``EstimatorFailed``, except bad
+    input (``UserError``) and an EKF update refused as not positive definite (a failed frame the
+    filter predicts through)."""
+    try:
+        return fn(*args, **kwargs)
+    except (UserError, NotPositiveDefinite):
+        raise
+    except Exception as exc:  # noqa: BLE001 - a back end's own exception (GTSAM's RuntimeError, ...)
+        raise EstimatorFailed(describe(exc)) from exc
+
+
+class GuardedEstimator:
+    """The estimator as the closed loop uses it: every method call and property read goes through
+    ``_guarded``, so a back end's failure is told apart from the harness's own errors."""
+
+    def __init__(self, inner) -> None:
+        object.__setattr__(self, "_inner", inner)
+
+    def __getattr__(self, name: str):
+        inner = self._inner
+        if not hasattr(type(inner), name) and name not in getattr(inner, "__dict__", {}):
+            raise AttributeError(name)   # absent (``hasattr(f, "trajectory")`` on a filter)
+        value = _guarded(getattr, inner, name)   # a property computes here
+        return (lambda *a, **k: _guarded(value, *a, **k)) if callable(value) else value
 
 
 class ClosedLoop:
@@ -35,7 +74,8 @@ class ClosedLoop:
     def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
         self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
         track = get_track(seq.track)
-        self.filter = track.make_estimator(seq, est, belief, seed)
+        self.filter = _guarded(track.make_estimator, seq, est, belief, seed)
+        self._est = GuardedEstimator(self.filter)   # what the loop itself calls
         self.sensor = track.loop_sensor(seq, belief, est, seed)
         self.revisits = RevisitCounter()
         self.truth = MapTruth()
@@ -44,8 +84,8 @@ class ClosedLoop:
         self._labels: dict[int, np.ndarray] = {}   # each frame's feature labels (two-view landmarks' truth)
         if est.mode == "localisation":
             self.in_map = np.zeros(len(seq.landmarks), bool)
-            self.in_map[self.filter.book.ids] = True
-            for mid in self.filter.book.ids:
+            self.in_map[self._est.book.ids] = True
+            for mid in self._est.book.ids:
                 self.truth.tie(mid, mid)
 
     def frame(self, k: int, decide: Callable) -> dict:
@@ -57,9 +97,9 @@ class ClosedLoop:
         """First half of frame ``k``: predict with odometry (k > 0), then frame ``k``'s problem
         from the filter and its truth. ``finish`` applies an answer to it; frames go in order."""
         if k > 0:
-            self.filter.predict(self.sensor.motion(k))
+            self._est.predict(self.sensor.motion(k))
         data, labels = self.sensor.frame(k, self.in_map)
-        problem = self.filter.problem(data)
+        problem = self._est.problem(data)
         ids = problem.landmark_ids
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
         truth = loop_truth(ids, self.truth, labels, visible)
@@ -74,7 +114,7 @@ class ClosedLoop:
         if self._pending is None:
             raise RuntimeError("ClosedLoop.finish without a frame begun: call begin(k) first")
         (k, problem, truth, data, labels), self._pending = self._pending, None
-        born = dict(zip(self.filter.book.ids, self.filter.book.born))   # before this frame's new entries
+        born = dict(zip(self._est.book.ids, self._est.book.born))   # before this frame's new entries
         closures = self.revisits.count(k, labels, problem.landmark_ids, association, self.truth, born)
         if association is None:   # the filter only predicts through a failed frame
             record = failed_record(k, problem, truth, error, runtime)
@@ -88,15 +128,15 @@ class ClosedLoop:
                   "true_mass": true_mass(marginals, truth.association) if marginals is not None else float("nan"),
                   "runtime_s": runtime, "error": "", "association": association.tolist()}
         try:
-            self.filter.update(association)
+            self._est.update(association)
         except NotPositiveDefinite as exc:
             return record | {"error": f"FilterUpdate: {exc}"}
         snapshot = getattr(self.sensor, "snapshot", None)   # the last frame as the figures draw it (lines)
         if snapshot is not None and k == len(self.seq) - 1:
-            record["final_scan"] = snapshot(k, self.filter.pose, problem, association, labels)
+            record["final_scan"] = snapshot(k, self._est.pose, problem, association, labels)
         gate = self.est.new_landmark_gate
         free = new_landmark_features(problem, association, self.sensor.new_landmark_gate if gate is None else gate)
-        made = self.filter.initialise(data, free)
+        made = self._est.initialise(data, free)
         for map_id, i in made:
             self.truth.tie(map_id, self._made_label(map_id, labels[i]))
         no_depth = int(np.sum(~np.isfinite(data.depth[free]) | (data.depth[free] <= 0))) if data.depth is not None else 0
@@ -106,14 +146,14 @@ class ClosedLoop:
         """The landmark a new map entry truly is: its feature's ``label``; for one triangulated from
         two views (``first_sighting``), that label only if the earlier view's feature images the
         same landmark (a point triangulated from two landmarks' features is neither: false)."""
-        first = getattr(self.filter, "first_sighting", {}).get(map_id)
+        first = getattr(self._est, "first_sighting", {}).get(map_id)
         if first is None:
             return int(label)
         frame, feature = first
         return int(label) if self._labels[frame][feature] == label else NO_MATCH
 
     def _state_columns(self, k: int) -> dict:
-        f = self.filter
+        f = self._est
         quality = map_quality(f.book.ids, f.book.confirmed, f.landmarks, self.truth, self.seq.landmarks)
         out = {**self.sensor.state_columns(f, k), "tentative": int(len(f.book) - np.sum(f.book.confirmed)), **quality}
         if k == len(self.seq) - 1:   # the final map, for the figures (frames.csv records no other)
@@ -154,7 +194,11 @@ def loop_records(seq, belief: BeliefConfig, est: EstimatorConfig, seed: int, met
     ``first`` are replayed from ``replay[k] = (association, error)``). ``faults`` and ``on_call``
     as in ``runner.frame_records``."""
     faults, replay = faults or {}, replay or {}
-    loop = ClosedLoop(seq, belief, est, seed)
+    try:
+        loop = ClosedLoop(seq, belief, est, seed)
+    except EstimatorFailed as exc:   # the estimator could not even start: no frame is measured
+        yield from estimator_failed_records(range(first, len(seq)), 0, exc)
+        return
     associator, build_error = None, ""
     if method != ORACLE and WARM_UP not in faults:
         on_call(WARM_UP, 10 * time_limit_s)
@@ -175,6 +219,21 @@ def loop_records(seq, belief: BeliefConfig, est: EstimatorConfig, seed: int, met
                 return None, 0.0, {}, start_error or "the method could not start"
             on_call(k, time_limit_s)
             return call_method(associator, problem)
-        record = loop.frame(k, decide)
+        try:
+            record = loop.frame(k, decide)
+        except EstimatorFailed as exc:   # this run ends here; the job's other runs go on
+            yield from estimator_failed_records(range(max(k, first), len(seq)), k, exc)
+            return
         if k >= first:
             yield record
+
+
+def estimator_failed_records(frames: Iterable[int], at: int, exc: EstimatorFailed) -> Iterator[dict]:
+    """Records of ``frames`` of a run whose estimator failed at frame ``at`` with ``exc``: nothing
+    was measured on them (no candidates, no pose), each failed with the error."""
+    nan = float("nan")
+    error = f"{ESTIMATOR_FAILED} at frame {at}: {exc}"
+    for k in frames:
+        yield {"frame": k, "n": 0, "m": 0, "tp": 0, "fp": 0, "fn": 0, "clutter_accepted": 0, "timed_out": False,
+               "proven_optimal": nan, "true_mass": nan, "runtime_s": 0.0, "error": error, "association": [],
+               "nees": nan, "pos_err": nan, "rot_err_deg": nan}

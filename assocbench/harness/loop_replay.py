@@ -20,7 +20,7 @@ import pandas as pd
 
 from ..tracks.base import RunFrame, get_track
 from .config import RunSpec
-from .loop import ClosedLoop, recorded_answer
+from .loop import ClosedLoop, EstimatorFailed, recorded_answer
 
 REPLAY_TOLERANCE_M = 1e-6   # the replayed filter must put the sensor where the run did
 POSITION_COLUMNS = ("est_x", "est_y", "est_z")
@@ -49,12 +49,18 @@ def _open_loop(spec: RunSpec, seq, rows: dict) -> Iterator[RunFrame]:
 
 def _closed_loop(spec: RunSpec, seq, rows: dict) -> Iterator[RunFrame]:
     recorded = {k: (r.get("association"), r.get("error") or "") for k, r in rows.items()}
-    loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
+    try:
+        loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
+    except EstimatorFailed:   # the run's estimator failed at its start: nothing to draw
+        return
     warned = False
     for k in range(len(seq)):
-        problem, truth = loop.begin(k)
-        answer = recorded_answer(recorded, k)
-        replayed = loop.finish(*answer)
+        try:
+            problem, truth = loop.begin(k)
+            answer = recorded_answer(recorded, k)
+            replayed = loop.finish(*answer)
+        except EstimatorFailed:   # where the run's estimator failed too: its later frames have no pose
+            return
         if k not in rows:
             continue
         row = rows[k]

@@ -40,6 +40,7 @@ from ..tracks.base import get_track
 from .config import RunSpec
 from .loop import loop_records
 from .progress import RunProgress
+from .records import RecordSpool, frame_table
 from .runner import WARM_UP, GuardedCalls, describe, frame_problems, frame_records
 
 # modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
@@ -70,9 +71,9 @@ class TaskFailed(RuntimeError):
 
 @dataclass
 class _Progress:
-    """What the parent knows of a task: records by (run, method) and frame, the calls that failed
-    in a worker that was then killed (by (run, method): frame -> (error, runtime_s)), and where a
-    fresh worker resumes."""
+    """What the parent knows of a task: records by (run, method) (a ``RecordSpool`` each), the
+    calls that failed in a worker that was then killed (by (run, method): frame -> (error,
+    runtime_s)), and where a fresh worker resumes."""
 
     records: dict = field(default_factory=dict)
     faults: dict = field(default_factory=dict)
@@ -233,7 +234,8 @@ class Supervisor:
 
     def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict], None]) -> None:
         """Run ``tasks``; ``on_done(task, records)`` as each finishes, with ``records[(run, method)]``
-        the per-frame records in frame order. Raises ``TaskFailed`` at the end if a task failed
+        the per-frame records in frame order (a ``RecordSpool``: read from disk, open only during
+        ``on_done``). Raises ``TaskFailed`` at the end if a task failed
         outside any method call (the others still run), ``UserError`` at once for bad input."""
         pending, live, failed = deque(tasks), [], []
         total = len(pending)
@@ -251,24 +253,34 @@ class Supervisor:
                         continue
                     live.remove(w)
                     if outcome == "done":
-                        on_done(w.task, {key: [recs[k] for k in sorted(recs)]
-                                         for key, recs in w.progress.records.items()})
+                        on_done(w.task, dict(w.progress.records))
+                        _close_spools(w.progress)
                     elif outcome == "restart":
                         live.append(self._launch(w.task, w.progress))
                     else:
                         failed.append((w.task, outcome))
+                        _close_spools(w.progress)
                         self.report(f"{w.task.name} failed: {outcome}")
         finally:
             for w in live:
                 _stop(w)
+                _close_spools(w.progress)
         if failed:
             task, why = failed[0]
             raise TaskFailed(f"{len(failed)} of {total} task(s) failed; first, {task.name}: {why.splitlines()[0]}")
 
     def run_one(self, task: Task) -> dict:
-        """Records of one task (see ``run``)."""
+        """Records of one task (see ``run``), each (run, method)'s as a list in frame order."""
         out = {}
-        self.run([task], lambda _, records: out.update(records))
+        self.run([task], lambda _, records: out.update({key: list(spool) for key, spool in records.items()}))
+        return out
+
+    def run_one_table(self, task: Task, drop: tuple[str, ...] = ()) -> dict:
+        """The per-frame table (``frame_table``) of each (run, method) of one task, built from
+        its spooled records without holding them all."""
+        out = {}
+        self.run([task], lambda _, records: out.update({key: frame_table(spool, drop)
+                                                         for key, spool in records.items()}))
         return out
 
     def _launch(self, task: Task, progress: _Progress) -> _Running:
@@ -276,8 +288,9 @@ class Supervisor:
             raise RuntimeError(f"assocbench was run while a process imported the main script; {_GUARD}")
         ctx = _context((m[1] for m in task.methods), {spec.track for _, spec in task.runs})
         here, there = ctx.Pipe(duplex=False)
-        done = progress.records.get(progress.resume[:2], {})   # a closed loop replays these frames
-        replay = {k: (rec.get("association"), rec["error"]) for k, rec in done.items() if k < progress.resume[2]}
+        done = progress.records.get(progress.resume[:2])   # a closed loop replays these frames
+        replay = {k: (rec.get("association"), rec["error"]) for k, rec in (done.items() if done else ())
+                  if k < progress.resume[2]}
         process = ctx.Process(target=_worker, name=f"assocbench {task.name}",
                               args=(there, task, progress.resume, progress.faults, dict(os.environ), replay))
         try:
@@ -304,7 +317,10 @@ class Supervisor:
                 self.watch("call", msg[3])
             elif msg[0] == "frame":
                 r, mi, k, record = msg[1:]
-                w.progress.records.setdefault((r, mi), {})[k] = record
+                spool = w.progress.records.get((r, mi))
+                if spool is None:
+                    spool = w.progress.records[(r, mi)] = RecordSpool()
+                spool.add(k, record)
                 w.call = None
                 self.watch("frame", k)
             elif msg[0] == "done":
@@ -358,6 +374,13 @@ def _timeout(live: list[_Running], tick: float | None = None) -> float | None:
     return min(waits) if waits else None
 
 
+def _close_spools(progress: _Progress) -> None:
+    """Release a finished or failed task's spooled records (their files are anonymous)."""
+    for spool in progress.records.values():
+        spool.close()
+    progress.records.clear()
+
+
 def _stop(w: _Running, grace: float = 0.0) -> None:
     """End ``w``'s process (killed unless it exits within ``grace`` s) and release its handles."""
     if grace:
@@ -394,11 +417,9 @@ def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = F
                 str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)
     bar = RunProgress(spec.method, spec.sequence.frames) if progress else None
     try:
-        records = Supervisor(1, watch=bar.watch if bar else None).run_one(task)[(0, 0)]
+        supervisor = Supervisor(1, watch=bar.watch if bar else None)
+        frames = supervisor.run_one_table(task, () if associations else ("association",))[(0, 0)]
     finally:
         if bar is not None:
             bar.close()
-    frames = pd.DataFrame(records)
-    if not associations and "association" in frames:
-        frames = frames.drop(columns="association")
     return frames, spec.track_impl.summarize(frames)

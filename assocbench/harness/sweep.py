@@ -19,6 +19,7 @@ from ..atomic import ensure_dir
 from ..errors import UserError
 from .config import run_spec
 from .jobstore import load_job, store_job
+from .records import frame_table
 from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
@@ -38,12 +39,13 @@ def job_task(job: Job, cache_dir: str | None = None) -> Task:
 
 def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Summaries (one row per difficulty × method) and per-frame (n, runtime) of one job, from
-    the worker's records by (difficulty index, method index)."""
+    the worker's records by (difficulty index, method index) (each an iterable in frame order:
+    a ``RecordSpool``)."""
     summaries, frames = [], []
     for r, (difficulty, cfg) in enumerate(job.runs):
         track = run_spec(cfg).track_impl
         for mi, entry in enumerate(job.methods):
-            per_frame = pd.DataFrame(records[(r, mi)])
+            per_frame = frame_table(records[(r, mi)])
             errors = sorted(set(per_frame["error"]) - {""})
             label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}
@@ -66,7 +68,9 @@ def _report(line: str) -> None:
 
 def run_job(job: Job, cache_dir: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Summaries and per-frame records of one job, run in a worker process (see ``job_result``)."""
-    return job_result(job, Supervisor(1, _report).run_one(job_task(job, cache_dir)))
+    out = []   # made while the task's spooled records are still open
+    Supervisor(1, _report).run([job_task(job, cache_dir)], lambda _, records: out.append(job_result(job, records)))
+    return out[0]
 
 
 def _dask_client(address: str | None):

@@ -21,6 +21,7 @@ import pandas as pd
 
 from .trajectory import anees, anees_band, divergence_frame
 
+ESTIMATOR_FAILED = "EstimatorFailed"   # the error of the frames of a run whose estimator raised (harness.loop)
 LOOP_COLUMNS = ("ate_rmse", "ate_smoothed", "rot_rmse_deg", "anees", "anees_lo", "anees_hi", "diverged_at", "map_size",
                 "duplicates", "false_landmarks", "map_rmse", "new_landmarks", "no_depth", "revisits", "loop_closures")
 
@@ -34,7 +35,7 @@ def loop_summary(frames: pd.DataFrame) -> dict:
     counted = len(nees) - len(excluded)
     dof = int(frames["nees_dof"].iloc[0]) if "nees_dof" in frames else 6
     lo, hi = anees_band(counted, dof) if counted else (float("nan"), float("nan"))
-    last = frames.iloc[-1]
+    last = _last_estimated(frames)
     ate = float(np.sqrt(np.mean(frames["pos_err"].to_numpy(dtype=float) ** 2)))
     return {
         "ate_rmse": ate,
@@ -42,13 +43,27 @@ def loop_summary(frames: pd.DataFrame) -> dict:
         "rot_rmse_deg": float(np.sqrt(np.mean(frames["rot_err_deg"].to_numpy(dtype=float) ** 2))),
         "anees": anees(nees, exclude=excluded) if counted else float("nan"), "anees_lo": lo, "anees_hi": hi,
         "diverged_at": int(divergence_frame(np.nan_to_num(nees, nan=0.0), dof)),
-        "map_size": int(last["map_size"]), "duplicates": int(last["duplicates"]),
-        "false_landmarks": int(last["false_landmarks"]), "map_rmse": float(last["map_rmse"]),
+        "map_size": _count(last["map_size"]), "duplicates": _count(last["duplicates"]),
+        "false_landmarks": _count(last["false_landmarks"]), "map_rmse": float(last["map_rmse"]),
         "new_landmarks": int(frames.get("new_landmarks", pd.Series(0)).fillna(0).sum()),
         "no_depth": int(frames.get("no_depth", pd.Series(0)).fillna(0).sum()),
         "revisits": int(frames.get("revisits", pd.Series(0)).fillna(0).sum()),
         "loop_closures": int(frames.get("loop_closures", pd.Series(0)).fillna(0).sum()),
     }
+
+
+def _last_estimated(frames: pd.DataFrame) -> pd.Series:
+    """The last frame the estimator finished (its map columns); all NaN when it finished none
+    (a run whose estimator failed at its start)."""
+    done = frames[frames["map_size"].notna()] if "map_size" in frames else frames.iloc[:0]
+    if len(done):
+        return done.iloc[-1]
+    return pd.Series({c: float("nan") for c in ("map_size", "duplicates", "false_landmarks", "map_rmse")})
+
+
+def _count(value) -> float | int:
+    """A count as an int, NaN where nothing was estimated."""
+    return int(value) if np.isfinite(value) else float("nan")
 
 
 def _smoothed(frames: pd.DataFrame, ate: float) -> float:
@@ -59,8 +74,15 @@ def _smoothed(frames: pd.DataFrame, ate: float) -> float:
 
 
 def loop_status(frames: pd.DataFrame) -> list[str]:
-    """Reasons a closed-loop run cannot be trusted beyond the open loop's: a pose covariance that
-    stopped being positive definite (NEES NaN after frame 0)."""
-    nees = frames["nees"].to_numpy(dtype=float) if "nees" in frames else np.zeros(0)
-    bad = np.flatnonzero(~np.isfinite(nees[1:]))
-    return [f"pose covariance not positive definite from frame {bad[0] + 1}"] if len(bad) else []
+    """Reasons a closed-loop run cannot be trusted beyond the open loop's: an estimator that raised
+    (its frames from then on were not measured), a pose covariance that stopped being positive
+    definite (NEES NaN after frame 0, on a frame the estimator finished)."""
+    lost = frames["error"].astype(str).str.startswith(ESTIMATOR_FAILED).to_numpy() if "error" in frames \
+        else np.zeros(len(frames), bool)
+    reasons = []
+    if lost.any():
+        at = int(frames["frame"].to_numpy()[lost.argmax()])
+        reasons.append(f"the estimator failed at frame {at}, so no later frame was measured")
+    nees = frames["nees"].to_numpy(dtype=float) if "nees" in frames else np.zeros(len(frames))
+    bad = np.flatnonzero(~np.isfinite(nees[1:]) & ~lost[1:])
+    return reasons + ([f"pose covariance not positive definite from frame {bad[0] + 1}"] if len(bad) else [])

@@ -50,7 +50,7 @@ def test_a_baseline_without_the_smoothed_ate_is_compared_on_the_rest(tmp_path):
 def default_suites(monkeypatch, gtsam: bool) -> list[str]:
     """The suite names ``check`` with no ``--suite`` runs (the runs themselves stubbed out)."""
     ran = []
-    monkeypatch.setattr(check_cmd, "check_suite", lambda suite, args: ran.append(suite.name) or 0)
+    monkeypatch.setattr(check_cmd, "check_suite", lambda suite, *rest: ran.append(suite.name) or 0)
     find_spec = importlib.util.find_spec
     monkeypatch.setattr(importlib.util, "find_spec", lambda name, *a: find_spec(name, *a) if gtsam or name != "gtsam"
                         else None)

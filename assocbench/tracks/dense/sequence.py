@@ -130,17 +130,18 @@ def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
     rots, pos = spec.camera_path().poses(scene)
     rots, pos = rots[:spec.frames], pos[:spec.frames]
     s = spec.depth.downsample
-    depths, geoms = [], []
+    # filled in place: a list of frames stacked at the end would hold every frame twice at the peak
+    depths = np.empty((spec.frames, len(range(0, spec.height, s)), len(range(0, spec.width, s))), np.float32)
+    geoms = np.empty(depths.shape, np.int32)
     with FrameRenderer(scene, spec.width, spec.height, msaa=0) as renderer:   # depth is not blended
         for k in tqdm(range(spec.frames), desc=f"render depth {scene.name}", unit="frame", leave=False,
                       disable=None, mininterval=0.5):
             depth, geom = renderer.render_depth(rots[k], pos[k])
-            depths.append(depth[::s, ::s].astype(np.float32))
-            geoms.append(geom[::s, ::s].astype(np.int32))
+            depths[k] = depth[::s, ::s]
+            geoms[k] = geom[::s, ::s]
         K = renderer.K
     K_small = Intrinsics(spec.width // s, spec.height // s, K.f / s, K.cx / s, K.cy / s)
-    return DenseSequence(scene.name, K_small, np.array(depths), np.array(geoms),
-                         rots, pos, spec.depth, spec.seed)
+    return DenseSequence(scene.name, K_small, depths, geoms, rots, pos, spec.depth, spec.seed)
 
 
 def _save(seq: DenseSequence, path: Path, key: str) -> None:

@@ -104,16 +104,18 @@ def make_line_sequence(spec: LineSequenceSpec, scene: LineScene | None = None) -
     poses = planar_trajectory(scene, spec.trajectory, spec.frames, spec.seed, **spec.trajectory_params)
     zs, Rs, labels, ends, scans = [], [], [], [], []
     visible = np.zeros((len(poses), len(scene.lines)), bool)
+    s = None
     for k, pose in enumerate(poses):
         det, lab, visible[k], s = line_frame(scene, pose, spec, k)
         zs.append(det.z)
         Rs.append(det.R)
         labels.append(lab)
         ends.append(det.endpoints)
-        scans.append(s)
+        if spec.keep_scans:   # a scan is ~23 KB (720 beams): a long sequence must not hold them all
+            scans.append(s)
     lidar = spec.lidar
     fallback = np.diag([np.deg2rad(1.0) ** 2, lidar.sigma_range ** 2])
     return LineSequence(scene.name, scene.lines.copy(), scene.segments.copy(), scene.segment_line.copy(),
                         scene.segment_normal.copy(), poses, zs, Rs, labels, ends, visible, lidar.max_range,
                         np.deg2rad(lidar.fov_deg), nominal_line_noise(Rs, fallback),
-                        scans if spec.keep_scans else None, scans[-1].points() if scans else np.zeros((0, 2)))
+                        scans if spec.keep_scans else None, s.points() if s is not None else np.zeros((0, 2)))

@@ -95,7 +95,8 @@ def make_planar_sequence(spec: PlanarSequenceSpec, scene: PlanarScene | None = N
         zs.append(det.z)
         Rs.append(det.R)
         labels.append(lab)
-        scans.append(s)
+        if spec.keep_scans:   # a scan is ~23 KB (720 beams): a long sequence must not hold them all
+            scans.append(s)
     lidar = spec.lidar
     nominal = np.diag([lidar.sigma_range ** 2, np.deg2rad(lidar.sigma_bearing_deg) ** 2])
     return PlanarSequence(scene.name, scene.posts.copy(), list(scene.post_names), scene.post_radius, poses,

@@ -1,0 +1,44 @@
+"""``assocbench check`` guards a clone: outside one it says so in one line, before running anything."""
+
+from __future__ import annotations
+
+import shutil
+from pathlib import Path
+
+from test_cli import ROOT, run_cli
+
+from assocbench.cli import check_cmd
+from assocbench.cli.main import main
+
+
+def test_check_outside_a_clone_says_it_guards_a_clone(tmp_path):
+    """Run from a folder with no results/ (an installed package, not a clone): exit 2, one line
+    that names the clone, --baseline and --update, and no traceback."""
+    proc = run_cli("check", "--quiet", cwd=tmp_path)
+    assert proc.returncode == 2, proc.stderr
+    err = proc.stderr
+    assert err.count("\n") == 1 and err.startswith("assocbench: error: baseline results/baseline.csv not found"), err
+    assert "Traceback" not in err
+    for needle in (str(tmp_path), "guards a clone", "clone's root", "--baseline PATH", "--update"):
+        assert needle in err, err
+    assert not (tmp_path / "results").exists()   # nothing written
+
+
+def test_every_baseline_is_checked_before_any_suite_runs(tmp_path, monkeypatch, capsys):
+    """With only the ci suite's baseline present, the missing loop_ci baseline is reported before
+    the ci suite runs (it used to run for a minute first)."""
+    (tmp_path / "results").mkdir()
+    shutil.copy(Path(ROOT) / "results" / "baseline.csv", tmp_path / "results" / "baseline.csv")
+    monkeypatch.chdir(tmp_path)
+    ran = []
+    monkeypatch.setattr(check_cmd, "run_suite", lambda suite, *a, **k: ran.append(suite.name))
+    assert main(["check", "--quiet"]) == 2
+    err = capsys.readouterr().err
+    assert "baseline results/baseline_loop_ci.csv not found" in err and "guards a clone" in err, err
+    assert ran == []
+
+
+def test_a_named_baseline_that_is_missing_names_the_path_not_the_clone(tmp_path, capsys):
+    assert main(["check", "--baseline", str(tmp_path / "mine.csv")]) == 2
+    err = capsys.readouterr().err
+    assert "mine.csv not found" in err and "--update" in err and "clone" not in err, err
