@@ -3,12 +3,14 @@ report (``harness/report``) print them."""
 
 from __future__ import annotations
 
+# ANEES is the mean NEES itself, not divided by the pose's dof: a consistent filter's is near the dof
+ANEES_UNIT = "NEES (near the pose dof if consistent)"
 # units of summary columns that do not end in one (``_ms``, ``_mm``, ``_deg``, ``_pct``, ``_s``)
 UNITS = {"ate_rmse": "m", "ate_smoothed": "m", "map_rmse": "m", "surprisal_gap": "nats", "fps": "frames/s",
          "precision": "share", "recall": "share", "f1": "share", "perfect": "share of frames",
          "jc_share": "share of frames", "proven_optimal": "share of frames (NaN: not reported)",
-         "true_mass": "probability (NaN: not a soft method)", "anees": "NEES / dof", "anees_lo": "NEES / dof",
-         "anees_hi": "NEES / dof", "frames": "frames", "failures": "frames", "timed_out": "frames",
+         "true_mass": "probability (NaN: not a soft method)", "anees": ANEES_UNIT, "anees_lo": ANEES_UNIT,
+         "anees_hi": ANEES_UNIT, "frames": "frames", "failures": "frames", "timed_out": "frames",
          "diverged_at": "frame (-1: never)", "icp_failures": "frames", "wrong_steps": "frames",
          "clutter_accepted": "features", "no_depth": "features", "map_size": "landmarks", "new_landmarks": "landmarks", "revisits": "re-sightings",
          "loop_closures": "re-sightings",

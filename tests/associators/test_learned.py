@@ -138,7 +138,7 @@ def test_a_model_of_another_feature_version_or_track_is_refused_in_one_line(tmp_
 
 def test_a_track_without_a_shipped_model_is_refused_in_one_line(tmp_path, capsys):
     code = main(["run", "--scene", "park", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")])
-    assert_one_line_error(capsys, code, "no shipped model for the planar track")
+    assert_one_line_error(capsys, code, "no shipped model for the planar track", "--set params.model=PATH")
 
 
 def test_a_retrained_model_changes_the_package_digest_that_keys_stored_results(tmp_path, monkeypatch):

@@ -235,3 +235,18 @@ def test_evo_ape_reports_our_ate_and_rotation_rmse(tmp_path):
     np.testing.assert_allclose(evo_position_errors, position_errors(p, p_est), atol=1e-6)
     np.testing.assert_allclose(evo_rotation_errors, rotation_errors_deg(R, R_est), atol=1e-6)
     assert evo_ate > 0.05 and evo_rot > 1.0        # the comparison is about real errors, not zeros
+
+
+def test_anees_is_the_mean_nees_and_its_unit_says_so_not_per_dof():
+    """ANEES is not divided by the dof: a consistent 3-dof filter's is near 3, and no unit or
+    report text may tell the reader to expect 1."""
+    from assocbench.harness.report.columns import CATALOGUE
+    from assocbench.scoring.units import unit_of
+
+    nees = np.full(200, 3.0)
+    lo, hi = anees_band(200, 3)
+    assert anees(nees) == 3.0 and lo < 3.0 < hi
+    for key in ("anees", "anees_lo", "anees_hi"):
+        assert "/ dof" not in unit_of(key) and "dof" in unit_of(key)
+    meaning = next(c.meaning for c in CATALOGUE if c.key == "anees")
+    assert "divided by the pose" not in meaning and "1 is a consistent" not in meaning

@@ -58,7 +58,7 @@ class Learned(Associator):
         elif track not in _shipped():
             raise UserError(f"method learned has no shipped model for the {track} track (only for "
                             f"{', '.join(_shipped())}): train one (`assocbench export`, `assocbench train`) and "
-                            "pass --params model=PATH")
+                            "pass --set params.model=PATH")
 
     def forest_for(self, problem: Problem) -> Forest:
         """The user's model, or the shipped model whose problems look like ``problem``."""
@@ -68,7 +68,7 @@ class Learned(Associator):
             found = [f for f in _shipped().values() if f.signature == _signature(problem)]
             if not found:
                 raise ValueError(f"no shipped learned model for problems of dimension {problem.d} with angular "
-                                 f"dims {problem.angular}: pass params model=PATH")
+                                 f"dims {problem.angular}: pass --set params.model=PATH")
             forest = found[0]
         if forest.signature != _signature(problem):
             raise ValueError(f"the model's problems have (d, angular) {forest.signature}, this one "

@@ -55,8 +55,8 @@ CATALOGUE = (
            "alignment (as evo_ape)", "low", 4),
     Column("ate_mm", "ATE", "RMSE of the camera positions tracked by ICP against the truth, no alignment", "low", 1),
     Column("rot_rmse_deg", "rotation RMSE", "RMSE of the heading / rotation error of each frame's pose", "low", 3),
-    Column("anees", "ANEES", "mean pose NEES divided by the pose's degrees of freedom (6 camera, 3 planar and "
-           "lines); 1 is a consistent filter", "", 2),
+    Column("anees", "ANEES", "mean over frames of the pose NEES (not divided by the dof); a consistent filter's is "
+           "near the pose's degrees of freedom (6 camera, 3 planar and lines), inside the band", "", 2),
     Column("ate_smoothed", "ATE smoothed", "ATE of a smoother's final estimate of every pose (iSAM2; equal to ATE "
            "for a filter)", "low", 4, main=False),
     Column("runtime_median_ms", "runtime median", "median wall time of one call of the method's associate()", "low", 2),

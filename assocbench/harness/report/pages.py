@@ -162,7 +162,7 @@ def _table(suite: Suite, columns: list[Column]) -> str:
                     f'{escape(c.label)}<span class="unit">{escape(c.unit) if c.unit else "&nbsp;"}</span></th>')
     if "anees_lo" in t:
         head.append('<th title="two-sided 95 % chi-square band of one run\'s ANEES">ANEES band'
-                    '<span class="unit">95 %, NEES / dof</span></th>')
+                    '<span class="unit">95 %, NEES</span></th>')
     counts = [k for k in COUNT_COLUMNS if k in t]
     head += [f'<th class="sortable" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
              f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
