@@ -34,7 +34,10 @@ def read_card(folder: str | Path) -> dict:
     if not (Path(folder) / PROBLEMS_FILE).is_file() or not path.is_file():
         raise UserError(f"{folder} is not an assocbench export ({PROBLEMS_FILE} and {CARD_FILE} expected); "
                         "make one with `assocbench export --suite S --out DIR`")
-    card = yaml.safe_load(path.read_text())
+    try:
+        card = yaml.safe_load(path.read_text())
+    except yaml.YAMLError as exc:
+        raise UserError(f"{path} is not a readable dataset card ({_first_line(exc)}): export the data again") from exc
     version = card.get("schema_version") if isinstance(card, dict) else None
     if version != SCHEMA_VERSION:
         raise UserError(f"{path} has schema version {version!r}, this assocbench reads version {SCHEMA_VERSION}: "
@@ -44,9 +47,7 @@ def read_card(folder: str | Path) -> dict:
 
 def read_problems(folder: str | Path, batch_size: int = 64) -> Iterator[list[LabelledProblem]]:
     """Batches of up to ``batch_size`` frames of the export in ``folder``, in the order written."""
-    read_card(folder)
-    pa = pyarrow()
-    parquet = pa.parquet.ParquetFile(Path(folder) / PROBLEMS_FILE)
+    parquet = _open_table(folder)
     for batch in parquet.iter_batches(batch_size=batch_size):
         yield list(_batch_problems(batch))
 
@@ -69,8 +70,27 @@ def _batch_problems(batch) -> Iterator[LabelledProblem]:
 
 def count_frames(folder: str | Path) -> int:
     """Number of frames (rows) in the export, from the Parquet footer (nothing else is read)."""
+    return int(_open_table(folder).metadata.num_rows)
+
+
+def _open_table(folder: str | Path):
+    """The export's Parquet table, opened after its card is checked; a damaged or foreign table is
+    a one-line error (pyarrow's own would be a traceback)."""
     read_card(folder)
-    return int(pyarrow().parquet.ParquetFile(Path(folder) / PROBLEMS_FILE).metadata.num_rows)
+    path = Path(folder) / PROBLEMS_FILE
+    pa = pyarrow()
+    try:
+        parquet = pa.parquet.ParquetFile(path)
+    except (pa.ArrowException, OSError) as exc:
+        raise UserError(f"{path} is not a readable Parquet table ({_first_line(exc)}): export the data again") from exc
+    missing = [name for name, _ in LABELS + SIZES + ARRAYS if name not in parquet.schema_arrow.names]
+    if missing:
+        raise UserError(f"{path} lacks the columns {', '.join(missing)} of an assocbench export: export the data again")
+    return parquet
+
+
+def _first_line(exc: Exception) -> str:
+    return (str(exc).strip().splitlines() or [type(exc).__name__])[0]
 
 
 __all__ = ["LabelledProblem", "read_card", "read_problems", "count_frames"]

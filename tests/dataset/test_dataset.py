@@ -86,6 +86,33 @@ def test_reading_a_folder_that_is_no_export_is_one_line(tmp_path):
         next(read_problems(tmp_path))
 
 
+def test_a_damaged_export_is_one_line_for_the_reader_and_for_train(tmp_path, rng, capsys):
+    """A truncated table, a table of other columns and a card that is not YAML are refused in one
+    line (pyarrow's and yaml's own errors were tracebacks, exit 1), and train writes no model."""
+    import pyarrow as pa
+    import pyarrow.parquet as pq
+
+    from assocbench.errors import UserError
+
+    write(tmp_path / "ok", labelled(rng, 3))
+    table, card = tmp_path / "ok" / "problems.parquet", tmp_path / "ok" / "card.yaml"
+    cases = {"truncated": ("not a readable Parquet table", lambda d: (d / "problems.parquet").write_bytes(
+                 table.read_bytes()[:5])),
+             "foreign": ("lacks the columns", lambda d: pq.write_table(pa.table({"x": [1]}), d / "problems.parquet")),
+             "card": ("not a readable dataset card", lambda d: (d / "card.yaml").write_text("a: [1"))}
+    for name, (needle, damage) in cases.items():
+        folder = tmp_path / name
+        folder.mkdir()
+        (folder / "problems.parquet").write_bytes(table.read_bytes())
+        (folder / "card.yaml").write_text(card.read_text())
+        damage(folder)
+        with pytest.raises(UserError, match=needle):
+            next(read_problems(folder))
+        model = tmp_path / f"{name}.json"
+        assert_one_line_error(capsys, main(["train", "--data", str(folder), "--out", str(model)]), needle)
+        assert not model.exists()
+
+
 def test_export_refuses_a_non_empty_folder_an_unknown_suite_and_the_dense_track(tmp_path, capsys):
     busy = tmp_path / "busy"
     busy.mkdir()
