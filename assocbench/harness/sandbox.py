@@ -17,6 +17,7 @@ is gone (a watchdog thread on the parent's sentinel), so a killed sweep leaves n
 
 from __future__ import annotations
 
+import json
 import math
 import multiprocessing as mp
 import os
@@ -47,6 +48,8 @@ from .runner import WARM_UP, GuardedCalls, describe, frame_problems, frame_recor
 # from re-running the main script, and the preload module loads the built-ins' kernels
 WATCH_TICK_S = 0.5   # a watched run hears "tick" at least this often (the bar's clock moves)
 PRELOAD = ["__main__", "assocbench.harness.worker_preload"]
+SERVER_ENV = ("PYTHONSAFEPATH", "PYTHONPATH")   # set only while the forkserver starts
+SAVED_ENV = "ASSOCBENCH_FORKSERVER_SAVED_ENV"   # the user's values of SERVER_ENV, for worker_preload
 _GUARD = ("a script that runs assocbench from a process with threads (workers then come from a "
           "forkserver, which imports the script) must keep its top level under "
           "if __name__ == '__main__':")
@@ -163,7 +166,37 @@ def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
         return mp.get_context("fork")
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(PRELOAD)  # no effect once the server runs: it is started once
+    _start_forkserver()
     return ctx
+
+
+def _start_forkserver() -> None:
+    """Start the forkserver on this process's ``sys.path``. Python 3.11 starts it with ``python -c``
+    and ignores the ``sys_path`` it is handed, so the working folder came first: run from a clone
+    after ``pip install .``, the workers imported the clone's sources, not the installed package
+    the main process runs (and compiled every kernel again). PYTHONSAFEPATH drops the working
+    folder and PYTHONPATH lists this process's path, for the server only: ``worker_preload`` puts
+    the user's values back in it, so a method's own subprocesses see the environment it had."""
+    from multiprocessing import forkserver
+
+    saved = {key: os.environ.get(key) for key in SERVER_ENV}
+    os.environ[SAVED_ENV] = json.dumps(saved)
+    os.environ["PYTHONSAFEPATH"] = "1"
+    os.environ["PYTHONPATH"] = os.pathsep.join(entry or os.getcwd() for entry in sys.path)
+    try:
+        forkserver.ensure_running()
+    finally:
+        restore_env(saved)
+        os.environ.pop(SAVED_ENV, None)
+
+
+def restore_env(saved: dict) -> None:
+    """Set (or unset, for None) each variable of ``saved``."""
+    for key, value in saved.items():
+        if value is None:
+            os.environ.pop(key, None)
+        else:
+            os.environ[key] = value
 
 
 def _single_threaded() -> bool:

@@ -3,8 +3,14 @@ a user: it imports what a worker runs and loads the built-in associators' compil
 (compiling them if numba's cache is cold), so every worker forked from it starts warm instead
 of paying a second or more per process."""
 
+import json
+import os
+
 from ..associators.registry import BUILTINS
-from .sandbox import warm_builtins
+from .sandbox import SAVED_ENV, restore_env, warm_builtins
+
+if SAVED_ENV in os.environ:  # the server was started with its path pinned (sandbox._start_forkserver)
+    restore_env(json.loads(os.environ.pop(SAVED_ENV)))
 
 try:
     warm_builtins(BUILTINS)
