@@ -7,7 +7,8 @@ from __future__ import annotations
 ANEES_UNIT = "NEES (near the pose dof if consistent)"
 # units of summary columns that do not end in one (``_ms``, ``_mm``, ``_deg``, ``_pct``, ``_s``)
 UNITS = {"ate_rmse": "m", "ate_smoothed": "m", "map_rmse": "m", "surprisal_gap": "nats", "fps": "frames/s",
-         "precision": "share", "recall": "share", "f1": "share", "perfect": "share of frames",
+         "precision": "share", "recall": "share", "f1": "share", "precision_start": "share",
+         "recall_start": "share", "perfect": "share of frames",
          "jc_share": "share of frames", "proven_optimal": "share of frames (NaN: not reported)",
          "true_mass": "probability (NaN: not a soft method)", "anees": ANEES_UNIT, "anees_lo": ANEES_UNIT,
          "anees_hi": ANEES_UNIT, "frames": "frames", "failures": "frames", "timed_out": "frames",

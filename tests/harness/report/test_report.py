@@ -84,6 +84,16 @@ def test_dense_runs_are_averaged_over_seeds(tmp_path):
     assert "Dense associators" in page["index.html"].decode()
 
 
+def test_every_share_column_of_the_dense_page_says_share(tmp_path):
+    # precision and recall at ICP's first iteration are shares like precision and recall (they had no unit)
+    rows = [{"scenario": "crates/easy-model", "method": "kdtree", "seed": 0, "status": "ok", "frames": 10,
+             "ate_mm": 1.0, "precision": 0.9, "precision_start": 0.4, "recall_start": 0.5}]
+    page = build_report([tiny_leaderboard(tmp_path / "dense", rows)])
+    html = next(v for n, v in page.items() if n.endswith(".html") and n != "index.html").decode()
+    for label in ("precision at start", "recall at start"):
+        assert re.search(rf">{label}<span class=\"unit\">share</span></th>", html), label
+
+
 @pytest.mark.parametrize("text,needles", [
     (None, ["holds no leaderboard.csv", "assocbench leaderboard --out"]),
     (b"\xff\xfe\x00garbage", ["is not a readable CSV"]),
