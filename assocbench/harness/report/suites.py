@@ -58,6 +58,9 @@ class Suite:
 def read_suite(path: Path, source: str) -> Suite:
     """The leaderboard in ``path`` (a folder holding ``leaderboard.csv``, or that file)."""
     csv = path / CSV_NAME if path.is_dir() else path
+    if not path.exists():
+        raise UserError(f"{source} does not exist: give folders written by `assocbench leaderboard --out DIR` "
+                        f"(e.g. results/planar)")
     if not csv.is_file():
         raise UserError(f"{source} holds no {CSV_NAME}: give folders written by `assocbench leaderboard --out DIR` "
                         f"(e.g. results/planar)")

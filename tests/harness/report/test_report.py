@@ -113,6 +113,12 @@ def test_a_folder_that_is_no_leaderboard_is_refused(tmp_path, capsys, text, need
     assert not out.exists() and sorted(p.name for p in tmp_path.iterdir()) == ["lb"]
 
 
+def test_a_folder_that_does_not_exist_is_named_so(tmp_path, capsys):
+    out = tmp_path / "out"
+    _one_line_error(capsys, main(["report", str(tmp_path / "nowhere"), "--out", str(out)]), "does not exist")
+    assert not out.exists()
+
+
 def test_an_out_that_is_a_file_or_holds_other_things_is_refused(tmp_path, capsys):
     afile = tmp_path / "notes.txt"
     afile.write_text("mine")
