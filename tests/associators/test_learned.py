@@ -236,3 +236,18 @@ def test_the_shipped_model_runs_without_scikit_learn_or_pyarrow():
     assert out.returncode == 0, out.stderr[-2000:]
     hits, true = map(int, out.stdout.split()[-2:])
     assert true > 0 and hits >= 0.8 * true   # it associates, not merely returns
+
+
+@pytest.mark.parametrize("track", ["camera", "planar", "lines"])
+def test_every_tracks_committed_leaderboard_has_a_learned_row_in_every_scenario(track):
+    """The learned method is in each track's leaderboard suite and ranked in every scenario of
+    the committed leaderboard (results/ for the camera, results/<track>/ otherwise)."""
+    import pandas as pd
+
+    suite, folder = ("leaderboard", "") if track == "camera" else (track, track)
+    raw = yaml.safe_load(shipped_config(f"{suite}.yaml").read_text())
+    assert "learned" in [m if isinstance(m, str) else m.get("name") for m in raw["methods"]]
+    table = pd.read_csv(Path(__file__).parents[2] / "results" / folder / "leaderboard.csv")
+    learned = table[table["method"] == "learned"]
+    assert set(learned["scenario"]) == set(table["scenario"]) and len(learned) == table["scenario"].nunique()
+    assert (learned["status"] == "ok").all()
