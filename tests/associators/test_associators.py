@@ -190,8 +190,7 @@ method = sys.argv[1]
 associator = make_associator(method)
 warm_up(associator)
 before = signatures()
-# learned's shipped model is the camera track's: it refuses other tracks' problems (tests/associators/test_learned.py)
-makers = [camera_problem] * 3 if method == "learned" else [range_bearing_problem, range_bearing_problem, camera_problem]
+makers = [range_bearing_problem, range_bearing_problem, camera_problem]   # learned: its planar and camera models
 for seed, make in enumerate(makers):
     problem, _ = make(np.random.default_rng(seed), n=60 + 40 * seed)
     associator.associate(private_copy(problem))

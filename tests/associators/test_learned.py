@@ -13,6 +13,8 @@ import yaml
 from cli_errors import assert_one_line_error
 from problems import random_problem
 
+from assocbench.association.problem import Problem
+from assocbench.associators.learned import forest as forest_module
 from assocbench.associators.learned.associator import assign_log_odds
 from assocbench.associators.learned.features import FEATURES, pair_features
 from assocbench.associators.learned.forest import load_forest, parse_forest, shipped_path
@@ -22,6 +24,8 @@ from assocbench.harness.config import shipped_config
 from assocbench.tracks.base import iter_tracks
 
 SHIPPED = json.loads(shipped_path("camera").read_text())
+# every shipped model and the (d, angular dims) of its track's problems
+SIGNATURES = {"camera": (2, ()), "planar": (2, (1,)), "lines": (2, (0,))}
 
 
 def test_numpy_trees_give_scikit_learns_log_odds(rng):
@@ -62,18 +66,60 @@ def leaderboard_scenes_and_seeds() -> tuple[set, set]:
     return scenes, seeds
 
 
-def test_the_shipped_model_never_saw_a_leaderboard_scene_or_seed():
+def test_every_track_with_problems_has_a_shipped_model():
+    assert set(forest_module.SHIPPED) == set(SIGNATURES)
+    assert {t.name for t in iter_tracks() if t.has_problems} == set(SIGNATURES)
+
+
+@pytest.mark.parametrize("track", sorted(SIGNATURES))
+def test_the_shipped_model_never_saw_a_leaderboard_scene_or_seed(track):
     scenes, seeds = leaderboard_scenes_and_seeds()
-    training = SHIPPED["meta"]["training"]
+    training = json.loads(shipped_path(track).read_text())["meta"]["training"]
     assert scenes and seeds and training["scenes"] and training["seeds"]
     assert not {Path(s).stem for s in training["scenes"]} & scenes
     assert not set(training["seeds"]) & seeds
 
 
-def test_the_shipped_model_loads_and_names_its_track_and_provenance():
-    forest = load_forest(shipped_path("camera"))
-    assert forest.track == "camera" and forest.signature == (2, ())
-    assert SHIPPED["meta"]["fitted_with"]["features"] == list(FEATURES)
+def test_the_disjointness_check_sees_the_planar_and_lines_suites():
+    """The scenes and seeds it compares against include the lidar tracks' leaderboards."""
+    scenes, seeds = leaderboard_scenes_and_seeds()
+    assert {"park", "post_grid", "colonnade", "office", "hallway", "furnished"} <= scenes and {0, 1} <= seeds
+
+
+@pytest.mark.parametrize("track", sorted(SIGNATURES))
+def test_the_shipped_model_loads_and_names_its_track_and_provenance(track):
+    forest = load_forest(shipped_path(track))
+    assert forest.track == track and forest.signature == SIGNATURES[track]
+    doc = json.loads(shipped_path(track).read_text())
+    assert doc["meta"]["fitted_with"]["features"] == list(FEATURES)
+    assert doc["meta"]["training"]["suite"] == f"train_{track}.yaml"
+
+
+def test_the_shipped_models_pick_themselves_by_the_problems_signature(rng):
+    """Range-bearing problems (bearing wraps) get the planar model, (α, r) lines the lines model;
+    the planar model pairs at least half the true pairs of a synthetic problem, nearly all of its pairs right
+    (the synthetic prediction's σ 0.2 m is ten times the lidar's in its training, so it is cautious there)."""
+    from assocbench import make_associator
+    from assocbench.models.synthetic import range_bearing_problem
+
+    learned = make_associator("learned")
+    problem, truth = range_bearing_problem(rng, n=40)
+    assert learned.forest_for(problem).track == "planar"
+    out = learned.associate(problem)
+    hits = int(np.sum((out >= 0) & (out == truth)))
+    assert hits >= 0.5 * int(np.sum(truth >= 0)) and np.sum((out >= 0) & (out != truth)) <= 0.1 * hits
+    lines = Problem(problem.z[:, ::-1].copy(), problem.R[:, ::-1, ::-1].copy(), problem.zhat[:, ::-1].copy(),
+                    _swap_blocks(problem.P), volume=problem.volume, angular=(0,))
+    assert learned.forest_for(lines).track == "lines"
+    three = Problem(np.zeros((1, 3)), np.eye(3)[None], np.zeros((1, 3)), np.eye(3))
+    with pytest.raises(ValueError, match="no shipped learned model for problems of dimension 3"):
+        learned.associate(three)
+
+
+def _swap_blocks(P: np.ndarray) -> np.ndarray:
+    """The joint covariance with each landmark's two coordinates swapped."""
+    order = np.arange(len(P)).reshape(-1, 2)[:, ::-1].ravel()
+    return P[np.ix_(order, order)].copy()
 
 
 def small_export(folder: Path, rng, seeds: int = 3) -> None:
@@ -136,9 +182,26 @@ def test_a_model_of_another_feature_version_or_track_is_refused_in_one_line(tmp_
     assert not (tmp_path / "r").exists()
 
 
-def test_a_track_without_a_shipped_model_is_refused_in_one_line(tmp_path, capsys):
-    code = main(["run", "--scene", "park", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")])
+def test_a_track_without_a_shipped_model_is_refused_in_one_line(tmp_path, capsys, monkeypatch):
+    from assocbench.associators.learned import associator
+
+    monkeypatch.setattr(forest_module, "SHIPPED", {"camera": "camera.json"})
+    associator._shipped.cache_clear()
+    try:
+        code = main(["run", "--scene", "park", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r")])
+    finally:
+        associator._shipped.cache_clear()
     assert_one_line_error(capsys, code, "no shipped model for the planar track", "--set params.model=PATH")
+
+
+@pytest.mark.parametrize("scene,model,trained,run", [("park", "lines", "lines", "planar"),
+                                                     ("hallway", "planar", "planar", "lines"),
+                                                     ("park", "camera", "camera", "planar")])
+def test_a_shipped_model_of_another_track_is_refused_in_one_line(tmp_path, capsys, scene, model, trained, run):
+    args = ["run", "--scene", scene, "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r"),
+            "--set", f"params.model={shipped_path(model)}"]
+    assert_one_line_error(capsys, main(args), f"trained on the {trained} track", f"on the {run} track")
+    assert not (tmp_path / "r").exists()
 
 
 def test_a_retrained_model_changes_the_package_digest_that_keys_stored_results(tmp_path, monkeypatch):
@@ -173,3 +236,18 @@ def test_the_shipped_model_runs_without_scikit_learn_or_pyarrow():
     assert out.returncode == 0, out.stderr[-2000:]
     hits, true = map(int, out.stdout.split()[-2:])
     assert true > 0 and hits >= 0.8 * true   # it associates, not merely returns
+
+
+@pytest.mark.parametrize("track", ["camera", "planar", "lines"])
+def test_every_tracks_committed_leaderboard_has_a_learned_row_in_every_scenario(track):
+    """The learned method is in each track's leaderboard suite and ranked in every scenario of
+    the committed leaderboard (results/ for the camera, results/<track>/ otherwise)."""
+    import pandas as pd
+
+    suite, folder = ("leaderboard", "") if track == "camera" else (track, track)
+    raw = yaml.safe_load(shipped_config(f"{suite}.yaml").read_text())
+    assert "learned" in [m if isinstance(m, str) else m.get("name") for m in raw["methods"]]
+    table = pd.read_csv(Path(__file__).parents[2] / "results" / folder / "leaderboard.csv")
+    learned = table[table["method"] == "learned"]
+    assert set(learned["scenario"]) == set(table["scenario"]) and len(learned) == table["scenario"].nunique()
+    assert (learned["status"] == "ok").all()

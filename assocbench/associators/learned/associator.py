@@ -39,7 +39,7 @@ class Learned(Associator):
     validated on held-out training frames and stored in the model.
 
     model: path of a model JSON written by ``assocbench train``; empty: the model shipped for the
-        problem's track (camera), found by the problems' dimension and angular dims.
+        problem's track (camera, planar, lines), found by the problems' dimension and angular dims.
     """
 
     name = "learned"

@@ -20,7 +20,8 @@ from ...errors import UserError
 from .features import FEATURE_VERSION, FEATURES
 
 FORMAT = "assocbench-learned-associator"
-SHIPPED = {"camera": "camera.json"}   # track -> model file in this folder (package data)
+# track -> model file in this folder (package data)
+SHIPPED = {"camera": "camera.json", "planar": "planar.json", "lines": "lines.json"}
 
 
 @dataclass(frozen=True)

@@ -16,8 +16,7 @@ from assocbench.models.polar_line import ANGULAR, jacobians, predict
 from assocbench.models.range_bearing import wrap
 from assocbench.tracks.lines.belief import RANGE_MARGIN, candidate_lines, make_line_problem, pose_prediction_covariance
 
-# learned ships a camera model only; it refuses line problems (tests/associators/test_learned.py)
-METHODS = sorted(m for m in BUILTINS if m != "learned")
+METHODS = sorted(BUILTINS)   # learned included: its shipped lines model (associators/learned/lines.json)
 # parameters for this scale: ENN's gate is a distance in measurement units (rad and m mixed here;
 # its default 25 suits pixels and would accept any pairing)
 PARAMS = {"enn": {"gate": 0.3}}
