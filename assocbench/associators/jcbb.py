@@ -127,6 +127,7 @@ class JCBB(Associator):
     prefix_test: bool = False
 
     def associate(self, problem: Problem) -> np.ndarray:
+        problem.validate()              # reads P's cross terms (a no-op once checked)
         out = self.empty(problem)
         if problem.m == 0 or problem.n == 0:
             self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
