@@ -23,12 +23,23 @@ from ..association.compatibility import advance_moments, append_rows, whitened_n
 def make_work(n, m):
     """The bound's work arrays, allocated once per search so no node allocates: (tag, seg, lm_min,
     f_min, f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l, visit_f, queue,
-    group_min) for ``n`` landmarks and ``m`` features. Stamps replace clearing: an entry counts as set only
-    where its stamp equals the current tag, and the tag only grows."""
-    i64 = np.int64
-    return (np.zeros(1, i64), np.zeros(n + 1, i64), np.empty(n), np.empty(m), np.empty(m), np.zeros(m, i64),
-            np.empty(m, i64), np.empty(n, i64), np.empty(m, i64), np.zeros(m, i64), np.empty(m, i64),
-            np.zeros(n, i64), np.zeros(m, i64), np.empty(n, i64), np.empty(n))
+    group_min) for ``n`` landmarks and ``m`` features, views of one integer and one float buffer
+    (two allocations instead of fifteen: about 1 µs of a small problem's call). Stamps replace
+    clearing: an entry counts as set only where its stamp equals the current tag, and the tag
+    only grows; the integer buffer starts at zero (the tag and the stamps need it), the float
+    one is written before it is read."""
+    ints = np.zeros(2 + 4 * n + 6 * m, np.int64)
+    floats = np.empty(2 * n + 2 * m)
+    tag, seg, f_stamp, f_list = ints[0:1], ints[1:n + 2], ints[n + 2:n + 2 + m], ints[n + 2 + m:n + 2 + 2 * m]
+    at = n + 2 + 2 * m
+    match_l, match_f, match_stamp = ints[at:at + n], ints[at + n:at + n + m], ints[at + n + m:at + n + 2 * m]
+    at += n + 2 * m
+    parent, visit_l, visit_f = ints[at:at + m], ints[at + m:at + m + n], ints[at + m + n:at + 2 * m + n]
+    at += 2 * m + n
+    queue = ints[at:at + n]
+    lm_min, f_min, f_val, group_min = floats[0:n], floats[n:n + m], floats[n + m:n + 2 * m], floats[n + 2 * m:]
+    return (tag, seg, lm_min, f_min, f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l,
+            visit_f, queue, group_min)
 
 
 @njit(cache=True)
