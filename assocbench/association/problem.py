@@ -232,7 +232,7 @@ class Problem:
             self.__dict__["angular"] = ang
         for arr in arrays.values():
             # one problem is shared by every method of a sweep: none may change it for the next
-            arr.flags.writeable = False
+            arr.setflags(write=False)   # ~0.1 us cheaper than .flags.writeable, which builds an object
         self.__dict__.update(arrays, _validated=False)      # frozen: past __setattr__, in one step
         if not _screen_blocks(arrays["zhat"], arrays["z"], arrays["R"], arrays["P"]):
             self.validate()             # decides now: raises naming the field, or passes
