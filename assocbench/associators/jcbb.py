@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from dataclasses import dataclass, field
+from functools import lru_cache
 
 import numpy as np
 
@@ -24,6 +25,13 @@ from .lsa import LSA
 from .rjc import RJC
 
 __all__ = ["JCBB", "anytime_jcbb", "default_budget"]
+
+
+@lru_cache(maxsize=1024)
+def _call_tables(d: int, n: int, confidence: float, max_nodes: int | None) -> tuple:
+    """(``χ²_d(c)``, ``joint_gates``, ``budget_tables``' two) of a call: one cached lookup instead
+    of three (each about 0.3 µs, as much as several search nodes at n = 10)."""
+    return (chi2_threshold(d, confidence), joint_gates(d, n, confidence), *budget_tables(n, max_nodes))
 
 
 @dataclass
@@ -127,16 +135,17 @@ class JCBB(Associator):
     prefix_test: bool = False
 
     def associate(self, problem: Problem) -> np.ndarray:
+        problem.validate()              # reads P's cross terms (a no-op once checked)
         out = self.empty(problem)
         if problem.m == 0 or problem.n == 0:
             self.info = {"timed_out": False, "proven_optimal": True, "nodes": 0, "dive_pairings": 0, "history": []}
             return out
-        wrap, gate = wrap_mask(problem), joint_gates(problem.d, problem.n, self.confidence)
+        wrap = wrap_mask(problem)
         max_nodes = None if self.max_nodes is None else int(self.max_nodes)
-        quick, budget = budget_tables(problem.n, max_nodes)
+        limit, gate, quick, budget = _call_tables(problem.d, problem.n, self.confidence, max_nodes)
         nis, nodes, timed_out, dive_k, history = quick_jcbb_into(
-            out, problem.P, problem.z, problem.zhat, problem.R, wrap, chi2_threshold(problem.d, self.confidence), gate,
-            quick, budget, bool(self.prefix_test))
+            out, problem.P, problem.z, problem.zhat, problem.R, wrap, limit, gate, quick, budget,
+            bool(self.prefix_test))
         if not timed_out:       # proven by the quick search (most small problems): done
             self.info = {"timed_out": False, "proven_optimal": not self.prefix_test, "nodes": int(nodes),
                          "dive_pairings": None if dive_k < 0 else int(dive_k),

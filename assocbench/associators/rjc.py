@@ -112,6 +112,7 @@ class RJC(Associator):
         replace(self, sample_size=1).associate(problem)
 
     def associate(self, problem: Problem) -> np.ndarray:
+        problem.validate()              # reads P's cross terms (a no-op once checked)
         out = self.empty(problem)
         self.info = {"iterations": 0, "required": 0, "nodes": 0, "timed_out": False, "nis": 0.0}
         if problem.m == 0 or problem.n == 0:

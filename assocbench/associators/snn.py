@@ -39,6 +39,7 @@ class SNN(Associator):
     confidence: float = field(default=0.99, metadata=CONFIDENCE)
 
     def associate(self, problem: Problem) -> np.ndarray:
+        problem.validate()              # reads P's cross terms (a no-op once checked)
         out = self.empty(problem)
         if problem.m == 0 or problem.n == 0:
             return out

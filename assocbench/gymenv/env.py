@@ -185,6 +185,7 @@ class AssociationEnv(gym.Env):
     def _take(self, problem: Problem, truth) -> None:
         """Make ``problem`` the current frame, refusing one larger than the padded spaces (a track
         whose ``env_slots`` is not a bound: its bug, said in one line, never a broadcasting error)."""
+        problem.validate()          # the whole P, as the harness checks it, before the agent sees it
         if problem.n > self.max_landmarks or problem.m > self.max_features or problem.d != self.dim:
             raise RuntimeError(f"frame {self._frame} has {problem.n} candidates and {problem.m} features of dimension "
                                f"{problem.d}, beyond the env's {self.max_landmarks} x {self.max_features} slots of "

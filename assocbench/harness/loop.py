@@ -99,7 +99,7 @@ class ClosedLoop:
         if k > 0:
             self._est.predict(self.sensor.motion(k))
         data, labels = self.sensor.frame(k, self.in_map)
-        problem = self._est.problem(data)
+        problem = self._est.problem(data).validate()   # the whole P, before any method sees it
         ids = problem.landmark_ids
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
         truth = loop_truth(ids, self.truth, labels, visible)

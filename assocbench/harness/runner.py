@@ -59,8 +59,12 @@ def warm_up(associator) -> None:
 
 def frame_problems(seq, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
     """The problem and truth of every frame (open loop: the sampled belief of the scene's track);
-    built once and shared by every method of a sweep."""
-    return get_track(seq.track).problems(seq, belief, seed)
+    built once and shared by every method of a sweep, each checked whole (``Problem.validate``)
+    before any method sees it."""
+    problems = get_track(seq.track).problems(seq, belief, seed)
+    for problem, _ in problems:
+        problem.validate()
+    return problems
 
 
 def private_copy(problem: Problem) -> Problem:

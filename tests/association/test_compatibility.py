@@ -96,3 +96,33 @@ def test_gate_prefilter_finds_every_pair_of_the_all_pairs_pass(rng):
             assert np.array_equal(lms, expected[:, 0]) and np.array_equal(feats, expected[:, 1])
             assert np.array_equal(got_nis, nis[feats, lms]) and np.array_equal(got_logdet, logdet[feats, lms])
         assert C.pairs_within(p, 1e300)[0].size == p.m * p.n    # every window wider than a whole turn
+
+
+def test_the_scalar_d2_pair_test_is_the_general_one_bit_for_bit(rng):
+    """``whitened_nis`` takes a scalar path for d = 2 (JCBB's forward check and dives); its
+    ΔNIS, ``L22`` and ``L22⁻¹ y`` must be the general kernel's exactly (same arithmetic, same
+    order), and inf where S is not definite."""
+    n, m, d = 6, 7, 2
+    A = rng.normal(size=(n * d, n * d))
+    P = A @ A.T / (n * d)
+    R = np.stack([np.diag(rng.uniform(0.01, 0.5, d)) for _ in range(m)])
+    z = rng.uniform(-4.0, 4.0, (m, d))          # residuals across ±π on the wrapped dimension
+    zhat = rng.uniform(-4.0, 4.0, (n, d))
+    wrap = np.array([False, True])
+    c = rng.normal(size=(n, d)) * 0.3
+    B = rng.normal(size=(n, d, d)) * 0.4
+    G = B @ np.swapaxes(B, 1, 2)                # large enough that some S are not definite
+    S, y = np.empty((d, d)), np.empty(d)
+    finite = 0
+    for i in range(m):
+        for j in range(n):
+            L, w = np.empty((d, d)), np.empty(d)
+            got = C.whitened_nis(P, z, zhat, R, wrap, i, j, c, G, S, y, L, w)
+            L_ref, w_ref = np.empty((d, d)), np.empty(d)
+            C.pair_innovation(P, z, zhat, R, wrap, i, j, c, G, S, y)
+            want = C._whiten_det(S, y, L_ref, w_ref)[0]
+            assert got == want
+            if np.isfinite(want):
+                finite += 1
+                assert np.array_equal(L, L_ref) and np.array_equal(w, w_ref)
+    assert 0 < finite < m * n

@@ -11,7 +11,7 @@ from assocbench import Problem, validate_association
 def make(**over):
     fields = dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((3, 2)), P=np.eye(6), volume=100.0)
     fields.update(over)
-    return Problem(**fields)
+    return Problem(**fields).validate()
 
 
 @pytest.mark.parametrize("over,field", [
@@ -108,7 +108,7 @@ def test_the_one_pass_screen_names_a_non_finite_field(field, bad, n):
     value.flat[-1] = bad
     fields[field] = value
     with pytest.raises(ValueError, match=f"Problem.{field} contains NaN or infinite values"):
-        Problem(**fields)
+        Problem(**fields).validate()
 
 
 def test_an_asymmetric_R_is_named():
@@ -123,8 +123,52 @@ def test_the_same_refusals_of_P_at_either_size(n):
     asymmetric = np.eye(2 * n)
     asymmetric[0, 1] = 0.5
     with pytest.raises(ValueError, match="Problem.P is not symmetric"):
-        Problem(P=asymmetric, **fields)
+        Problem(P=asymmetric, **fields).validate()
     with pytest.raises(ValueError, match="Problem.P is not positive semidefinite"):
-        Problem(P=np.diag(np.r_[-1.0, np.ones(2 * n - 1)]), **fields)
+        Problem(P=np.diag(np.r_[-1.0, np.ones(2 * n - 1)]), **fields).validate()
     singular = np.kron(np.ones((n, n)), np.array([[2.0, 0.5], [0.5, 1.0]]))
-    assert Problem(P=singular, **fields).P.shape == (2 * n, 2 * n)
+    assert Problem(P=singular, **fields).validate().P.shape == (2 * n, 2 * n)
+
+
+def _cross_terms_only_bad(n, bad):
+    """Fields whose P has sound diagonal blocks but is wrong as a whole: ``bad`` "definite" (the
+    rank-2 P of ``test_singular_but_semidefinite_P_is_accepted`` shifted below zero), "nan" (one
+    off-diagonal entry), "asymmetric" (one cross term)."""
+    P = np.kron(np.ones((n, n)), np.array([[2.0, 0.5], [0.5, 1.0]]))
+    if bad == "definite":
+        P -= 1e-6 * np.eye(2 * n)
+    elif bad == "nan":
+        P[0, 2] = np.nan
+    else:
+        P[0, 2] += 0.5
+    return dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((n, 2)), P=P)
+
+
+@pytest.mark.parametrize("n", [3, 30])
+@pytest.mark.parametrize("bad,message", [("definite", "Problem.P is not positive semidefinite"),
+                                         ("nan", "Problem.P contains NaN or infinite values"),
+                                         ("asymmetric", "Problem.P is not symmetric")])
+def test_the_whole_of_P_is_checked_by_validate_before_any_cross_term_is_read(n, bad, message):
+    """Construction checks what every method reads (each diagonal block of P, O(n d³)); the
+    whole P (O((nd)³)) is ``validate``'s, which JCBB, the scorer's joint test and the harness call
+    first: the same refusal, before any answer reads a cross term."""
+    from assocbench import make_associator
+    from assocbench.association.compatibility import jointly_compatible
+
+    problem = Problem(**_cross_terms_only_bad(n, bad))       # its blocks pass: accepted for now
+    assert make_associator("mnn").associate(problem).shape == (n,)
+    for use in (problem.validate, lambda: make_associator("jcbb").associate(problem),
+                lambda: jointly_compatible(problem, np.full(n, -1))):
+        with pytest.raises(ValueError, match=message):
+            use()
+
+
+def test_a_problem_checked_whole_keeps_the_verdict_in_its_copies():
+    import copy
+
+    fields = _cross_terms_only_bad(3, "definite")
+    fields["P"] = np.kron(np.ones((3, 3)), np.array([[2.0, 0.5], [0.5, 1.0]]))
+    problem = Problem(**fields)
+    assert not problem._validated
+    assert problem.validate() is problem and problem._validated
+    assert copy.copy(problem)._validated

@@ -323,3 +323,13 @@ def test_async_close_after_a_failed_reset_returns(tmp_path):
     assert "reset failed: AssociationEnv.reset takes no options" in out.stdout and "closed\n" in out.stdout
     assert "forked reset failed: this process was forked from one that had already rendered" in out.stdout
     assert "closed again" in out.stdout
+
+
+def test_a_frame_whose_P_is_wrong_as_a_whole_is_refused_before_the_agent_sees_it():
+    """Construction reads only P's diagonal blocks; the env checks the whole P (``validate``), as
+    the harness does, when it takes a frame."""
+    P = np.kron(np.ones((3, 3)), np.array([[2.0, 0.5], [0.5, 1.0]])) - 1e-6 * np.eye(6)
+    bad = Problem(np.zeros((2, 2)), np.repeat(np.eye(2)[None], 2, 0), np.ones((3, 2)), P)
+    env = gym.make("assocbench/Room-v0", **SMALL).unwrapped
+    with pytest.raises(ValueError, match="Problem.P is not positive semidefinite"):
+        env._take(bad, None)
