@@ -56,6 +56,7 @@ class Job:
         code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests()
         code.append(scene_digest(self.scene))   # the scene's content, not its path: an edited MJCF recomputes
         code += self._waypoint_digests()         # likewise a waypoint file's
+        code += self._param_file_digests()       # and a file a method's parameter names (a learned model)
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
@@ -66,6 +67,13 @@ class Job:
         digests = (waypoint_digest(cfg.get("trajectory"), cfg.get("trajectory_params") or {}, self.scene)
                    for _, cfg in self.runs)
         return [d for d in digests if d is not None]
+
+    def _param_file_digests(self) -> list[str]:
+        """The content of each file a method's parameter names (``params.model`` of ``learned``, or
+        a plugin's data file): the settings hold its path alone, and a file rewritten in place (a
+        retrained model) must not reuse the numbers the old one made."""
+        paths = (Path(v) for m in self.methods for v in m.params.values() if isinstance(v, str) and v)
+        return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
 
     def _track_digests(self) -> list[str]:
         """Digests of the job's tracks that live outside this package (a user's track module):

@@ -122,6 +122,22 @@ def test_editing_a_waypoint_file_invalidates_its_stored_results(tmp_path):
     assert len(list((tmp_path / "runs" / "jobs").glob("*.summary.csv"))) == 2
 
 
+def test_rewriting_a_file_a_method_parameter_names_changes_its_stored_jobs_key(tmp_path):
+    """A learned model retrained in place (same path, new trees) must not reuse stored numbers."""
+    import shutil
+    from pathlib import Path
+
+    from assocbench.associators.learned.forest import __file__ as forest_file
+
+    model = tmp_path / "model.json"
+    shutil.copy(Path(forest_file).parent / "camera.json", model)
+    suite = write_suite(tmp_path, f"[{{name: mine, method: learned, params: {{model: '{model}'}}}}]", frames=2)
+    before = load_suite(suite).jobs[0].key
+    assert load_suite(suite).jobs[0].key == before
+    model.write_text(model.read_text() + "\n")
+    assert load_suite(suite).jobs[0].key != before
+
+
 def test_check_passes_against_its_own_baseline_and_catches_a_degraded_plugin(tmp_path, plugins, capsys):
     good = write_suite(tmp_path, "[{name: mine, method: jcbb}]", scenes="[room]", frames=4, name="good.yaml",
                        difficulty="{sigma_position: 0.03, sigma_rotation: 0.5}")
