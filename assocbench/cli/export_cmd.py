@@ -6,7 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..harness.export import check_export_folder, export_suite
+from ..harness.export import DRIVES, check_export_folder, export_suite
 from .common import check_output_folder
 
 NAME = "export"
@@ -16,13 +16,17 @@ HELP = "write a suite's problems and their truth as a Parquet dataset (problems.
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--suite", required=True, help="suite YAML or shipped suite name (camera, planar or lines track)")
     p.add_argument("--out", required=True, help="a new or empty folder")
+    p.add_argument("--drive", default="open", metavar="|".join(DRIVES) + "|METHOD",
+                   help="open: beliefs sampled around the truth (default); oracle: a closed-loop suite's own "
+                        "estimator driven by the true association; METHOD: driven by that method of the suite "
+                        "(the problems its own errors lead to)")
     p.add_argument("--quiet", action="store_true", help="no progress lines")
 
 
 def main(args: argparse.Namespace) -> int:
     out = check_export_folder(check_output_folder(Path(args.out)))
     progress = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
-    card = export_suite(args.suite, out, progress)
+    card = export_suite(args.suite, out, progress, args.drive)
     sizes = card["sizes"]
     mb = sizes["bytes"] / 1e6
     print(f"wrote {out}: {sizes['frames']} frames, {mb:.2f} MB, in {card['seconds']:.1f} s "
