@@ -43,8 +43,12 @@ def leaderboard_loop(suite_file, method: str, params: dict) -> pd.DataFrame:
 
 
 def exported(suite_file, tmp_path, drive: str) -> list:
-    out = tmp_path / drive
-    assert main(["export", "--suite", str(suite_file), "--drive", drive, "--out", str(out), "--quiet"]) == 0
+    """The export driven by ``drive``, written twice: the same bytes (a deterministic driver)."""
+    for again in ("a", "b"):
+        out = tmp_path / f"{drive}-{again}"
+        assert main(["export", "--suite", str(suite_file), "--drive", drive, "--out", str(out), "--quiet"]) == 0
+    for name in ("problems.parquet", "card.yaml"):
+        assert (tmp_path / f"{drive}-a" / name).read_bytes() == (out / name).read_bytes()
     assert read_card(out)["drive"] == drive
     return [item for batch in read_problems(out) for item in batch]
 
