@@ -42,6 +42,8 @@ class RunProgress:
                             ncols=size.columns, nrows=size.lines, mininterval=0.2)
         if event == "call" and k == WARM_UP:
             self.bar.set_description(f"building and warming up {self.method}", refresh=False)
+        elif event == "call" and k == 0:   # the frames start: their rate and the time left count
+            self.bar.reset(total=self.frames)   # from here, not from the sequence and the warm-up
         elif event == "frame":
             self.bar.set_description(self.method, refresh=False)
             self.bar.update(k + 1 - self.bar.n)

@@ -38,6 +38,21 @@ def test_the_bar_goes_through_the_phases_to_the_last_frame(tmp_path):
     assert "preparing the sequence" in text and "building and warming up jcbb" in text and "3/3" in text
 
 
+def test_the_rate_counts_from_the_first_frame_not_from_the_warm_up(tmp_path):
+    """A long sequence build and warm-up (100 s here) must not set the frames' rate: a 2 s run
+    showed "~2 min left" for its first 40 frames when the clock started at the worker's launch."""
+    with open(tmp_path / "bar.txt", "w") as f:
+        bar = RunProgress("jcbb", 50, file=f)
+        bar.watch("start", 0)
+        bar.watch("call", WARM_UP)
+        bar.bar.start_t -= 100.0   # as if preparing and warming up had taken 100 s
+        bar.watch("call", 0)
+        bar.watch("frame", 0)
+        elapsed = bar.bar.format_dict["elapsed"]
+        bar.close()
+    assert elapsed < 50.0, elapsed
+
+
 def test_forced_bar_on_stderr_and_none_by_default_with_the_same_results(tmp_path, capsys):
     assert main(run_args(tmp_path, "a")) == 0
     plain = capsys.readouterr()

@@ -189,9 +189,18 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
         cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]</td>')
     for k in counts:
         of = r["seeds"] if k == "diverged" else r.get("frames", float("nan"))
-        cells.append(f'<td data-v="{_v(r[k])}">{_num(r[k], 0)} / {_num(of, 0)}</td>')
-    cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}</td>')
+        hit = ' class="counted"' if pd.notna(r[k]) and r[k] > 0 else ""
+        cells.append(f'<td{hit} data-v="{_v(r[k])}">{_num(r[k], 0)} / {_num(of, 0)}</td>')
+    cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}'
+                 f"{_badges(r, counts)}</td>")
     return f"<tr{look}{attrs}>" + "".join(cells) + "</tr>"
+
+
+def _badges(r: pd.Series, counts: list[str]) -> str:
+    """A badge beside the status for each counted failure of the method (budget spent, failed frames,
+    diverged seeds): the row stays ok (the harness measured it) but the failure must not be missed."""
+    return "".join(f' <span class="badge" title="{escape(COUNT_COLUMNS[k][1])}">{_num(r[k], 0)} {COUNT_COLUMNS[k][0]}'
+                   f"</span>" for k in counts if pd.notna(r[k]) and r[k] > 0)
 
 
 def _legend(suite: Suite, columns: list[Column]) -> str:

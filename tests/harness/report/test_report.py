@@ -94,6 +94,19 @@ def test_every_share_column_of_the_dense_page_says_share(tmp_path):
         assert re.search(rf">{label}<span class=\"unit\">share</span></th>", html), label
 
 
+def test_a_method_that_spent_its_budget_gets_a_badge_beside_its_ok_status(tmp_path):
+    # the committed camera page: JCBB timed out on 54 of 90 frames of checkerboard/hard with status ok,
+    # shown only as a number in a column far to the right
+    rows = [{"scenario": "checkerboard/hard", "method": m, "status": "ok", "seeds": 3, "frames": 90, "f1": 0.9,
+             "timed_out": t, "failures": 0} for m, t in (("jcbb", 54), ("mnn", 0))]
+    page = build_report([tiny_leaderboard(tmp_path / "camera", rows)])
+    html = next(v for n, v in page.items() if n.endswith(".html") and n != "index.html").decode()
+    jcbb, mnn = (html[html.index(f'data-method="{m}"'):].split("</tr>")[0] for m in ("jcbb", "mnn"))
+    assert '<span class="badge"' in jcbb and "54 timed out</span>" in jcbb and 'class="counted"' in jcbb
+    assert 'data-v="ok"' in jcbb   # still ok: the harness measured it, the method failed at its job
+    assert "badge" not in mnn and "counted" not in mnn
+
+
 @pytest.mark.parametrize("text,needles", [
     (None, ["holds no leaderboard.csv", "assocbench leaderboard --out"]),
     (b"\xff\xfe\x00garbage", ["is not a readable CSV"]),
