@@ -28,11 +28,17 @@ LOG_RATIO = 20.0                # a panel whose ATEs span more than this ratio g
 
 
 def readable_log_axis(ax) -> None:
-    """A log y axis ticked at 1, 2, 5 × 10ᵏ and labelled in plain numbers (not 3×10¹)."""
+    """A log y axis labelled in plain numbers (not 3×10¹), called once the data are drawn: ticked at
+    1, 2, 5 × 10ᵏ over up to three decades, at every decade (or every other) beyond, so every
+    panel keeps labelled ticks (matplotlib's default drops the labels of a 1-2-5 locator over
+    eight decades); the grid follows the labelled ticks only."""
     from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
     ax.set_yscale("log")
-    ax.yaxis.set_major_locator(LogLocator(subs=(1.0, 2.0, 5.0)))
+    low, high = ax.get_ylim()
+    decades = np.log10(high / low) if low > 0 and high > low else 1.0
+    subs = (1.0, 2.0, 5.0) if decades <= 3 else (1.0,)
+    ax.yaxis.set_major_locator(LogLocator(subs=subs, numticks=12))
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.yaxis.set_minor_formatter(NullFormatter())
 
@@ -149,6 +155,7 @@ def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, diffi
     dof = int(frames["nees_dof"].dropna().iloc[0]) if "nees_dof" in frames and frames["nees_dof"].notna().any() \
         else POSE_DOF   # 3 for a planar pose, 6 for the camera's (frames written before nees_dof: 6)
     lo, hi, bound = nees_band(dof)
+    floor = lo / 20   # lower drawn at the bottom edge: a first frame's NEES of 5e-4 (a tight prior) took three decades
     order = method_order(frames["method"])
     styles = method_styles(frames["method"])
     fig, axes = _panels(frames["scenario"], scenes, difficulties, 4.4, 3.3)
@@ -159,17 +166,20 @@ def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, diffi
         for method in order:
             m = med[med["method"] == method]
             if len(m):
-                ax.plot(m["frame"], np.maximum(m["nees"], 1e-3), color=styles[method]["color"], lw=1.4,
+                ax.plot(m["frame"], np.maximum(m["nees"], floor), color=styles[method]["color"], lw=1.4,
                         ls=":" if method == ORACLE else "-")
         ax.set(title=scenario, xlabel="frame", ylabel="pose NEES")
+        ax.set_yscale("log")
+        ax.set_ylim(bottom=floor / 1.3)
         readable_log_axis(ax)
-        ax.grid(alpha=0.3, which="both")
+        ax.grid(alpha=0.3, which="major")
     handles = [Line2D([], [], color=styles[m]["color"], lw=1.4, ls=":" if m == ORACLE else "-", label=label(m))
                for m in order]
     handles += [Patch(color="0.85", label=f"per-frame 95 % band of $\\chi^2_{dof}$"),
                 Line2D([], [], color="0.3", ls="--", label=f"$\\chi^2_{dof}$(0.999)")]
     fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 5), frameon=False, fontsize=8)
-    fig.text(0.5, 0.005, "median over seeds per frame; above the band: overconfident, below: conservative",
+    fig.text(0.5, 0.005, "median over seeds per frame; above the band: overconfident, below: conservative; "
+             f"values below {floor:.2g} drawn at {floor:.2g}",
              ha="center", va="bottom", fontsize=7)
     fig.tight_layout(rect=(0, 0.03, 1, 1 - 0.55 / fig.get_figheight()))
     return fig

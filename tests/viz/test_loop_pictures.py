@@ -191,6 +191,22 @@ def test_nees_figure_shades_the_chi2_6_band(tmp_path):
     assert (tmp_path / "nees.png").stat().st_size > 1000
 
 
+@pytest.mark.parametrize("peak", [30.0, 5e4])
+def test_every_nees_panel_keeps_labelled_ticks_over_any_range(tmp_path, peak):
+    """The committed planar NEES picture had two panels with no y labels at all: a tight prior's
+    first-frame NEES of 5e-4 and a diverged method's 5e4 span eight decades, and a 1-2-5 locator
+    labels none of its ticks there. Every panel must show at least three labelled ticks."""
+    rows = [{"scenario": sc, "method": m, "seed": 0, "frame": k, "nees": 5e-4 if k == 0 else (peak if m == "mnn" else 3.0),
+             "nees_dof": 3} for sc in ("park/easy", "park/hard") for m in METHODS for k in range(20)]
+    fig = nees_figure(pd.DataFrame(rows))
+    fig.canvas.draw()
+    for ax in (a for a in fig.axes if a.axison):
+        low, high = ax.get_ylim()
+        labels = [t.get_text() for t in ax.get_yticklabels() if t.get_text() and low <= t.get_position()[1] <= high]
+        assert len(labels) >= 3, (ax.get_title(), labels)
+        assert low > 5e-4   # the first frame's 5e-4 is drawn at the floor, which the footnote names
+
+
 @pytest.mark.parametrize("with_map", [False, True])
 def test_map_figure_writes_a_png_with_or_without_the_map(tmp_path, with_map):
     t = np.linspace(0, 2 * np.pi, 20)
