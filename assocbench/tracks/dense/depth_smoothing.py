@@ -35,19 +35,25 @@ def _gated_gaussian(depth, gate, sigma_px, radius):
         for b in range(-radius, radius + 1):
             taps[a + radius, b + radius] = np.exp(-(a * a + b * b) / (2.0 * sigma_px * sigma_px))
     for v in range(h):
+        a0, a1 = max(-radius, -v), min(radius, h - 1 - v)
         for u in range(w):
             d = depth[v, u]
             if not np.isfinite(d):
                 continue
+            g = gate[v, u]
+            b0, b1 = max(-radius, -u), min(radius, w - 1 - u)
             num = 0.0
             den = 0.0
-            for a in range(max(-radius, -v), min(radius, h - 1 - v) + 1):
-                for b in range(max(-radius, -u), min(radius, w - 1 - u) + 1):
-                    dj = depth[v + a, u + b]
-                    if np.isfinite(dj) and abs(dj - d) <= gate[v, u]:
-                        wt = taps[a + radius, b + radius]
-                        num += wt * dj
-                        den += wt
+            for a in range(a0, a1 + 1):
+                row, taps_a = depth[v + a], taps[a + radius]
+                for b in range(b0, b1 + 1):
+                    # selects, not a branch: a NaN neighbour compares false; adding +0.0 leaves a
+                    # positive sum as it is, so the sums are bit for bit those of the branching loop
+                    dj = row[u + b]
+                    ok = abs(dj - d) <= g
+                    wt = taps_a[b + radius] if ok else 0.0
+                    num += wt * dj if ok else 0.0
+                    den += wt
             out[v, u] = num / den
     return out
 

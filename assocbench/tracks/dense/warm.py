@@ -27,7 +27,8 @@ def warm_dense() -> float | None:
     from .fusion import FusionConfig, PointMap, fuse
     from .icp import IcpConfig, icp
     from .metrics import score_associations
-    from .prediction import predict
+    from .prediction import Splatter, predict
+    from .run import view_source
     from .surface import warm_surface
 
     frame = tiny_frame()
@@ -39,6 +40,7 @@ def warm_dense() -> float | None:
                              IcpConfig(min_pairs=6, max_iterations=1)),
                  lambda: [fuse(pmap, frame, np.eye(3), np.zeros(3), k, fusion) for k in range(3)],
                  lambda: predict(pmap.positions, pmap.weights, frame.K, np.eye(3), np.zeros(3)),
+                 lambda: view_source(pmap, Splatter(frame.K), np.eye(3), np.zeros(3)),
                  warm_surface,
                  lambda: score_associations(frame.true_points[ok], frame.geom[ok], frame,
                                             [(np.arange(len(points)), np.flatnonzero(ok.reshape(-1)))], 0.03),
