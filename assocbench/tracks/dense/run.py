@@ -55,6 +55,7 @@ class Source:
     normals: np.ndarray
     true_points: np.ndarray
     geom: np.ndarray
+    visited: int = 0   # map points the prediction visited to find them (0: no prediction)
 
 
 def frame_source(frame: DepthFrame, R: np.ndarray, t: np.ndarray) -> Source:
@@ -74,8 +75,9 @@ def view_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray
     """The map points visible from the predicted pose ``(R, t)``, one per pixel (``prediction``:
     the model rendered into the view, ``dense.prediction: view``); ``index``: visit only the map's
     blocks in view (the same points)."""
-    i = splatter.predict_map(pmap, R, t, index).source
-    return Source(*gather_rows(i, pmap.positions, pmap.normals, pmap.true_points, pmap.geom))
+    shown = splatter.predict_map(pmap, R, t, index)
+    return Source(*gather_rows(shown.source, pmap.positions, pmap.normals, pmap.true_points, pmap.geom),
+                  shown.scanned)
 
 
 def model_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, dense) -> Source:
@@ -136,13 +138,13 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
         predict_s = time.perf_counter() - start
         record, R_k, t_k = track_frame(k, seq, frame, source, associator, build_error, calls, R_prev, t_prev, cfg,
                                        dense.truth_tol)
-        record |= {"frame_s": frame_s, "predict_s": predict_s}
+        record |= {"frame_s": frame_s, "predict_s": predict_s, "predict_visited": source.visited}
         if not record["icp_failed"] or dense.tracking == "truth":
             R_fuse, t_fuse = (seq.rotations[k], seq.positions[k]) if dense.tracking == "truth" else (R_k, t_k)
             start = time.perf_counter()
             stats = fuse(pmap, frame, R_fuse, t_fuse, k, fusion, dense.index)
             record |= {"fusion_s": time.perf_counter() - start, "merged": stats.merged, "added": stats.added,
-                       "removed": stats.removed}
+                       "removed": stats.removed, "fusion_visited": stats.scanned}
         record["map_points"] = len(pmap)
         if dense.tracking != "truth":
             R_est, t_est = R_k, t_k
