@@ -119,8 +119,10 @@ class PointMap:
     ``normals`` (n, 3), ``weights`` (n,) (1 + merges), ``last_seen`` (n,) (the frame index of the
     last merge or the addition), and truth for scoring only: ``true_points`` (n, 3) (NaN: unknown)
     and ``geom`` (n,) (``NO_GEOM`` unknown, ``MIXED_GEOM`` mixed). The properties are views of the
-    first n rows of buffers with spare capacity, read-only (``fuse`` changes them in place and keeps
-    the index of blocks, module docstring, in step)."""
+    first n rows of buffers with spare capacity; ``fuse`` changes them in place and keeps the index
+    of blocks (module docstring) in step, so they are to be read, not written (they stay writable
+    arrays because the compiled kernels that read them, e.g. the surface distance, would otherwise
+    compile a second, read-only version; a map built with ``from_arrays`` is indexed afresh)."""
 
     # name, columns, dtype; _remove is per-frame work space of the kernels, kept with the
     # map (like ``_used``) because a fresh array costs a page fault per 4 KiB on first write, which
@@ -203,18 +205,12 @@ class PointMap:
     def __len__(self) -> int:
         return self._n
 
-    positions = property(lambda self: _read_only(self._pos[:self._n]), doc="(n, 3) world positions")
-    normals = property(lambda self: _read_only(self._nrm[:self._n]), doc="(n, 3) unit normals")
-    weights = property(lambda self: _read_only(self._w[:self._n]), doc="(n,) 1 + number of merges")
-    last_seen = property(lambda self: _read_only(self._last[:self._n]), doc="(n,) frame of the last merge/addition")
-    true_points = property(lambda self: _read_only(self._tp[:self._n]), doc="(n, 3) truth: fused true points")
-    geom = property(lambda self: _read_only(self._geom[:self._n]), doc="(n,) truth: geom id, NO_GEOM, MIXED_GEOM")
-
-
-def _read_only(view: np.ndarray) -> np.ndarray:
-    """``view`` not writable: a write from outside ``fuse`` would leave the blocks' boxes stale."""
-    view.flags.writeable = False
-    return view
+    positions = property(lambda self: self._pos[:self._n], doc="(n, 3) world positions")
+    normals = property(lambda self: self._nrm[:self._n], doc="(n, 3) unit normals")
+    weights = property(lambda self: self._w[:self._n], doc="(n,) 1 + number of merges")
+    last_seen = property(lambda self: self._last[:self._n], doc="(n,) frame of the last merge/addition")
+    true_points = property(lambda self: self._tp[:self._n], doc="(n, 3) truth: fused true points")
+    geom = property(lambda self: self._geom[:self._n], doc="(n,) truth: geom id, NO_GEOM, MIXED_GEOM")
 
 
 @njit(cache=True)

@@ -77,9 +77,3 @@ def test_a_box_is_culled_only_when_wholly_outside_the_frustum():
     pts = np.array([[0.0, 0.0, z], [0.0, 0.0, -z], [10.0 * z, 0.0, z], [edge_x, 0.0, z]])
     got = frustum_blocks(pts.copy(), pts.copy(), 4, R, t, float(K.f), float(K.cx), float(K.cy), K.width, K.height)
     np.testing.assert_array_equal(got, [0, 3])
-
-
-def test_the_map_cannot_be_changed_behind_the_index():
-    pmap = PointMap.from_arrays(np.zeros((3, 3)), np.tile([0.0, 0.0, 1.0], (3, 1)))
-    with pytest.raises(ValueError, match="read-only"):
-        pmap.positions[0] = 1.0
