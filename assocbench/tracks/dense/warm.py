@@ -23,6 +23,7 @@ def warm_dense() -> float | None:
     the edge-aware smoothing of the depth sensor) so that they are loaded (or compiled, with one line on stderr ending in ``done``) before anything is timed.
     Returns the seconds spent compiling, None when all came from the cache."""
     from ...associators.dense.projective import ProjectiveAssociator
+    from .depth_sensor import grazing_cosine
     from .depth_smoothing import edge_aware_smoothed
     from .fusion import FusionConfig, PointMap, fuse
     from .icp import IcpConfig, icp
@@ -44,5 +45,6 @@ def warm_dense() -> float | None:
                  warm_surface,
                  lambda: score_associations(frame.true_points[ok], frame.geom[ok], frame,
                                             [(np.arange(len(points)), np.flatnonzero(ok.reshape(-1)))], 0.03),
-                 lambda: edge_aware_smoothed(frame.depth, 1.0, np.full(frame.depth.shape, 0.05))],
+                 lambda: edge_aware_smoothed(frame.depth, 1.0, np.full(frame.depth.shape, 0.05)),
+                 lambda: grazing_cosine(frame.vertices)],
                 "dense kernels", expect_s=20)
