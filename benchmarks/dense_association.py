@@ -26,11 +26,14 @@ frame-to-model from the true pose, each frame's map size, the map points in the 
 Usage: python benchmarks/dense_association.py [--frames 10] [--stride 18] [--runs 5]
 (renders 2 x 164 frames into the cache on the first run, ~10 s; then about 3 min on one core)
 
-Measured (one shared core, defaults, default noise; precision / recall / ms, tree build apart):
+Measured (one shared core, defaults, default noise; precision / recall / ms, tree build apart;
+re-measured 2026-11-25 with the separable smoothing of the normals, ``--runs 1`` at a load of 3.3,
+where the first two lines' figures with the 13x13 window were: crates 0.996 / 0.990 / 1.1 and
+0.993 / 0.988 / 39, bays 0.988 / 0.768 / 1.3 and 0.907 / 0.794 / 63; the rest predates it):
 
-- frame-to-frame from the true pose: crates projective 0.996 / 0.990 / 1.1, kdtree 0.993 / 0.988 /
-  39 (+16 build); bays projective 0.988 / 0.768 / 1.3, kdtree 0.907 / 0.794 / 63 (+26 build).
-  Noise-free, bays agree (0.987 / 0.990 against 0.985 / 0.988): the gaps are the noise at the far
+- frame-to-frame from the true pose: crates projective 0.996 / 0.995 / 1.8, kdtree 0.993 / 0.993 /
+  45 (+19 build); bays projective 0.987 / 0.860 / 1.6, kdtree 0.900 / 0.802 / 53 (+16 build).
+  Noise-free, bays agree (0.986 / 0.990 against 0.984 / 0.988): the gaps are the noise at the far
   end of the bays (sigma 3.2 cm at 4 m, pixels 2 cm apart). The KD-tree's wrong pairs are nearly
   all on the right surface at ~4 m, a neighbouring pixel's vertex nearer in 3-D than the one on
   the ray but just over 3 cm off in truth; the projective method's missed partners are at ~4 m

@@ -1,7 +1,9 @@
 """The dense track end to end and per stage, as the map grows: `assocbench run --method projective
 --scene crates` at 320x240 on one core, frame-to-model tracking against the model rendered into the
-view (``dense.prediction: view``) beside the whole-map projection (``map``, the baseline, timed in
-the same process).
+view (``dense.prediction: view``) with the map's index (the splat and fusion visit only the blocks in
+view), beside two baselines timed in the same process: the same without the index
+(``dense.index=false``: the splat and fusion visit every map point; the same numbers bit for bit)
+and the whole-map projection in every ICP iteration (``dense.prediction=map``).
 
 What it runs. ``assocbench run --method projective --scene crates --frames N`` with
 ``resolution=[320,240]``, ``depth.downsample=1`` and the crates circle laid out so that the camera
@@ -21,12 +23,15 @@ in that frame), ``ICP`` (the whole call, association included), ``fusion``, ``sc
 correspondences against per-pixel truth, the pose errors). The last three columns compare the
 first and the last tenth of the run (medians): the map's size, the source points ICP is handed,
 and the association's time per ICP iteration (the iteration count falls as the path settles, so
-per frame would mislead): a cost that follows the pixel count stays level while the map grows.
+per frame would mislead): a cost that follows the pixel count stays level while the map grows;
+``visited`` (first -> last tenth) is the map points the splat and the fusion visited per frame
+(the work the index bounds: counted, not timed).
 
-A second table registers frame pairs (k, k+1) of the same sequence with ours and with small_gicp
-(``registrations``), where installed (the ``bench`` extra; one line says when it is not).
+A second table registers frame pairs (k, k+1) of the same sequence with ours, small_gicp and Open3D
+(``registrations``), where installed (the ``bench`` extra; one line says when one is not).
 
-Usage: python benchmarks/dense_rate.py [--frames 50 200 500] [--runs 3] [--baseline-frames 50 200] [--pairs 8]
+Usage: python benchmarks/dense_rate.py [--frames 50 200 500] [--runs 3] [--baseline-frames 50 200 500]
+       [--map-frames 50 200] [--pairs 8]
 """
 
 from __future__ import annotations
@@ -35,13 +40,13 @@ import argparse
 import contextlib
 import io
 import os
-import sys
 import tempfile
 import time
 import uuid
 from pathlib import Path
 
-os.environ.setdefault("NUMBA_NUM_THREADS", "1")
+for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS"):   # one core: before numpy/numba/open3d read them
+    os.environ.setdefault(_var, "1")
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
@@ -58,24 +63,29 @@ STAGES = (("depth frame", "frame_s"), ("prediction", "predict_s"), ("association
           ("ICP", "icp_s"), ("fusion", "fusion_s"), ("scoring", "score_s"))
 
 
-def settings(scene: str, frames: int, prediction: str) -> list[str]:
-    """The command's ``--set`` options: 320x240, the default path's speed a frame, the prediction."""
+# the rows: label, the source's settings
+SOURCES = (("view", ["dense.prediction=view"]), ("view, no index (baseline)", ["dense.prediction=view", "dense.index=false"]),
+           ("map (baseline)", ["dense.prediction=map"]))
+
+
+def settings(scene: str, frames: int, source: list[str]) -> list[str]:
+    """The command's ``--set`` options: 320x240, the default path's speed a frame, the source's."""
     path = max(frames, 200)
-    return ["--set", "resolution=[320,240]", "--set", "depth.downsample=1", "--set", f"dense.path_frames={path}",
-            "--set", f"limits.frames={max(path, 1000)}", "--set", "trajectory=circle",
-            "--set", f"trajectory_params.turns={0.07 * path / 200:.6g}", "--set", f"dense.prediction={prediction}"]
+    sets = ["resolution=[320,240]", "depth.downsample=1", f"dense.path_frames={path}", f"limits.frames={max(path, 1000)}",
+            "trajectory=circle", f"trajectory_params.turns={0.07 * path / 200:.6g}", *source]
+    return [a for s in sets for a in ("--set", s)]
 
 
 def render_once(scene: str, frames: int) -> object:
     """Load (rendering and caching when absent) the run's depth sequence, untimed."""
-    sets = settings(scene, frames, "view")[1::2]
+    sets = settings(scene, frames, [])[1::2]
     cfg = load_run_config(None, sets, method="projective", scene=scene, frames=frames)
     return load_dense_sequence(dense_sequence_spec(cfg))
 
 
-def run(scene: str, frames: int, prediction: str, out: Path) -> tuple[float, pd.DataFrame]:
+def run(scene: str, frames: int, source: list[str], out: Path) -> tuple[float, pd.DataFrame]:
     """Wall time (s) of the command and its per-frame records."""
-    argv = ["run", "--method", "projective", "--scene", scene, "--frames", str(frames), *settings(scene, frames, prediction),
+    argv = ["run", "--method", "projective", "--scene", scene, "--frames", str(frames), *settings(scene, frames, source),
             "--out", str(out), "--format", "csv"]
     start = time.perf_counter()
     with contextlib.redirect_stdout(io.StringIO()):
@@ -104,60 +114,73 @@ def row(label: str, frames: int, walls: list[float], records: pd.DataFrame, smoo
     tenth = max(1, len(records) // 10)
     early, late = records.iloc[1:tenth + 1], records.iloc[-tenth:]
     per_iteration = lambda part: 1000 * float((part["associate_s"] / part["icp_iterations"].clip(lower=1)).median())  # noqa: E731
+    kilo = lambda col: f"{early[col].median() / 1000:.0f}k -> {late[col].median() / 1000:.0f}k"  # noqa: E731
+    visited = (lambda col: kilo(col) if records[col].notna().any() and records[col].max() > 0 else "-")  # noqa: E731
     return [label, frames, frames / float(np.median(walls)), 1000 * float(np.median(walls)) / frames,
             ms["frame_s"], smooth, ms["predict_s"], ms["associate_s"], ms["icp_s"], ms["fusion_s"], ms["score_s"],
-            f"{early['map_points'].median() / 1000:.0f}k -> {late['map_points'].median() / 1000:.0f}k",
-            f"{early['source_points'].median() / 1000:.0f}k -> {late['source_points'].median() / 1000:.0f}k",
-            f"{per_iteration(early):.2f} -> {per_iteration(late):.2f}"]
+            kilo("map_points"), kilo("source_points"), f"{per_iteration(early):.2f} -> {per_iteration(late):.2f}",
+            visited("predict_visited"), visited("fusion_visited")]
 
 
 def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
     ap.add_argument("--frames", type=int, nargs="+", default=[50, 200, 500])
-    ap.add_argument("--baseline-frames", type=int, nargs="*", default=[50, 200],
-                    help="run lengths at which the whole-map baseline is timed too (it is the slow one)")
+    ap.add_argument("--baseline-frames", type=int, nargs="*", default=[50, 200, 500],
+                    help="run lengths at which the two baselines are timed too")
+    ap.add_argument("--map-frames", type=int, nargs="*", default=[50, 200],
+                    help="run lengths at which the whole-map projection is timed too (it is the slow one)")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--scene", default="crates")
     ap.add_argument("--pairs", type=int, default=8, help="frame pairs of the registration table")
     args = ap.parse_args()
-    print(f"load average {os.getloadavg()[0]:.2f} {os.getloadavg()[1]:.2f} on {os.cpu_count()} cores "
-          f"(the machine is shared: timings are noisy)", file=sys.stderr)
+    print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
         for n in args.frames:
             seq = render_once(args.scene, n)
             smooth = smoothing_ms(seq, n)
-            for prediction in ("view", "map") if n in args.baseline_frames else ("view",):
-                run(args.scene, min(n, 20), prediction, Path(tmp) / uuid.uuid4().hex)   # warm-up, untimed
-                results = [run(args.scene, n, prediction, Path(tmp) / uuid.uuid4().hex) for _ in range(args.runs)]
+            for label, source in sources(n, args.baseline_frames, args.map_frames):
+                run(args.scene, min(n, 20), source, Path(tmp) / uuid.uuid4().hex)   # warm-up, untimed
+                results = [run(args.scene, n, source, Path(tmp) / uuid.uuid4().hex) for _ in range(args.runs)]
                 walls = [w for w, _ in results]
-                rows.append(row(f"{prediction}{' (baseline)' if prediction == 'map' else ''}", n, walls,
-                                results[0][1], smooth))
+                rows.append(row(label, n, walls, results[0][1], smooth) + [load()])
     print_table(["source", "frames", "e2e fps", "e2e ms/frame", "depth frame", "smoothing", "prediction",
                  "association", "ICP", "fusion", "scoring", "map points", "ICP source points",
-                 "association ms/iteration"], rows)
-    print("stage columns: median ms per frame; smoothing is part of the depth frame; association is part of ICP")
+                 "association ms/iteration", "splat visited", "fusion visited", "load after"], rows)
+    print("stage columns: median ms per frame; smoothing is part of the depth frame; association is part of ICP; "
+          "early -> late: medians over the first and the last tenth of the run")
     registrations(render_once(args.scene, min(args.frames)), args.pairs, args.runs)
 
 
+def sources(frames: int, baseline_frames: list[int], map_frames: list[int]) -> list:
+    """The rows timed at ``frames``: the view, the view without index, the whole-map projection."""
+    return [SOURCES[0]] + [SOURCES[1]] * (frames in baseline_frames) + [SOURCES[2]] * (frames in map_frames)
+
+
+def load() -> str:
+    """The 1-minute load average and the number of cores, to print beside every figure."""
+    return f"{os.getloadavg()[0]:.1f}/{os.cpu_count()}"
+
+
 def registrations(seq, pairs: int, runs: int) -> None:
-    """Ours beside small_gicp (and Open3D) per registration, on the same frame pairs (k, k+1) of the
+    """Ours beside small_gicp and Open3D per registration, on the same frame pairs (k, k+1) of the
     run's sequence, frame-to-frame from frame k's true pose, one thread: ours is ``icp`` with the
     projective associator and the run's defaults; small_gicp is ``align(..., "PLANE_ICP")`` on the
     same points (target in frame k+1's camera, source in world coordinates, so its
     ``T_target_source`` is frame k+1's world-to-camera pose), with its own normals, no downsampling
     below 5 mm, the same 5 cm correspondence distance, our convergence thresholds (5e-3 deg, 0.1 mm)
-    and our 100 iterations at most. Errors: the
-    estimated camera's distance (mm) and angle (deg) to frame k+1's true pose; time: median of
-    ``runs`` calls (ms)."""
+    and our 100 iterations at most; Open3D is ``registration_icp`` point-to-plane on the same points
+    with our target normals (its k-d tree association), the same 5 cm distance, relative fitness
+    and rmse 1e-6 and 100 iterations at most (``benchmarks/dense_vs_open3d.py`` compares the two
+    at length). Errors: the estimated camera's distance (mm) and angle (deg) to frame k+1's true
+    pose; time: median of ``runs`` calls (ms)."""
     from assocbench.associators.registry import make_dense_associator
     from assocbench.tracks.dense.icp import IcpConfig, icp, step_from
     from assocbench.tracks.dense.run import frame_source
 
-    try:
-        import small_gicp
-    except ImportError:
-        small_gicp = None
+    small_gicp, o3d = optional("small_gicp"), optional("open3d")
+    if o3d is not None and hasattr(o3d.utility, "set_max_threads"):
+        o3d.utility.set_max_threads(1)
     rows, cfg = [], IcpConfig()
     for k in np.linspace(0, len(seq) - 2, pairs).astype(int):
         A, B = seq.frame(k), seq.frame(k + 1)
@@ -177,17 +200,47 @@ def registrations(seq, pairs: int, runs: int) -> None:
             R = out.T_target_source[:3, :3].T
             moved_m, moved_deg = step_from(B.R, B.t, R, -R @ out.T_target_source[:3, 3])
             row += [1000 * moved_m, moved_deg, 1000 * t_theirs]
-        rows.append(row)
+        if o3d is not None:
+            row += open3d_row(o3d, A, B, src, runs, cfg)
+        rows.append(row + [load()])
     headers = ["pair k->k+1", "ours mm", "ours deg", "ours", "ours ms"]
     if small_gicp is not None:
         headers += ["small_gicp mm", "small_gicp deg", "small_gicp ms"]
-    print_table(headers, rows)
-    for name in ("small_gicp", "open3d"):
-        try:
-            __import__(name)
-        except ImportError:
+    if o3d is not None:
+        headers += ["Open3D mm", "Open3D deg", "Open3D ms"]
+    print_table(headers + ["load"], rows)
+    for name, module in (("small_gicp", small_gicp), ("Open3D", o3d)):
+        if module is None:
             print(f"per registration beside {name}: skipped, not installed (pip install -e '.[bench]')")
-    print("Open3D on the same pairs, with its own and with our normals: python benchmarks/dense_vs_open3d.py")
+
+
+def optional(name: str):
+    """The module ``name``, or None when it is not installed."""
+    try:
+        return __import__(name)
+    except ImportError:
+        return None
+
+
+def open3d_row(o3d, A, B, src, runs: int, cfg) -> list:
+    """Open3D's point-to-plane ICP of ``src`` (world) to frame ``B`` (its camera, our normals) from
+    frame ``A``'s pose: [mm, deg, ms] to ``B``'s true pose."""
+    from assocbench.tracks.dense.icp import step_from
+
+    reg = o3d.pipelines.registration
+    ok = B.valid
+    target = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.ascontiguousarray(B.vertices[ok])))
+    target.normals = o3d.utility.Vector3dVector(np.ascontiguousarray(B.normals[ok]))
+    source = o3d.geometry.PointCloud(o3d.utility.Vector3dVector(np.ascontiguousarray(src.points)))
+    T0 = np.eye(4)
+    T0[:3, :3], T0[:3, 3] = A.R.T, -A.R.T @ A.t
+    out, elapsed = timed_median(lambda: reg.registration_icp(
+        source, target, 0.05, T0, reg.TransformationEstimationPointToPlane(),
+        reg.ICPConvergenceCriteria(1e-6, 1e-6, cfg.max_iterations)), runs)
+    T = np.asarray(out.transformation)
+    R = T[:3, :3].T
+    moved_m, moved_deg = step_from(B.R, B.t, R, -R @ T[:3, 3])
+    return [1000 * moved_m, moved_deg, 1000 * elapsed]
 
 
 def timed_median(fn, runs: int) -> tuple[object, float]:

@@ -13,6 +13,7 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
 from ...errors import UserError
 from ...models.camera import Intrinsics
@@ -37,7 +38,8 @@ class DepthConfig:
         the depth the NORMALS are computed from (vertices keep the raw depth); 0 takes normals from
         the raw depth. At 320x240 the default noise is about the spacing of neighbouring vertices,
         so raw neighbour-difference normals are off by a median 43-64 deg at 1-4 m. On crates
-        frame 50 (noise as default) the median error is 2.9 deg at 2 px and 1.5 deg at 3 px, and
+        frame 50 (noise as default; measured with the 2-D window the separable filter replaced, which
+        gives 1.5 deg at 3 px too) the median error is 2.9 deg at 2 px and 1.5 deg at 3 px, and
         ICP from the identity registered two crates frames 11 cm / 7 deg apart only at 3 px
         (0.15 mm / 0.013 deg; at 2 px it slid 13 cm off): the default is 3.
     """
@@ -86,18 +88,27 @@ def grazing_cosine(vertices: np.ndarray) -> np.ndarray:
     involved is missing or the cross product vanishes.
 
     Computed as ``|c · V| / sqrt(|c|² |V|²)`` with the cross product ``c`` written out per
-    component: a third of the time of ``normal_map`` plus a dot product (``np.cross`` is slow)."""
-    h, w = vertices.shape[:2]
-    rows, cols = np.minimum(np.arange(h), h - 2), np.minimum(np.arange(w), w - 2)
-    here = vertices[rows][:, cols]
-    dx = vertices[rows][:, cols + 1] - here
-    dy = vertices[rows + 1][:, cols] - here
-    cx = dy[..., 1] * dx[..., 2] - dy[..., 2] * dx[..., 1]
-    cy = dy[..., 2] * dx[..., 0] - dy[..., 0] * dx[..., 2]
-    cz = dy[..., 0] * dx[..., 1] - dy[..., 1] * dx[..., 0]
-    x, y, z = vertices[..., 0], vertices[..., 1], vertices[..., 2]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        return np.abs(cx * x + cy * y + cz * z) / np.sqrt((cx * cx + cy * cy + cz * cz) * (x * x + y * y + z * z))
+    component, in one compiled pass (the numpy expression it replaced, term for term: the same
+    values bit for bit, 0.5 ms against 3.2 ms a 320x240 frame)."""
+    return _grazing_kernel(np.ascontiguousarray(vertices, dtype=np.float64))
+
+
+@njit(cache=True, error_model="numpy")   # numpy's division: 0/0 is NaN, not an exception
+def _grazing_kernel(V):
+    h, w = V.shape[0], V.shape[1]
+    out = np.empty((h, w))
+    for v in range(h):
+        r = min(v, h - 2)
+        for u in range(w):
+            c = min(u, w - 2)
+            dx0, dx1, dx2 = V[r, c + 1, 0] - V[r, c, 0], V[r, c + 1, 1] - V[r, c, 1], V[r, c + 1, 2] - V[r, c, 2]
+            dy0, dy1, dy2 = V[r + 1, c, 0] - V[r, c, 0], V[r + 1, c, 1] - V[r, c, 1], V[r + 1, c, 2] - V[r, c, 2]
+            cx = dy1 * dx2 - dy2 * dx1
+            cy = dy2 * dx0 - dy0 * dx2
+            cz = dy0 * dx1 - dy1 * dx0
+            x, y, z = V[v, u, 0], V[v, u, 1], V[v, u, 2]
+            out[v, u] = abs(cx * x + cy * y + cz * z) / np.sqrt((cx * cx + cy * cy + cz * cz) * (x * x + y * y + z * z))
+    return out
 
 
 def depth_frame(depth_true: np.ndarray, seg_geom: np.ndarray, R: np.ndarray, t: np.ndarray, K_full: Intrinsics,

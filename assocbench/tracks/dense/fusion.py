@@ -33,6 +33,19 @@ All three steps are compiled loops (numba): one pass over the map projects, filt
 marks removals; one pass over the pixels adds; removal fills the holes below the new size with
 the surviving points from above it (O(removed), not O(map)), so point order is not kept. The map
 keeps spare capacity (doubling), so adding is not a copy of the whole map per frame.
+
+**The map's index** (``index``): the points are kept in blocks of ``BLOCK`` consecutive rows, each
+with a bounding box ``[lo, hi]`` and a lower bound ``oldest`` of the ``last_seen`` of its unstable
+points. Points are added in raster order, so a block is a short run of neighbouring pixels of one
+frame: a small box. The merge pass visits only the blocks whose box meets the view frustum
+(``blocks_in_view``) and, for the dormant rule, those that may hold a dormant point
+(``k − oldest ≥ dormant_frames``); every other block provably has no point that projects into the
+image and none that turns dormant, so skipping it changes nothing: the map, its order and the
+statistics are those of the whole-map pass bit for bit (``index=False`` runs it; the tests compare
+them). A skipped block's points do not move, so its box and bound stay true; a visited block's are
+recomputed, an added or moved-in point widens its block's. Out-of-view blocks are visited only while
+they hold unstable points about to turn dormant, so the work per frame follows what is in view
+(``FusionStats.scanned``), plus one box test per block (1/``BLOCK`` of the map).
 """
 
 from __future__ import annotations
@@ -47,6 +60,8 @@ from ...models.depth_frame import NO_GEOM, DepthFrame
 from ...validation import check_number, in_range, validate_fields
 
 MIXED_GEOM = -2   # truth of a map point that fused pixels of different geoms
+BLOCK = 64        # points per block of the map's index: a fifth of a 320-pixel row, so a block's box is small
+NEVER = np.iinfo(np.int64).max   # ``oldest`` of a block without unstable points
 
 
 @dataclass(frozen=True)
@@ -84,7 +99,9 @@ class FusionConfig:
 class FusionStats:
     """What one ``fuse`` call did: map points merged, pixels added as points, points removed
     (``dormant`` + ``outliers``), map points that passed pass 1 (``considered``), points whose
-    truth became ``MIXED_GEOM`` in this call, and the map size after."""
+    truth became ``MIXED_GEOM`` in this call, the map size after, and the map points the merge pass
+    visited (``scanned``: the blocks in view or holding a point about to turn dormant; the whole
+    map without the index)."""
 
     merged: int
     added: int
@@ -94,6 +111,7 @@ class FusionStats:
     considered: int = 0
     mixed: int = 0
     size: int = 0
+    scanned: int = 0
 
 
 class PointMap:
@@ -101,7 +119,10 @@ class PointMap:
     ``normals`` (n, 3), ``weights`` (n,) (1 + merges), ``last_seen`` (n,) (the frame index of the
     last merge or the addition), and truth for scoring only: ``true_points`` (n, 3) (NaN: unknown)
     and ``geom`` (n,) (``NO_GEOM`` unknown, ``MIXED_GEOM`` mixed). The properties are views of the
-    first n rows of buffers with spare capacity; ``fuse`` changes them in place."""
+    first n rows of buffers with spare capacity; ``fuse`` changes them in place and keeps the index
+    of blocks (module docstring) in step, so they are to be read, not written (they stay writable
+    arrays because the compiled kernels that read them, e.g. the surface distance, would otherwise
+    compile a second, read-only version; a map built with ``from_arrays`` is indexed afresh)."""
 
     # name, columns, dtype; _remove is per-frame work space of the kernels, kept with the
     # map (like ``_used``) because a fresh array costs a page fault per 4 KiB on first write, which
@@ -112,6 +133,7 @@ class PointMap:
     def __init__(self, capacity: int = 0) -> None:
         self._n = 0
         self._used = np.zeros(0, dtype=np.bool_)
+        self._stable = -np.inf   # the stable weight the blocks' ``oldest`` assumes (-inf: every point counted)
         self._alloc(max(int(capacity), 16))
 
     def _alloc(self, cap: int) -> None:
@@ -125,6 +147,26 @@ class PointMap:
             if old is not None:
                 buf[:n] = old[:n]
             setattr(self, name, buf)
+        blocks = -(-cap // BLOCK)
+        lo, hi, oldest = np.full((blocks, 3), np.inf), np.full((blocks, 3), -np.inf), np.full(blocks, NEVER)
+        used = -(-n // BLOCK)
+        if hasattr(self, "_lo"):
+            lo[:used], hi[:used], oldest[:used] = self._lo[:used], self._hi[:used], self._oldest[:used]
+        self._lo, self._hi, self._oldest = lo, hi, oldest
+
+    def _reindex(self) -> None:
+        """Every block's box and ``oldest`` from its points (all points counted: true for any stable weight)."""
+        _index_blocks(self._pos, self._w, self._last, self._n, self._lo, self._hi, self._oldest,
+                      np.arange(-(-self._n // BLOCK)), np.inf)
+        self._stable = -np.inf
+
+    def blocks_in_view(self, K, R: np.ndarray, t: np.ndarray) -> np.ndarray:
+        """Ascending ids of the blocks whose box meets the view frustum of camera ``K`` at the
+        camera-to-world pose ``(R, t)`` (``frustum_blocks``): any point that projects into the image
+        lies in one of them."""
+        return frustum_blocks(self._lo, self._hi, -(-self._n // BLOCK), np.ascontiguousarray(R, dtype=np.float64),
+                              np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f), float(K.cx),
+                              float(K.cy), K.width, K.height)
 
     def reserve(self, extra: int) -> None:
         """Make room for ``extra`` more points (capacity at least doubles when it grows)."""
@@ -153,6 +195,7 @@ class PointMap:
         m._last[:n] = np.broadcast_to(np.asarray(last_seen, dtype=np.int64), (n,))
         m._tp[:n] = np.nan if true_points is None else np.asarray(true_points, dtype=np.float64).reshape(-1, 3)
         m._geom[:n] = np.broadcast_to(np.asarray(NO_GEOM if geom is None else geom, dtype=np.int64), (n,))
+        m._reindex()
         return m
 
     def copy(self) -> PointMap:
@@ -171,70 +214,158 @@ class PointMap:
 
 
 @njit(cache=True)
-def _merge_pass(pos, nrm, w, last, tp, geom, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
-                dormant_frames, k, drop_dormant, drop_outliers, used, remove):
-    """One pass over the map: project, the homework's filters, the weighted merge (while point and
-    pixel are in cache), and removals marked in ascending order into ``remove``. Returns (merged,
-    considered, dormant, outliers, mixed, removals). The merge is written out here, not in a helper:
-    a call per point that passes a dozen arrays costs their reference counting, ~10x this loop."""
-    merged = considered = dormant = outliers = mixed = nrem = 0
-    for i in range(n):
-        dx, dy, dz = pos[i, 0] - t[0], pos[i, 1] - t[1], pos[i, 2] - t[2]
-        x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz       # p_c = Rᵀ (p − t)
-        y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
-        z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
-        unstable = w[i] < stable_w
-        if z > 0:
-            u = np.floor(f * x / z + cx + 0.5)                 # nearest pixel
-            v = np.floor(f * y / z + cy + 0.5)
-            if 0 <= u < W and 0 <= v < H:                    # pass 1
-                j = int(v) * W + int(u)
-                d = V[j, 2]                                  # the vertex's z is the depth
-                if d > 0 and np.isfinite(N[j, 0]):
-                    considered += 1
-                    q0 = R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0]   # R q + t
-                    q1 = R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1]
-                    q2 = R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2]
-                    m0 = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]          # R n_q
-                    m1 = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
-                    m2 = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
-                    e0, e1, e2 = pos[i, 0] - q0, pos[i, 1] - q1, pos[i, 2] - q2
-                    if (e0 * e0 + e1 * e1 + e2 * e2 < d_thr * d_thr
-                            and nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr):   # pass 2
-                        wi = w[i]
-                        pos[i, 0] = (wi * pos[i, 0] + q0) / (wi + 1)
-                        pos[i, 1] = (wi * pos[i, 1] + q1) / (wi + 1)
-                        pos[i, 2] = (wi * pos[i, 2] + q2) / (wi + 1)
-                        a0 = (wi * nrm[i, 0] + m0) / (wi + 1)
-                        a1 = (wi * nrm[i, 1] + m1) / (wi + 1)
-                        a2 = (wi * nrm[i, 2] + m2) / (wi + 1)
-                        nn = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-                        nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 / nn, a1 / nn, a2 / nn
-                        for r in range(3):
-                            tp[i, r] = (wi * tp[i, r] + TP[j, r]) / (wi + 1)
-                        w[i] = wi + 1
-                        last[i] = k
-                        if geom[i] != G[j] and geom[i] >= 0:   # NO_GEOM stays; a first disagreement: MIXED_GEOM
-                            geom[i] = -2
-                            mixed += 1
-                        used[j] = True
-                        merged += 1
-                        continue
-                if drop_outliers and unstable and d > 0 and z < d - d_thr:   # seen through
-                    remove[nrem] = i
-                    nrem += 1
-                    outliers += 1
-                    continue
-        if drop_dormant and unstable and k - last[i] >= dormant_frames:
-            remove[nrem] = i
-            nrem += 1
-            dormant += 1
-    return merged, considered, dormant, outliers, mixed, nrem
+def _index_blocks(pos, w, last, n, lo, hi, oldest, blocks, stable_w):
+    """Recompute the box and ``oldest`` (the least ``last`` of a point with ``w < stable_w``) of
+    each block in ``blocks`` from its points (NaN positions widen no box: they project nowhere)."""
+    for b in blocks:
+        for a in range(3):
+            lo[b, a], hi[b, a] = np.inf, -np.inf
+        first = NEVER
+        for i in range(b * BLOCK, min(n, (b + 1) * BLOCK)):
+            for a in range(3):
+                lo[b, a] = min(lo[b, a], pos[i, a]) if pos[i, a] == pos[i, a] else lo[b, a]
+                hi[b, a] = max(hi[b, a], pos[i, a]) if pos[i, a] == pos[i, a] else hi[b, a]
+            if w[i] < stable_w and last[i] < first:
+                first = last[i]
+        oldest[b] = first
 
 
 @njit(cache=True)
-def _add_pass(pos, nrm, w, last, tp, geom, n, R, t, V, N, TP, G, used, k):
-    """Append every valid pixel no map point merged with (raster order); returns the new size."""
+def _widen(lo, hi, oldest, i, pos, w, last, stable_w):
+    """Block of row ``i`` widened to hold the point now in row ``i`` (added or moved in)."""
+    b = i // BLOCK
+    for a in range(3):
+        if pos[i, a] == pos[i, a]:
+            lo[b, a] = min(lo[b, a], pos[i, a])
+            hi[b, a] = max(hi[b, a], pos[i, a])
+    if w[i] < stable_w and last[i] < oldest[b]:
+        oldest[b] = last[i]
+
+
+@njit(cache=True)
+def _outside(lo, hi, b, R, t, a0, a1, a2):
+    """Whether block ``b``'s box lies wholly on the negative side of the plane ``a · p_c = 0``
+    through the camera centre (``a`` in camera coordinates, ``p_c = Rᵀ (p − t)``): the largest of
+    ``(R a) · (p − t)`` over the box, centre term plus half-extents, is below zero by more than
+    rounding (a relative 1e-9 margin, so a point on the boundary is never culled)."""
+    top = 0.0
+    scale = 0.0
+    for r in range(3):
+        m = R[r, 0] * a0 + R[r, 1] * a1 + R[r, 2] * a2
+        c, h = 0.5 * (lo[b, r] + hi[b, r]) - t[r], 0.5 * (hi[b, r] - lo[b, r])
+        top += m * c + abs(m) * h
+        scale += abs(m) * (abs(c) + h)
+    return top < -1e-9 * scale
+
+
+@njit(cache=True)
+def frustum_blocks(lo, hi, blocks, R, t, f, cx, cy, width, height):
+    """Ascending ids of the blocks ``< blocks`` not wholly outside one of the five planes a point
+    that lands on a pixel satisfies (``z > 0``; ``0 ≤ f x/z + cx + ½ < W``, i.e.
+    ``f x + (cx + ½) z ≥ 0`` and ``(W − cx − ½) z − f x > 0``; the same for ``v``). A block with no
+    point (empty box) is outside."""
+    out = np.empty(blocks, np.int64)
+    k = 0
+    for b in range(blocks):
+        if not lo[b, 0] <= hi[b, 0]:
+            continue
+        if (_outside(lo, hi, b, R, t, 0.0, 0.0, 1.0) or _outside(lo, hi, b, R, t, f, 0.0, cx + 0.5)
+                or _outside(lo, hi, b, R, t, -f, 0.0, width - cx - 0.5)
+                or _outside(lo, hi, b, R, t, 0.0, f, cy + 0.5)
+                or _outside(lo, hi, b, R, t, 0.0, -f, height - cy - 0.5)):
+            continue
+        out[k] = b
+        k += 1
+    return out[:k]
+
+
+@njit(cache=True)
+def _merge_blocks(in_view, oldest, blocks, k, dormant_frames, drop_dormant):
+    """Ascending ids of the blocks the merge pass visits: those in view (ascending ``in_view``) and,
+    when dormant points are dropped, those that may hold one (``k − oldest ≥ dormant_frames``)."""
+    out = np.empty(blocks, np.int64)
+    m = 0
+    j = 0
+    for b in range(blocks):
+        seen = j < len(in_view) and in_view[j] == b
+        if seen:
+            j += 1
+        if seen or (drop_dormant and oldest[b] != NEVER and k - oldest[b] >= dormant_frames):
+            out[m] = b
+            m += 1
+    return out[:m]
+
+
+@njit(cache=True)
+def _merge_pass(pos, nrm, w, last, tp, geom, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
+                dormant_frames, k, drop_dormant, drop_outliers, used, remove, blocks, lo, hi, oldest):
+    """One pass over the points of ``blocks`` (ascending; every block: the whole map): project, the
+    homework's filters, the weighted merge (while point and pixel are in cache), and removals
+    marked in ascending order into ``remove``; then the visited blocks' boxes and ``oldest`` anew.
+    Returns (merged, considered, dormant, outliers, mixed, removals, scanned)."""
+    merged = considered = dormant = outliers = mixed = nrem = scanned = 0
+    for b in blocks:   # the loops are nested, not a call per block: a call that passes a dozen arrays
+        first, end = b * BLOCK, min(n, (b + 1) * BLOCK)   # costs their reference counting
+        scanned += end - first
+        for i in range(first, end):
+            dx, dy, dz = pos[i, 0] - t[0], pos[i, 1] - t[1], pos[i, 2] - t[2]
+            x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz       # p_c = Rᵀ (p − t)
+            y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
+            z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
+            unstable = w[i] < stable_w
+            if z > 0:
+                u = np.floor(f * x / z + cx + 0.5)                 # nearest pixel
+                v = np.floor(f * y / z + cy + 0.5)
+                if 0 <= u < W and 0 <= v < H:                    # pass 1
+                    j = int(v) * W + int(u)
+                    d = V[j, 2]                                  # the vertex's z is the depth
+                    if d > 0 and np.isfinite(N[j, 0]):
+                        considered += 1
+                        q0 = R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0]   # R q + t
+                        q1 = R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1]
+                        q2 = R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2]
+                        m0 = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]          # R n_q
+                        m1 = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
+                        m2 = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
+                        e0, e1, e2 = pos[i, 0] - q0, pos[i, 1] - q1, pos[i, 2] - q2
+                        if (e0 * e0 + e1 * e1 + e2 * e2 < d_thr * d_thr
+                                and nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr):   # pass 2
+                            wi = w[i]
+                            pos[i, 0] = (wi * pos[i, 0] + q0) / (wi + 1)
+                            pos[i, 1] = (wi * pos[i, 1] + q1) / (wi + 1)
+                            pos[i, 2] = (wi * pos[i, 2] + q2) / (wi + 1)
+                            a0 = (wi * nrm[i, 0] + m0) / (wi + 1)
+                            a1 = (wi * nrm[i, 1] + m1) / (wi + 1)
+                            a2 = (wi * nrm[i, 2] + m2) / (wi + 1)
+                            nn = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+                            nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 / nn, a1 / nn, a2 / nn
+                            for r in range(3):
+                                tp[i, r] = (wi * tp[i, r] + TP[j, r]) / (wi + 1)
+                            w[i] = wi + 1
+                            last[i] = k
+                            if geom[i] != G[j] and geom[i] >= 0:   # NO_GEOM stays; a first disagreement: MIXED_GEOM
+                                geom[i] = -2
+                                mixed += 1
+                            used[j] = True
+                            merged += 1
+                            continue
+                    if drop_outliers and unstable and d > 0 and z < d - d_thr:   # seen through
+                        remove[nrem] = i
+                        nrem += 1
+                        outliers += 1
+                        continue
+            if drop_dormant and unstable and k - last[i] >= dormant_frames:
+                remove[nrem] = i
+                nrem += 1
+                dormant += 1
+    _index_blocks(pos, w, last, n, lo, hi, oldest, blocks, stable_w)
+    return merged, considered, dormant, outliers, mixed, nrem, scanned
+
+
+@njit(cache=True)
+def _add_pass(pos, nrm, w, last, tp, geom, n, R, t, V, N, TP, G, used, k, lo, hi, oldest, stable_w):
+    """Append every valid pixel no map point merged with (raster order), each widening its block's
+    box (a block's first row starts it afresh); returns the new size."""
     for j in range(V.shape[0]):
         if used[j] or not (V[j, 2] > 0) or not np.isfinite(N[j, 0]):
             continue
@@ -245,14 +376,21 @@ def _add_pass(pos, nrm, w, last, tp, geom, n, R, t, V, N, TP, G, used, k):
         w[n] = 1.0
         last[n] = k
         geom[n] = G[j]
+        if n % BLOCK == 0:
+            b = n // BLOCK
+            for a in range(3):
+                lo[b, a], hi[b, a] = np.inf, -np.inf
+            oldest[b] = NEVER
+        _widen(lo, hi, oldest, n, pos, w, last, stable_w)
         n += 1
     return n
 
 
 @njit(cache=True)
-def _remove_pass(pos, nrm, w, last, tp, geom, n, remove, nrem):
+def _remove_pass(pos, nrm, w, last, tp, geom, n, remove, nrem, lo, hi, oldest, stable_w):
     """Remove the points ``remove[:nrem]`` (ascending): the holes below the new size m = n − nrem
-    are filled, in ascending order, with the surviving points at m..n−1 in ascending order."""
+    are filled, in ascending order, with the surviving points at m..n−1 in ascending order (each
+    widening the hole's block)."""
     m = n - nrem
     holes = 0
     while holes < nrem and remove[holes] < m:
@@ -267,6 +405,7 @@ def _remove_pass(pos, nrm, w, last, tp, geom, n, remove, nrem):
         for a in range(3):
             pos[hole, a], nrm[hole, a], tp[hole, a] = pos[src, a], nrm[src, a], tp[src, a]
         w[hole], last[hole], geom[hole] = w[src], last[src], geom[src]
+        _widen(lo, hi, oldest, hole, pos, w, last, stable_w)
         src += 1
     return m
 
@@ -298,10 +437,11 @@ def _frame_arrays(frame: DepthFrame) -> tuple[np.ndarray, ...]:
 
 
 def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int,
-         cfg: FusionConfig | None = None) -> FusionStats:
+         cfg: FusionConfig | None = None, index: bool = True) -> FusionStats:
     """Fuse ``frame`` seen from the camera-to-world pose ``(R, t)`` (the estimate; the frame's own
     ``R``, ``t`` are truth and unused) as frame number ``k`` into ``pmap`` in place: merge, add,
-    remove (module docstring). Returns what it did."""
+    remove (module docstring). ``index=False`` visits every map point (the same result, the
+    whole-map baseline). Returns what it did."""
     cfg = FusionConfig() if cfg is None else cfg
     if not isinstance(cfg, FusionConfig):   # a FusionConfig was checked when it was made (frozen)
         raise UserError(f"fuse: cfg must be a FusionConfig, got {type(cfg).__name__}")
@@ -313,16 +453,25 @@ def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int
     n = len(pmap)
     m = pmap
     m.reserve(h * w)            # before the kernels: the work space must hold n rows, the adds h·w more
+    stable = float(cfg.stable_weight)
+    if m._stable not in (-np.inf, stable):   # the blocks' ``oldest`` counted another stable weight's points
+        m._reindex()
     used, remove = m._used_mask(h * w), m._remove
-    merged, considered, dormant, outliers, mixed, nrem = _merge_pass(
+    blocks = _merge_blocks(m.blocks_in_view(K, R, t), m._oldest, -(-n // BLOCK), int(k), int(cfg.dormant_frames),
+                           bool(cfg.remove_dormant)) if index else np.arange(-(-n // BLOCK))
+    merged, considered, dormant, outliers, mixed, nrem, scanned = _merge_pass(
         m._pos, m._nrm, m._w, m._last, m._tp, m._geom, n, R, t, float(K.f), float(K.cx), float(K.cy), w, h, V, N,
-        TP, G, float(cfg.d_thr), float(np.cos(np.deg2rad(cfg.angle_deg))), float(cfg.stable_weight),
-        int(cfg.dormant_frames), int(k), bool(cfg.remove_dormant), bool(cfg.remove_outliers), used, remove)
-    size = _add_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, n, R, t, V, N, TP, G, used, int(k))
+        TP, G, float(cfg.d_thr), float(np.cos(np.deg2rad(cfg.angle_deg))), stable,
+        int(cfg.dormant_frames), int(k), bool(cfg.remove_dormant), bool(cfg.remove_outliers), used, remove,
+        blocks, m._lo, m._hi, m._oldest)
+    size = _add_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, n, R, t, V, N, TP, G, used, int(k),
+                     m._lo, m._hi, m._oldest, stable)
     added = size - n
-    m._n = _remove_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, size, remove, nrem)
+    m._n = _remove_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, size, remove, nrem, m._lo, m._hi, m._oldest,
+                        stable)
+    m._stable = stable
     return FusionStats(int(merged), int(added), int(nrem), int(dormant), int(outliers), int(considered),
-                       int(mixed), len(m))
+                       int(mixed), len(m), int(scanned))
 
 
 def compression_ratio(map_size: int, frames: int, width: int, height: int) -> float:

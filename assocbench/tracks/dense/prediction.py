@@ -30,8 +30,10 @@ within the band, and a merged point is an average, the best estimate of its surf
 The chosen points, in raster order, are ICP's source set: at most one point per pixel, so each ICP
 iteration touches at most ``W · H`` source points whatever the map's size, and a point hidden
 behind a nearer surface of the model, or outside the view, is not a source at all. The splat
-itself is two compiled passes over the map per frame (a few arithmetic operations a point, no
-per-iteration work). ICP then moves the camera from the predicted pose: the association stays
+itself is two compiled passes per frame over the map's blocks whose bounding box meets the view
+frustum (``PointMap.blocks_in_view``: the map's index, ``fusion``), a few arithmetic operations a
+point and no per-iteration work; a block wholly outside the frustum has no point that lands on a
+pixel, so skipping it changes nothing (``index=False`` visits every point, the same prediction). ICP then moves the camera from the predicted pose: the association stays
 projective, pixel to pixel (a point shown on pixel j of the prediction lands on pixel j of the
 new frame when the pose is unchanged).
 """
@@ -44,6 +46,7 @@ import numpy as np
 from numba import njit
 
 from ...models.camera import Intrinsics
+from .fusion import BLOCK, PointMap
 
 
 @njit(cache=True)
@@ -64,34 +67,54 @@ def _pixel(pos, i, R, t, f, cx, cy, width, height):
 
 
 @njit(cache=True)
-def splat_kernel(pos, weights, n, R, t, f, cx, cy, width, height, band, zmin, zbuf, index):
-    """The splat of ``pos[:n]`` (module docstring) into ``zmin`` (nearest depth), ``zbuf`` (the
-    shown point's depth) and ``index`` (W·H each; filled with inf, inf, −1) in place; returns the
-    number of points in front of the camera that landed in the image."""
-    landed = 0
-    for i in range(n):
-        j, z = _pixel(pos, i, R, t, f, cx, cy, width, height)
-        if j >= 0:
-            landed += 1
-            if z < zmin[j]:
-                zmin[j] = z
-    for i in range(n):
-        j, z = _pixel(pos, i, R, t, f, cx, cy, width, height)
-        if j >= 0 and z <= zmin[j] + band and (index[j] < 0 or weights[i] > weights[index[j]]):
-            index[j] = i      # strict: of equal weights the lower index (seen first) stays
-            zbuf[j] = z
-    return landed
+def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height, band, zmin, zbuf, index):
+    """The splat of the points of ``blocks`` (ascending ids of runs of ``block`` rows of
+    ``pos[:n]``; module docstring) into ``zmin`` (nearest depth), ``zbuf`` (the shown point's depth)
+    and ``index`` (W·H each; filled with inf, inf, −1) in place; returns (the points in front of the
+    camera that landed in the image, the points visited)."""
+    landed = scanned = 0
+    for b in blocks:
+        for i in range(b * block, min(n, (b + 1) * block)):
+            j, z = _pixel(pos, i, R, t, f, cx, cy, width, height)
+            if j >= 0:
+                landed += 1
+                if z < zmin[j]:
+                    zmin[j] = z
+        scanned += max(0, min(n, (b + 1) * block) - b * block)
+    for b in blocks:
+        for i in range(b * block, min(n, (b + 1) * block)):
+            j, z = _pixel(pos, i, R, t, f, cx, cy, width, height)
+            if j >= 0 and z <= zmin[j] + band and (index[j] < 0 or weights[i] > weights[index[j]]):
+                index[j] = i      # strict: of equal weights the lower index (seen first) stays
+                zbuf[j] = z
+    return landed, scanned
+
+
+@njit(cache=True)
+def gather_rows(rows, pos, nrm, tp, geom):
+    """``(pos[rows], nrm[rows], tp[rows], geom[rows])`` in one compiled pass: the shown points lie
+    scattered over the map, and numpy's four fancy-indexing passes cost four rounds of cache misses."""
+    n = len(rows)
+    p, q, r, g = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
+    for k in range(n):
+        i = rows[k]
+        for a in range(3):
+            p[k, a], q[k, a], r[k, a] = pos[i, a], nrm[i, a], tp[i, a]
+        g[k] = geom[i]
+    return p, q, r, g
 
 
 @dataclass
 class Prediction:
     """The model seen from a predicted pose: ``index`` (H, W) int64 map index of the point each
     pixel shows (−1: none), ``depth`` (H, W) its camera z (inf: none), ``landed`` the map points
-    that fell in the image (hidden ones included: the splat's own work)."""
+    that fell in the image (hidden ones included), ``scanned`` the map points the splat visited
+    (those of the blocks in view; the whole map without the index)."""
 
     index: np.ndarray
     depth: np.ndarray
     landed: int
+    scanned: int = 0
 
     @property
     def source(self) -> np.ndarray:
@@ -113,20 +136,31 @@ class Splatter:
     def predict(self, positions: np.ndarray, weights: np.ndarray, R: np.ndarray, t: np.ndarray) -> Prediction:
         """The point each pixel shows (module docstring: the most confident within ``band`` of the
         nearest) of the world ``positions`` (n, 3) with ``weights`` (n,), seen from the
-        camera-to-world pose ``(R, t)``."""
-        K = self.K
-        self._zmin.fill(np.inf)
-        self._zbuf.fill(np.inf)
-        self._index.fill(-1)
+        camera-to-world pose ``(R, t)``; every point is visited."""
         pos = np.ascontiguousarray(positions, dtype=np.float64)
         w = np.ascontiguousarray(weights, dtype=np.float64).reshape(-1)
         if w.shape != (len(pos),):
             raise ValueError(f"predict: {len(pos)} positions but {w.shape} weights")
-        landed = splat_kernel(pos, w, len(pos), np.ascontiguousarray(R, dtype=np.float64),
-                              np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f), float(K.cx),
-                              float(K.cy), K.width, K.height, self.band, self._zmin, self._zbuf, self._index)
+        return self._splat(pos, w, len(pos), np.zeros(1, np.int64), max(len(pos), 1), R, t)
+
+    def predict_map(self, pmap: PointMap, R: np.ndarray, t: np.ndarray, index: bool = True) -> Prediction:
+        """``predict`` of the map's points, visiting only its blocks in view (``index``; False: every
+        point, the same prediction)."""
+        blocks = pmap.blocks_in_view(self.K, R, t) if index else np.arange(-(-len(pmap) // BLOCK))
+        return self._splat(pmap._pos, pmap._w, len(pmap), blocks, BLOCK, R, t)
+
+    def _splat(self, pos, w, n, blocks, block, R, t) -> Prediction:
+        K = self.K
+        self._zmin.fill(np.inf)
+        self._zbuf.fill(np.inf)
+        self._index.fill(-1)
+        landed, scanned = splat_kernel(pos, w, n, blocks, block, np.ascontiguousarray(R, dtype=np.float64),
+                                       np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f),
+                                       float(K.cx), float(K.cy), K.width, K.height, self.band, self._zmin,
+                                       self._zbuf, self._index)
         shape = (K.height, K.width)
-        return Prediction(self._index.reshape(shape).copy(), self._zbuf.reshape(shape).copy(), int(landed))
+        return Prediction(self._index.reshape(shape).copy(), self._zbuf.reshape(shape).copy(), int(landed),
+                          int(scanned))
 
 
 def predict(positions: np.ndarray, weights: np.ndarray, K: Intrinsics, R: np.ndarray, t: np.ndarray,

@@ -40,7 +40,7 @@ from ..base import MethodCalls
 from .fusion import PointMap, compression_ratio, fuse
 from .icp import IcpConfig, icp
 from .metrics import relative_pose_error, score_associations
-from .prediction import Splatter
+from .prediction import Splatter, gather_rows
 from .sequence import DenseSequence
 from .surface import surface_distance
 
@@ -55,6 +55,7 @@ class Source:
     normals: np.ndarray
     true_points: np.ndarray
     geom: np.ndarray
+    visited: int = 0   # map points the prediction visited to find them (0: no prediction)
 
 
 def frame_source(frame: DepthFrame, R: np.ndarray, t: np.ndarray) -> Source:
@@ -70,16 +71,19 @@ def map_source(pmap: PointMap) -> Source:
     return Source(pmap.positions, pmap.normals, pmap.true_points, pmap.geom)
 
 
-def view_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray) -> Source:
+def view_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, index: bool = True) -> Source:
     """The map points visible from the predicted pose ``(R, t)``, one per pixel (``prediction``:
-    the model rendered into the view, ``dense.prediction: view``)."""
-    i = splatter.predict(pmap.positions, pmap.weights, R, t).source
-    return Source(pmap.positions[i], pmap.normals[i], pmap.true_points[i], pmap.geom[i])
+    the model rendered into the view, ``dense.prediction: view``); ``index``: visit only the map's
+    blocks in view (the same points)."""
+    shown = splatter.predict_map(pmap, R, t, index)
+    return Source(*gather_rows(shown.source, pmap.positions, pmap.normals, pmap.true_points, pmap.geom),
+                  shown.scanned)
 
 
-def model_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, prediction: str) -> Source:
-    """The source of frame-to-model tracking from the predicted pose ``(R, t)``."""
-    return view_source(pmap, splatter, R, t) if prediction == "view" else map_source(pmap)
+def model_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, dense) -> Source:
+    """The source of frame-to-model tracking from the predicted pose ``(R, t)`` (``dense``: the
+    run's ``DenseConfig``)."""
+    return view_source(pmap, splatter, R, t, dense.index) if dense.prediction == "view" else map_source(pmap)
 
 
 def unmeasurable(seq: DenseSequence, first: DepthFrame) -> str:
@@ -130,17 +134,17 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
         R_prev, t_prev = (seq.rotations[k - 1], seq.positions[k - 1]) if dense.tracking == "truth" else (R_est, t_est)
         start = time.perf_counter()
         source = frame_source(previous, R_prev, t_prev) if dense.tracking == "frame" else \
-            model_source(pmap, splatter, R_prev, t_prev, dense.prediction)
+            model_source(pmap, splatter, R_prev, t_prev, dense)
         predict_s = time.perf_counter() - start
         record, R_k, t_k = track_frame(k, seq, frame, source, associator, build_error, calls, R_prev, t_prev, cfg,
                                        dense.truth_tol)
-        record |= {"frame_s": frame_s, "predict_s": predict_s}
+        record |= {"frame_s": frame_s, "predict_s": predict_s, "predict_visited": source.visited}
         if not record["icp_failed"] or dense.tracking == "truth":
             R_fuse, t_fuse = (seq.rotations[k], seq.positions[k]) if dense.tracking == "truth" else (R_k, t_k)
             start = time.perf_counter()
-            stats = fuse(pmap, frame, R_fuse, t_fuse, k, fusion)
+            stats = fuse(pmap, frame, R_fuse, t_fuse, k, fusion, dense.index)
             record |= {"fusion_s": time.perf_counter() - start, "merged": stats.merged, "added": stats.added,
-                       "removed": stats.removed}
+                       "removed": stats.removed, "fusion_visited": stats.scanned}
         record["map_points"] = len(pmap)
         if dense.tracking != "truth":
             R_est, t_est = R_k, t_k

@@ -32,6 +32,10 @@ class DenseConfig:
         rendered into the predicted view, one point a pixel, KinectFusion's predicted maps, see
         ``tracks.dense.prediction``; an ICP iteration costs the pixel count) or map (every map
         point, the homework's whole-map projection; an ICP iteration costs the map's size).
+    index: splat and fuse only the map's blocks whose bounding box meets the view frustum (the map's
+        index, ``tracks.dense.fusion``): the same numbers bit for bit, a per-frame cost that follows
+        what is in view; false visits every map point in every frame (the whole-map baseline that
+        ``benchmarks/dense_rate.py`` times).
     truth_tol: a pair is true when map point and pixel lie on one geom with true positions this
         close (m).
     path_frames: the camera path is laid out over this many frames; a run takes its first ones.
@@ -39,6 +43,7 @@ class DenseConfig:
 
     tracking: str = "model"
     prediction: str = "view"
+    index: bool = True
     truth_tol: float = 0.03
     path_frames: int = 200
 
@@ -47,6 +52,8 @@ class DenseConfig:
             raise UserError(f"dense.tracking must be one of {', '.join(TRACKING)}, got {self.tracking!r}")
         if self.prediction not in PREDICTION:
             raise UserError(f"dense.prediction must be one of {', '.join(PREDICTION)}, got {self.prediction!r}")
+        if not isinstance(self.index, bool):
+            raise UserError(f"dense.index must be true or false, got {self.index!r}")
         check_number(self.truth_tol, "dense.truth_tol", lo=0, hi=1, lo_open=True)
         check_number(self.path_frames, "dense.path_frames", integer=True, lo=2)
 

@@ -23,11 +23,13 @@ def warm_dense() -> float | None:
     the edge-aware smoothing of the depth sensor) so that they are loaded (or compiled, with one line on stderr ending in ``done``) before anything is timed.
     Returns the seconds spent compiling, None when all came from the cache."""
     from ...associators.dense.projective import ProjectiveAssociator
+    from .depth_sensor import grazing_cosine
     from .depth_smoothing import edge_aware_smoothed
     from .fusion import FusionConfig, PointMap, fuse
     from .icp import IcpConfig, icp
     from .metrics import score_associations
-    from .prediction import predict
+    from .prediction import Splatter, predict
+    from .run import view_source
     from .surface import warm_surface
 
     frame = tiny_frame()
@@ -39,8 +41,10 @@ def warm_dense() -> float | None:
                              IcpConfig(min_pairs=6, max_iterations=1)),
                  lambda: [fuse(pmap, frame, np.eye(3), np.zeros(3), k, fusion) for k in range(3)],
                  lambda: predict(pmap.positions, pmap.weights, frame.K, np.eye(3), np.zeros(3)),
+                 lambda: view_source(pmap, Splatter(frame.K), np.eye(3), np.zeros(3)),
                  warm_surface,
                  lambda: score_associations(frame.true_points[ok], frame.geom[ok], frame,
                                             [(np.arange(len(points)), np.flatnonzero(ok.reshape(-1)))], 0.03),
-                 lambda: edge_aware_smoothed(frame.depth, 1.0, np.full(frame.depth.shape, 0.05))],
+                 lambda: edge_aware_smoothed(frame.depth, 1.0, np.full(frame.depth.shape, 0.05)),
+                 lambda: grazing_cosine(frame.vertices)],
                 "dense kernels", expect_s=20)

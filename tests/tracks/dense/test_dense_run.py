@@ -62,6 +62,7 @@ def test_the_view_and_the_whole_map_track_alike(tmp_path):
     (["--set", "icp.max_rms=0"], ["icp.max_rms"]),
     (["--set", "dense.tracking=magic"], ["dense.tracking"]),
     (["--set", "dense.prediction=splat"], ["dense.prediction", "view, map"]),
+    (["--set", "dense.index=maybe"], ["dense.index"]),
     (["--set", "dense.truth_tol=0"], ["dense.truth_tol"]),
     (["--set", "dense.path_frames=1000000000"], ["dense.path_frames", "limits.frames"]),
     (["--loop"], ["drop --loop"]),

@@ -233,3 +233,31 @@ def test_random_dropout_removes_its_share(walls):
     R, p = forward([7.0, 0.0, 0.0])
     frame = sense(renderer, R, p, DepthConfig(dropout=0.3))
     assert abs(np.isnan(frame.depth).mean() - 0.3) < 0.01
+
+
+def grazing_numpy(vertices: np.ndarray) -> np.ndarray:
+    """The numpy expression ``grazing_cosine`` was before it was compiled, term for term."""
+    h, w = vertices.shape[:2]
+    rows, cols = np.minimum(np.arange(h), h - 2), np.minimum(np.arange(w), w - 2)
+    here = vertices[rows][:, cols]
+    dx = vertices[rows][:, cols + 1] - here
+    dy = vertices[rows + 1][:, cols] - here
+    cx = dy[..., 1] * dx[..., 2] - dy[..., 2] * dx[..., 1]
+    cy = dy[..., 2] * dx[..., 0] - dy[..., 0] * dx[..., 2]
+    cz = dy[..., 0] * dx[..., 1] - dy[..., 1] * dx[..., 0]
+    x, y, z = vertices[..., 0], vertices[..., 1], vertices[..., 2]
+    with np.errstate(invalid="ignore", divide="ignore"):
+        return np.abs(cx * x + cy * y + cz * z) / np.sqrt((cx * cx + cy * cy + cz * cz) * (x * x + y * y + z * z))
+
+
+def test_the_compiled_grazing_cosine_is_the_numpy_expression_bit_for_bit():
+    from assocbench.models.camera import Intrinsics
+    from assocbench.models.depth_frame import vertex_map
+    from assocbench.tracks.dense.depth_sensor import grazing_cosine
+
+    rng = np.random.default_rng(2)
+    depth = 2.0 + 0.01 * rng.standard_normal((30, 40))
+    depth[rng.random(depth.shape) < 0.1] = np.nan      # holes: NaN cosines around them
+    depth[:3, :3] = 0.0                                 # vertices at the centre: 0/0
+    V = vertex_map(depth, Intrinsics(40, 30, 35.0, 19.5, 14.5))
+    np.testing.assert_array_equal(grazing_cosine(V), grazing_numpy(V))
