@@ -387,8 +387,8 @@ def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
     m, d = z.shape
     n = zhat.shape[0]
     box = limit * (1.0 + 1e-6)
-    # one float and one integer buffer for every work array (about 15 allocations: a third of
-    # the gate's time at n = 10), and one of each for the outputs
+    # one float and one integer buffer for every work array, and one of each for the outputs
+    # (4 allocations instead of 15; with the sorts by insertion the gate at n = 20 went 4.8 -> 4.1 us)
     work = np.empty(d + 2 * m + n * d * (d + 1) + 2 * d * (d + 1))
     r_max, at = take(work, 0, d)
     keys, at = take(work, at, m)
