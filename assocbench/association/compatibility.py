@@ -213,14 +213,21 @@ def _dot_rows(A, ra, B, rb, length):
 
 @njit(cache=True, inline="always")
 def _cross_block(Mt, j, l, kd, d, out):
-    """``out[a, b] = Σ_r<kd Mt[j·d + a, r] Mt[l·d + b, r]``: the (d, d) block ``X_jᵀ X_l``. For
-    d = 2 (most measurement models) the four sums share their loads and run as eight
-    interleaved chains in a fixed order."""
+    """``out[a, b] = Σ_r<kd Mt[j·d + a, r] Mt[l·d + b, r]``: the (d, d) block ``X_jᵀ X_l``
+    (``_cross_block_2`` for d = 2)."""
     if d != 2:
         for a in range(d):
             for b in range(d):
                 out[a, b] = _dot_rows(Mt, j * d + a, Mt, l * d + b, kd)
         return
+    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = _cross_block_2(Mt, j, l, kd)
+
+
+@njit(cache=True, inline="always")
+def _cross_block_2(Mt, j, l, kd):
+    """``_cross_block`` for d = 2 (most measurement models), as four scalars ``(x00, x01, x10,
+    x11)``: the four sums share their loads and run as eight interleaved chains in a fixed
+    order."""
     ja, la = 2 * j, 2 * l
     s00, s01, s10, s11 = 0.0, 0.0, 0.0, 0.0
     u00, u01, u10, u11 = 0.0, 0.0, 0.0, 0.0
@@ -242,7 +249,7 @@ def _cross_block(Mt, j, l, kd, d, out):
         s01 += a0 * b1
         s10 += a1 * b0
         s11 += a1 * b1
-    out[0, 0], out[0, 1], out[1, 0], out[1, 1] = s00 + u00, s01 + u01, s10 + u10, s11 + u11
+    return s00 + u00, s01 + u01, s10 + u10, s11 + u11
 
 
 @njit(cache=True)
@@ -328,6 +335,50 @@ def _window(keys, lo, hi, wrapped):
     return np.searchsorted(keys, lo), np.searchsorted(keys, hi, side="right"), 0, 0
 
 
+@njit(cache=True, inline="always")
+def take(buffer, at, size):
+    """(the view ``buffer[at:at + size]``, where the next one starts): work arrays carved from one
+    allocation."""
+    return buffer[at:at + size], at + size
+
+
+@njit(cache=True, inline="always")
+def _argsort_into(keys, order, sorted_keys):
+    """``order = argsort(keys)`` and ``sorted_keys = keys[order]``, by insertion up to 32 keys
+    (no allocation), the library's argsort beyond. Ties may come in any order (the gate sorts
+    each window's features by index)."""
+    m = keys.shape[0]
+    if m > 32:
+        order[:] = np.argsort(keys)
+        for t in range(m):
+            sorted_keys[t] = keys[order[t]]
+        return
+    for t in range(m):
+        x = keys[t]
+        pos = t
+        while pos > 0 and sorted_keys[pos - 1] > x:
+            sorted_keys[pos], order[pos] = sorted_keys[pos - 1], order[pos - 1]
+            pos -= 1
+        sorted_keys[pos], order[pos] = x, t
+
+
+@njit(cache=True, inline="always")
+def _sort_small(values, count):
+    """Sort ``values[:count]`` (integers) ascending in place: by insertion up to 32 values (a
+    window holds a handful of features, where the library's sort costs about 100-250 ns to set
+    up, several times the sorting: up to a third of the gate at n = 10-20), the library's beyond."""
+    if count > 32:
+        values[:count].sort()
+        return
+    for t in range(1, count):
+        x = values[t]
+        pos = t
+        while pos > 0 and values[pos - 1] > x:
+            values[pos] = values[pos - 1]
+            pos -= 1
+        values[pos] = x
+
+
 @njit(cache=True)
 def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
     """``pairs_within``'s pairs (log det 0 unless ``with_logdet``). The per-pair box is kept a hair loose (``limit · (1 + 1e-6)``:
@@ -336,24 +387,37 @@ def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
     m, d = z.shape
     n = zhat.shape[0]
     box = limit * (1.0 + 1e-6)
-    r_max = np.zeros(d)
+    # one float and one integer buffer for every work array, and one of each for the outputs
+    # (4 allocations instead of 15; with the sorts by insertion the gate at n = 20 went 4.8 -> 4.1 us)
+    work = np.empty(d + 2 * m + n * d * (d + 1) + 2 * d * (d + 1))
+    r_max, at = take(work, 0, d)
+    keys, at = take(work, at, m)
+    sorted_keys, at = take(work, at, m)
+    C, at = take(work, at, n * d)
+    G, at = take(work, at, n * d * d)
+    r_max[:], C[:], G[:] = 0.0, 0.0, 0.0           # the empty hypothesis: zero moments, as pairwise_nis
+    C, G = C.reshape((n, d)), G.reshape((n, d, d))
+    S, at = take(work, at, d * d)
+    y, at = take(work, at, d)
+    L, at = take(work, at, d * d)
+    w2, at = take(work, at, d)
+    S, L = S.reshape((d, d)), L.reshape((d, d))
     for i in range(m):
         for a in range(d):
             r_max[a] = max(r_max[a], R[i, a, a])
     s = _sweep_axis(P, z, zhat, wrap, r_max, box)
     wrapped = wrap[s]
-    keys = np.empty(m)
     reach = 0.0                                   # the keys' magnitude, for their rounding
     for i in range(m):
         keys[i] = _on_circle(z[i, s]) if wrapped else z[i, s]
         reach = max(reach, abs(z[i, s]))
-    order = np.argsort(keys)
-    keys = keys[order]
-    C, G = np.zeros((n, d)), np.zeros((n, d, d))  # the empty hypothesis: zero moments, as pairwise_nis
-    S, y, L, w2 = np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d)
-    cand = np.empty(m, np.int64)
+    index = np.empty(2 * m, np.int64)
+    order, cand = index[:m], index[m:]
+    _argsort_into(keys, order, sorted_keys)
+    keys = sorted_keys
     cap = 4 * (m + n)
-    feats, lms, nis, logdet = np.empty(cap, np.int64), np.empty(cap, np.int64), np.empty(cap), np.empty(cap)
+    pairs, values = np.empty(2 * cap, np.int64), np.empty(2 * cap)
+    feats, lms, nis, logdet = pairs[:cap], pairs[cap:], values[:cap], values[cap:]
     q = 0
     for j in range(n):
         half = np.sqrt(box * (P[j * d + s, j * d + s] + r_max[s]))
@@ -369,18 +433,35 @@ def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
             if _inside_box(P, z, zhat, R, wrap, order[t], j, box):
                 cand[count] = order[t]
                 count += 1
-        cand[:count].sort()
+        _sort_small(cand, count)
         if q + count > cap:
             cap = max(2 * cap, q + count)
             feats, lms, nis, logdet = _grown(feats, q, cap), _grown(lms, q, cap), _grown(nis, q, cap), _grown(logdet, q, cap)
         for t in range(count):
             i = cand[t]
-            pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
-            v, det = _whiten_det(S, y, L, w2)         # whitened_pair's arithmetic, the log only if asked
+            v, det = _individual_whitened(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2)
             if v <= limit:
                 feats[q], lms[q], nis[q], logdet[q] = i, j, v, np.log(det) if with_logdet else 0.0
                 q += 1
     return feats[:q], lms[:q], nis[:q], logdet[:q]
+
+
+@njit(cache=True, inline="always")
+def _individual_whitened(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2):
+    """(NIS, det S) of pairing (i, j) given the moments ``C``, ``G``: ``whitened_pair``'s arithmetic,
+    the log left to the caller (only where asked), in scalars for d = 2."""
+    if z.shape[1] == 2:
+        return _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L, w2)
+    pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
+    return _whiten_det(S, y, L, w2)
+
+
+@njit(cache=True)
+def pairs_within_kernel(P, z, zhat, R, wrap, limit, with_logdet):
+    """``pairs_within`` on the problem's arrays (log det 0 unless ``with_logdet``): callable from
+    compiled code, so a method that gates and then decides in one compiled call (MNN) hands no
+    pair list back to Python (each array returned costs about a third of a microsecond)."""
+    return _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet)
 
 
 @njit(cache=True)
@@ -468,37 +549,37 @@ def whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
     """``whitened_pair``'s ΔNIS alone (the same arithmetic, bit for bit), ``L22`` and ``L22⁻¹ y``
     into the outputs."""
     if z.shape[1] == 2:         # the planar, line and camera tracks' case, in scalars
-        return _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L_out, w_out)
+        return _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L_out, w_out)[0]
     pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
     return _whiten_det(S, y, L_out, w_out)[0]
 
 
 @njit(cache=True, inline="always")
 def _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L_out, w_out):
-    """``whitened_nis`` for d = 2 in scalars: ``pair_innovation`` and ``_whiten_det``'s
-    arithmetic in their order, so bit for bit, with the same outputs (``L_out`` and ``w_out``,
-    written as they write them, also where ``S`` is not definite). Their work arrays' stores and
-    reloads cost several times the arithmetic: about 70 against 10 ns a pairing, the inner loop
-    of JCBB's forward check and dives."""
+    """``pair_innovation`` then ``_whiten_det`` for d = 2 in scalars: their arithmetic in their
+    order, so bit for bit, with the same outputs (``L_out`` and ``w_out``, written as they write
+    them, also where ``S`` is not definite) and the same (ΔNIS, det S). Their work arrays' stores
+    and reloads cost several times the arithmetic: about 70 against 10 ns a pairing, the inner
+    loop of JCBB's forward check and dives and of the individual gate."""
     y0 = _residual(z, zhat, wrap, i, j, 0) - C[j, 0]
     y1 = _residual(z, zhat, wrap, i, j, 1) - C[j, 1]
     s00 = P[2 * j, 2 * j] + R[i, 0, 0] - G[j, 0, 0]
     s10 = P[2 * j + 1, 2 * j] + R[i, 1, 0] - G[j, 1, 0]
     s11 = P[2 * j + 1, 2 * j + 1] + R[i, 1, 1] - G[j, 1, 1]
     if s00 <= 0.0:
-        return np.inf
+        return np.inf, np.inf
     l00 = np.sqrt(s00)
     l10 = s10 / l00
     L_out[0, 0], L_out[0, 1], L_out[1, 0] = l00, 0.0, l10
     pivot = s11 - l10 * l10
     if pivot <= 0.0:
-        return np.inf
+        return np.inf, np.inf
     l11 = np.sqrt(pivot)
     L_out[1, 1] = l11
     w0 = y0 / l00
     w1 = (y1 - l10 * w0) / l11
     w_out[0], w_out[1] = w0, w1
-    return w0 * w0 + w1 * w1
+    return w0 * w0 + w1 * w1, s00 * pivot     # _whiten_det's det: (1.0 · s00) · pivot
 
 
 @njit(cache=True, inline="always")
@@ -616,6 +697,18 @@ def append_rows(Mt, w, kd, P, j, L, w2, cols):
     ``M[kd:kd+d, l] = L⁻¹ (P[j, l] - Xᵀ M[:kd, l])`` for the landmarks ``l`` in ``cols`` (the only
     columns the caller will read again) and ``w[kd:kd+d] = w2``."""
     d = L.shape[0]
+    if d == 2:
+        _append_rows_2(Mt, kd, P, j, L, cols)
+    else:
+        _append_rows_any(Mt, kd, P, j, L, cols)
+    for a in range(d):
+        w[kd + a] = w2[a]
+
+
+@njit(cache=True)
+def _append_rows_any(Mt, kd, P, j, L, cols):
+    """``append_rows``' new rows ``M[kd:kd+d, l]`` for any d: forward substitution per column."""
+    d = L.shape[0]
     X = np.empty((d, d))
     for l in cols:
         _cross_block(Mt, j, l, kd, d, X)
@@ -626,8 +719,20 @@ def append_rows(Mt, w, kd, P, j, L, w2, cols):
                 for c in range(a):
                     acc -= L[a, c] * Mt[col, kd + c]
                 Mt[col, kd + a] = acc / L[a, a]
-    for a in range(d):
-        w[kd + a] = w2[a]
+
+
+@njit(cache=True)
+def _append_rows_2(Mt, kd, P, j, L, cols):
+    """``_append_rows_any`` for d = 2 in scalars, its arithmetic in its order (bit for bit): no
+    (d, d) work array per call, the factor's three entries read once."""
+    l00, l10, l11 = L[0, 0], L[1, 0], L[1, 1]
+    for l in cols:
+        x00, x01, x10, x11 = _cross_block_2(Mt, j, l, kd)
+        col = 2 * l
+        m0 = (P[2 * j, col] - x00) / l00
+        Mt[col, kd], Mt[col, kd + 1] = m0, ((P[2 * j + 1, col] - x10) - l10 * m0) / l11
+        m0 = (P[2 * j, col + 1] - x01) / l00
+        Mt[col + 1, kd], Mt[col + 1, kd + 1] = m0, ((P[2 * j + 1, col + 1] - x11) - l10 * m0) / l11
 
 
 @njit(cache=True)
@@ -635,6 +740,15 @@ def advance_moments(Mt, kd, w2, cols, C, G, C_out, G_out):
     """Moments after ``append_rows`` wrote rows ``kd:kd+d``: ``c_l + M_newᵀ w2`` and
     ``G_l + M_newᵀ M_new`` into ``C_out[l]``, ``G_out[l]`` for the landmarks ``l`` in ``cols``
     (the outputs may be the inputs)."""
+    if w2.shape[0] == 2:
+        _advance_moments_2(Mt, kd, w2, cols, C, G, C_out, G_out)
+    else:
+        _advance_moments_any(Mt, kd, w2, cols, C, G, C_out, G_out)
+
+
+@njit(cache=True)
+def _advance_moments_any(Mt, kd, w2, cols, C, G, C_out, G_out):
+    """``advance_moments`` for any d."""
     d = w2.shape[0]
     for l in cols:
         for a in range(d):
@@ -647,6 +761,19 @@ def advance_moments(Mt, kd, w2, cols, C, G, C_out, G_out):
                 for r in range(d):
                     g += Mt[l * d + a, kd + r] * Mt[l * d + b, kd + r]
                 G_out[l, a, b] = g
+
+
+@njit(cache=True)
+def _advance_moments_2(Mt, kd, w2, cols, C, G, C_out, G_out):
+    """``_advance_moments_any`` for d = 2 in scalars: the same sums in the same order (bit for bit),
+    each new row entry read once."""
+    w0, w1 = w2[0], w2[1]
+    for l in cols:
+        a0, a1, b0, b1 = Mt[2 * l, kd], Mt[2 * l, kd + 1], Mt[2 * l + 1, kd], Mt[2 * l + 1, kd + 1]
+        C_out[l, 0], C_out[l, 1] = (C[l, 0] + a0 * w0) + a1 * w1, (C[l, 1] + b0 * w0) + b1 * w1
+        g00, g01 = (G[l, 0, 0] + a0 * a0) + a1 * a1, (G[l, 0, 1] + a0 * b0) + a1 * b1
+        g10, g11 = (G[l, 1, 0] + b0 * a0) + b1 * a1, (G[l, 1, 1] + b0 * b0) + b1 * b1
+        G_out[l, 0, 0], G_out[l, 0, 1], G_out[l, 1, 0], G_out[l, 1, 1] = g00, g01, g10, g11
 
 
 @njit(cache=True)

@@ -175,6 +175,59 @@ def _first_unfactorised(stack, shift):
     return -1
 
 
+F64 = np.dtype(np.float64)
+
+
+def _plain_views(z, R, zhat, P) -> dict | None:
+    """Views of the four arrays where each already is a C-ordered float64 ``ndarray`` and their
+    shapes agree (z (m, d), R (m, d, d), zhat (n, d), P (nd, nd)): what the harness and the
+    simulators pass, checked in a few attribute reads (``_converted``'s conversions and
+    messages cost about 1.5 µs, a quarter of a construction at n = 10). None otherwise:
+    ``_converted`` then converts, or raises naming the field."""
+    for arr in (z, R, zhat, P):
+        if type(arr) is not np.ndarray or arr.dtype is not F64 or not arr.flags.c_contiguous:
+            return None
+    if zhat.ndim != 2 or z.ndim != 2:
+        return None
+    (n, d), m = zhat.shape, z.shape[0]
+    if z.shape[1] != d or R.shape != (m, d, d) or P.shape != (n * d, n * d):
+        return None
+    return {"zhat": zhat.view(), "z": z.view(), "R": R.view(), "P": P.view()}
+
+
+def _converted(z, R, zhat, P) -> dict:
+    """The four arrays as C-ordered float64 (``_as_float``: views where they already are, copies
+    otherwise); raises ``ValueError`` naming the first field of the wrong shape."""
+    zhat, z = np.asarray(zhat, dtype=np.float64), np.asarray(z, dtype=np.float64)
+    for name, arr in (("zhat", zhat), ("z", z)):
+        if arr.ndim != 2:
+            raise ValueError(f"Problem.{name} must be 2-D (rows, d), got shape {arr.shape}")
+    (n, d), m = zhat.shape, z.shape[0]
+    return {"zhat": _as_float("zhat", zhat, (n, d)), "z": _as_float("z", z, (m, d)),
+            "R": _as_float("R", R, (m, d, d)), "P": _as_float("P", P, (n * d, n * d))}
+
+
+def _angular_dims(angular, d: int) -> tuple[int, ...]:
+    """``angular`` as a tuple of ints naming dimensions ``0..d-1``; raises otherwise. Cached per
+    (angular, d) where ``angular`` is hashable (the generator cost about 0.7 µs a construction)."""
+    try:
+        return _angular_dims_cached(angular, d)
+    except TypeError:           # unhashable (a list, an array): checked uncached
+        return _angular_dims_checked(angular, d)
+
+
+@lru_cache(maxsize=256)
+def _angular_dims_cached(angular, d: int) -> tuple[int, ...]:
+    return _angular_dims_checked(angular, d)
+
+
+def _angular_dims_checked(angular, d: int) -> tuple[int, ...]:
+    ang = tuple(int(a) for a in angular)
+    if any(a < 0 or a >= d for a in ang):
+        raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
+    return ang
+
+
 @lru_cache(maxsize=1024)
 def _default_ids(n: int) -> np.ndarray:
     """``0..n-1``, read-only, one array per n shared by every problem without map ids."""
@@ -183,7 +236,7 @@ def _default_ids(n: int) -> np.ndarray:
     return ids
 
 
-@dataclass(frozen=True, eq=False)
+@dataclass(frozen=True, eq=False, init=False)     # __init__ below: the fields' checks in one pass
 class Problem:
     """Measurements ``z`` (m, d) with noise ``R`` (m, d, d); predictions ``zhat`` (n, d) with
     joint covariance ``P`` (n·d, n·d) including cross terms; ``landmark_ids`` (n,) map ids;
@@ -209,31 +262,25 @@ class Problem:
     volume: float = 1.0
     angular: tuple[int, ...] = ()
 
-    def __post_init__(self) -> None:
-        zhat, z = np.asarray(self.zhat, dtype=np.float64), np.asarray(self.z, dtype=np.float64)
-        for name, arr in (("zhat", zhat), ("z", z)):
-            if arr.ndim != 2:
-                raise ValueError(f"Problem.{name} must be 2-D (rows, d), got shape {arr.shape}")
-        (n, d), m = zhat.shape, z.shape[0]
-        arrays = {"zhat": _as_float("zhat", zhat, (n, d)), "z": _as_float("z", z, (m, d)),
-                  "R": _as_float("R", self.R, (m, d, d)), "P": _as_float("P", self.P, (n * d, n * d))}
-        if self.landmark_ids is None:
-            arrays["landmark_ids"] = _default_ids(n)    # shared and read-only already
+    def __init__(self, z: np.ndarray, R: np.ndarray, zhat: np.ndarray, P: np.ndarray,
+                 landmark_ids: np.ndarray | None = None, volume: float = 1.0, angular: tuple[int, ...] = ()) -> None:
+        arrays = _plain_views(z, R, zhat, P) or _converted(z, R, zhat, P)
+        n, d = arrays["zhat"].shape
+        if landmark_ids is None:
+            ids = _default_ids(n)               # shared and read-only already
         else:
-            ids = arrays["landmark_ids"] = np.array(self.landmark_ids)
+            ids = np.array(landmark_ids)
             if ids.shape != (n,):
                 raise ValueError(f"Problem.landmark_ids has shape {ids.shape}, expected {(n,)}")
-        if not math.isfinite(self.volume) or self.volume <= 0:
-            raise ValueError(f"Problem.volume must be a positive finite number, got {self.volume!r}")
-        if type(self.angular) is not tuple or self.angular:   # () skips the generator: ~1 us of ~5 at n=10
-            ang = tuple(int(a) for a in self.angular)
-            if any(a < 0 or a >= d for a in ang):
-                raise ValueError(f"Problem.angular {ang} names dimensions outside 0..{d - 1}")
-            self.__dict__["angular"] = ang
+            ids.setflags(write=False)
+        if not math.isfinite(volume) or volume <= 0:
+            raise ValueError(f"Problem.volume must be a positive finite number, got {volume!r}")
+        angular = angular if type(angular) is tuple and not angular else _angular_dims(angular, d)
         for arr in arrays.values():
             # one problem is shared by every method of a sweep: none may change it for the next
             arr.setflags(write=False)   # ~0.1 us cheaper than .flags.writeable, which builds an object
-        self.__dict__.update(arrays, _validated=False)      # frozen: past __setattr__, in one step
+        # frozen: past __setattr__, in one step (a dataclass __init__ set each field in its own call)
+        self.__dict__.update(arrays, landmark_ids=ids, volume=volume, angular=angular, _validated=False)
         if not _screen_blocks(arrays["zhat"], arrays["z"], arrays["R"], arrays["P"]):
             self.validate()             # decides now: raises naming the field, or passes
 

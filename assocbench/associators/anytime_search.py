@@ -124,11 +124,11 @@ class Incumbent:
         self.history = [(nodes, len(lms), float(nis))]
 
     @classmethod
-    def resumed(cls, feats: np.ndarray, lms: np.ndarray, nodes: int, history: np.ndarray) -> Incumbent:
-        """The incumbent a compiled step left (``jcbb_quick.quick_jcbb``): its hypothesis, the nodes
-        spent and its history (h, 3) of ``(nodes, pairings, NIS)``."""
-        best = cls(feats, lms, float(history[-1, 2]), int(nodes))
-        best.history = [(int(a), int(b), c) for a, b, c in history.tolist()]
+    def resumed(cls, feats: np.ndarray, lms: np.ndarray, nodes: int, history: list[tuple]) -> Incumbent:
+        """The incumbent a compiled step left (``jcbb_quick.quick_jcbb_into``): its hypothesis, the
+        nodes spent and its history, a list of ``(nodes, pairings, NIS)``."""
+        best = cls(feats, lms, float(history[-1][2]), int(nodes))
+        best.history = list(history)
         return best
 
     def offer(self, feats: np.ndarray, lms: np.ndarray, nis: float, nodes: int) -> None:

@@ -78,11 +78,12 @@ def greedy_pairs(feats: np.ndarray, lms: np.ndarray, cost: np.ndarray, m: int, n
     sort, so equal costs go in list order), each taken when its feature and landmark are both
     free. The same matching as the rounds of ``greedy_one_to_one`` where costs differ, at
     O(q log q) for q pairs instead of O(m·n) a round. Returns (n,) features, -1 for none."""
-    return _sorted_greedy(feats, lms, cost, m, n)
+    return sorted_greedy(feats, lms, cost, m, n)
 
 
 @njit(cache=True)
-def _sorted_greedy(feats, lms, cost, m, n):
+def sorted_greedy(feats, lms, cost, m, n):
+    """``greedy_pairs``, compiled (callable from compiled code)."""
     out = np.full(n, NO_MATCH, np.int64)
     taken = np.zeros(m, np.bool_)
     for t in np.argsort(cost, kind="mergesort"):

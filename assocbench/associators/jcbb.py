@@ -149,7 +149,7 @@ class JCBB(Associator):
         if not timed_out:       # proven by the quick search (most small problems): done
             self.info = {"timed_out": False, "proven_optimal": not self.prefix_test, "nodes": int(nodes),
                          "dive_pairings": None if dive_k < 0 else int(dive_k),
-                         "history": [(int(a), int(b), c) for a, b, c in history.tolist()]}
+                         "history": history}
             return out
         ic, candidates = gate_mask(problem, self.confidence)
         lms = np.flatnonzero(out >= 0)

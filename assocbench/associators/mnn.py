@@ -5,16 +5,18 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
+from numba import njit
 
-from ..association.compatibility import gated_pairs
+from ..association.compatibility import chi2_threshold, pairs_within_kernel, wrap_mask
 from ..association.problem import Problem
-from .base import CONFIDENCE, Associator, greedy_pairs
+from .base import CONFIDENCE, Associator, sorted_greedy
 
 
 @dataclass
 class MNN(Associator):
     """Pair by smallest individual NIS ``y_ijᵀ (P_jj + R_i)⁻¹ y_ij`` among pairs inside the gate
-    (``gated_pairs``: only the pairs the exact prefilter lets through are whitened), greedily.
+    (``gated_pairs``: only the pairs the exact prefilter lets through are whitened), greedily
+    (``greedy_pairs``), in one compiled call (``_gate_then_greedy``).
 
     confidence: gate ``χ²_d(confidence)`` on the individual NIS.
     """
@@ -26,5 +28,13 @@ class MNN(Associator):
     def associate(self, problem: Problem) -> np.ndarray:
         if problem.m == 0 or problem.n == 0:
             return self.empty(problem)
-        feats, lms, nis, _ = gated_pairs(problem, self.confidence)
-        return greedy_pairs(feats, lms, nis, problem.m, problem.n)
+        return _gate_then_greedy(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
+                                 chi2_threshold(problem.d, self.confidence))
+
+
+@njit(cache=True)
+def _gate_then_greedy(P, z, zhat, R, wrap, limit):
+    """``greedy_pairs`` on ``gated_pairs``' pairs (NIS ``<= limit``), without handing them to Python:
+    one dispatch instead of two and no pair list boxed (about 2 µs of a 6 µs call at n = 10)."""
+    feats, lms, nis, _ = pairs_within_kernel(P, z, zhat, R, wrap, limit, False)
+    return sorted_greedy(feats, lms, nis, z.shape[0], zhat.shape[0])

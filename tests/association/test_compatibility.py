@@ -120,9 +120,41 @@ def test_the_scalar_d2_pair_test_is_the_general_one_bit_for_bit(rng):
             got = C.whitened_nis(P, z, zhat, R, wrap, i, j, c, G, S, y, L, w)
             L_ref, w_ref = np.empty((d, d)), np.empty(d)
             C.pair_innovation(P, z, zhat, R, wrap, i, j, c, G, S, y)
-            want = C._whiten_det(S, y, L_ref, w_ref)[0]
+            want, det = C._whiten_det(S, y, L_ref, w_ref)
             assert got == want
+            # the individual gate's (NIS, det S) in scalars: the same pair
+            assert C._individual_whitened(P, z, zhat, R, wrap, i, j, c, G, S, y, np.empty((d, d)),
+                                          np.empty(d)) == (want, det)
             if np.isfinite(want):
                 finite += 1
                 assert np.array_equal(L, L_ref) and np.array_equal(w, w_ref)
     assert 0 < finite < m * n
+
+
+def test_the_scalar_d2_factor_updates_are_the_general_ones_bit_for_bit(rng):
+    """``append_rows`` and ``advance_moments`` take scalar paths for d = 2 (every push of JCBB's
+    search, SNN and RJC); the rows and moments they write must be the general loops' exactly,
+    also where the outputs are the inputs (SNN, RJC) and where ``cols`` holds the pushed landmark
+    (the ranked dive)."""
+    n, d = 7, 2
+    for kd in (0, 1, 4, 7):
+        Mt = rng.normal(size=(n * d, n * d))
+        A = rng.normal(size=(n * d, n * d))
+        P = A @ A.T
+        L = np.tril(rng.normal(size=(d, d))) + 3.0 * np.eye(d)
+        w2 = rng.normal(size=d)
+        cols = np.array([0, 2, 3, 6])
+        scalar, general = Mt.copy(), Mt.copy()
+        C._append_rows_2(scalar, kd, P, 3, L, cols)
+        C._append_rows_any(general, kd, P, 3, L, cols)
+        assert np.array_equal(scalar, general) and not np.array_equal(scalar, Mt)
+        c, G = rng.normal(size=(n, d)), rng.normal(size=(n, d, d))
+        outs = [(np.zeros((n, d)), np.zeros((n, d, d))) for _ in range(2)]
+        C._advance_moments_2(scalar, kd, w2, cols, c, G, *outs[0])
+        C._advance_moments_any(scalar, kd, w2, cols, c, G, *outs[1])
+        assert all(np.array_equal(a, b) for a, b in zip(outs[0], outs[1]))
+        in_place = [(c.copy(), G.copy()) for _ in range(2)]
+        C._advance_moments_2(scalar, kd, w2, cols, *in_place[0], *in_place[0])
+        C._advance_moments_any(scalar, kd, w2, cols, *in_place[1], *in_place[1])
+        assert all(np.array_equal(a, b) for a, b in zip(in_place[0], in_place[1]))
+        assert np.array_equal(in_place[0][0][cols], outs[0][0][cols])

@@ -172,3 +172,26 @@ def test_a_problem_checked_whole_keeps_the_verdict_in_its_copies():
     assert not problem._validated
     assert problem.validate() is problem and problem._validated
     assert copy.copy(problem)._validated
+
+
+def test_plain_arrays_are_kept_as_views_and_any_other_input_is_converted_to_the_same_problem():
+    """Construction's fast path (C-ordered float64 arrays of agreeing shapes: read-only views,
+    no copy, the caller's arrays left writeable) and its general path (lists, Fortran order,
+    an angular list of numpy integers: converted) build the same problem; a shape that does not
+    agree leaves the fast path and is refused naming the field."""
+    from assocbench.models.synthetic import range_bearing_problem
+
+    p, _ = range_bearing_problem(np.random.default_rng(3), n=6)
+    z, R, zhat, P = (np.array(a) for a in (p.z, p.R, p.zhat, p.P))
+    plain = Problem(z, R, zhat, P, volume=p.volume, angular=(1,))
+    for mine, theirs in ((plain.z, z), (plain.R, R), (plain.zhat, zhat), (plain.P, P)):
+        assert np.shares_memory(mine, theirs) and theirs.flags.writeable and not mine.flags.writeable
+    other = Problem(z.tolist(), np.asfortranarray(R), zhat.tolist(), np.asfortranarray(P), volume=p.volume,
+                    angular=[np.int64(1)])
+    assert other == plain and other.angular == (1,) and type(other.angular[0]) is int
+    assert not np.shares_memory(other.P, P) and not other.P.flags.writeable
+    with pytest.raises(ValueError, match=r"Problem.P has shape \(11, 11\)"):
+        Problem(z, R, zhat, P[:11, :11].copy())
+    for _ in range(2):          # a refused angular is refused again (no verdict cached)
+        with pytest.raises(ValueError, match="Problem.angular"):
+            Problem(z, R, zhat, P, angular=(2,))
