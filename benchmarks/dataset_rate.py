@@ -37,7 +37,7 @@ def suite_problems(name: str) -> list:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--suite", default="ci")
     ap.add_argument("--runs", type=int, default=5)
     args = ap.parse_args()

@@ -144,7 +144,7 @@ def run_scene(scene: str, noise: str, args, cells: dict, builds: dict) -> None:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--frames", type=int, default=10, help="frame pairs (k, k+1) per scene")
     ap.add_argument("--stride", type=int, default=18, help="k = 0, stride, 2 stride, ... along the path")
     ap.add_argument("--runs", type=int, default=5, help="timed associate() calls per frame and method")

@@ -78,7 +78,7 @@ def rows(scene: str, seeds: int, noise: bool) -> list[list]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=4)
     ap.add_argument("--noise-free", action="store_true", help="noise-free depth (default: the sensor's noise)")
     ap.add_argument("--scenes", default="crates,bays")

@@ -87,7 +87,7 @@ def row(label: list, res: list[tuple]) -> list:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--seeds", type=int, default=4)
     args = ap.parse_args()
     warm_dense()

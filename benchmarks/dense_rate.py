@@ -123,7 +123,7 @@ def row(label: str, frames: int, walls: list[float], records: pd.DataFrame, smoo
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--frames", type=int, nargs="+", default=[50, 200, 500])
     ap.add_argument("--baseline-frames", type=int, nargs="*", default=[50, 200, 500],
                     help="run lengths at which the two baselines are timed too")

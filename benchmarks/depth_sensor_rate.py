@@ -52,7 +52,7 @@ def measure(name: str, frames: int, width: int, height: int, msaa: int | None) -
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--frames", type=int, default=20)
     ap.add_argument("--size", type=int, nargs=2, default=[640, 480], metavar=("W", "H"))
     ap.add_argument("--msaa", type=int, default=None, help="multisamples (default: the scene's, 4)")

@@ -73,7 +73,7 @@ def time_runs(setup, call, runs: int) -> tuple[list[float], object]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=25)
     ap.add_argument("--sizes", type=int, nargs="+", default=[50_000, 200_000, 500_000])
     ap.add_argument("--raw-normals", action="store_true", help="normal_map of the raw depth (see FusionConfig)")

@@ -178,7 +178,7 @@ def _time_batch_marginals(gtsam, est: PlanarISAM2, problem) -> float:
 
 
 def main() -> None:
-    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     parser.add_argument("--frames", type=int, default=30)
     parser.add_argument("--landmarks", type=int, nargs="+", default=[50, 200, 500])
     args = parser.parse_args()

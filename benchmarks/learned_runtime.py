@@ -32,7 +32,7 @@ def stages(associator, problem) -> list[float]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--problems", type=int, default=20)
     ap.add_argument("--sizes", type=int, nargs="+", default=[10, 20, 40, 80, 160])
     args = ap.parse_args()

@@ -59,7 +59,7 @@ def run_once(scene, poses, beams: int) -> dict[str, float]:
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--repeats", type=int, default=7)
     ap.add_argument("--frames", type=int, default=200)
     ap.add_argument("--beams", type=int, nargs="+", default=[360, 720])

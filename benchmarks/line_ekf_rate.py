@@ -74,7 +74,7 @@ def one_run(seq, frames: list[FrameData], associator, seed: int) -> tuple[dict[s
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=20)
     ap.add_argument("--clutter", type=int, nargs="+", default=[0, 10])
     ap.add_argument("--methods", nargs="+", default=["mnn", "jcbb"])

@@ -28,7 +28,7 @@ TARGET_MS = {"split_merge": "<= 0.5", "ransac": "<= 5", "polar": "-"}
 
 
 def main() -> None:
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--runs", type=int, default=50)
     ap.add_argument("--warmup", type=int, default=5)
     ap.add_argument("--beams", type=int, default=360)

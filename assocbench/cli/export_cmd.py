@@ -29,6 +29,7 @@ def main(args: argparse.Namespace) -> int:
     card = export_suite(args.suite, out, progress, args.drive)
     sizes = card["sizes"]
     mb = sizes["bytes"] / 1e6
+    made_by = "belief sampling" if args.drive == "open" else f"the closed loop driven by {args.drive}"
     print(f"wrote {out}: {sizes['frames']} frames, {mb:.2f} MB, in {card['seconds']:.1f} s "
-          f"({sizes['frames'] / max(card['seconds'], 1e-9):.1f} frames/s, rendering and belief sampling included)")
+          f"({sizes['frames'] / max(card['seconds'], 1e-9):.1f} frames/s, rendering and {made_by} included)")
     return 0

@@ -54,10 +54,13 @@ def exported(suite_file, tmp_path, drive: str) -> list:
 
 
 @pytest.mark.parametrize("drive, method, params", [("oracle", "oracle", {}), ("loose", "naive", {"threshold": 16})])
-def test_a_driven_export_is_the_leaderboards_own_loop_frame_for_frame(suite_file, tmp_path, drive, method, params):
+def test_a_driven_export_is_the_leaderboards_own_loop_frame_for_frame(suite_file, tmp_path, capsys, drive, method,
+                                                                       params):
     """Each exported problem is the one the leaderboard's loop of that driver met: the same sizes,
     and the driver's answer on it scores exactly as the loop recorded (its truth included)."""
     items = exported(suite_file, tmp_path, drive)
+    # the closing line says what made the problems: the driven loop, not a sampled belief
+    assert f"the closed loop driven by {drive} included" in capsys.readouterr().out
     frames = leaderboard_loop(suite_file, method, params)
     assert len(items) == len(frames) == FRAMES
     assert [(i.problem.n, i.problem.m) for i in items] == list(zip(frames["n"], frames["m"]))
@@ -69,11 +72,12 @@ def test_a_driven_export_is_the_leaderboards_own_loop_frame_for_frame(suite_file
         assert list(truth_driven["n"]) != list(frames["n"])
 
 
-def test_the_open_export_of_a_loop_suite_is_not_its_loop(suite_file, tmp_path):
+def test_the_open_export_of_a_loop_suite_is_not_its_loop(suite_file, tmp_path, capsys):
     """Without --drive a loop suite is exported open loop (the card says so): the map is the
     scene's, not one built from an empty map."""
     out = tmp_path / "open"
     assert main(["export", "--suite", str(suite_file), "--out", str(out), "--quiet"]) == 0
+    assert "rendering and belief sampling included" in capsys.readouterr().out
     card = read_card(out)
     assert card["drive"] == "open" and card["loop_suite_exported_open_loop"] is True
     first = next(iter(read_problems(out)))[0]
