@@ -178,7 +178,8 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
     attrs = "".join(f' data-{k}="{escape(str(r[k]))}"' for k in ("scene", "difficulty", "backend", "method"))
     look = ' class="oracle"' if oracle else ' class="notok"' if r["status"] != "ok" else ""
     cells = [f'<td class="text" data-v="{escape(str(r[k]))}">{escape(str(r[k]))}</td>' for k, _ in labels]
-    cells.append(f'<td class="text" data-v="{escape(name)}">{escape(name)}</td>')
+    # the badges beside the name, not the status: the status is the last column, off-screen on the wide loop pages
+    cells.append(f'<td class="text" data-v="{escape(name)}">{escape(name)}{_badges(r, counts)}</td>')
     for c in columns:
         std = r.get(c.key + "_std")
         spread = f' <span class="std">&plusmn; {_num(std, c.digits)}</span>' if std is not None and pd.notna(
@@ -191,13 +192,12 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
         of = r["seeds"] if k == "diverged" else r.get("frames", float("nan"))
         hit = ' class="counted"' if pd.notna(r[k]) and r[k] > 0 else ""
         cells.append(f'<td{hit} data-v="{_v(r[k])}">{_num(r[k], 0)} / {_num(of, 0)}</td>')
-    cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}'
-                 f"{_badges(r, counts)}</td>")
+    cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}</td>')
     return f"<tr{look}{attrs}>" + "".join(cells) + "</tr>"
 
 
 def _badges(r: pd.Series, counts: list[str]) -> str:
-    """A badge beside the status for each counted failure of the method (budget spent, failed frames,
+    """A badge beside the method's name for each counted failure of the method (budget spent, failed frames,
     diverged seeds): the row stays ok (the harness measured it) but the failure must not be missed."""
     return "".join(f' <span class="badge" title="{escape(COUNT_COLUMNS[k][1])}">{_num(r[k], 0)} {COUNT_COLUMNS[k][0]}'
                    f"</span>" for k in counts if pd.notna(r[k]) and r[k] > 0)
