@@ -5,7 +5,8 @@ closed loop. Load it with ``ASSOCBENCH_TRACKS=toy_track`` and this folder on ``P
 
 For the tests of interrupt and resume, two environment variables (not settings: they must not
 change a job's key): ``TOY_LOG`` names a file that gets a line ``seed`` each time a sequence's
-problems are built, ``TOY_DELAY_S`` makes building them take ``seed ×`` that many seconds."""
+problems are built, ``TOY_DELAY_S`` makes building them take ``seed ×`` that many seconds; and
+``TOY_WARM_LOG`` a file that gets the process id of each process that warms the track up."""
 
 from __future__ import annotations
 
@@ -65,6 +66,11 @@ class ToyTrack(Track):
 
     def config_sections(self) -> dict[str, dict]:
         return {"toy": {"landmarks": 12}}
+
+    def warm_up(self) -> None:
+        if os.environ.get("TOY_WARM_LOG"):
+            with open(os.environ["TOY_WARM_LOG"], "a") as log:
+                log.write(f"{os.getpid()}\n")
 
     def sequence_spec(self, cfg: dict, estimator) -> ToySpec:
         n = check_number(cfg["toy"]["landmarks"], "toy.landmarks", integer=True, lo=2, hi=200)
