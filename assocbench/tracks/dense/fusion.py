@@ -296,6 +296,24 @@ def _merge_blocks(in_view, oldest, blocks, k, dormant_frames, drop_dormant):
     return out[:m]
 
 
+@njit(cache=True, inline="always")   # inlined: a call passing arrays would count their references a point
+def pixel_of(pos, i, R, t, f, cx, cy, width, height):
+    """(flat pixel, z) of point ``i`` seen from ``(R, t)``: ``p_c = Rᵀ (p − t)``, the nearest pixel of
+    ``(f x / z + cx, f y / z + cy)``; pixel −1 when behind the camera or outside the image (NaN
+    included). The one projection of the splat and of fusion's merge."""
+    dx, dy, dz = pos[i, 0] - t[0], pos[i, 1] - t[1], pos[i, 2] - t[2]
+    z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
+    if not z > 0.0:
+        return -1, z
+    x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz
+    y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
+    uf = np.floor(f * x / z + cx + 0.5)
+    vf = np.floor(f * y / z + cy + 0.5)
+    if not (uf >= 0.0 and uf < width and vf >= 0.0 and vf < height):
+        return -1, z
+    return int(vf) * width + int(uf), z
+
+
 @njit(cache=True)
 def _merge_pass(pos, nrm, w, last, tp, geom, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
                 dormant_frames, k, drop_dormant, drop_outliers, used, remove, blocks, lo, hi, oldest):
@@ -308,52 +326,45 @@ def _merge_pass(pos, nrm, w, last, tp, geom, n, R, t, f, cx, cy, W, H, V, N, TP,
         first, end = b * BLOCK, min(n, (b + 1) * BLOCK)   # costs their reference counting
         scanned += end - first
         for i in range(first, end):
-            dx, dy, dz = pos[i, 0] - t[0], pos[i, 1] - t[1], pos[i, 2] - t[2]
-            x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz       # p_c = Rᵀ (p − t)
-            y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
-            z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
+            j, z = pixel_of(pos, i, R, t, f, cx, cy, W, H)
             unstable = w[i] < stable_w
-            if z > 0:
-                u = np.floor(f * x / z + cx + 0.5)                 # nearest pixel
-                v = np.floor(f * y / z + cy + 0.5)
-                if 0 <= u < W and 0 <= v < H:                    # pass 1
-                    j = int(v) * W + int(u)
-                    d = V[j, 2]                                  # the vertex's z is the depth
-                    if d > 0 and np.isfinite(N[j, 0]):
-                        considered += 1
-                        q0 = R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0]   # R q + t
-                        q1 = R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1]
-                        q2 = R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2]
-                        m0 = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]          # R n_q
-                        m1 = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
-                        m2 = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
-                        e0, e1, e2 = pos[i, 0] - q0, pos[i, 1] - q1, pos[i, 2] - q2
-                        if (e0 * e0 + e1 * e1 + e2 * e2 < d_thr * d_thr
-                                and nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr):   # pass 2
-                            wi = w[i]
-                            pos[i, 0] = (wi * pos[i, 0] + q0) / (wi + 1)
-                            pos[i, 1] = (wi * pos[i, 1] + q1) / (wi + 1)
-                            pos[i, 2] = (wi * pos[i, 2] + q2) / (wi + 1)
-                            a0 = (wi * nrm[i, 0] + m0) / (wi + 1)
-                            a1 = (wi * nrm[i, 1] + m1) / (wi + 1)
-                            a2 = (wi * nrm[i, 2] + m2) / (wi + 1)
-                            nn = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-                            nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 / nn, a1 / nn, a2 / nn
-                            for r in range(3):
-                                tp[i, r] = (wi * tp[i, r] + TP[j, r]) / (wi + 1)
-                            w[i] = wi + 1
-                            last[i] = k
-                            if geom[i] != G[j] and geom[i] >= 0:   # NO_GEOM stays; a first disagreement: MIXED_GEOM
-                                geom[i] = -2
-                                mixed += 1
-                            used[j] = True
-                            merged += 1
-                            continue
-                    if drop_outliers and unstable and d > 0 and z < d - d_thr:   # seen through
-                        remove[nrem] = i
-                        nrem += 1
-                        outliers += 1
+            if j >= 0:                                        # pass 1: in front, in the image
+                d = V[j, 2]                                  # the vertex's z is the depth
+                if d > 0 and np.isfinite(N[j, 0]):
+                    considered += 1
+                    q0 = R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0]   # R q + t
+                    q1 = R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1]
+                    q2 = R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2]
+                    m0 = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]          # R n_q
+                    m1 = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
+                    m2 = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
+                    e0, e1, e2 = pos[i, 0] - q0, pos[i, 1] - q1, pos[i, 2] - q2
+                    if (e0 * e0 + e1 * e1 + e2 * e2 < d_thr * d_thr
+                            and nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr):   # pass 2
+                        wi = w[i]
+                        pos[i, 0] = (wi * pos[i, 0] + q0) / (wi + 1)
+                        pos[i, 1] = (wi * pos[i, 1] + q1) / (wi + 1)
+                        pos[i, 2] = (wi * pos[i, 2] + q2) / (wi + 1)
+                        a0 = (wi * nrm[i, 0] + m0) / (wi + 1)
+                        a1 = (wi * nrm[i, 1] + m1) / (wi + 1)
+                        a2 = (wi * nrm[i, 2] + m2) / (wi + 1)
+                        nn = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+                        nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 / nn, a1 / nn, a2 / nn
+                        for r in range(3):
+                            tp[i, r] = (wi * tp[i, r] + TP[j, r]) / (wi + 1)
+                        w[i] = wi + 1
+                        last[i] = k
+                        if geom[i] != G[j] and geom[i] >= 0:   # NO_GEOM stays; a first disagreement: MIXED_GEOM
+                            geom[i] = -2
+                            mixed += 1
+                        used[j] = True
+                        merged += 1
                         continue
+                if drop_outliers and unstable and d > 0 and z < d - d_thr:   # seen through
+                    remove[nrem] = i
+                    nrem += 1
+                    outliers += 1
+                    continue
             if drop_dormant and unstable and k - last[i] >= dormant_frames:
                 remove[nrem] = i
                 nrem += 1

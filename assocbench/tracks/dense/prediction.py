@@ -46,24 +46,7 @@ import numpy as np
 from numba import njit
 
 from ...models.camera import Intrinsics
-from .fusion import BLOCK, PointMap
-
-
-@njit(cache=True)
-def _pixel(pos, i, R, t, f, cx, cy, width, height):
-    """(flat pixel, z) of point ``i`` seen from ``(R, t)``; pixel −1 when behind the camera or
-    outside the image (NaN included)."""
-    dx, dy, dz = pos[i, 0] - t[0], pos[i, 1] - t[1], pos[i, 2] - t[2]
-    z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
-    if not z > 0.0:
-        return -1, z
-    x = R[0, 0] * dx + R[1, 0] * dy + R[2, 0] * dz
-    y = R[0, 1] * dx + R[1, 1] * dy + R[2, 1] * dz
-    uf = np.floor(f * x / z + cx + 0.5)
-    vf = np.floor(f * y / z + cy + 0.5)
-    if not (uf >= 0.0 and uf < width and vf >= 0.0 and vf < height):
-        return -1, z
-    return int(vf) * width + int(uf), z
+from .fusion import BLOCK, PointMap, pixel_of
 
 
 @njit(cache=True)
@@ -75,7 +58,7 @@ def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height,
     landed = scanned = 0
     for b in blocks:
         for i in range(b * block, min(n, (b + 1) * block)):
-            j, z = _pixel(pos, i, R, t, f, cx, cy, width, height)
+            j, z = pixel_of(pos, i, R, t, f, cx, cy, width, height)
             if j >= 0:
                 landed += 1
                 if z < zmin[j]:
@@ -83,7 +66,7 @@ def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height,
         scanned += max(0, min(n, (b + 1) * block) - b * block)
     for b in blocks:
         for i in range(b * block, min(n, (b + 1) * block)):
-            j, z = _pixel(pos, i, R, t, f, cx, cy, width, height)
+            j, z = pixel_of(pos, i, R, t, f, cx, cy, width, height)
             if j >= 0 and z <= zmin[j] + band and (index[j] < 0 or weights[i] > weights[index[j]]):
                 index[j] = i      # strict: of equal weights the lower index (seen first) stays
                 zbuf[j] = z
