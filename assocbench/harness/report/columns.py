@@ -100,7 +100,8 @@ BY_KEY = {c.key: c for c in CATALOGUE}
 # the status) or not at all (the ANEES band is a column of its own; per-seed bookkeeping)
 COUNT_COLUMNS = {"timed_out": ("timed out", "frames where the method spent its search budget and returned its best "
                                "hypothesis so far"),
-                 "failures": ("failed", "frames where the method raised or returned an invalid association"),
+                 "failures": ("failed", "frames where the method raised, returned an invalid association, overran its time limit "
+                              "or its worker died"),
                  "diverged": ("diverged", "seeds whose NEES stayed above the chi-square 0.999 bound for 5 frames")}
 NOT_METRICS = {"scenario", "method", "status", "seeds", "frames", "seed", "scene", "difficulty", "error", "anees_lo",
                "anees_hi", "diverged_at", "jc_share", "clutter_accepted", "runtime_p95_ms", *COUNT_COLUMNS}
