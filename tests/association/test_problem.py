@@ -195,3 +195,68 @@ def test_plain_arrays_are_kept_as_views_and_any_other_input_is_converted_to_the_
     for _ in range(2):          # a refused angular is refused again (no verdict cached)
         with pytest.raises(ValueError, match="Problem.angular"):
             Problem(z, R, zhat, P, angular=(2,))
+
+
+def test_the_compiled_layout_check_is_numpys_c_contiguity():
+    """``_c_ordered`` (the fast path's layout test, compiled) agrees with numpy's
+    ``flags.c_contiguous`` on slices, transposes, axes of length 1 and empty arrays."""
+    from assocbench.association.problem import _c_ordered
+
+    base = np.arange(120.0).reshape(4, 5, 6)
+    cases = [base, base[1:3], base[:, 1:3], base[:, :, ::2], base.transpose(1, 0, 2), base[:1, :, :],
+             base[:, :1, :1], base[:0], base[:, ::-1], base[2], base[2].T, base[2, :1], base[2, :, :1],
+             base[2, 1:2, ::3], np.empty((0, 2)), np.empty((3, 0))[::2], np.ones((1, 1))[:, ::-1]]
+    for arr in cases:
+        assert _c_ordered(arr.shape, arr.strides) == arr.flags.c_contiguous, (arr.shape, arr.strides)
+
+
+class _Subclass(np.ndarray):
+    """An ndarray subclass: the fast path keeps exact ndarrays only (a view of a subclass would
+    carry the subclass's behaviour into the problem)."""
+
+
+def test_the_fast_path_takes_any_c_ordered_float64_and_leaves_everything_else_to_the_general_one():
+    """Read-only C-ordered arrays (another problem's) stay views; Fortran order, a strided view,
+    float32, a wrong rank and a subclass take the general path, which converts to the same
+    problem or refuses naming the field, as before the compiled fast path."""
+    from assocbench.association.problem import _plain_views
+    from assocbench.models.synthetic import range_bearing_problem
+
+    p, _ = range_bearing_problem(np.random.default_rng(4), n=5)
+    kw = {"landmark_ids": p.landmark_ids, "volume": p.volume, "angular": p.angular}
+    again = Problem(p.z, p.R, p.zhat, p.P, **kw)
+    assert again == p and all(np.shares_memory(getattr(again, f), getattr(p, f)) for f in ("z", "R", "zhat", "P"))
+    z, R, zhat, P = (np.array(a) for a in (p.z, p.R, p.zhat, p.P))
+    wide = np.zeros((z.shape[0], 4))
+    wide[:, ::2] = z
+    others = [(z, R, zhat, np.asfortranarray(P)), (wide[:, ::2], R, zhat, P), (z, R, zhat.view(_Subclass), P)]
+    for args in others:
+        assert _plain_views(*args) is None
+        assert Problem(*args, **kw) == p
+    single = zhat.astype(np.float32)
+    assert _plain_views(z, R, single, P) is None
+    assert Problem(z, R, single, P, **kw) == Problem(z, R, single.astype(np.float64), P, **kw)
+    with pytest.raises(ValueError, match=r"Problem.z must be 2-D"):
+        Problem(z.ravel(), R, zhat, P)
+    with pytest.raises(ValueError, match=r"Problem.R has shape"):
+        Problem(z, R[:, :1, :].copy(), zhat, P)
+    bad = P.copy()
+    bad[0, 0] = np.nan
+    with pytest.raises(ValueError, match="Problem.P contains NaN"):
+        Problem(z, R, zhat, bad)
+
+
+@pytest.mark.parametrize("d", [2, 3])
+def test_the_screens_block_test_is_the_cholesky_pivot_test(rng, d):
+    """``_screen_blocks`` decides each block by its pivots (for d = 2 in closed form, no square
+    root): on blocks whose least eigenvalue is just above or below zero (±1e-9 of the scale:
+    clear of rounding) it says what the Cholesky factorisation (``_first_unfactorised``) says."""
+    from assocbench.association.problem import _first_unfactorised, _screen_blocks
+
+    for smallest in (1e-9, -1e-9, 1e-3, -1e-3):
+        for _ in range(50):
+            block = _with_smallest_eigenvalue(rng, d, smallest)
+            R = block[None].copy()
+            expected = _first_unfactorised(R, 0.0) < 0
+            assert _screen_blocks(np.zeros((0, d)), np.zeros((1, d)), R, np.zeros((0, 0))) == expected
+            assert expected == (smallest > 0)
