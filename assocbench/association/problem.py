@@ -127,13 +127,20 @@ def _block_factorisable(A, o, d, shift, L):
     """Whether ``B + shift·I``, ``B = A[o:o+d, o:o+d]`` (lower triangle read, as ``eigvalsh``
     does), has a Cholesky factor: every pivot ``> 0``. For d = 2 the pivots are ``a`` and
     ``c - b·(b/a)`` (``B = [[a, ·], [b, c]]``, shifted), without the square root, which was most
-    of a construction's screen at n = 10; beyond, the factor is built in ``L`` (d, d)."""
+    of a construction's screen at n = 10; beyond, ``_cholesky_pivots_positive``."""
     if d == 2:
         a = A[o, o] + shift
         if not a > 0.0:
             return False
         b = A[o + 1, o]
         return (A[o + 1, o + 1] + shift) - b * (b / a) > 0.0
+    return _cholesky_pivots_positive(A, o, d, shift, L)
+
+
+@njit(inline="always")
+def _cholesky_pivots_positive(A, o, d, shift, L):
+    """Whether the Cholesky factorisation of ``A[o:o+d, o:o+d] + shift·I`` (lower triangle read)
+    has every pivot ``> 0``; the factor is built in ``L`` (d, d)."""
     for a in range(d):
         for b in range(a + 1):
             acc = A[o + a, o + b] + (shift if a == b else 0.0)
@@ -262,18 +269,8 @@ def _first_unfactorised(stack, shift):
     d = stack.shape[1]
     L = np.empty((d, d))
     for k in range(stack.shape[0]):
-        A = stack[k]
-        for a in range(d):
-            for b in range(a + 1):
-                acc = A[a, b] + (shift if a == b else 0.0)
-                for c in range(b):
-                    acc -= L[a, c] * L[b, c]
-                if a == b:
-                    if not acc > 0.0:
-                        return k
-                    L[a, a] = np.sqrt(acc)
-                else:
-                    L[a, b] = acc / L[b, b]
+        if not _cholesky_pivots_positive(stack[k], 0, d, shift, L):
+            return k
     return -1
 
 
