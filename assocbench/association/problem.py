@@ -22,10 +22,25 @@ def _as_float(name: str, value, shape: tuple) -> np.ndarray:
     order 640 costs about half an MNN call; the caller's array stays writeable, and must not be
     written while the problem is in use), a converted copy otherwise. Finiteness is
     ``_screen_blocks``' and ``validate``'s."""
-    arr = np.ascontiguousarray(value, dtype=np.float64)
+    arr = np.ascontiguousarray(_real_numbers(name, value), dtype=np.float64)
     if arr.shape != shape:
         raise ValueError(f"Problem.{name} has shape {arr.shape}, expected {shape}")
     return arr.view() if arr is value else arr
+
+
+def _real_numbers(name: str, value) -> np.ndarray:
+    """``value`` as a numpy array of real numbers (any real dtype); raises ``ValueError`` naming
+    the field where it is not one: text, ``None``, objects, or complex values (whose imaginary
+    part a cast to float64 would drop with only a warning)."""
+    try:
+        arr = np.asarray(value)
+        if arr.dtype.kind in "biuf":
+            return arr
+        if arr.dtype.kind in "cUS":
+            raise ValueError("complex values" if arr.dtype.kind == "c" else "text")
+        return arr.astype(np.float64)       # objects holding numbers are converted; others raise
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"Problem.{name} must be an array of real numbers ({exc})") from None
 
 
 FIELDS_SCREENED = ("zhat", "z", "R", "P")   # _screen's order: its verdict 1..4 names one of them
@@ -303,7 +318,7 @@ def _converted(z, R, zhat, P) -> dict:
     """The four arrays as C-ordered float64 (``_as_float``: views where they already are, copies
     otherwise) and ``_screen_blocks``' verdict; raises ``ValueError`` naming the first field of
     the wrong shape."""
-    zhat, z = np.asarray(zhat, dtype=np.float64), np.asarray(z, dtype=np.float64)
+    zhat, z = (np.asarray(_real_numbers(name, v), dtype=np.float64) for name, v in (("zhat", zhat), ("z", z)))
     for name, arr in (("zhat", zhat), ("z", z)):
         if arr.ndim != 2:
             raise ValueError(f"Problem.{name} must be 2-D (rows, d), got shape {arr.shape}")

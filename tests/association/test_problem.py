@@ -260,3 +260,17 @@ def test_the_screens_block_test_is_the_cholesky_pivot_test(rng, d):
             expected = _first_unfactorised(R, 0.0) < 0
             assert _screen_blocks(np.zeros((0, d)), np.zeros((1, d)), R, np.zeros((0, 0))) == expected
             assert expected == (smallest > 0)
+
+
+@pytest.mark.parametrize("field", ["z", "R", "zhat", "P"])
+@pytest.mark.parametrize("kind", ["text", "complex"])
+def test_an_array_of_no_real_numbers_is_refused_naming_the_field(field, kind):
+    """Text and complex values are refused in one line naming the field (complex values were
+    cast to float64 with only a warning, their imaginary part dropped); integers and objects
+    holding numbers are converted."""
+    fields = dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((3, 2)), P=np.eye(6))
+    good = Problem(**{**fields, field: fields[field].astype(int).astype(object)})
+    assert good == Problem(**{**fields, field: fields[field].astype(int)})
+    bad = fields[field].astype(str) if kind == "text" else fields[field] * (1 + 1j)
+    with pytest.raises(ValueError, match=rf"^Problem\.{field} must be an array of real numbers"):
+        Problem(**{**fields, field: bad})
