@@ -4,8 +4,9 @@ fused into a map. Runs inside the harness's worker (``harness/sandbox.py``) like
 Per frame k ≥ 1 (frame 0 seeds the map at its true pose, as the homework's first frame does):
 
 1. the source is the fused map (``dense.tracking: model``, the homework's frame-to-model) or the
-   previous frame's points placed at their estimated pose (``frame``); ``truth`` fuses at the true
-   poses and runs ICP from the previous true pose, which isolates one step's error from drift. The
+   previous frame's points placed at their estimated pose (``frame``; after a lost frame, whose
+   pose is unknown, the last tracked frame's); ``truth`` fuses at the true poses and runs ICP
+   from the previous true pose, which isolates one step's error from drift. The
    map enters as the model rendered into the view at the previous pose (``dense.prediction:
    view``, ``prediction``: at most one point a pixel, so an ICP iteration costs the pixel count)
    or as every map point (``map``, the homework's whole-map projection);
@@ -148,7 +149,8 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
         record["map_points"] = len(pmap)
         if dense.tracking != "truth":
             R_est, t_est = R_k, t_k
-        previous = frame
+        if not record["icp_failed"]:   # a lost frame's pose is unknown: the next registers to the last tracked one
+            previous = frame
     yield record | run_end(seq, spec, pmap, artifacts)
 
 
@@ -176,7 +178,8 @@ def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, a
            "source_points": len(source.points), "pairs_start": first.pairs, "pairs": last.pairs,
            "precision_start": first.precision, "recall_start": first.recall,
            "precision": last.precision, "recall": last.recall, "partners": last.partners,
-           "inlier_share": float(res.inlier_share), "icp_rms_mm": 1000 * float(res.rms),
+           "inlier_share": float(res.inlier_share), "direction_share": float(res.direction_share),
+           "icp_rms_mm": 1000 * float(res.rms),
            "step_error_mm": 1000 * rpe_t, "step_error_deg": rpe_r, "score_s": time.perf_counter() - start,
            **pose_columns("true_", seq.rotations[k], seq.positions[k]), **pose_columns("est_", R_k, t_k)}
     return rec, R_k, t_k

@@ -19,14 +19,14 @@ def tiny_frame() -> DepthFrame:
 
 def warm_dense() -> float | None:
     """Run every dense kernel once on a tiny frame (the projective association, one ICP iteration,
-    fusion, the model's prediction (the splat), the scoring against truth, the surface distance,
-    the edge-aware smoothing of the depth sensor) so that they are loaded (or compiled, with one line on stderr ending in ``done``) before anything is timed.
+    ICP's direction share, fusion, the model's prediction (the splat), the scoring against truth,
+    the surface distance, the edge-aware smoothing of the depth sensor) so that they are loaded (or compiled, with one line on stderr ending in ``done``) before anything is timed.
     Returns the seconds spent compiling, None when all came from the cache."""
     from ...associators.dense.projective import ProjectiveAssociator
     from .depth_sensor import grazing_cosine
     from .depth_smoothing import edge_aware_smoothed
     from .fusion import FusionConfig, PointMap, fuse
-    from .icp import IcpConfig, icp
+    from .icp import IcpConfig, direction_share, icp
     from .metrics import score_associations
     from .prediction import Splatter, predict
     from .run import view_source
@@ -39,6 +39,8 @@ def warm_dense() -> float | None:
     return warm([lambda: ProjectiveAssociator().associate(points, normals, frame, np.eye(3), np.zeros(3)),
                  lambda: icp(points, normals, frame, ProjectiveAssociator(), np.eye(3), np.zeros(3),
                              IcpConfig(min_pairs=6, max_iterations=1)),
+                 lambda: direction_share(points, normals, ProjectiveAssociator().associate(
+                     points, normals, frame, np.eye(3), np.zeros(3)), frame, np.eye(3), np.zeros(3)),
                  lambda: [fuse(pmap, frame, np.eye(3), np.zeros(3), k, fusion) for k in range(3)],
                  lambda: predict(pmap.positions, pmap.weights, frame.K, np.eye(3), np.zeros(3)),
                  lambda: view_source(pmap, Splatter(frame.K), np.eye(3), np.zeros(3)),
