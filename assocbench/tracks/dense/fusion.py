@@ -15,8 +15,14 @@ A point that passes is **merged** (weighted average; the frame's vertex has weig
     w   ← w + 1,   last_seen ← k
 
 Several map points may merge with one pixel (the homework's rule; a pixel is one measurement
-each of them gets). Every valid pixel that no map point merged with is **added** as a new point
-(``R q + t``, ``R n_q``, weight 1). Then (the bonus) points are **removed**:
+each of them gets). With ``voxel: 0`` (the homework's rule) every valid pixel that no map point
+merged with is **added** as a new point (``R q + t``, ``R n_q``, weight 1): the map then grows with
+every new viewpoint, because a surface seen again has pixels between the old points (93k -> 249k
+points in view over 200 crates frames). By default (``voxel`` 1 cm) such a pixel first looks up
+the **cell** of its point and normal (``voxel_table``): when a map point holds it, the pixel merges
+into that point (the frame's samples of one point are averaged and count once: weight + 1 a
+frame), and only a pixel in a free cell is added, so the map keeps one point per cell and its
+size levels off once the scene is seen. Then (the bonus) points are **removed**:
 
 * dormant: ``w < stable_weight`` and not merged for ``dormant_frames`` frames (``k − last_seen ≥
   dormant_frames``), in view or not;
@@ -82,12 +88,15 @@ class FusionConfig:
     voxel: one map point per cell of this size (m) and normal class (``voxel_table``): a pixel no
         map point merged with merges into the point holding its cell instead of being added, so the
         map's density is bounded and its size plateaus once the scene is seen. 0: the homework's
-        rule (every such pixel is added; the map grows with every new viewpoint). 2 cm is the
-        pixel footprint z/f at 4 m at 320x240 with a 60° field of view (f = 208 px), the far end
-        of the crates and bays paths' depths: a cell finer than the pixels it is seen with is
-        filled only a share at a time, a few cells per new viewpoint (1 cm: 91k -> 170k points
-        from frame 50 to 200 of crates at true poses, 2 cm: 48k -> 78k, the homework's rule 93k
-        -> 249k); the map error at true poses stays within 0.1 mm (median) of the homework's.
+        rule (every such pixel is added; the map grows with every new viewpoint). 1 cm is the
+        pixel footprint z/f at 2 m at 320x240 with a 60° field of view (f = 208 px), the near
+        half of the crates and bays paths' depths; the cell is ``d_thr`` thick along the normal's
+        dominant axis (``voxel_table``). Coarser cells thin the model rendered into the view, ICP's
+        source, and with it its conditioning: at 2 cm crates seed 1 lost 3 of 40 frames
+        frame-to-model (κ 1 060-1 400 > ``icp.max_condition``), none at 1 cm. Measured on crates,
+        60 frames frame-to-model (map points, ATE, map error median/p95): 2 cm 17.8k, 1.45 mm,
+        0.42/3.31 mm; 1 cm 67k, 1.28 mm, 0.50/3.34 mm; the homework's rule 153k, 1.60 mm,
+        0.45/3.28 mm.
     """
 
     d_thr: float = field(default=0.05, metadata=in_range(0, 10, lo_open=True))
@@ -96,7 +105,7 @@ class FusionConfig:
     stable_weight: int = field(default=3, metadata=in_range(1, 10**9))
     remove_dormant: bool = True
     remove_outliers: bool = True
-    voxel: float = field(default=0.02, metadata=in_range(0, 10))
+    voxel: float = field(default=0.01, metadata=in_range(0, 10))
 
     def __post_init__(self) -> None:
         self.check()

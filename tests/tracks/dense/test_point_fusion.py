@@ -198,7 +198,7 @@ def test_noisy_truth_stays_with_its_point():
         fuse(pmap, f, f.R, f.t, k, FusionConfig(dormant_frames=3))
     gap = np.linalg.norm(pmap.positions - pmap.true_points, axis=1)
     assert np.median(gap) < 0.01 and np.percentile(gap, 99) < 0.05   # within noise, never another point's truth
-    assert np.mean(pmap.geom == MIXED_GEOM) < 0.02   # 1.7 %: a 2 cm cell on a crate's edge averages two geoms
+    assert np.mean(pmap.geom == MIXED_GEOM) < 0.02   # a cell on a crate's edge averages two geoms (1.7 % at 2 cm)
 
 
 def test_empty_frame_changes_nothing_but_time():
