@@ -4,7 +4,7 @@ view (``dense.prediction: view``) with the map's index (the splat and fusion vis
 view), beside three baselines timed in the same process: the same without the index
 (``dense.index=false``: the splat and fusion visit every map point; the same numbers bit for bit),
 the homework's fusion (``fusion.voxel=0``: every pixel no map point merged with is added, so the
-map's density in view grows with every new viewpoint; the default keeps one point per 2 cm cell)
+map's density in view grows with every new viewpoint; the default keeps one point per 1 cm cell)
 and the whole-map projection in every ICP iteration (``dense.prediction=map``).
 
 What it runs. ``assocbench run --method projective --scene crates --frames N`` with
