@@ -5,7 +5,7 @@ view), beside three baselines timed in the same process: the same without the in
 (``dense.index=false``: the splat and fusion visit every map point; the same numbers bit for bit),
 the homework's fusion (``fusion.voxel=0``: every pixel no map point merged with is added, so the
 map's density in view grows with every new viewpoint; the default keeps one point per 1 cm cell)
-and the whole-map projection in every ICP iteration (``dense.prediction=map``).
+and the projection of every map point in every ICP iteration (``dense.prediction=map``).
 
 What it runs. ``assocbench run --method projective --scene crates --frames N`` with
 ``resolution=[320,240]``, ``depth.downsample=1`` and the crates circle laid out so that the camera
