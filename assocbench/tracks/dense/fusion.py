@@ -469,7 +469,7 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n, R
         m2 = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
         cell = cell_key(q0, q1, q2, m0, m1, m2, inv_voxel, inv_thick) if inv_voxel > 0 else -1
         if cell >= 0:
-            i = held_cell(table_keys, table_rows, cell, q0, q1, q2, inv_thick)
+            i = held_cell(table_keys, table_rows, cell, q0, q1, q2, inv_thick, pos, 0.5 / inv_thick)
             if i >= 0:
                 if nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr:
                     mixed += _merge_sample(pos, nrm, w, last, tp, geom, fmean, fcount, fcall, call, i, q0, q1, q2, m0, m1, m2, TP, G, j, k)
