@@ -93,10 +93,9 @@ class FusionConfig:
         half of the crates and bays paths' depths; the cell is ``d_thr`` thick along the normal's
         dominant axis (``voxel_table``). Coarser cells thin the model rendered into the view, ICP's
         source, and with it its conditioning: at 2 cm crates seed 1 lost 3 of 40 frames
-        frame-to-model (κ 1 060-1 400 > ``icp.max_condition``), none at 1 cm. Measured on crates,
-        60 frames frame-to-model (map points, ATE, map error median/p95): 2 cm 17.8k, 1.45 mm,
-        0.42/3.31 mm; 1 cm 67k, 1.28 mm, 0.50/3.34 mm; the homework's rule 153k, 1.60 mm,
-        0.45/3.28 mm.
+        frame-to-model (κ 1 060-1 400 > ``icp.max_condition``). Crates, 200 frames
+        frame-to-model (map points, ATE, map error median/p95): 1 cm 108k, 1.4 mm, 0.43/3.5 mm;
+        the homework's rule 1.7 mm, 0.36/2.9 mm (docs/tracks/dense.md).
     """
 
     d_thr: float = field(default=0.05, metadata=in_range(0, 10, lo_open=True))
