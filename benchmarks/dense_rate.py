@@ -1,9 +1,11 @@
 """The dense track end to end and per stage, as the map grows: `assocbench run --method projective
 --scene crates` at 320x240 on one core, frame-to-model tracking against the model rendered into the
 view (``dense.prediction: view``) with the map's index (the splat and fusion visit only the blocks in
-view), beside two baselines timed in the same process: the same without the index
-(``dense.index=false``: the splat and fusion visit every map point; the same numbers bit for bit)
-and the whole-map projection in every ICP iteration (``dense.prediction=map``).
+view), beside three baselines timed in the same process: the same without the index
+(``dense.index=false``: the splat and fusion visit every map point; the same numbers bit for bit),
+the homework's fusion (``fusion.voxel=0``: every pixel no map point merged with is added, so the
+map's density in view grows with every new viewpoint; the default keeps one point per 1 cm cell)
+and the projection of every map point in every ICP iteration (``dense.prediction=map``).
 
 What it runs. ``assocbench run --method projective --scene crates --frames N`` with
 ``resolution=[320,240]``, ``depth.downsample=1`` and the crates circle laid out so that the camera
@@ -65,6 +67,7 @@ STAGES = (("depth frame", "frame_s"), ("prediction", "predict_s"), ("association
 
 # the rows: label, the source's settings
 SOURCES = (("view", ["dense.prediction=view"]), ("view, no index (baseline)", ["dense.prediction=view", "dense.index=false"]),
+           ("view, homework fusion (baseline)", ["dense.prediction=view", "fusion.voxel=0"]),
            ("map (baseline)", ["dense.prediction=map"]))
 
 
@@ -126,7 +129,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
     ap.add_argument("--frames", type=int, nargs="+", default=[50, 200, 500])
     ap.add_argument("--baseline-frames", type=int, nargs="*", default=[50, 200, 500],
-                    help="run lengths at which the two baselines are timed too")
+                    help="run lengths at which the no-index and homework-fusion baselines are timed too")
     ap.add_argument("--map-frames", type=int, nargs="*", default=[50, 200],
                     help="run lengths at which the whole-map projection is timed too (it is the slow one)")
     ap.add_argument("--runs", type=int, default=3)
@@ -153,8 +156,9 @@ def main() -> None:
 
 
 def sources(frames: int, baseline_frames: list[int], map_frames: list[int]) -> list:
-    """The rows timed at ``frames``: the view, the view without index, the whole-map projection."""
-    return [SOURCES[0]] + [SOURCES[1]] * (frames in baseline_frames) + [SOURCES[2]] * (frames in map_frames)
+    """The rows timed at ``frames``: the view, the view without index, the view with the homework's
+    fusion (every unmerged pixel added), the whole-map projection."""
+    return [SOURCES[0]] + [SOURCES[1], SOURCES[2]] * (frames in baseline_frames) + [SOURCES[3]] * (frames in map_frames)
 
 
 def load() -> str:

@@ -12,6 +12,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 import numpy as np
+from numba import njit
 
 from .camera import Intrinsics
 
@@ -40,18 +41,33 @@ def normal_map(vertices: np.ndarray) -> np.ndarray:
     point-to-plane residual ``n_q · (p′ − q)`` then has a systematic part (the product of the
     two errors): on crates with the sensor's noise, one ICP step from the TRUE pose moved 8 mm
     away and further each iteration (0.5 m after 60). The central difference leaves the pixel
-    itself out, and the same step stays within 0.1 mm. The cross product is written out per
-    component (``np.cross`` takes several times longer)."""
-    n = np.full(vertices.shape, np.nan)
-    dx = vertices[1:-1, 2:] - vertices[1:-1, :-2]
-    dy = vertices[2:, 1:-1] - vertices[:-2, 1:-1]
-    c = np.stack([dy[..., 1] * dx[..., 2] - dy[..., 2] * dx[..., 1],
-                  dy[..., 2] * dx[..., 0] - dy[..., 0] * dx[..., 2],
-                  dy[..., 0] * dx[..., 1] - dy[..., 1] * dx[..., 0]], axis=-1)
-    norm = np.sqrt(np.einsum("...i,...i->...", c, c))[..., None]
-    with np.errstate(invalid="ignore", divide="ignore"):
-        n[1:-1, 1:-1] = np.where(norm > 0, c / norm, np.nan)
-    return n
+    itself out, and the same step stays within 0.1 mm. One compiled pass a pixel (``_normals``):
+    the vectorised numpy form made nine temporaries of the whole map, ~4.6 ms a 320x240 frame."""
+    V = np.ascontiguousarray(vertices, dtype=np.float64)
+    if V.ndim != 3 or V.shape[2] != 3:
+        raise ValueError(f"normal_map: vertices must be (H, W, 3), got {V.shape}")
+    out = np.empty(V.shape)
+    _normals(V, out)
+    return out
+
+
+@njit(cache=True)
+def _normals(V, out):
+    """``out`` = ``normal_map(V)`` (its docstring), pixel by pixel: the cross product
+    ``dy × dx`` of the central differences, divided by its norm; NaN where that is not > 0 or a
+    neighbour is NaN (NaN compares false), and on the border."""
+    h, w = V.shape[0], V.shape[1]
+    out[:] = np.nan
+    for v in range(1, h - 1):
+        for u in range(1, w - 1):
+            dx0, dx1, dx2 = V[v, u + 1, 0] - V[v, u - 1, 0], V[v, u + 1, 1] - V[v, u - 1, 1], V[v, u + 1, 2] - V[v, u - 1, 2]
+            dy0, dy1, dy2 = V[v + 1, u, 0] - V[v - 1, u, 0], V[v + 1, u, 1] - V[v - 1, u, 1], V[v + 1, u, 2] - V[v - 1, u, 2]
+            c0 = dy1 * dx2 - dy2 * dx1
+            c1 = dy2 * dx0 - dy0 * dx2
+            c2 = dy0 * dx1 - dy1 * dx0
+            norm = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+            if norm > 0:
+                out[v, u, 0], out[v, u, 1], out[v, u, 2] = c0 / norm, c1 / norm, c2 / norm
 
 
 @dataclass

@@ -15,8 +15,8 @@ import numpy as np
 
 ERROR_SCALE_MM = 30.0
 # points drawn per panel (an even subsample beyond it: a PNG, not an archive): a panel is about
-# 460 x 420 px, so more points only overdraw; 150 000 cost 0.9 s a run (issue 27), 40 000 a quarter of it
-MAX_DRAWN = 40_000
+# 460 x 420 px, so more points only overdraw; 150 000 cost 0.9 s a run (issue 27), 40 000 0.67 s, 18 000 0.46 s (load 4)
+MAX_DRAWN = 20_000
 
 
 def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarray, p_est: np.ndarray,

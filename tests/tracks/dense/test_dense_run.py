@@ -44,13 +44,14 @@ def test_same_seed_same_numbers_except_time(tmp_path):
 def test_the_view_and_the_whole_map_track_alike(tmp_path):
     """Frame-to-model against the map rendered into the view (the default) and against every map
     point (``dense.prediction=map``, the reference): both track within a millimetre of the truth,
-    and the view hands ICP at most one source point a pixel while the whole map hands it more."""
+    and the view hands ICP at most one source point a pixel, and no more than the whole map."""
     runs = {p: run(tmp_path, p, "--method", "projective", "--scene", "crates", *FAST, "--set", f"dense.prediction={p}")
             for p in ("view", "map")}
     for code, _, summary in runs.values():
         assert code == 0 and summary.iloc[0]["status"] == "ok" and summary.iloc[0]["ate_mm"] < 1.5
     view, whole = runs["view"][1].iloc[1:], runs["map"][1].iloc[1:]
-    assert (view["source_points"] <= 320 * 240).all() and (whole["source_points"] > 320 * 240).any()
+    assert (view["source_points"] <= 320 * 240).all()
+    assert (view["source_points"].to_numpy() <= whole["source_points"].to_numpy()).all()
     assert (view["predict_s"] > 0).all() and (view["associate_s"] <= view["icp_s"]).all()
 
 

@@ -29,7 +29,7 @@ def test_indexed_fusion_and_splat_equal_the_whole_map_pass():
     dormant and are seen through; every statistic, every map row in its order and every prediction
     agree with ``index=False``."""
     _, _, frames = dw.sequence(14, yaw_per_frame=6.0)
-    cfg = FusionConfig(dormant_frames=3)
+    cfg = FusionConfig(dormant_frames=3, voxel=0)   # a point a pixel: the map outgrows the view
     indexed, whole = PointMap(), PointMap()
     splat = Splatter(dw.K320)
     skipped = 0
@@ -53,7 +53,7 @@ def test_work_per_frame_follows_the_view_not_the_map():
     never dormant): the splat and the fusion visit about the view's points, the whole-map pass all."""
     model, data = dw.world()
     f = dw.frame(model, data, *dw.pose(0), None)
-    cfg = FusionConfig(stable_weight=1)       # every point stable: none is visited for the dormant rule
+    cfg = FusionConfig(stable_weight=1, voxel=0)   # every point stable: none visited for the dormant rule
     pmap = PointMap()
     fuse(pmap, f, f.R, f.t, 0, cfg)
     seen = len(pmap)
