@@ -10,9 +10,9 @@ def normal_map_numpy(vertices: np.ndarray) -> np.ndarray:
     """``(V[v+1,u] − V[v−1,u]) × (V[v,u+1] − V[v,u−1])``, normalised; NaN on the border, where a
     neighbour is missing and where the cross product vanishes (the vectorised form it replaced)."""
     n = np.full(vertices.shape, np.nan)
-    dx = vertices[1:-1, 2:] - vertices[1:-1, :-2]
-    dy = vertices[2:, 1:-1] - vertices[:-2, 1:-1]
     with np.errstate(invalid="ignore", divide="ignore"):   # inf − inf: NaN, as missing
+        dx = vertices[1:-1, 2:] - vertices[1:-1, :-2]
+        dy = vertices[2:, 1:-1] - vertices[:-2, 1:-1]
         c = np.cross(dy, dx)
         norm = np.linalg.norm(c, axis=-1, keepdims=True)
         n[1:-1, 1:-1] = np.where(norm > 0, c / norm, np.nan)
