@@ -110,8 +110,10 @@ def _screen_blocks(zhat, z, R, P):
     scale, asymmetry = 0.0, 0.0
     for j in range(n):
         scale, asymmetry = _block_scale(P, j * d, d, scale, asymmetry)
+    if not scale == scale:              # a NaN or infinite entry
+        return False
     scale = max(scale, 1e-300)
-    if not scale == scale or asymmetry > 1e-9 * scale:
+    if asymmetry > 1e-9 * scale:
         return False
     for j in range(n):
         if not _block_factorisable(P, j * d, d, 1e-10 * scale, L):
@@ -197,10 +199,8 @@ def _screen_plain(zhat, z, R, P):
     """Construction's fast path in one compiled call: -2 when an array is not C-ordered, -1 when
     the shapes disagree (``z`` (m, d), ``R`` (m, d, d), ``zhat`` (n, d), ``P`` (nd, nd)), else
     ``_screen_blocks``' verdict as 1 (passed) or 0 (the full check must decide)."""
-    for shape, strides in ((zhat.shape, zhat.strides), (z.shape, z.strides), (P.shape, P.strides)):
-        if not _c_ordered(shape, strides):
-            return -2
-    if not _c_ordered(R.shape, R.strides):
+    if not (_c_ordered(zhat.shape, zhat.strides) and _c_ordered(z.shape, z.strides)
+            and _c_ordered(R.shape, R.strides) and _c_ordered(P.shape, P.strides)):
         return -2
     (n, d), m = zhat.shape, z.shape[0]
     if z.shape[1] != d or R.shape != (m, d, d) or P.shape != (n * d, n * d):

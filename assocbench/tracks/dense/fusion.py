@@ -382,14 +382,16 @@ def _merge_sample(pos, nrm, w, last, tp, geom, fmean, fcount, fcall, call, i, q0
         fcall[i] = call
     else:
         c, wi = fcount[i], w[i]
-        moved = np.empty(9)
-        for r in range(9):
-            moved[r] = (x[r] - fmean[i, r]) / (c + 1)
-            fmean[i, r] += moved[r]
-        for r in range(3):
-            pos[i, r] += moved[r] / wi
-            tp[i, r] += moved[r + 6] / wi
-        a0, a1, a2 = nrm[i, 0] + moved[3] / wi, nrm[i, 1] + moved[4] / wi, nrm[i, 2] + moved[5] / wi
+        for r in range(9):      # the frame's mean moves by (x - mean)/(c + 1), the point by that over w
+            moved = (x[r] - fmean[i, r]) / (c + 1)
+            fmean[i, r] += moved
+            if r < 3:
+                pos[i, r] += moved / wi
+            elif r < 6:
+                nrm[i, r - 3] += moved / wi     # renormalised below
+            else:
+                tp[i, r - 6] += moved / wi
+        a0, a1, a2 = nrm[i, 0], nrm[i, 1], nrm[i, 2]
         fcount[i] = c + 1
     nn = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
     nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 / nn, a1 / nn, a2 / nn
