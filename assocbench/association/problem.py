@@ -32,6 +32,8 @@ def _real_numbers(name: str, value) -> np.ndarray:
     """``value`` as a numpy array of real numbers (any real dtype); raises ``ValueError`` naming
     the field where it is not one: text, ``None``, objects, or complex values (whose imaginary
     part a cast to float64 would drop with only a warning)."""
+    if value is None:       # np.asarray(None) would become NaN, then a shape or NaN message
+        raise ValueError(f"Problem.{name} must be an array of real numbers, got None")
     try:
         arr = np.asarray(value)
         if arr.dtype.kind in "biuf":
@@ -396,7 +398,11 @@ class Problem:
             if ids.shape != (n,):
                 raise ValueError(f"Problem.landmark_ids has shape {ids.shape}, expected {(n,)}")
             ids.setflags(write=False)
-        if not math.isfinite(volume) or volume <= 0:
+        try:
+            bad_volume = not math.isfinite(volume) or volume <= 0
+        except TypeError:       # text, None, complex: math.isfinite's own message names no field
+            bad_volume = True
+        if bad_volume:
             raise ValueError(f"Problem.volume must be a positive finite number, got {volume!r}")
         angular = angular if type(angular) is tuple and not angular else _angular_dims(angular, d)
         for arr in arrays.values():

@@ -11,7 +11,7 @@ import pandas as pd
 from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
 from ..harness.suite import Suite, load_suite, resolve_suite
 from ..harness.sweep import run_suite
-from ..tracks.base import iter_tracks
+from ..tracks.base import GuardedMetric, iter_tracks
 from .common import check_output_folder, print_table
 
 NAME = "check"
@@ -86,8 +86,21 @@ def check_suite(suite: Suite, baseline_path: Path, baseline: pd.DataFrame | None
     expected = suite.rows()
     findings = compare(table, baseline, guards, tolerances, expected)
     if len(findings):
-        print(f"check failed: {len(findings)} finding(s) against {baseline_path} (tolerance {tolerance}):")
+        print(f"check failed: {len(findings)} finding(s) against {baseline_path} ({tolerance_text(guards, tolerances)}):")
         print_table(findings, "table")
         return 1
-    print(f"ok: {len(expected)} scenario × method rows compared, all within tolerance {tolerance} of {baseline_path}")
+    print(f"ok: {len(expected)} scenario × method rows compared with {baseline_path}, all within tolerance "
+          f"({tolerance_text(guards, tolerances)})")
     return 0
+
+
+def tolerance_text(guards: tuple[GuardedMetric, ...], tolerances: dict[str, float]) -> str:
+    """What each guarded column may do, with the tolerance in its unit: ``tolerance`` on shares
+    as given, ``ate_tolerance`` (m) times the column's ``scale`` (1000: mm). One figure printed
+    for several columns would read as the ATE's tolerance too."""
+    parts: dict[str, list[str]] = {}
+    for g in guards:
+        value = tolerances[g.tolerance] * g.scale
+        unit = "" if g.tolerance == "tolerance" else {1.0: " m", 1000.0: " mm"}.get(g.scale, f" (m × {g.scale:g})")
+        parts.setdefault(f"may {'fall' if g.higher_better else 'rise'} by {value:g}{unit}", []).append(g.name)
+    return "; ".join(f"{', '.join(names)} {rule}" for rule, names in parts.items())

@@ -24,6 +24,8 @@ def make(**over):
     (dict(R=np.eye(2)), "Problem.R"),
     (dict(z=np.zeros(4)), "Problem.z"),
     (dict(volume=0.0), "Problem.volume"),
+    (dict(volume="100"), "Problem.volume"),     # was math.isfinite's TypeError, naming no field
+    (dict(volume=None), "Problem.volume"),
     (dict(angular=(2,)), "Problem.angular"),
     (dict(landmark_ids=np.arange(2)), "Problem.landmark_ids"),
 ])
@@ -263,7 +265,7 @@ def test_the_screens_block_test_is_the_cholesky_pivot_test(rng, d):
 
 
 @pytest.mark.parametrize("field", ["z", "R", "zhat", "P"])
-@pytest.mark.parametrize("kind", ["text", "complex"])
+@pytest.mark.parametrize("kind", ["text", "complex", "None"])
 def test_an_array_of_no_real_numbers_is_refused_naming_the_field(field, kind):
     """Text and complex values are refused in one line naming the field (complex values were
     cast to float64 with only a warning, their imaginary part dropped); integers and objects
@@ -271,6 +273,6 @@ def test_an_array_of_no_real_numbers_is_refused_naming_the_field(field, kind):
     fields = dict(z=np.zeros((2, 2)), R=np.repeat(np.eye(2)[None], 2, 0), zhat=np.ones((3, 2)), P=np.eye(6))
     good = Problem(**{**fields, field: fields[field].astype(int).astype(object)})
     assert good == Problem(**{**fields, field: fields[field].astype(int)})
-    bad = fields[field].astype(str) if kind == "text" else fields[field] * (1 + 1j)
+    bad = {"text": fields[field].astype(str), "complex": fields[field] * (1 + 1j), "None": None}[kind]
     with pytest.raises(ValueError, match=rf"^Problem\.{field} must be an array of real numbers"):
         Problem(**{**fields, field: bad})

@@ -42,3 +42,15 @@ def test_a_named_baseline_that_is_missing_names_the_path_not_the_clone(tmp_path,
     assert main(["check", "--baseline", str(tmp_path / "mine.csv")]) == 2
     err = capsys.readouterr().err
     assert "mine.csv not found" in err and "--update" in err and "clone" not in err, err
+
+
+def test_the_verdict_gives_each_guarded_column_its_tolerance_in_its_unit():
+    """The ok line printed one figure, "within tolerance 0.02", for every suite, while the dense
+    suite's ATE and map error may rise by 2 mm and the loop's ATE by 0.01 m."""
+    from assocbench.tracks.base import ACCURACY_GUARDS, ATE_GUARD, get_track
+
+    tolerances = {"tolerance": 0.02, "ate_tolerance": 0.002}
+    dense = check_cmd.tolerance_text(get_track("dense").check_metrics(False), tolerances)
+    assert dense == "precision, recall may fall by 0.02; ate_mm, map_median_mm may rise by 2 mm"
+    loop = check_cmd.tolerance_text((*ACCURACY_GUARDS, ATE_GUARD), {"tolerance": 0.02, "ate_tolerance": 0.01})
+    assert loop == "precision, recall, f1, perfect may fall by 0.02; ate_rmse may rise by 0.01 m"

@@ -125,6 +125,31 @@ def checked_inputs(points, normals, frame, R, t) -> tuple[np.ndarray, ...]:
     return p, n, R, t
 
 
+def checked_pairs(pairs: object, n_source: int, n_pixels: int) -> Pairs:
+    """The ``Pairs`` a method returned, or a ``ValueError`` saying what is wrong (the frame then
+    fails, as a feature method's invalid association does): ``source`` and ``pixel`` equal-length
+    1-D integer arrays, ``0 ≤ source < n_source`` strictly ascending, ``0 ≤ pixel < n_pixels``
+    (``H·W``), ``len ≤ considered ≤ n_source``. The compiled kernels index with them unchecked,
+    so an index out of range would read outside the frame (a crash, or garbage taken as a pose)."""
+    if not isinstance(pairs, Pairs):
+        raise ValueError(f"a dense associator must return Pairs, got {type(pairs).__name__}")
+    src, pix = np.asarray(pairs.source), np.asarray(pairs.pixel)
+    for name, a in (("source", src), ("pixel", pix)):
+        if a.ndim != 1 or not (np.issubdtype(a.dtype, np.integer) or a.size == 0):
+            raise ValueError(f"Pairs.{name} must be a 1-D integer array, got {a.dtype} of shape {a.shape}")
+    if len(src) != len(pix):
+        raise ValueError(f"Pairs.source and Pairs.pixel differ in length ({len(src)} and {len(pix)})")
+    if len(src) and (src[0] < 0 or src[-1] >= n_source or np.any(src[1:] <= src[:-1])):
+        raise ValueError(f"Pairs.source must be strictly ascending indices in 0..{n_source - 1}")
+    if len(pix) and (pix.min() < 0 or pix.max() >= n_pixels):
+        raise ValueError(f"Pairs.pixel holds {pix.min() if pix.min() < 0 else pix.max()}, "
+                         f"outside the frame's pixels 0..{n_pixels - 1}")
+    considered = pairs.considered
+    if not isinstance(considered, (int, np.integer)) or not len(src) <= considered <= n_source:
+        raise ValueError(f"Pairs.considered must be an integer in {len(src)}..{n_source}, got {considered!r}")
+    return Pairs(src.astype(np.int64, copy=False), pix.astype(np.int64, copy=False), int(considered))
+
+
 def flat_maps(frame: DepthFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The frame's depth (H·W,), vertices and normals (H·W, 3) as C-contiguous float64, indexed
     by flat pixel ``v·W + u`` (views, no copy, for the maps ``vertex_map``/``normal_map`` make)."""

@@ -96,7 +96,7 @@ import numpy as np
 from numba import njit
 from scipy.linalg import solve_triangular
 
-from ...associators.dense.base import DenseAssociator, Pairs, checked_inputs, flat_maps
+from ...associators.dense.base import DenseAssociator, Pairs, checked_inputs, checked_pairs, flat_maps
 from ...errors import UserError
 from ...models.depth_frame import DepthFrame
 from ...validation import in_range, validate_fields
@@ -409,6 +409,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
     clock = _Clock()
     pairs = clock.timed(associator.associate, points, normals, frame, R0, t0)
+    pairs = checked_pairs(pairs, len(points), frame.depth.size)
     if len(pairs) < cfg.min_pairs:
         return _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
                        f"guess ({pairs.considered} source points considered)")
@@ -417,7 +418,8 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
 
     def linearised_at(delta: np.ndarray) -> _Linearised:
         TRn, Ttn = cur.stepped(delta)
-        pairs = clock.timed(associator.associate, points, normals, frame, *_pose(TRn, Ttn))
+        pairs = checked_pairs(clock.timed(associator.associate, points, normals, frame, *_pose(TRn, Ttn)),
+                              len(points), frame.depth.size)
         return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
 
     radius_max = float(associator.d_thr)

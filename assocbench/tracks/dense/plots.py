@@ -21,8 +21,10 @@ MAX_DRAWN = 20_000
 
 def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarray, p_est: np.ndarray,
               title: str):
-    """One top view: map points coloured by error, true and estimated paths; the scatter's handle."""
-    step = max(1, len(positions) // MAX_DRAWN)
+    """One top view: map points coloured by error, true and estimated paths; the scatter's handle.
+    At most ``MAX_DRAWN`` points, every ``step``-th with ``step = ⌈N / MAX_DRAWN⌉`` (the floor drew
+    up to twice as many), and the x label says so when not all are drawn."""
+    step = max(1, -(-len(positions) // MAX_DRAWN))
     pos, err = positions[::step], error_mm[::step]
     order = np.argsort(err)
     sc = ax.scatter(pos[order, 0], pos[order, 1], c=err[order], s=0.5, cmap="viridis", vmin=0,
@@ -31,7 +33,8 @@ def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarra
     ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
     ax.plot(*p_true[0, :2], "o", color="black", ms=4)
     ax.set_aspect("equal")
-    ax.set_xlabel("x (m)", fontsize=7)
+    drawn = "" if step == 1 else f"; {len(pos):,} of {len(positions):,} map points drawn (1 in {step})"
+    ax.set_xlabel(f"x (m){drawn}", fontsize=7)
     ax.set_ylabel("y (m)", fontsize=7)
     ax.set_title(textwrap.fill(title, 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)

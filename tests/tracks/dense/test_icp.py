@@ -11,6 +11,7 @@ import pytest
 from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, source_set, wall_frame
 
 from assocbench.associators.dense import DENSE_METHODS, Pairs
+from assocbench.associators.dense.projective import ProjectiveAssociator
 from assocbench.associators.registry import make_dense_associator
 from assocbench.errors import UserError
 from assocbench.tracks.dense.icp import (
@@ -176,6 +177,37 @@ def test_nothing_valid_fails_without_an_exception(clean):
         np.testing.assert_array_equal(res.R, B.R)
         res = icp(pts[:0], nrm[:0], B, make_dense_associator(name), B.R, B.t)
         assert res.failed and "too few pairs" in res.reason and len(res.first_pairs) == 0
+
+
+@dataclasses.dataclass
+class Mangled(ProjectiveAssociator):
+    """The projective pairs passed through ``mangle``: a user's method answering ill-formed pairs."""
+
+    mangle: object = None
+
+    def associate(self, points, normals, frame, R, t):
+        return self.mangle(super().associate(points, normals, frame, R, t), frame.depth.size)
+
+
+MANGLES = {
+    "pixel past the frame": (lambda p, n: Pairs(p.source, np.append(p.pixel[:-1], n), p.considered), "outside"),
+    "negative pixel": (lambda p, n: Pairs(p.source, -p.pixel - 1, p.considered), "outside"),
+    "source not ascending": (lambda p, n: Pairs(p.source[::-1].copy(), p.pixel, p.considered), "ascending"),
+    "float source": (lambda p, n: Pairs(p.source * np.nan, p.pixel, p.considered), "integer"),
+    "lengths differ": (lambda p, n: Pairs(p.source, p.pixel[:-1], p.considered), "length"),
+    "considered too few": (lambda p, n: Pairs(p.source, p.pixel, 1), "considered"),
+    "not Pairs": (lambda p, n: None, "must return Pairs"),
+}
+
+
+@pytest.mark.parametrize("case", sorted(MANGLES))
+def test_ill_formed_pairs_of_a_method_are_a_value_error(case, clean):
+    """The compiled kernels index with the pairs unchecked: a pixel past the frame read outside
+    it (a worker killed by SIGSEGV for a huge index, garbage taken as a pose for a near one)."""
+    (pts, nrm), B = clean
+    mangle, words = MANGLES[case]
+    with pytest.raises(ValueError, match=words):
+        icp(pts, nrm, B, Mangled(mangle=mangle), B.R, B.t)
 
 
 def test_bad_settings_are_one_line_errors(clean):
