@@ -50,6 +50,7 @@ WATCH_TICK_S = 0.5   # a watched run hears "tick" at least this often (the bar's
 PRELOAD = ["__main__", "assocbench.harness.worker_preload"]
 SERVER_ENV = ("PYTHONSAFEPATH", "PYTHONPATH")   # set only while the forkserver starts
 SAVED_ENV = "ASSOCBENCH_FORKSERVER_SAVED_ENV"   # the user's values of SERVER_ENV, for worker_preload
+TRACKS_ENV = "ASSOCBENCH_FORKSERVER_TRACKS"     # the tracks the forkserver warms too, for worker_preload
 _GUARD = ("a script that runs assocbench from a process with threads (workers then come from a "
           "forkserver, which imports the script) must keep its top level under "
           "if __name__ == '__main__':")
@@ -167,12 +168,15 @@ def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
         return mp.get_context("fork")
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(PRELOAD)  # no effect once the server runs: it is started once
-    _start_forkserver()
+    _start_forkserver(tracks)
     return ctx
 
 
-def _start_forkserver() -> None:
-    """Start the forkserver on this process's ``sys.path``. Python 3.11 starts it with ``python -c``
+def _start_forkserver(tracks: Iterable[str] = ()) -> None:
+    """Start the forkserver on this process's ``sys.path``, warming the built-in associators and
+    ``tracks`` (the first task's: a worker forked from it inherits their loaded kernels, where
+    warming its track itself cost each worker 0.5 s, 2.8 ms a frame of a 200-frame dense run; a
+    later task on another track warms its own in its worker). Python 3.11 starts it with ``python -c``
     and ignores the ``sys_path`` it is handed, so the working folder came first: run from a clone
     after ``pip install .``, the workers imported the clone's sources, not the installed package
     the main process runs (and compiled every kernel again). PYTHONSAFEPATH drops the working
@@ -182,6 +186,7 @@ def _start_forkserver() -> None:
 
     saved = {key: os.environ.get(key) for key in SERVER_ENV}
     os.environ[SAVED_ENV] = json.dumps(saved)
+    os.environ[TRACKS_ENV] = json.dumps(sorted(set(tracks)))
     os.environ["PYTHONSAFEPATH"] = "1"
     os.environ["PYTHONPATH"] = os.pathsep.join(entry or os.getcwd() for entry in sys.path)
     try:
@@ -189,6 +194,7 @@ def _start_forkserver() -> None:
     finally:
         restore_env(saved)
         os.environ.pop(SAVED_ENV, None)
+        os.environ.pop(TRACKS_ENV, None)
 
 
 def restore_env(saved: dict) -> None:
@@ -228,10 +234,11 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
 
 def warm_track(track) -> None:
     """``track.warm_up()`` in this process, once. A forked worker inherits its parent's warm
-    kernels; a forkserver's worker (the parent has a thread: a progress bar, pyarrow's allocator
-    under pandas 3) starts from the server, which warms only the built-in associators, so it warms
-    its track here, before its frames: otherwise the dense track compiled inside its timed frames
-    (a first run's fps 9.4 against 29.7 warm)."""
+    kernels; a forkserver's worker (the parent has a thread: numpy's BLAS pool, pyarrow's allocator
+    under pandas 3) inherits the server's, which warmed the built-in associators and the tracks of
+    the task that started it, so a worker of another track warms its track here, before its frames:
+    otherwise the dense track compiled inside its timed frames (a first run's fps 9.4 against 29.7
+    warm)."""
     if f"track {track.name}" not in _warm:
         track.warm_up()
         _warm.add(f"track {track.name}")
