@@ -298,58 +298,74 @@ def condition_number(H: np.ndarray, T: np.ndarray) -> float:
     return float(ev[-1] / ev[0]) if ev[0] > 0 else float("inf")
 
 
+@njit(cache=True, inline="always")
+def _add_outer(H, a0, a1, a2, a3, a4, a5, c):
+    """``H += c a aᵀ`` (upper triangle; ``a`` = (a0..a5))."""
+    a = (a0, a1, a2, a3, a4, a5)
+    for r in range(6):
+        for q in range(r, 6):
+            H[r, q] += c * a[r] * a[q]
+
+
 @njit(cache=True)
-def in_view_kernel(points, TR, Tt, f, cx, cy, width, height):
-    """Indices of the points in view of the world-to-camera estimate ``p′ = TR p + Tt``: in front
-    (``z′ > 0``) and projecting into the image, ``−½ ≤ f x′/z′ + cx ≤ W − ½`` and likewise v
-    (``Intrinsics.in_image``). One pass, in point order."""
-    rows = np.empty(points.shape[0], np.int64)
-    k = 0
+def information_kernel(points, normals, paired, TR, Tt, f, cx, cy, width, height):
+    """(H_V, H_P), each ``Σ a_i a_iᵀ`` (6, 6) with ``a_i = [(p′ × n′)ᵀ, n′ᵀ]`` at ``p′ = TR p + Tt``
+    and the point's OWN normal ``n′ = TR n`` (the information it would give if it were paired): H_V
+    over the points in view (``z′ > 0``, ``−½ ≤ f x′/z′ + cx ≤ W − ½`` and likewise v:
+    ``Intrinsics.in_image``), H_P over the paired ones, each counted ``paired[i]`` times. One pass
+    over the points: the two sums share the products."""
+    HV, HP = np.zeros((6, 6)), np.zeros((6, 6))
     for i in range(points.shape[0]):
         x = TR[0, 0] * points[i, 0] + TR[0, 1] * points[i, 1] + TR[0, 2] * points[i, 2] + Tt[0]
         y = TR[1, 0] * points[i, 0] + TR[1, 1] * points[i, 1] + TR[1, 2] * points[i, 2] + Tt[1]
         z = TR[2, 0] * points[i, 0] + TR[2, 1] * points[i, 1] + TR[2, 2] * points[i, 2] + Tt[2]
-        if not z > 0.0:
+        seen = z > 0.0
+        if seen:
+            u, v = f * x / z + cx, f * y / z + cy
+            seen = -0.5 <= u <= width - 0.5 and -0.5 <= v <= height - 0.5
+        if not seen and paired[i] == 0:
             continue
-        u, v = f * x / z + cx, f * y / z + cy
-        if -0.5 <= u <= width - 0.5 and -0.5 <= v <= height - 0.5:
-            rows[k] = i
-            k += 1
-    return rows[:k].copy()
+        nx = TR[0, 0] * normals[i, 0] + TR[0, 1] * normals[i, 1] + TR[0, 2] * normals[i, 2]
+        ny = TR[1, 0] * normals[i, 0] + TR[1, 1] * normals[i, 1] + TR[1, 2] * normals[i, 2]
+        nz = TR[2, 0] * normals[i, 0] + TR[2, 1] * normals[i, 1] + TR[2, 2] * normals[i, 2]
+        a0, a1, a2 = y * nz - z * ny, z * nx - x * nz, x * ny - y * nx
+        if seen:
+            _add_outer(HV, a0, a1, a2, nx, ny, nz, 1.0)
+        if paired[i] > 0:
+            _add_outer(HP, a0, a1, a2, nx, ny, nz, float(paired[i]))
+    for r in range(6):
+        for q in range(r):
+            HV[r, q], HP[r, q] = HV[q, r], HP[q, r]
+    return HV, HP
 
 
-def source_information(points: np.ndarray, normals: np.ndarray, rows: np.ndarray, TR: np.ndarray,
-                       Tt: np.ndarray) -> np.ndarray:
-    """``Σ a_i a_iᵀ`` (6, 6) over the source points ``rows``, ``a_i = [(p′ × n′)ᵀ, n′ᵀ]`` with the
-    point's OWN normal ``n′ = TR n`` (not a pixel's) at ``p′ = TR p + Tt``: the point-to-plane
-    information each point would give if it were paired (``normal_equations_kernel``'s H, fed the
-    source normals as the targets')."""
-    f64 = np.float64
-    n_cam = np.ascontiguousarray(normals @ TR.T, dtype=f64)
-    rows = np.ascontiguousarray(rows, dtype=np.int64)
-    return normal_equations_kernel(np.ascontiguousarray(points, dtype=f64), n_cam, n_cam, rows, rows,
-                                   np.ascontiguousarray(TR, dtype=f64), np.ascontiguousarray(Tt, dtype=f64),
-                                   0.0, 0.0, 0.0)[0]
+def source_information(points: np.ndarray, normals: np.ndarray, pairs: Pairs, frame: DepthFrame, TR: np.ndarray,
+                       Tt: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
+    """``(H_V, H_P)`` (``information_kernel``): the point-to-plane information of the source points
+    in view of ``frame`` at the world-to-camera estimate ``(TR, Tt)``, and of the paired ones."""
+    f64, K = np.float64, frame.K
+    paired = np.bincount(pairs.source, minlength=len(points)) if len(pairs) else np.zeros(len(points), np.int64)
+    return information_kernel(np.ascontiguousarray(points, dtype=f64), np.ascontiguousarray(normals, dtype=f64),
+                              paired, np.ascontiguousarray(TR, dtype=f64), np.ascontiguousarray(Tt, dtype=f64),
+                              float(K.f), float(K.cx), float(K.cy), K.width, K.height)
 
 
 def direction_share(points: np.ndarray, normals: np.ndarray, pairs: Pairs, frame: DepthFrame, TR: np.ndarray,
                     Tt: np.ndarray) -> float:
     """ρ = min over motions u of ``uᵀ H_P u / uᵀ H_V u``, the smallest generalised eigenvalue of
-    ``(H_P, H_V)`` (``source_information`` of the paired source points and of every source point
-    in view: in front of the camera, projecting into the image): the pairs' share of the
+    ``(H_P, H_V)`` (``source_information``: the paired source points and every source point in
+    view, in front of the camera and projecting into the image): the pairs' share of the
     information in the motion they keep worst. ``H_V = L Lᵀ`` (Cholesky), ρ = λ_min(L⁻¹ H_P L⁻ᵀ)
     by triangular solves; invariant to the motion's parametrisation. The plain inlier share counts
     points; ρ weighs them by what they constrain (Gelfand et al. 2003's stability analysis, applied
     to the pairs against the source): a pose that keeps half the points but none that fix one
     motion has ρ ≈ 0. 0 when the points in view constrain no motion at all (H_V singular)."""
-    K, points = frame.K, np.ascontiguousarray(points, dtype=np.float64)
-    seen = in_view_kernel(points, np.ascontiguousarray(TR), np.ascontiguousarray(Tt), float(K.f), float(K.cx),
-                          float(K.cy), K.width, K.height)
+    H_view, H_pairs = source_information(points, normals, pairs, frame, TR, Tt)
     try:
-        L = np.linalg.cholesky(source_information(points, normals, seen, TR, Tt))
+        L = np.linalg.cholesky(H_view)
     except np.linalg.LinAlgError:
         return 0.0
-    X = solve_triangular(L, source_information(points, normals, pairs.source, TR, Tt), lower=True)
+    X = solve_triangular(L, H_pairs, lower=True)
     return float(np.linalg.eigvalsh(solve_triangular(L, X.T, lower=True))[0])
 
 

@@ -22,6 +22,7 @@ from assocbench.tracks.dense.icp import (
     normal_equations,
     rodrigues,
     solve_update,
+    source_information,
     stability_transform,
 )
 
@@ -352,6 +353,27 @@ def test_direction_share_is_the_pairs_share_in_the_worst_kept_motion(clean):
     assert 0.1 < facing_x.mean() < 0.5
     kept = Pairs(pairs.source[~facing_x], pairs.pixel[~facing_x], pairs.considered)
     assert direction_share(pts, nrm, kept, B, TR, Tt) < 0.02 and len(kept) / pairs.considered > 0.5
+
+
+def test_source_information_is_the_sum_of_outer_products_in_view_and_over_the_pairs(clean):
+    """The one-pass kernel against its formula in numpy: ``a = [(p′ × n′), n′]`` with the point's
+    own normal, summed over the points in view (``Intrinsics.in_image``, in front) and over the
+    pairs' sources, a source paired twice counted twice."""
+    (pts, nrm), B = clean
+    R, t = rodrigues(np.array([0.02, -0.03, 0.01])) @ B.R, B.t + np.array([0.3, -0.2, 0.1])   # some off view
+    TR, Tt = R.T, -R.T @ t
+    pairs = make_dense_associator("projective").associate(pts, nrm, B, R, t)
+    pairs = Pairs(np.concatenate([pairs.source, pairs.source[:50]]), np.concatenate([pairs.pixel, pairs.pixel[:50]]),
+                  pairs.considered)
+    p, n = pts @ TR.T + Tt, nrm @ TR.T
+    a = np.hstack([np.cross(p, n), n])
+    with np.errstate(divide="ignore", invalid="ignore"):
+        uv = B.K.f * p[:, :2] / p[:, 2:] + np.array([B.K.cx, B.K.cy])
+    seen = (p[:, 2] > 0) & B.K.in_image(uv)
+    assert 0.2 < seen.mean() < 0.95
+    H_view, H_pairs = source_information(pts, nrm, pairs, B, TR, Tt)
+    np.testing.assert_allclose(H_view, a[seen].T @ a[seen], rtol=1e-10, atol=1e-9)
+    np.testing.assert_allclose(H_pairs, a[pairs.source].T @ a[pairs.source], rtol=1e-10, atol=1e-9)
 
 
 @pytest.fixture(scope="module")
