@@ -70,7 +70,7 @@ def _slot(key, mask):
     return (h ^ (h >> 29)) & mask
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def _slot_of(keys, key):
     """The slot holding ``key``, or −1."""
     mask = len(keys) - 1
@@ -82,14 +82,14 @@ def _slot_of(keys, key):
     return -1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def table_find(keys, rows, key):
     """The map row holding ``key``, or −1."""
     s = _slot_of(keys, key)
     return rows[s] if s >= 0 else -1
 
 
-@njit(cache=True)
+@njit(cache=True, inline="always")
 def held_cell(keys, rows, key, q0, q1, q2, inv_thick, pos, reach):
     """The map row holding ``key`` (the cell of the sample ``q``), else the one holding the nearer
     then the farther of its neighbours along the class's axis (the normal's dominant axis) if that
