@@ -22,7 +22,14 @@ points in view over 200 crates frames). By default (``voxel`` 1 cm) such a pixel
 the **cell** of its point and normal (``voxel_table``): when a map point holds it, the pixel merges
 into that point (the frame's samples of one point are averaged and count once: weight + 1 a
 frame), and only a pixel in a free cell is added, so the map keeps one point per cell and its
-size levels off once the scene is seen. Then (the bonus) points are **removed**:
+size levels off once the scene is seen. The merges are applied once the frame is read: each point
+sums its samples of the frame (its projective pixel and the pixels of its cell), and one pass
+merges their mean with weight 1 (``_apply_samples``; a new point has weight 0, so it becomes its
+samples' mean); the gates compare the samples with the map as it was before the frame. Summing
+instead of updating the point at every sample (9 additions, not 18 divisions and a square root:
+a crates frame has 31 000 such extra pixels) took fusion from 14.5 to 10.6 ms a frame (120 crates
+frames at true poses, one core), the map the same to 0.4 % (fused noise |p − true| median 0.79 mm,
+p95 4.7 mm; 84 310 against 84 031 points). Then (the bonus) points are **removed**:
 
 * dormant: ``w < stable_weight`` and not merged for ``dormant_frames`` frames (``k − last_seen ≥
   dormant_frames``), in view or not;
@@ -35,8 +42,9 @@ same weights as its position (so ``p − true_point`` is the weighted mean of th
 its ``geom`` stays the geom of the pixels it fused while they agree, ``MIXED_GEOM`` once two
 differ (a point averaged across an edge has no single true surface).
 
-All three steps are compiled loops (numba): one pass over the map projects, filters, merges and
-marks removals; one pass over the pixels adds; removal fills the holes below the new size with
+All three steps are compiled loops (numba): one pass over the map projects, filters, takes the
+samples and marks removals; one pass over the pixels takes the cells' samples and adds; one over
+the touched points merges; removal fills the holes below the new size with
 the surviving points from above it (O(removed), not O(map)), so point order is not kept. The map
 keeps spare capacity (doubling), so adding is not a copy of the whole map per frame.
 
@@ -152,13 +160,13 @@ class PointMap:
     # for a 200k-point map is as much as the fusion itself
     _BUFFERS = (("_pos", 3, np.float64), ("_nrm", 3, np.float64), ("_tp", 3, np.float64), ("_w", 0, np.float64),
                 ("_last", 0, np.int64), ("_geom", 0, np.int64), ("_remove", 0, np.int64), ("_key", 0, np.int64),
-                ("_fmean", 9, np.float64), ("_fcount", 0, np.int64), ("_fcall", 0, np.int64))
+                ("_fsum", 9, np.float64), ("_fcount", 0, np.int64), ("_fcall", 0, np.int64), ("_touched", 0, np.int64))
 
     def __init__(self, capacity: int = 0) -> None:
         self._n = 0
         self._used = np.zeros(0, dtype=np.bool_)
         self._stable = -np.inf   # the stable weight the blocks' ``oldest`` assumes (-inf: every point counted)
-        self._calls = 0           # ``fuse`` calls so far: ``_fcall`` says in which one a point's frame mean began
+        self._calls = 0           # ``fuse`` calls so far: ``_fcall`` says in which one a point's frame sums began
         self._voxel = (0.0, 0.0)  # the cells (size, thickness) ``_key`` and the voxel table hold (0: none)
         self._table_keys, self._table_rows, self._table_used = np.full(16, EMPTY, np.int64), np.zeros(16, np.int64), 0
         self._alloc(max(int(capacity), 16))
@@ -355,62 +363,67 @@ def pixel_of(pos, i, R, t, f, cx, cy, width, height):
 
 
 @njit(cache=True, inline="always")
-def _merge_sample(pos, nrm, w, last, tp, geom, fmean, fcount, fcall, call, i, q0, q1, q2, m0, m1, m2, TP, G, j, k):
-    """Merge the sample ``q``, ``m`` (world; truth ``TP[j]``, ``G[j]``) of frame ``k`` into map point
-    ``i``: the homework's weighted average with weight 1 when it is the point's first sample of the
-    frame; a further one (a cell holds several pixels) replaces that weight-1 term by the mean of the
-    frame's samples, weight unchanged: neighbouring pixels share the smoothed noise of one frame, so
-    they are one measurement, not several. ``fmean``/``fcount``: the frame's running mean and count,
-    begun in the ``fuse`` call ``fcall`` (this one is ``call``).
-    Returns 1 when the point's truth turned ``MIXED_GEOM``."""
+def _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j):
+    """Add the sample ``q``, ``m`` (world; truth ``TP[j]``, ``G[j]``) to map point ``i``'s sums of
+    the ``fuse`` call ``call`` (``fsum``: Σq, Σm, Σtruth; ``fcount``: how many); the call's first
+    sample starts them and lists the point in ``touched[nt]``. ``_apply_samples`` merges them once
+    the frame is read. Returns (the number of touched points, 1 when the point's truth turned
+    ``MIXED_GEOM``)."""
     x = (q0, q1, q2, m0, m1, m2, TP[j, 0], TP[j, 1], TP[j, 2])
     if fcall[i] != call:
-        wi = w[i]
-        pos[i, 0] = (wi * pos[i, 0] + q0) / (wi + 1)
-        pos[i, 1] = (wi * pos[i, 1] + q1) / (wi + 1)
-        pos[i, 2] = (wi * pos[i, 2] + q2) / (wi + 1)
-        a0 = (wi * nrm[i, 0] + m0) / (wi + 1)
-        a1 = (wi * nrm[i, 1] + m1) / (wi + 1)
-        a2 = (wi * nrm[i, 2] + m2) / (wi + 1)
-        for r in range(3):
-            tp[i, r] = (wi * tp[i, r] + TP[j, r]) / (wi + 1)
-        w[i] = wi + 1
-        last[i] = k
         for r in range(9):
-            fmean[i, r] = x[r]
-        fcount[i] = 1
-        fcall[i] = call
+            fsum[i, r] = x[r]
+        fcount[i], fcall[i], touched[nt] = 1, call, i
+        nt += 1
     else:
-        c, wi = fcount[i], w[i]
-        for r in range(9):      # the frame's mean moves by (x - mean)/(c + 1), the point by that over w
-            moved = (x[r] - fmean[i, r]) / (c + 1)
-            fmean[i, r] += moved
-            if r < 3:
-                pos[i, r] += moved / wi
-            elif r < 6:
-                nrm[i, r - 3] += moved / wi     # renormalised below
-            else:
-                tp[i, r - 6] += moved / wi
-        a0, a1, a2 = nrm[i, 0], nrm[i, 1], nrm[i, 2]
-        fcount[i] = c + 1
-    nn = np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
-    nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 / nn, a1 / nn, a2 / nn
+        for r in range(9):
+            fsum[i, r] += x[r]
+        fcount[i] += 1
     if geom[i] != G[j] and geom[i] >= 0:   # NO_GEOM stays; a first disagreement: MIXED_GEOM
         geom[i] = -2
-        return 1
-    return 0
+        return nt, 1
+    return nt, 0
 
 
 @njit(cache=True)
-def _merge_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
+def _apply_samples(pos, nrm, w, last, tp, fsum, fcount, touched, nt, k, lo, hi, oldest, stable_w):
+    """The homework's merge of frame ``k`` into each touched point, its samples' mean
+    ``(q̄, m̄, t̄) = Σ / c`` (c = ``fcount``) taken as ONE measurement of weight 1:
+
+        p ← (w p + q̄) / (w + 1),   n ← (w n + m̄) / (w + 1),  n ← n / ‖n‖,
+        true ← (w true + t̄) / (w + 1),   w ← w + 1,   last_seen ← k
+
+    (a cell holds several pixels of a frame, and pixels of one frame share its pose and its smoothed
+    normals: counting each would let one frame outvote many). A point added in this call has
+    ``w = 0``: it becomes its samples' mean with weight 1. Each moved point widens its block."""
+    for r in range(nt):     # reciprocals: 3 divisions a point, not 15 (2.0 against 2.9 ms a crates frame)
+        i = touched[r]
+        wi = w[i]
+        mean, keep = 1.0 / (fcount[i] * (wi + 1)), wi / (wi + 1)     # Σ/c/(w+1) and w/(w+1)
+        for a in range(3):
+            pos[i, a] = keep * pos[i, a] + mean * fsum[i, a]
+            tp[i, a] = keep * tp[i, a] + mean * fsum[i, a + 6]
+        a0 = keep * nrm[i, 0] + mean * fsum[i, 3]
+        a1 = keep * nrm[i, 1] + mean * fsum[i, 4]
+        a2 = keep * nrm[i, 2] + mean * fsum[i, 5]
+        inv = 1.0 / np.sqrt(a0 * a0 + a1 * a1 + a2 * a2)
+        nrm[i, 0], nrm[i, 1], nrm[i, 2] = a0 * inv, a1 * inv, a2 * inv
+        w[i] = wi + 1
+        last[i] = k
+        _widen(lo, hi, oldest, i, pos, w, last, stable_w)
+
+
+@njit(cache=True)
+def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touched, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
                 dormant_frames, k, drop_dormant, drop_outliers, used, remove, blocks, lo, hi, oldest, table_keys,
                 table_rows):
     """One pass over the points of ``blocks`` (ascending; every block: the whole map): project, the
-    homework's filters, the weighted merge (while point and pixel are in cache), and removals
+    homework's filters, the sample taken for the merge (``_take_sample``; the points' positions and
+    normals stay those of the frame before until ``_apply_samples``), and removals
     marked in ascending order into ``remove`` (and their cells freed in the voxel table at once, so
     a sample in one adds a fresh point); then the visited blocks' boxes and ``oldest`` anew.
-    Returns (merged, considered, dormant, outliers, mixed, removals, scanned)."""
-    merged = considered = dormant = outliers = mixed = nrem = scanned = 0
+    Returns (merged, considered, dormant, outliers, mixed, removals, scanned, touched points)."""
+    merged = considered = dormant = outliers = mixed = nrem = scanned = nt = 0
     for b in blocks:   # the loops are nested, not a call per block: a call that passes a dozen arrays
         first, end = b * BLOCK, min(n, (b + 1) * BLOCK)   # costs their reference counting
         scanned += end - first
@@ -430,7 +443,8 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n,
                     e0, e1, e2 = pos[i, 0] - q0, pos[i, 1] - q1, pos[i, 2] - q2
                     if (e0 * e0 + e1 * e1 + e2 * e2 < d_thr * d_thr
                             and nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr):   # pass 2
-                        mixed += _merge_sample(pos, nrm, w, last, tp, geom, fmean, fcount, fcall, call, i, q0, q1, q2, m0, m1, m2, TP, G, j, k)
+                        nt, mx = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
+                        mixed += mx
                         used[j] = True
                         merged += 1
                         continue
@@ -446,18 +460,18 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n,
                 dormant += 1
                 table_delete(table_keys, table_rows, key[i], i)
     _index_blocks(pos, w, last, n, lo, hi, oldest, blocks, stable_w)
-    return merged, considered, dormant, outliers, mixed, nrem, scanned
+    return merged, considered, dormant, outliers, mixed, nrem, scanned, nt
 
 
 @njit(cache=True)
-def _add_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n, R, t, V, N, TP, G, used, k, lo, hi, oldest, stable_w,
-              inv_voxel, inv_thick, cos_thr, table_keys, table_rows):
+def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touched, nt, n, R, t, V, N, TP, G, used, k, lo, hi,
+              oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows):
     """Every valid pixel no map point merged with (raster order): with cells (``inv_voxel`` > 0,
-    ``voxel_table``) one whose cell a point holds merges into it (``_merge_sample``: the samples
-    of one frame count once) when their normals pass the angle gate, and is dropped when not; any
-    other is appended, taking its cell, and widens its block's box (a block's first row starts it
-    afresh). Returns (new size, samples merged into their cell's point, samples dropped, table
-    slots newly used, points whose truth turned mixed)."""
+    ``voxel_table``) one whose cell a point holds is a sample of that point (``_take_sample``: the
+    samples of one frame count once) when their normals pass the angle gate, and is dropped when
+    not; any other is appended with weight 0 as its own first sample, taking its cell, and widens
+    its block's box (a block's first row starts it afresh). Returns (new size, samples merged into their cell's point, samples dropped, table
+    slots newly used, points whose truth turned mixed, touched points)."""
     binned = dropped = fresh = mixed = 0
     for j in range(V.shape[0]):
         if used[j] or not (V[j, 2] > 0) or not np.isfinite(N[j, 0]):
@@ -473,25 +487,23 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n, R
             i = held_cell(table_keys, table_rows, cell, q0, q1, q2, inv_thick, pos, 0.5 / inv_thick)
             if i >= 0:
                 if nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr:
-                    mixed += _merge_sample(pos, nrm, w, last, tp, geom, fmean, fcount, fcall, call, i, q0, q1, q2, m0, m1, m2, TP, G, j, k)
-                    _widen(lo, hi, oldest, i, pos, w, last, stable_w)
+                    nt, mx = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
+                    mixed += mx
                     binned += 1
                 else:
                     dropped += 1
                 continue
             fresh += table_insert(table_keys, table_rows, cell, n)
-        pos[n, 0], pos[n, 1], pos[n, 2] = q0, q1, q2
+        pos[n, 0], pos[n, 1], pos[n, 2] = q0, q1, q2   # for the cell lookups until _apply_samples
         nrm[n, 0], nrm[n, 1], nrm[n, 2] = m0, m1, m2
         for a in range(3):
-            tp[n, a] = TP[j, a]
-        w[n] = 1.0
+            tp[n, a] = 0.0
+        w[n] = 0.0                                      # no frame merged yet: _apply_samples makes it 1
         last[n] = k
         geom[n] = G[j]
         key[n] = cell
-        for r in range(3):
-            fmean[n, r], fmean[n, r + 3], fmean[n, r + 6] = pos[n, r], nrm[n, r], tp[n, r]
-        fcount[n] = 1
-        fcall[n] = call
+        fcall[n] = -1                                   # not this call's: the sample below starts its sums
+        nt, _ = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, n, q0, q1, q2, m0, m1, m2, TP, G, j)
         if n % BLOCK == 0:
             b = n // BLOCK
             for a in range(3):
@@ -499,7 +511,7 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fmean, fcount, fcall, call, n, R
             oldest[b] = NEVER
         _widen(lo, hi, oldest, n, pos, w, last, stable_w)
         n += 1
-    return n, binned, dropped, fresh, mixed
+    return n, binned, dropped, fresh, mixed, nt
 
 
 @njit(cache=True)
@@ -584,14 +596,17 @@ def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int
     cos_thr = float(np.cos(np.deg2rad(cfg.angle_deg)))
     blocks = _merge_blocks(m.blocks_in_view(K, R, t), m._oldest, -(-n // BLOCK), int(k), int(cfg.dormant_frames),
                            bool(cfg.remove_dormant)) if index else np.arange(-(-n // BLOCK))
-    merged, considered, dormant, outliers, mixed, nrem, scanned = _merge_pass(
-        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fmean, m._fcount, m._fcall, m._calls, n, R, t, float(K.f), float(K.cx), float(K.cy), w, h,
+    merged, considered, dormant, outliers, mixed, nrem, scanned, nt = _merge_pass(
+        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fsum, m._fcount, m._fcall, m._calls, m._touched, n,
+        R, t, float(K.f), float(K.cx), float(K.cy), w, h,
         V, N, TP, G, float(cfg.d_thr), cos_thr, stable, int(cfg.dormant_frames), int(k), bool(cfg.remove_dormant),
         bool(cfg.remove_outliers), used, remove, blocks, m._lo, m._hi, m._oldest, table_keys, table_rows)
-    size, binned, dropped, fresh, mixed_added = _add_pass(
-        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fmean, m._fcount, m._fcall, m._calls, n, R, t, V, N, TP, G, used, int(k), m._lo, m._hi,
-        m._oldest, stable, 1.0 / cfg.voxel if cfg.voxel > 0 else 0.0, 1.0 / max(cfg.voxel, cfg.d_thr), cos_thr,
-        table_keys, table_rows)
+    size, binned, dropped, fresh, mixed_added, nt = _add_pass(
+        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fsum, m._fcount, m._fcall, m._calls, m._touched, nt,
+        n, R, t, V, N, TP, G, used, int(k), m._lo, m._hi, m._oldest, stable,
+        1.0 / cfg.voxel if cfg.voxel > 0 else 0.0, 1.0 / max(cfg.voxel, cfg.d_thr), cos_thr, table_keys, table_rows)
+    _apply_samples(m._pos, m._nrm, m._w, m._last, m._tp, m._fsum, m._fcount, m._touched, nt, int(k), m._lo, m._hi,
+                   m._oldest, stable)
     m._table_used += int(fresh) if cfg.voxel > 0 else 0
     added = size - n
     m._n = _remove_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, size, remove, nrem, m._lo, m._hi,
