@@ -10,9 +10,10 @@ points on the real surfaces, said in the table).
 
 Tables: per map size the median seconds of a single-panel ``map.png`` (``--runs`` interleaved runs
 of each, after one warm-up), the ratio, and the PNG's size; the dense leaderboard's picture (8 panels
-of 10 000 points, the runs' ``final_map``, 4 columns); where the new picture's time goes at 100k
-points. Matplotlib's import (once per process) is not timed. The load average is printed: timings on
-a shared machine are noisy.
+of 10 000 points, the runs' ``final_map``, 4 columns); the first picture of a fresh process, as in a
+CLI run (matplotlib's import, then the picture: ``--runs`` / 2 processes each, at least 3); where the
+new picture's time goes at 100k points. The load average is printed: timings on a shared machine are
+noisy.
 
 Usage: python benchmarks/dense_map_figure.py [--run DIR] [--runs 7] [--sizes 20000 100000 200000] [--save DIR]
 """
@@ -151,15 +152,17 @@ from dense_map_figure import scatter_figure
 from assocbench.tracks.dense.plots import map_figure
 assert "matplotlib" not in sys.modules   # its import is part of the first picture's cost
 start = time.perf_counter()
+import matplotlib.backends.backend_agg, matplotlib.cm, matplotlib.colors, matplotlib.figure
+imported = time.perf_counter()
 (scatter_figure if {old} else map_figure)(panels, {png!r}, 1)
-print(time.perf_counter() - start)
+print(imported - start, time.perf_counter() - imported)
 """
 
 
-def cold(panels, runs: int, out: Path) -> dict[str, float]:
-    """Median seconds of the first picture of a fresh process (matplotlib's import and first draw
-    included, as in a CLI run, where nothing else imports it), interpreter start, assocbench's
-    import and the map's load excluded."""
+def cold(panels, runs: int, out: Path) -> list[list[object]]:
+    """Medians (s) over fresh processes of matplotlib's import and then the first picture (as in a
+    CLI run, where nothing else imports matplotlib); interpreter start, assocbench's import and the
+    map's load excluded."""
     p = panels[0]
     npz = out / "cold_map.npz"
     np.savez(npz, positions=p["positions"], error_mm=p["error_mm"], p_true=p["p_true"], p_est=p["p_est"])
@@ -169,8 +172,12 @@ def cold(panels, runs: int, out: Path) -> dict[str, float]:
             code = COLD.format(here=str(Path(__file__).resolve().parent), npz=str(npz), old=kind == "old",
                                png=str(out / f"cold_{kind}.png"))
             done = subprocess.run([sys.executable, "-c", code], check=True, capture_output=True, text=True)
-            times[kind].append(float(done.stdout.split()[-1]))
-    return {k: float(np.median(v)) for k, v in times.items()}
+            times[kind].append([float(v) for v in done.stdout.split()[-2:]])
+    rows = []
+    for kind, name in (("old", "scatter"), ("new", "raster")):
+        imp, draw = np.median(np.array(times[kind]), axis=0)
+        rows.append([f"{name}, {len(p['positions']):,} points", float(imp), float(draw), float(imp + draw)])
+    return rows
 
 
 def main() -> None:
@@ -204,11 +211,9 @@ def main() -> None:
     board = [panel(sized(points, 10_000, rng)[0], f"method {k} on crates, seed 0") for k in range(8)]
     print_table(["leaderboard", "scatter s", "raster s", "speed-up", "PNG KiB old / new"],
                 compare([("8 x 10k", board)], 4, max(3, args.runs // 2), out))
-    first = cold(single[1][1] if len(single) > 1 else single[0][1], max(3, args.runs // 2), out)
-    print_table(["first picture of a fresh process (import included)", "scatter s", "raster s"],
-                [[f"{len(single[1][1][0]['positions']) if len(single) > 1 else ''} points", first["old"], first["new"]]])
-    print_table(["100k points, new picture", "s"], breakdown(single[1][1] if len(single) > 1 else single[0][1],
-                                                            args.runs, out))
+    print_table(["first picture of a fresh process", "import s", "picture s", "total s"],
+                cold(single[min(1, len(single) - 1)][1], max(3, args.runs // 2), out))
+    print_table(["100k points, new picture", "s"], breakdown(single[min(1, len(single) - 1)][1], args.runs, out))
     print(f"load {os.getloadavg()[0]:.1f} at the end; PNGs in {out}")
 
 

@@ -9,8 +9,10 @@ worst stay visible as the old scatter's sort kept them. The colour scale is fixe
 
 from __future__ import annotations
 
+import gc
 import textwrap
 from collections.abc import Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -102,7 +104,24 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) ->
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
     ``p_est`` (T, 3) m, ``title``); every map point with a finite x, y and error is drawn."""
-    map_canvas(panels, columns).savefig(path, dpi=DPI, format="png")   # zlib level 1 saves ~2 ms of ~45: not worth a bigger file
+    with _collector_paused():
+        # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
+        map_canvas(panels, columns).savefig(path, dpi=DPI, format="png")
+
+
+@contextmanager
+def _collector_paused():
+    """The cyclic garbage collector off while drawing, as it was after. A run's process imports
+    matplotlib for this one picture; its ~100k new objects make the figure's allocations set off a
+    full collection that took 70-90 ms of a ~0.2 s first picture (``benchmarks/dense_map_figure.py``);
+    the figure's own cycles wait for the next collection instead."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()
 
 
 def map_canvas(panels: Sequence[dict], columns: int = 3):
@@ -118,7 +137,9 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
     extents = [_frame_panel(ax, panel) for ax, panel in zip(axes.flat, panels)]
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
-    if panels:
+    if not panels:   # every run failed before its map: say so rather than fail the leaderboard
+        fig.text(0.5, 0.5, "no run produced a map", ha="center", va="center", fontsize=9)
+    else:
         colours = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap=COLORMAP)
         bar = fig.colorbar(colours, ax=axes, shrink=0.6, fraction=0.03, pad=0.02)
         bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7)

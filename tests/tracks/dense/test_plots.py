@@ -3,6 +3,8 @@ of a pixel on top, and writes a PNG of the figure's size."""
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pytest
 from matplotlib import colormaps
@@ -113,3 +115,27 @@ def test_leaderboard_grid_of_panels_has_its_size(tmp_path):
     panels = [panel(rng.uniform(0, 3, (10_000, 3)), rng.uniform(0, 40, 10_000), f"method {k}") for k in range(6)]
     map_figure(panels, out, columns=4)
     assert Image.open(out).size == (round(4 * 4.2 * DPI), round(2 * 3.8 * DPI))
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_the_garbage_collector_is_left_as_it_was(tmp_path, enabled):
+    """The picture pauses the collector (a full collection cost 70-90 ms of it) and restores it."""
+    was = gc.isenabled()
+    (gc.enable if enabled else gc.disable)()
+    try:
+        map_figure([panel([[0.5, 0.3, 0.0]], [5.0])], tmp_path / "map.png", columns=1)
+        assert gc.isenabled() == enabled
+        with pytest.raises(ValueError):   # and after a failed picture too
+            map_figure([panel([[0.5, 0.3, 0.0]], [5.0])], tmp_path / "map.png", columns=-1)
+        assert gc.isenabled() == enabled
+    finally:
+        (gc.enable if was else gc.disable)()
+
+
+def test_no_panel_at_all_is_a_picture_that_says_so(tmp_path):
+    """A leaderboard whose runs all failed before their maps has no panel: the old grid divided by
+    zero and the leaderboard's files were not written."""
+    fig = map_canvas([], columns=4)
+    assert [t.get_text() for t in fig.texts] == ["no run produced a map"]
+    map_figure([], tmp_path / "lb.png", columns=4)
+    assert Image.open(tmp_path / "lb.png").size == (round(4.2 * DPI), round(3.8 * DPI))
