@@ -50,13 +50,14 @@ def worst_error_grid(xy: np.ndarray, error_mm: np.ndarray, extent: Sequence[floa
 
 
 def error_colours(grid: np.ndarray) -> np.ndarray:
-    """RGBA bytes ``(h, w, 4)`` of a worst-error grid: ``COLORMAP`` over 0..``ERROR_SCALE_MM`` mm
-    (clipped, as the colour bar says), transparent where no point fell."""
+    """RGBA bytes ``(h, w, 4)`` of a worst-error grid: entry ``min(⌊e / ERROR_SCALE_MM · 256⌋, 255)``
+    of the 256-colour ``COLORMAP`` for an error ``e ≥ 0`` mm (clipped, as the colour bar says; the
+    entry matplotlib picks for the same value), transparent where no point fell."""
     from matplotlib import colormaps
 
-    lut = (colormaps[COLORMAP].resampled(256)(np.linspace(0, 1, 256)) * 255).round().astype(np.uint8)
+    lut = colormaps[COLORMAP].resampled(256)(np.arange(256), bytes=True)
     filled = np.isfinite(grid)
-    level = np.clip(np.where(filled, grid, 0.0) * (255 / ERROR_SCALE_MM), 0, 255).round().astype(np.intp)
+    level = np.clip(np.where(filled, grid, 0.0) * (256 / ERROR_SCALE_MM), 0, 255).astype(np.intp)
     rgba = lut[level]
     rgba[~filled] = 0
     return rgba

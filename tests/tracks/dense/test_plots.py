@@ -8,6 +8,8 @@ import gc
 import numpy as np
 import pytest
 from matplotlib import colormaps
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
 from PIL import Image
 
 from assocbench.tracks.dense.plots import (
@@ -52,13 +54,13 @@ def test_every_point_counts_a_hundred_thousand_in_distinct_pixels():
     assert np.isfinite(grid).all() and len(xy) == 100_000
 
 
-def test_colours_follow_the_bar_and_empty_pixels_are_transparent():
-    grid = np.array([[-np.inf, 0.0], [ERROR_SCALE_MM, 10 * ERROR_SCALE_MM]])
-    rgba = error_colours(grid)
-    assert rgba.dtype == np.uint8 and rgba.shape == (2, 2, 4)
-    assert (rgba[0, 0] == 0).all()
-    viridis = (np.array([colormaps["viridis"](0.0), colormaps["viridis"](1.0)]) * 255).round()
-    assert (rgba[0, 1] == viridis[0]).all() and (rgba[1, 0] == viridis[1]).all() and (rgba[1, 1] == viridis[1]).all()
+def test_colours_are_the_ones_the_colour_bar_gives_and_empty_pixels_are_transparent():
+    values = np.array([0.0, 7.3, 14.99, 29.9, ERROR_SCALE_MM, 10 * ERROR_SCALE_MM])
+    rgba = error_colours(np.append(values, -np.inf).reshape(1, -1))
+    assert rgba.dtype == np.uint8 and rgba.shape == (1, 7, 4)
+    bar = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap="viridis")
+    assert (rgba[0, :6] == bar.to_rgba(values, bytes=True)).all()
+    assert (rgba[0, 6] == 0).all()
 
 
 def test_limits_cover_map_and_paths_with_a_margin():
