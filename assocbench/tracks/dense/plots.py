@@ -142,7 +142,7 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         fig.text(0.5, 0.5, "no run produced a map", ha="center", va="center", fontsize=9)
     else:
         colours = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap=COLORMAP)
-        bar = fig.colorbar(colours, ax=axes, shrink=0.6, fraction=0.03, pad=0.02)
+        bar = fig.colorbar(colours, ax=axes, shrink=0.6, fraction=0.03, pad=0.05)
         bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7)
         bar.ax.tick_params(labelsize=6)
         # in the figure's corner, not on a panel, where it would hide map points
