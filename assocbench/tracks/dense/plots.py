@@ -1,65 +1,155 @@
 """Top views of the dense track: fused maps coloured by their distance to the true surfaces,
 with the true path (black) and the estimated one (blue).
 
-A map point is drawn at its (x, y); points are sorted so the worst are drawn last and stay
-visible. The colour scale is fixed (0 to ``ERROR_SCALE_MM``) so panels compare at a glance.
+Every map point counts: the points are rasterised into the panel's own pixel grid (one cell per
+screen pixel at ``DPI``), each pixel showing the worst error of the points that fall in it, so the
+worst stay visible as the old scatter's sort kept them. The colour scale is fixed (0 to
+``ERROR_SCALE_MM``) so panels compare at a glance.
 """
 
 from __future__ import annotations
 
+import gc
 import textwrap
 from collections.abc import Sequence
+from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
 
 ERROR_SCALE_MM = 30.0
-# points drawn per panel (an even subsample beyond it: a PNG, not an archive): a panel is about
-# 460 x 420 px, so more points only overdraw; 150 000 cost 0.9 s a run (issue 27), 40 000 0.67 s, 18 000 0.46 s (load 4)
-MAX_DRAWN = 20_000
+COLORMAP = "viridis"
+DPI = 110
+MARGIN = 0.03   # share of each span left around the map and paths, so no point sits on the frame
 
 
-def map_panel(ax, positions: np.ndarray, error_mm: np.ndarray, p_true: np.ndarray, p_est: np.ndarray,
-              title: str):
-    """One top view: map points coloured by error, true and estimated paths; the scatter's handle.
-    At most ``MAX_DRAWN`` points, every ``step``-th with ``step = ⌈N / MAX_DRAWN⌉`` (the floor drew
-    up to twice as many), and the x label says so when not all are drawn."""
-    step = max(1, -(-len(positions) // MAX_DRAWN))
-    pos, err = positions[::step], error_mm[::step]
-    order = np.argsort(err)
-    sc = ax.scatter(pos[order, 0], pos[order, 1], c=err[order], s=0.5, cmap="viridis", vmin=0,
-                    vmax=ERROR_SCALE_MM, linewidths=0, rasterized=True)
+def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float, float, float]:
+    """``(x0, x1, y0, y1)`` (m) around every finite map point and path position, widened by
+    ``MARGIN`` of the larger span on each side (a 1 m square around a single point)."""
+    xy = np.concatenate([np.asarray(a, float)[:, :2] for a in (positions, *paths)])
+    xy = xy[np.isfinite(xy).all(axis=1)]
+    if not len(xy):
+        return -1.0, 1.0, -1.0, 1.0
+    lo, hi = xy.min(axis=0), xy.max(axis=0)
+    span = float((hi - lo).max())
+    pad = MARGIN * span if span > 0 else 0.5
+    return float(lo[0] - pad), float(hi[0] + pad), float(lo[1] - pad), float(hi[1] + pad)
+
+
+def worst_error_grid(xy: np.ndarray, error_mm: np.ndarray, extent: Sequence[float], width: int,
+                     height: int) -> np.ndarray:
+    """Per pixel the largest error (mm) of the points in it, ``-inf`` where none: point ``(x, y)``
+    falls in column ``⌊(x − x0) / (x1 − x0) · width⌋`` and row ``⌊(y − y0) / (y1 − y0) · height⌋``
+    (row 0 at ``y0``, for ``origin="lower"``), clipped into the grid. Points must be finite."""
+    x0, x1, y0, y1 = extent
+    col = np.clip(((xy[:, 0] - x0) * (width / (x1 - x0))).astype(np.int64), 0, width - 1)
+    row = np.clip(((xy[:, 1] - y0) * (height / (y1 - y0))).astype(np.int64), 0, height - 1)
+    grid = np.full(width * height, -np.inf)
+    np.maximum.at(grid, row * width + col, error_mm)
+    return grid.reshape(height, width)
+
+
+def error_colours(grid: np.ndarray) -> np.ndarray:
+    """RGBA bytes ``(h, w, 4)`` of a worst-error grid: entry ``min(⌊e / ERROR_SCALE_MM · 256⌋, 255)``
+    of the 256-colour ``COLORMAP`` for an error ``e ≥ 0`` mm (clipped, as the colour bar says; the
+    entry matplotlib picks for the same value), transparent where no point fell."""
+    from matplotlib import colormaps
+
+    lut = colormaps[COLORMAP].resampled(256)(np.arange(256), bytes=True)
+    filled = np.isfinite(grid)
+    level = np.clip(np.where(filled, grid, 0.0) * (256 / ERROR_SCALE_MM), 0, 255).astype(np.intp)
+    rgba = lut[level]
+    rgba[~filled] = 0
+    return rgba
+
+
+def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
+    """Paths, start mark, labels, title and limits of one panel; its extent (m)."""
+    p_true, p_est = panel["p_true"], panel["p_est"]
     ax.plot(p_true[:, 0], p_true[:, 1], color="black", lw=2.0, label="true path")
     ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
-    ax.plot(*p_true[0, :2], "o", color="black", ms=4)
+    if len(p_true):
+        ax.plot(*p_true[0, :2], "o", color="black", ms=4)
+    extent = view_limits(panel["positions"], p_true, p_est)
+    ax.set_xlim(extent[:2])
+    ax.set_ylim(extent[2:])
     ax.set_aspect("equal")
-    drawn = "" if step == 1 else f"; {len(pos):,} of {len(positions):,} map points drawn (1 in {step})"
-    ax.set_xlabel(f"x (m){drawn}", fontsize=7)
+    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}", fontsize=7)
     ax.set_ylabel("y (m)", fontsize=7)
-    ax.set_title(textwrap.fill(title, 48), fontsize=8)   # a run's header is long: wrapped, not clipped
+    ax.set_title(textwrap.fill(panel["title"], 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)
-    return sc
+    return extent
+
+
+def _finite(positions: np.ndarray, error_mm: np.ndarray) -> np.ndarray:
+    return np.isfinite(positions[:, :2]).all(axis=1) & np.isfinite(error_mm)
+
+
+def _lost_note(positions: np.ndarray, error_mm: np.ndarray) -> str:
+    lost = int((~_finite(positions, error_mm)).sum())
+    return f"; {lost:,} of {len(positions):,} map points not drawn (no finite x, y or error)" if lost else ""
+
+
+def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) -> None:
+    """The map points as an image in the axes' final pixel grid (at most one cell per pixel, so
+    none is dropped when drawn), beneath the paths."""
+    ax.apply_aspect()
+    box = ax.get_window_extent()
+    width, height = max(1, int(box.width)), max(1, int(box.height))
+    keep = _finite(panel["positions"], panel["error_mm"])
+    grid = worst_error_grid(panel["positions"][keep, :2], panel["error_mm"][keep], extent, width, height)
+    ax.imshow(error_colours(grid), extent=extent, origin="lower", interpolation="nearest", aspect="equal",
+              zorder=0)
 
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
-    """A PNG of one panel per entry (``positions``, ``error_mm``, ``p_true``, ``p_est``, ``title``)."""
+    """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
+    ``p_est`` (T, 3) m, ``title``); every map point with a finite x, y and error is drawn."""
+    with _collector_paused():
+        # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
+        map_canvas(panels, columns).savefig(path, dpi=DPI, format="png")
+
+
+@contextmanager
+def _collector_paused():
+    """The cyclic garbage collector off while drawing, as it was after. A run's process imports
+    matplotlib for this one picture; its ~100k new objects make the figure's allocations set off a
+    full collection that took 70-90 ms of a ~0.2 s first picture (``benchmarks/dense_map_figure.py``);
+    the figure's own cycles wait for the next collection instead."""
+    was_on = gc.isenabled()
+    gc.disable()
+    try:
+        yield
+    finally:
+        if was_on:
+            gc.enable()
+
+
+def map_canvas(panels: Sequence[dict], columns: int = 3):
+    """The ``Figure`` of ``map_figure``: a grid of panels, one colour bar beside them."""
+    from matplotlib.cm import ScalarMappable
+    from matplotlib.colors import Normalize
     from matplotlib.figure import Figure  # no pyplot state (as viz.plots)
 
-    cols = min(columns, len(panels))
-    rows = -(-len(panels) // cols)
-    fig = Figure(figsize=(4.2 * cols, 3.8 * rows))
+    cols = min(columns, len(panels)) or 1
+    rows = -(-len(panels) // cols) or 1
+    fig = Figure(figsize=(4.2 * cols, 3.8 * rows), dpi=DPI)
     axes = fig.subplots(rows, cols, squeeze=False)
-    sc = None
-    for ax, panel in zip(axes.flat, panels):
-        sc = map_panel(ax, panel["positions"], panel["error_mm"], panel["p_true"], panel["p_est"], panel["title"])
+    extents = [_frame_panel(ax, panel) for ax, panel in zip(axes.flat, panels)]
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
-    if sc is not None:
-        bar = fig.colorbar(sc, ax=axes, shrink=0.6, fraction=0.03, pad=0.02)
+    if not panels:   # every run failed before its map: say so rather than fail the leaderboard
+        fig.text(0.5, 0.5, "no run produced a map", ha="center", va="center", fontsize=9)
+    else:
+        colours = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap=COLORMAP)
+        bar = fig.colorbar(colours, ax=axes, shrink=0.6, fraction=0.03, pad=0.05)
         bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7)
         bar.ax.tick_params(labelsize=6)
-        axes.flat[0].legend(fontsize=6, loc="upper right", markerscale=4)
-    fig.savefig(path, dpi=110)
+        # in the figure's corner, not on a panel, where it would hide map points
+        fig.legend(*axes.flat[0].get_legend_handles_labels(), loc="upper left", fontsize=6, frameon=False)
+    for ax, panel, extent in zip(axes.flat, panels, extents):   # after the colour bar took its room
+        _raster_panel(ax, panel, extent)
+    return fig
 
 
 def map_writers(frames, map_file: Path, out: Path, title: str) -> dict:

@@ -1,23 +1,143 @@
-"""The dense map's top view draws at most ``MAX_DRAWN`` points and says when it drew a subsample."""
+"""The dense map's top view rasterises every map point into the panel's pixels, the worst error
+of a pixel on top, and writes a PNG of the figure's size."""
 
 from __future__ import annotations
 
+import gc
+
 import numpy as np
 import pytest
-from matplotlib.figure import Figure
+from matplotlib import colormaps
+from matplotlib.cm import ScalarMappable
+from matplotlib.colors import Normalize
+from PIL import Image
 
-from assocbench.tracks.dense.plots import MAX_DRAWN, map_panel
+from assocbench.tracks.dense.plots import (
+    DPI,
+    ERROR_SCALE_MM,
+    error_colours,
+    map_canvas,
+    map_figure,
+    view_limits,
+    worst_error_grid,
+)
+
+PATH = np.column_stack([np.linspace(0.0, 1.0, 20), np.zeros(20), np.zeros(20)])
 
 
-@pytest.mark.parametrize("n", [MAX_DRAWN, MAX_DRAWN + 1, 2 * MAX_DRAWN - 1, 216_293])
-def test_at_most_max_drawn_points_and_the_label_says_how_many(n):
-    """The step was ``N // MAX_DRAWN``: 39 999 points drew all 39 999, bays' 216 293 drew 21 630."""
+def panel(positions, error_mm, title="projective on crates, seed 0"):
+    return {"positions": np.asarray(positions, float), "error_mm": np.asarray(error_mm, float),
+            "p_true": PATH, "p_est": PATH + 0.01, "title": title}
+
+
+@pytest.mark.parametrize("errors", [[5.0, 25.0, 12.0], [25.0, 12.0, 5.0], [12.0, 5.0, 25.0]])
+def test_the_worst_point_of_a_pixel_is_drawn_whatever_the_order(errors):
+    xy = np.array([[0.51, 0.52], [0.52, 0.51], [0.505, 0.515]])   # one pixel of a 10 x 10 grid over 1 m
+    grid = worst_error_grid(xy, np.array(errors), (0.0, 1.0, 0.0, 1.0), 10, 10)
+    assert grid[5, 5] == 25.0
+    assert np.isinf(np.delete(grid.ravel(), 55)).all()
+
+
+def test_every_point_lands_inside_the_grid_edges_included():
+    """Points on the extent's far edges fall in the last column/row, not outside (or wrapped)."""
+    xy = np.array([[0.0, 0.0], [2.0, 0.0], [0.0, 1.0], [2.0, 1.0], [1.0, 0.5]])
+    grid = worst_error_grid(xy, np.arange(1.0, 6.0), (0.0, 2.0, 0.0, 1.0), 8, 4)
+    assert grid[0, 0] == 1.0 and grid[0, 7] == 2.0 and grid[3, 0] == 3.0 and grid[3, 7] == 4.0
+    assert grid[2, 4] == 5.0 and np.isfinite(grid).sum() == 5
+
+
+def test_every_point_counts_a_hundred_thousand_in_distinct_pixels():
+    """The old picture drew 1 in 5 of a 100k-point map; here each point owns its pixel."""
+    cols, rows = np.meshgrid(np.arange(400), np.arange(250))
+    xy = np.column_stack([cols.ravel() + 0.5, rows.ravel() + 0.5]) / 100.0
+    grid = worst_error_grid(xy, np.full(len(xy), 7.0), (0.0, 4.0, 0.0, 2.5), 400, 250)
+    assert np.isfinite(grid).all() and len(xy) == 100_000
+
+
+def test_colours_are_the_ones_the_colour_bar_gives_and_empty_pixels_are_transparent():
+    values = np.array([0.0, 7.3, 14.99, 29.9, ERROR_SCALE_MM, 10 * ERROR_SCALE_MM])
+    rgba = error_colours(np.append(values, -np.inf).reshape(1, -1))
+    assert rgba.dtype == np.uint8 and rgba.shape == (1, 7, 4)
+    bar = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap="viridis")
+    assert (rgba[0, :6] == bar.to_rgba(values, bytes=True)).all()
+    assert (rgba[0, 6] == 0).all()
+
+
+def test_limits_cover_map_and_paths_with_a_margin():
+    x0, x1, y0, y1 = view_limits(np.array([[3.0, -2.0, 0.0], [np.nan, 9.0, 0.0]]), PATH)
+    assert x0 < 0.0 and x1 > 3.0 and y0 < -2.0 and y1 > 0.0 and x1 < 4.0
+    assert view_limits(np.zeros((0, 3)), np.zeros((0, 3))) == (-1.0, 1.0, -1.0, 1.0)
+
+
+def test_png_has_the_figure_size_and_a_point_sits_where_the_axes_put_it(tmp_path):
+    """One point of error beyond the scale must come out yellow at the pixel that the axes'
+    data-to-pixel mapping gives it (within a pixel), and nowhere else in the panel."""
+    fig = map_canvas([panel([[0.5, 0.3, 0.0]], [99.0])], columns=1)
+    out = tmp_path / "map.png"
+    fig.savefig(out, dpi=DPI)
+    image = np.asarray(Image.open(out).convert("RGB")).astype(int)
+    assert image.shape == (round(3.8 * DPI), round(4.2 * DPI), 3)
+    ax = fig.axes[0]
+    x, y = ax.transData.transform((0.5, 0.3))
+    column, row = x, image.shape[0] - y
+    yellow = (np.array(colormaps["viridis"](1.0)[:3]) * 255).round()
+    box = ax.get_window_extent()
+    inside = image[image.shape[0] - int(box.y1):image.shape[0] - int(box.y0), int(box.x0):int(box.x1)]
+    hits = np.argwhere((np.abs(inside - yellow) <= 3).all(axis=2)) + [image.shape[0] - int(box.y1), int(box.x0)]
+    assert len(hits) >= 1
+    assert np.abs(hits - [row, column]).max() <= 1.5, (hits, row, column)
+
+
+def test_map_figure_writes_the_png_of_its_canvas(tmp_path):
+    out = tmp_path / "map.png"
+    map_figure([panel([[0.5, 0.3, 0.0]], [5.0])], out, columns=1)
+    assert Image.open(out).size == (round(4.2 * DPI), round(3.8 * DPI))
+
+
+def test_empty_map_writes_a_png(tmp_path):
+    out = tmp_path / "map.png"
+    map_figure([panel(np.zeros((0, 3)), np.zeros(0))], out, columns=1)
+    assert Image.open(out).size == (round(4.2 * DPI), round(3.8 * DPI))
+    assert np.isinf(worst_error_grid(np.zeros((0, 2)), np.zeros(0), (0, 1, 0, 1), 4, 3)).all()
+
+
+def test_nan_points_are_left_out_and_the_label_says_how_many():
+    pts = np.array([[0.2, 0.1, 0.0], [np.nan, 0.1, 0.0], [0.3, 0.2, 0.0], [0.4, 0.2, 0.0]])
+    fig = map_canvas([panel(pts, [1.0, 2.0, np.nan, 3.0])], columns=1)
+    ax = fig.axes[0]
+    assert ax.get_xlabel() == "x (m); 2 of 4 map points not drawn (no finite x, y or error)"
+    image = np.asarray(ax.get_images()[0].get_array())
+    assert image.dtype == np.uint8   # colours, not a float grid a NaN could reach
+    assert (image[..., 3] > 0).sum() == 2
+
+
+def test_leaderboard_grid_of_panels_has_its_size(tmp_path):
+    out = tmp_path / "lb.png"
     rng = np.random.default_rng(0)
-    positions, error_mm = rng.uniform(0, 5, (n, 3)), rng.uniform(0, 30, n)
-    path = np.zeros((2, 3))
-    ax = Figure().subplots()
-    drawn = len(map_panel(ax, positions, error_mm, path, path, "t").get_offsets())
-    assert drawn <= MAX_DRAWN and drawn >= MAX_DRAWN // 2
-    label = ax.get_xlabel()
-    assert label.startswith("x (m)")
-    assert (f"{drawn:,} of {n:,} map points drawn" in label) == (n > MAX_DRAWN), label
+    panels = [panel(rng.uniform(0, 3, (10_000, 3)), rng.uniform(0, 40, 10_000), f"method {k}") for k in range(6)]
+    map_figure(panels, out, columns=4)
+    assert Image.open(out).size == (round(4 * 4.2 * DPI), round(2 * 3.8 * DPI))
+
+
+@pytest.mark.parametrize("enabled", [True, False])
+def test_the_garbage_collector_is_left_as_it_was(tmp_path, enabled):
+    """The picture pauses the collector (a full collection cost 70-90 ms of it) and restores it."""
+    was = gc.isenabled()
+    (gc.enable if enabled else gc.disable)()
+    try:
+        map_figure([panel([[0.5, 0.3, 0.0]], [5.0])], tmp_path / "map.png", columns=1)
+        assert gc.isenabled() == enabled
+        with pytest.raises(ValueError):   # and after a failed picture too
+            map_figure([panel([[0.5, 0.3, 0.0]], [5.0])], tmp_path / "map.png", columns=-1)
+        assert gc.isenabled() == enabled
+    finally:
+        (gc.enable if was else gc.disable)()
+
+
+def test_no_panel_at_all_is_a_picture_that_says_so(tmp_path):
+    """A leaderboard whose runs all failed before their maps has no panel: the old grid divided by
+    zero and the leaderboard's files were not written."""
+    fig = map_canvas([], columns=4)
+    assert [t.get_text() for t in fig.texts] == ["no run produced a map"]
+    map_figure([], tmp_path / "lb.png", columns=4)
+    assert Image.open(tmp_path / "lb.png").size == (round(4.2 * DPI), round(3.8 * DPI))
