@@ -111,3 +111,12 @@ def test_the_frame_arrays_are_contiguous_and_do_not_overlap():
     assert all(a.flags.c_contiguous for a in parts.values())
     names = list(parts)
     assert not any(np.shares_memory(parts[a], parts[b]) for i, a in enumerate(names) for b in names[i + 1:])
+
+
+def test_a_frame_of_the_wrong_shape_is_refused_before_the_passes_read_past_it():
+    R, t = pose(0)
+    with pytest.raises(ValueError, match=r"must be \(30, 40\)"):
+        sensed_frame(np.ones((30, 39)), np.zeros((30, 39), np.int32), R, t, K, DepthConfig(), np.random.default_rng(0))
+    with pytest.raises(ValueError, match=r"R \(3, 4\)"):
+        sensed_frame(np.ones((30, 40)), np.zeros((30, 40), np.int32), np.eye(3, 4), t, K, DepthConfig(),
+                     np.random.default_rng(0))
