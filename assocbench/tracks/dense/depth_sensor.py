@@ -68,7 +68,8 @@ class DepthConfig:
 
     def sigma(self, z: np.ndarray) -> np.ndarray:
         """Axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m) at depth ``z`` (m)."""
-        return axial_sigma(np.asarray(z, dtype=np.float64), self.sigma_base, self.sigma_quad)
+        # the compiled pass's own formula, run by numpy: the same values, and nothing to compile for a new input type
+        return axial_sigma.py_func(np.asarray(z, dtype=np.float64), self.sigma_base, self.sigma_quad)
 
 
 MIN_SMOOTH_PX = 0.1   # below it exp(-1/(2σ²)) < 1e-21: the neighbours' weights vanish (and 1/σ² overflows)
