@@ -41,7 +41,7 @@ def summary_ms(seconds: list[float]) -> tuple[float, float]:
 
 def print_table(headers: list[str], rows: list[list[object]]) -> None:
     cells = [[f"{c:.3f}" if isinstance(c, float) else str(c) for c in row] for row in rows]
-    widths = [max(len(h), *(len(r[k]) for r in cells)) for k, h in enumerate(headers)]
+    widths = [max([len(h), *(len(r[k]) for r in cells)]) for k, h in enumerate(headers)]   # no rows: the headers'
     print("  ".join(h.rjust(w) for h, w in zip(headers, widths)))
     for r in cells:
         print("  ".join(c.rjust(w) for c, w in zip(r, widths)))

@@ -23,10 +23,16 @@ def vertex_map(depth: np.ndarray, K: Intrinsics) -> np.ndarray:
     """Back-projected points ``V[v, u] = d · ((u − cx)/f, (v − cy)/f, 1)`` (H, W, 3) in the camera
     frame; NaN where the depth is NaN."""
     h, w = depth.shape
-    u = (np.arange(w, dtype=np.float64) - K.cx) / K.f
-    v = (np.arange(h, dtype=np.float64) - K.cy) / K.f
+    u, v = pixel_rays(K, h, w)
     d = np.asarray(depth, dtype=np.float64)
     return np.stack([d * u[None, :], d * v[:, None], d], axis=-1)
+
+
+def pixel_rays(K: Intrinsics, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
+    """The ray slopes ``((u − cx)/f`` for each column ``u < w``, ``(v − cy)/f`` for each row ``v < h)``:
+    ``V[v, u] = d · (x[u], y[v], 1)``. Compiled passes that build vertices pixel by pixel take them from
+    here, so their vertices are ``vertex_map``'s bit for bit."""
+    return (np.arange(w, dtype=np.float64) - K.cx) / K.f, (np.arange(h, dtype=np.float64) - K.cy) / K.f
 
 
 def normal_map(vertices: np.ndarray) -> np.ndarray:
@@ -53,21 +59,40 @@ def normal_map(vertices: np.ndarray) -> np.ndarray:
 
 @njit(cache=True)
 def _normals(V, out):
-    """``out`` = ``normal_map(V)`` (its docstring), pixel by pixel: the cross product
-    ``dy × dx`` of the central differences, divided by its norm; NaN where that is not > 0 or a
-    neighbour is NaN (NaN compares false), and on the border."""
+    """``out`` = ``normal_map(V)`` (its docstring), pixel by pixel (``central_normal``), NaN on the border."""
     h, w = V.shape[0], V.shape[1]
     out[:] = np.nan
     for v in range(1, h - 1):
         for u in range(1, w - 1):
-            dx0, dx1, dx2 = V[v, u + 1, 0] - V[v, u - 1, 0], V[v, u + 1, 1] - V[v, u - 1, 1], V[v, u + 1, 2] - V[v, u - 1, 2]
-            dy0, dy1, dy2 = V[v + 1, u, 0] - V[v - 1, u, 0], V[v + 1, u, 1] - V[v - 1, u, 1], V[v + 1, u, 2] - V[v - 1, u, 2]
-            c0 = dy1 * dx2 - dy2 * dx1
-            c1 = dy2 * dx0 - dy0 * dx2
-            c2 = dy0 * dx1 - dy1 * dx0
-            norm = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
-            if norm > 0:
-                out[v, u, 0], out[v, u, 1], out[v, u, 2] = c0 / norm, c1 / norm, c2 / norm
+            n = central_normal((V[v, u - 1, 0], V[v, u - 1, 1], V[v, u - 1, 2]),
+                               (V[v, u + 1, 0], V[v, u + 1, 1], V[v, u + 1, 2]),
+                               (V[v - 1, u, 0], V[v - 1, u, 1], V[v - 1, u, 2]),
+                               (V[v + 1, u, 0], V[v + 1, u, 1], V[v + 1, u, 2]))
+            out[v, u, 0], out[v, u, 1], out[v, u, 2] = n
+
+
+@njit(cache=True)
+def central_normal(left, right, up, down):
+    """``n = (down − up) × (right − left) / |…|`` for 3-vectors (tuples): the cross product ``dy × dx``
+    of the central differences, divided by its norm; NaN where that is not > 0 or a coordinate is
+    NaN (NaN compares false). The one formula of ``normal_map`` and of the depth sensor's fused pass."""
+    dx0, dx1, dx2 = right[0] - left[0], right[1] - left[1], right[2] - left[2]
+    dy0, dy1, dy2 = down[0] - up[0], down[1] - up[1], down[2] - up[2]
+    c0 = dy1 * dx2 - dy2 * dx1
+    c1 = dy2 * dx0 - dy0 * dx2
+    c2 = dy0 * dx1 - dy1 * dx0
+    norm = np.sqrt(c0 * c0 + c1 * c1 + c2 * c2)
+    if norm > 0:
+        return c0 / norm, c1 / norm, c2 / norm
+    return np.nan, np.nan, np.nan
+
+
+@njit(cache=True)
+def vertex_at(depth, x, y, v, u):
+    """``V[v, u] = d · (x[u], y[v], 1)`` with ``d = depth[v, u]`` and the slopes of ``pixel_rays``:
+    ``vertex_map``'s vertex, bit for bit, without building the map."""
+    d = depth[v, u]
+    return d * x[u], d * y[v], d
 
 
 @dataclass

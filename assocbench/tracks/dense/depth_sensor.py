@@ -13,13 +13,13 @@ from __future__ import annotations
 from dataclasses import dataclass, field
 
 import numpy as np
-from numba import njit
 
 from ...errors import UserError
 from ...models.camera import Intrinsics
-from ...models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
+from ...models.depth_frame import DepthFrame, pixel_rays
 from ...validation import in_range, validate_fields
-from .depth_smoothing import depth_edges, depth_gate, edge_aware_smoothed
+from .depth_smoothing import depth_gate, edge_aware_smoothed
+from .sensor_passes import axial_sigma, edge_free_normals, grazing_kernel, sense
 
 MAX_DOWNSAMPLE = 16
 
@@ -68,7 +68,8 @@ class DepthConfig:
 
     def sigma(self, z: np.ndarray) -> np.ndarray:
         """Axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m) at depth ``z`` (m)."""
-        return self.sigma_base + self.sigma_quad * np.square(z)
+        # the compiled pass's own formula, run by numpy: the same values, and nothing to compile for a new input type
+        return axial_sigma.py_func(np.asarray(z, dtype=np.float64), self.sigma_base, self.sigma_quad)
 
 
 MIN_SMOOTH_PX = 0.1   # below it exp(-1/(2σ²)) < 1e-21: the neighbours' weights vanish (and 1/σ² overflows)
@@ -88,27 +89,10 @@ def grazing_cosine(vertices: np.ndarray) -> np.ndarray:
     involved is missing or the cross product vanishes.
 
     Computed as ``|c · V| / sqrt(|c|² |V|²)`` with the cross product ``c`` written out per
-    component, in one compiled pass (the numpy expression it replaced, term for term: the same
-    values bit for bit, 0.5 ms against 3.2 ms a 320x240 frame)."""
-    return _grazing_kernel(np.ascontiguousarray(vertices, dtype=np.float64))
-
-
-@njit(cache=True, error_model="numpy")   # numpy's division: 0/0 is NaN, not an exception
-def _grazing_kernel(V):
-    h, w = V.shape[0], V.shape[1]
-    out = np.empty((h, w))
-    for v in range(h):
-        r = min(v, h - 2)
-        for u in range(w):
-            c = min(u, w - 2)
-            dx0, dx1, dx2 = V[r, c + 1, 0] - V[r, c, 0], V[r, c + 1, 1] - V[r, c, 1], V[r, c + 1, 2] - V[r, c, 2]
-            dy0, dy1, dy2 = V[r + 1, c, 0] - V[r, c, 0], V[r + 1, c, 1] - V[r, c, 1], V[r + 1, c, 2] - V[r, c, 2]
-            cx = dy1 * dx2 - dy2 * dx1
-            cy = dy2 * dx0 - dy0 * dx2
-            cz = dy0 * dx1 - dy1 * dx0
-            x, y, z = V[v, u, 0], V[v, u, 1], V[v, u, 2]
-            out[v, u] = abs(cx * x + cy * y + cz * z) / np.sqrt((cx * cx + cy * cy + cz * cz) * (x * x + y * y + z * z))
-    return out
+    component (``sensor_passes.view_cosine``), in one compiled pass (the numpy expression it
+    replaced, term for term: the same values bit for bit, 0.5 ms against 3.2 ms a 320x240 frame).
+    ``depth_frame`` computes the same cosine inside its own pass, from the noise-free depth."""
+    return grazing_kernel(np.ascontiguousarray(vertices, dtype=np.float64))
 
 
 def depth_frame(depth_true: np.ndarray, seg_geom: np.ndarray, R: np.ndarray, t: np.ndarray, K_full: Intrinsics,
@@ -123,7 +107,9 @@ def depth_frame(depth_true: np.ndarray, seg_geom: np.ndarray, R: np.ndarray, t: 
     whose noise-free normal is more than ``grazing_deg`` from the view ray (this also drops the
     near side of depth edges, whose neighbour-difference normal spans the jump), a random
     ``dropout`` share, and measured depths outside ``[min_depth, max_depth]``; vertex and normal
-    maps from the noisy depth. ``rng`` is the caller's, ``default_rng([seed, k, 17])`` for frame k.
+    maps from the noisy depth. ``rng`` is the caller's, ``default_rng([seed, k, 17])`` for frame k:
+    ``standard_normal`` for the whole frame, then (when ``dropout`` > 0) ``random`` for the dropouts.
+    All but the draws is two compiled passes over the pixels (``sensor_passes``), around the smoothing.
     """
     depth_true, seg_geom = np.asarray(depth_true), np.asarray(seg_geom)
     expected = (K_full.height, K_full.width)
@@ -132,32 +118,63 @@ def depth_frame(depth_true: np.ndarray, seg_geom: np.ndarray, R: np.ndarray, t: 
                         f"{expected} (height, width of the intrinsics)")
     s = cfg.downsample
     K = downsample_intrinsics(K_full, s)
-    d_true = depth_true[::s, ::s][:K.height, :K.width].astype(np.float64)
-    geom = seg_geom[::s, ::s][:K.height, :K.width].astype(np.int64)
-    R, t = np.array(R, dtype=np.float64), np.array(t, dtype=np.float64)
-    v_true = vertex_map(d_true, K)
-    true_points = v_true @ R.T + t
-    geom = np.where(np.isfinite(d_true), geom, NO_GEOM)
+    return sensed_frame(depth_true[::s, ::s][:K.height, :K.width], seg_geom[::s, ::s][:K.height, :K.width], R, t,
+                        K, cfg, rng)
 
-    depth = d_true + cfg.sigma(d_true) * rng.standard_normal(d_true.shape)
-    drop = grazing_cosine(v_true) < np.cos(np.deg2rad(cfg.grazing_deg))   # NaN: kept
+
+def _frame_block(h: int, w: int) -> dict[str, np.ndarray]:
+    """The arrays of one frame (kept: vertices … geom; scratch of the passes: noise … dropout) as
+    C-contiguous views of one buffer of 17·h·w float64 (10 MB at 320x240, which numpy advises onto
+    huge pages): one allocation instead of a dozen, whose fresh 4 kB pages each cost a fault when
+    first written (measured in a loop of frames on a loaded core: about 3 000 faults a frame before,
+    1 900 with the passes writing separate arrays, 0-16 with the one buffer; 1-2 ms of the frame)."""
+    shapes = {"vertices": (h, w, 3), "normals": (h, w, 3), "true_points": (h, w, 3), "depth": (h, w), "geom": (h, w),
+              "noise": (h, w), "gate": (h, w), "smoothing": (3, h, w), "dropout": (h, w)}
+    buf, at, out = np.empty(sum(int(np.prod(shape)) for shape in shapes.values())), 0, {}
+    for name, shape in shapes.items():
+        size = int(np.prod(shape))
+        out[name] = buf[at:at + size].reshape(shape)
+        at += size
+    out["geom"] = out["geom"].view(np.int64)   # the same 8 bytes a pixel, read as the geom id
+    return out
+
+
+def sensed_frame(d_true: np.ndarray, seg: np.ndarray, R: np.ndarray, t: np.ndarray, K: Intrinsics, cfg: DepthConfig,
+                 rng: np.random.Generator) -> DepthFrame:
+    """``depth_frame`` of an already strided (H, W) noise-free depth and segmentation at the intrinsics
+    ``K`` of the strided image (``cfg.downsample`` is not used): the draws, then the passes."""
+    h, w = K.height, K.width
+    R, t = np.array(R, dtype=np.float64), np.array(t, dtype=np.float64)
+    if np.shape(d_true) != (h, w) or np.shape(seg) != (h, w) or R.shape != (3, 3) or t.shape != (3,):
+        raise ValueError(f"sensed_frame: depth {np.shape(d_true)} and segmentation {np.shape(seg)} must be ({h}, {w}) "
+                         f"(the intrinsics), R {R.shape} (3, 3) and t {t.shape} (3,)")   # the passes do not check
+    a = _frame_block(h, w)
+    rng.standard_normal(out=a["noise"])
     if cfg.dropout > 0:
-        drop |= rng.random(d_true.shape) < cfg.dropout
-    with np.errstate(invalid="ignore"):
-        drop |= ~((depth >= cfg.min_depth) & (depth <= cfg.max_depth))   # NaN depth: dropped too
-    depth[drop] = np.nan
-    vertices = vertex_map(depth, K)
-    normals = frame_normals(depth, K, cfg)
-    return DepthFrame(K, depth, vertices, normals, true_points, geom, R, t)
+        rng.random(out=a["dropout"])
+    xu, yv = pixel_rays(K, h, w)
+    params = (float(cfg.sigma_base), float(cfg.sigma_quad), float(np.cos(np.deg2rad(cfg.grazing_deg))),
+              float(cfg.dropout), float(cfg.min_depth), float(cfg.max_depth))
+    sense(np.ascontiguousarray(d_true, dtype=np.float64), np.ascontiguousarray(seg, dtype=np.int64), xu, yv, R, t,
+          a["noise"], a["dropout"], params, a["depth"], a["vertices"], a["true_points"], a["geom"], a["gate"])
+    _normals_into(a["depth"], a["gate"], K, cfg.normal_smooth_px, a["smoothing"], a["normals"])
+    return DepthFrame(K, a["depth"], a["vertices"], a["normals"], a["true_points"], a["geom"], R, t)
 
 
 def frame_normals(depth: np.ndarray, K: Intrinsics, cfg: DepthConfig) -> np.ndarray:
     """The normal map of measured ``depth``: ``normal_map`` of the edge-aware smoothed depth
     (``depth_smoothing``; the raw depth when ``normal_smooth_px`` is 0), NaN where the depth is
-    missing and where a neighbour lies across a depth edge (its difference spans the jump)."""
-    gate = depth_gate(depth, cfg.sigma(depth))
-    smooth = edge_aware_smoothed(depth, cfg.normal_smooth_px, gate) if cfg.normal_smooth_px > 0 else depth
-    normals = normal_map(vertex_map(smooth, K))
-    normals[~np.isfinite(depth) | depth_edges(depth, gate)] = np.nan
+    missing and where a neighbour lies across a depth edge (its difference spans the jump):
+    ``depth_edges``, fused with ``normal_map`` into one compiled pass (``sensor_passes.edge_free_normals``)."""
+    depth = np.ascontiguousarray(depth, dtype=np.float64)
+    normals = np.empty((*depth.shape, 3))
+    _normals_into(depth, depth_gate(depth, cfg.sigma(depth)), K, cfg.normal_smooth_px, np.empty((3, *depth.shape)),
+                  normals)
     return normals
 
+
+def _normals_into(depth: np.ndarray, gate: np.ndarray, K: Intrinsics, smooth_px: float, work: np.ndarray,
+                  out: np.ndarray) -> None:
+    """``frame_normals`` written into ``out``, the smoothing working in ``work`` (3, H, W)."""
+    smooth = edge_aware_smoothed(depth, smooth_px, gate, work) if smooth_px > 0 else depth
+    edge_free_normals(depth, smooth, gate, *pixel_rays(K, *depth.shape), out)

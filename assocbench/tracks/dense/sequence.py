@@ -16,7 +16,7 @@ from __future__ import annotations
 
 import hashlib
 import json
-from dataclasses import asdict, dataclass, field, replace
+from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
 import mujoco
@@ -32,7 +32,7 @@ from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
 from ...validation import check_number
-from .depth_sensor import DepthConfig, depth_frame
+from .depth_sensor import DepthConfig, sensed_frame
 
 FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixels)
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
@@ -118,9 +118,8 @@ class DenseSequence:
 
     def frame(self, k: int) -> DepthFrame:
         """Frame ``k`` as the sensor gives it: noise drawn from ``default_rng([seed, k, 17])``."""
-        cfg = replace(self.depth_cfg, downsample=1)   # stored frames are already downsampled
-        return depth_frame(self.depths[k].astype(np.float64), self.geoms[k], self.rotations[k], self.positions[k],
-                           self.K, cfg, np.random.default_rng([self.seed, k, 17]))
+        return sensed_frame(self.depths[k], self.geoms[k], self.rotations[k], self.positions[k],   # stored strided
+                            self.K, self.depth_cfg, np.random.default_rng([self.seed, k, 17]))
 # the sources a cached sequence depends on: shared simulation, measurement models, this track
 CODE = ("sim", "models", "tracks/dense")
 

@@ -20,11 +20,12 @@ def tiny_frame() -> DepthFrame:
 def warm_dense() -> float | None:
     """Run every dense kernel once on a tiny frame (the projective association, one ICP iteration,
     ICP's direction share, fusion, the model's prediction (the splat), the scoring against truth,
-    the surface distance, the edge-aware smoothing of the depth sensor) so that they are loaded (or compiled, with one line on stderr ending in ``done``) before anything is timed.
+    the surface distance, the depth sensor's passes and smoothing on the types of a stored frame)
+    so that they are loaded (or compiled, with one line on stderr ending in ``done``) before
+    anything is timed.
     Returns the seconds spent compiling, None when all came from the cache."""
     from ...associators.dense.projective import ProjectiveAssociator
-    from .depth_sensor import grazing_cosine
-    from .depth_smoothing import edge_aware_smoothed
+    from .depth_sensor import DepthConfig, sensed_frame
     from .fusion import FusionConfig, PointMap, fuse
     from .icp import IcpConfig, direction_share, icp
     from .metrics import score_associations
@@ -47,6 +48,6 @@ def warm_dense() -> float | None:
                  warm_surface,
                  lambda: score_associations(frame.true_points[ok], frame.geom[ok], frame,
                                             [(np.arange(len(points)), np.flatnonzero(ok.reshape(-1)))], 0.03),
-                 lambda: edge_aware_smoothed(frame.depth, 1.0, np.full(frame.depth.shape, 0.05)),
-                 lambda: grazing_cosine(frame.vertices)],
+                 lambda: sensed_frame(np.ones((6, 6), np.float32), np.zeros((6, 6), np.int32), np.eye(3), np.zeros(3),
+                                      frame.K, DepthConfig(dropout=0.1), np.random.default_rng(0))],
                 "dense kernels", expect_s=20)

@@ -10,12 +10,23 @@ from assocbench.associators.dense import projective
 from assocbench.associators.registry import make_dense_associator
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.runner import GuardedCalls
-from assocbench.tracks.dense import depth_sensor, depth_smoothing, fusion, icp, metrics, prediction, surface
+from assocbench.models import depth_frame
+from assocbench.tracks.dense import (
+    depth_sensor,
+    depth_smoothing,
+    fusion,
+    icp,
+    metrics,
+    prediction,
+    sensor_passes,
+    surface,
+)
 from assocbench.tracks.dense.run import dense_records
 from assocbench.tracks.dense.sequence import load_dense_sequence
 from assocbench.tracks.dense.warm import warm_dense
 
-MODULES = (depth_sensor, depth_smoothing, fusion, icp, metrics, prediction, surface, projective)
+MODULES = (depth_frame, depth_sensor, depth_smoothing, sensor_passes, fusion, icp, metrics, prediction, surface,
+           projective)
 
 
 def versions() -> dict:
