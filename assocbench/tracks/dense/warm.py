@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+from functools import cache
+
 import numpy as np
 
 from ...kernels import warm
@@ -33,21 +35,36 @@ def warm_dense() -> float | None:
     from .run import view_source
     from .surface import warm_surface
 
-    frame = tiny_frame()
-    ok = frame.valid
-    points, normals = frame.vertices[ok], frame.normals[ok]
+    @cache
+    def tiny():   # built inside the warm-up: normal_map's kernel is one of those it announces
+        frame = tiny_frame()
+        ok = frame.valid
+        return frame, ok, frame.vertices[ok], frame.normals[ok]
+
+    def associate():
+        frame, _, points, normals = tiny()
+        return ProjectiveAssociator().associate(points, normals, frame, np.eye(3), np.zeros(3))
+
+    def one_icp():
+        frame, _, points, normals = tiny()
+        return icp(points, normals, frame, ProjectiveAssociator(), np.eye(3), np.zeros(3),
+                   IcpConfig(min_pairs=6, max_iterations=1))
+
+    def share():
+        frame, _, points, normals = tiny()
+        return direction_share(points, normals, associate(), frame, np.eye(3), np.zeros(3))
+
+    def score():
+        frame, ok, points, _ = tiny()
+        return score_associations(frame.true_points[ok], frame.geom[ok], frame,
+                                  [(np.arange(len(points)), np.flatnonzero(ok.reshape(-1)))], 0.03)
+
     pmap, fusion = PointMap(), FusionConfig(dormant_frames=1, stable_weight=10)
-    return warm([lambda: ProjectiveAssociator().associate(points, normals, frame, np.eye(3), np.zeros(3)),
-                 lambda: icp(points, normals, frame, ProjectiveAssociator(), np.eye(3), np.zeros(3),
-                             IcpConfig(min_pairs=6, max_iterations=1)),
-                 lambda: direction_share(points, normals, ProjectiveAssociator().associate(
-                     points, normals, frame, np.eye(3), np.zeros(3)), frame, np.eye(3), np.zeros(3)),
-                 lambda: [fuse(pmap, frame, np.eye(3), np.zeros(3), k, fusion) for k in range(3)],
-                 lambda: predict(pmap.positions, pmap.weights, frame.K, np.eye(3), np.zeros(3)),
-                 lambda: view_source(pmap, Splatter(frame.K), np.eye(3), np.zeros(3)),
-                 warm_surface,
-                 lambda: score_associations(frame.true_points[ok], frame.geom[ok], frame,
-                                            [(np.arange(len(points)), np.flatnonzero(ok.reshape(-1)))], 0.03),
+    return warm([associate, one_icp, share,
+                 lambda: [fuse(pmap, tiny()[0], np.eye(3), np.zeros(3), k, fusion) for k in range(3)],
+                 lambda: predict(pmap.positions, pmap.weights, tiny()[0].K, np.eye(3), np.zeros(3)),
+                 lambda: view_source(pmap, Splatter(tiny()[0].K), np.eye(3), np.zeros(3)),
+                 warm_surface, score,
                  lambda: sensed_frame(np.ones((6, 6), np.float32), np.zeros((6, 6), np.int32), np.eye(3), np.zeros(3),
-                                      frame.K, DepthConfig(dropout=0.1), np.random.default_rng(0))],
+                                      tiny()[0].K, DepthConfig(dropout=0.1), np.random.default_rng(0))],
                 "dense kernels", expect_s=20)
