@@ -50,26 +50,29 @@ from .fusion import BLOCK, PointMap, pixel_of
 
 
 @njit(cache=True)
-def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height, band, zmin, zbuf, index):
+def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height, band, zmin, zbuf, index, rows,
+                 pixels, depths):
     """The splat of the points of ``blocks`` (ascending ids of runs of ``block`` rows of
     ``pos[:n]``; module docstring) into ``zmin`` (nearest depth), ``zbuf`` (the shown point's depth)
     and ``index`` (W·H each; filled with inf, inf, −1) in place; returns (the points in front of the
-    camera that landed in the image, the points visited)."""
+    camera that landed in the image, the points visited). The first pass keeps each landed point's
+    (row, pixel, z) in ``rows``, ``pixels``, ``depths`` (room for every visited point), so the
+    second reads them in the same order instead of projecting every point again."""
     landed = scanned = 0
     for b in blocks:
         for i in range(b * block, min(n, (b + 1) * block)):
             j, z = pixel_of(pos, i, R, t, f, cx, cy, width, height)
             if j >= 0:
+                rows[landed], pixels[landed], depths[landed] = i, j, z
                 landed += 1
                 if z < zmin[j]:
                     zmin[j] = z
         scanned += max(0, min(n, (b + 1) * block) - b * block)
-    for b in blocks:
-        for i in range(b * block, min(n, (b + 1) * block)):
-            j, z = pixel_of(pos, i, R, t, f, cx, cy, width, height)
-            if j >= 0 and z <= zmin[j] + band and (index[j] < 0 or weights[i] > weights[index[j]]):
-                index[j] = i      # strict: of equal weights the lower index (seen first) stays
-                zbuf[j] = z
+    for c in range(landed):
+        i, j, z = rows[c], pixels[c], depths[c]
+        if z <= zmin[j] + band and (index[j] < 0 or weights[i] > weights[index[j]]):
+            index[j] = i      # strict: of equal weights the lower index (seen first) stays
+            zbuf[j] = z
     return landed, scanned
 
 
@@ -115,6 +118,7 @@ class Splatter:
         self._zmin = np.empty(K.width * K.height)
         self._zbuf = np.empty(K.width * K.height)
         self._index = np.empty(K.width * K.height, np.int64)
+        self._rows, self._pixels, self._depths = np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
 
     def predict(self, positions: np.ndarray, weights: np.ndarray, R: np.ndarray, t: np.ndarray) -> Prediction:
         """The point each pixel shows (module docstring: the most confident within ``band`` of the
@@ -134,13 +138,16 @@ class Splatter:
 
     def _splat(self, pos, w, n, blocks, block, R, t) -> Prediction:
         K = self.K
+        if len(self._rows) < n:     # the landed points' work space, grown (doubling) with the map
+            size = max(n, 2 * len(self._rows))
+            self._rows, self._pixels, self._depths = np.empty(size, np.int64), np.empty(size, np.int64), np.empty(size)
         self._zmin.fill(np.inf)
         self._zbuf.fill(np.inf)
         self._index.fill(-1)
         landed, scanned = splat_kernel(pos, w, n, blocks, block, np.ascontiguousarray(R, dtype=np.float64),
                                        np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f),
                                        float(K.cx), float(K.cy), K.width, K.height, self.band, self._zmin,
-                                       self._zbuf, self._index)
+                                       self._zbuf, self._index, self._rows, self._pixels, self._depths)
         shape = (K.height, K.width)
         return Prediction(self._index.reshape(shape).copy(), self._zbuf.reshape(shape).copy(), int(landed),
                           int(scanned))
