@@ -9,8 +9,9 @@ the sequence of its key (truncated, corrupted, copied over another) is discarded
 stderr and made again; a cache folder that cannot be read or written is a one-line ``UserError``
 naming ``ASSOCBENCH_CACHE``.
 
-Tracks store their sequence their own way (``save`` and ``load``): the camera and dense tracks as
-compressed NumPy archives of their arrays, the lidar tracks (planar, lines: lists of small arrays
+Tracks store their sequence their own way (``save`` and ``load``): the camera track as a compressed
+NumPy archive of its arrays, the dense track as an uncompressed one whose frames are memory-mapped
+and checked by their CRC-32 (``tracks/dense/sequence.py``), the lidar tracks (planar, lines: lists of small arrays
 per frame) with ``save_pickled`` / ``load_pickled``, which is safe here because the cache is the
 user's own folder and an entry is only read back under the key this code computed.
 """

@@ -7,6 +7,11 @@ when a frame is read (``DenseSequence.frame``), from ``default_rng([seed, k, 17]
 same seed gives the same noisy frame bit for bit, and noise settings can change without
 rendering again.
 
+The entry is an uncompressed NumPy archive whose frames are memory-mapped when it is read, with a
+CRC-32 of each array checked then (``_load``): inflating a compressed 200-frame 320x240 entry (123
+MB of depth and segmentation, 50 MB deflated) took 0.5 s of every run, 2.5 ms a frame; mapping
+and checking it takes about 0.05 s. The price is the disk: an entry is 2.4x larger.
+
 The path's speed does not depend on how many frames are run: the trajectory is laid out over
 ``max(frames, path_frames)`` frames and a run takes the first ``frames``. So frames 10 and 50
 are the same two views whether a run has 60 frames or 200.
@@ -16,6 +21,9 @@ from __future__ import annotations
 
 import hashlib
 import json
+import struct
+import zipfile
+import zlib
 from dataclasses import asdict, dataclass, field
 from pathlib import Path
 
@@ -34,7 +42,7 @@ from ...sim.scene import Scene, load_scene
 from ...validation import check_number
 from .depth_sensor import DepthConfig, sensed_frame
 
-FORMAT_VERSION = 2   # 2: no full_size (compression counts the downsampled pixels)
+FORMAT_VERSION = 3   # 2: no full_size (compression counts the downsampled pixels); 3: stored, mapped, CRC-32
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
 # the dense track's path per shipped scene when the run names none, over PATH_FRAMES frames: slow
 # enough that neighbouring frames overlap as a hand-held depth camera's do (bays 2.2 cm a frame,
@@ -143,12 +151,38 @@ def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
     return DenseSequence(scene.name, K_small, depths, geoms, rots, pos, spec.depth, spec.seed)
 
 
+FRAMES = ("depths", "geoms")   # the per-frame arrays: memory-mapped when read, checked by their CRC-32
+
+
 def _save(seq: DenseSequence, path: Path, key: str) -> None:
+    """An uncompressed archive (so ``_load`` can map its frames) with a CRC-32 of each frame array."""
     arrays = dict(key=np.array(key), scene=np.array(seq.scene),
                   K=np.array([seq.K.width, seq.K.height, seq.K.f, seq.K.cx, seq.K.cy]), depths=seq.depths,
-                  geoms=seq.geoms, rotations=seq.rotations, positions=seq.positions)
+                  geoms=seq.geoms, rotations=seq.rotations, positions=seq.positions,
+                  crc=np.array([zlib.crc32(np.ascontiguousarray(getattr(seq, name))) for name in FRAMES], np.int64))
     with open(path, "wb") as fh:
-        np.savez_compressed(fh, **arrays)
+        np.savez(fh, **arrays)
+
+
+def _mapped(path: Path, archive: zipfile.ZipFile, name: str) -> np.ndarray:
+    """The stored member ``name`` of the archive at ``path`` as a read-only memory map: its data
+    start after the member's local header (30 bytes, its name and extra field) and the ``.npy``
+    header. A truncated file fails here (the map would pass its end)."""
+    info = archive.getinfo(f"{name}.npy")
+    if info.compress_type != zipfile.ZIP_STORED:
+        raise Unusable(f"its {name} are compressed (an entry of an older format)")
+    with open(path, "rb") as fh:
+        fh.seek(info.header_offset)
+        head = fh.read(30)
+        if len(head) != 30 or head[:4] != b"PK\x03\x04":
+            raise Unusable(f"the header of its {name} is damaged")
+        name_len, extra_len = struct.unpack("<HH", head[26:30])
+        fh.seek(info.header_offset + 30 + name_len + extra_len)
+        version = np.lib.format.read_magic(fh)
+        read = np.lib.format.read_array_header_1_0 if version == (1, 0) else np.lib.format.read_array_header_2_0
+        shape, fortran, dtype = read(fh)
+        offset = fh.tell()
+    return np.memmap(path, dtype=dtype, mode="r", offset=offset, shape=shape, order="F" if fortran else "C")
 
 
 def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
@@ -156,9 +190,13 @@ def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
         if str(z["key"]) != key:
             raise Unusable("it was stored under another key")
         w, h, f, cx, cy = z["K"]
-        seq = DenseSequence(str(z["scene"]), Intrinsics(int(w), int(h), float(f), float(cx), float(cy)),
-                            z["depths"], z["geoms"], z["rotations"],
-                            z["positions"], spec.depth, spec.seed, from_cache=True)
+        scene, rotations, positions, crc = str(z["scene"]), z["rotations"], z["positions"], z["crc"]
+    with zipfile.ZipFile(path) as archive:
+        depths, geoms = (_mapped(path, archive, name) for name in FRAMES)
+    if [zlib.crc32(depths), zlib.crc32(geoms)] != crc.tolist():
+        raise Unusable("its frames do not match their CRC-32")
+    seq = DenseSequence(scene, Intrinsics(int(w), int(h), float(f), float(cx), float(cy)), depths, geoms, rotations,
+                        positions, spec.depth, spec.seed, from_cache=True)
     want = (spec.frames, spec.height // spec.depth.downsample, spec.width // spec.depth.downsample)
     if seq.depths.shape != want or seq.geoms.shape != want or seq.positions.shape != (spec.frames, 3):
         raise ValueError(f"depths have shape {seq.depths.shape}, expected {want}")

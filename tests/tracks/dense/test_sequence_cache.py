@@ -1,0 +1,69 @@
+"""The dense sequence's cache entry (``tracks/dense/sequence.py``): stored uncompressed, its frames
+memory-mapped when read and checked by their CRC-32, so a damaged entry (truncated, a flipped byte
+in the frames, garbage, another key's) is discarded with one line and rendered again, never used."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from assocbench.sim.scene import load_scene
+from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence
+
+SMALL = DenseSequenceSpec(scene="crates", frames=3, width=64, height=48, seed=0)
+OTHER = DenseSequenceSpec(scene="crates", frames=4, width=64, height=48, seed=0)
+
+
+def _entry(cache, spec):
+    return cache / "dense" / f"{spec.key(load_scene(spec.scene))}.npz"
+
+
+@pytest.fixture(scope="module")
+def good_cache(tmp_path_factory):
+    cache = tmp_path_factory.mktemp("densecache")
+    load_dense_sequence(OTHER, cache)
+    return cache, load_dense_sequence(SMALL, cache)
+
+
+def _flip(data: bytes, at: float) -> bytes:
+    b = bytearray(data)
+    b[int(len(b) * at)] ^= 0x01   # one bit: a depth a hair off, which only a checksum sees
+    return bytes(b)
+
+
+DAMAGE = {
+    "truncated at half": lambda d, other: d[: len(d) // 2],
+    "truncated by one byte": lambda d, other: d[:-1],
+    "zero bytes": lambda d, other: b"",
+    "one bit flipped at 20% (the depths)": lambda d, other: _flip(d, 0.2),
+    "one bit flipped at 70% (the segmentation)": lambda d, other: _flip(d, 0.7),
+    "garbage": lambda d, other: bytes(np.random.default_rng(0).integers(0, 256, 4000, dtype=np.uint8)),
+    "a valid entry of another key": lambda d, other: other,
+}
+
+
+def test_an_entry_is_read_as_maps_of_the_stored_frames(good_cache):
+    cache, rendered = good_cache
+    seq = load_dense_sequence(SMALL, cache)
+    assert seq.from_cache and isinstance(seq.depths, np.memmap) and not seq.depths.flags.writeable
+    np.testing.assert_array_equal(seq.depths, rendered.depths)
+    np.testing.assert_array_equal(seq.geoms, rendered.geoms)
+    a, b = seq.frame(2), rendered.frame(2)
+    np.testing.assert_array_equal(a.depth, b.depth)
+    np.testing.assert_array_equal(a.normals, b.normals)
+
+
+@pytest.mark.parametrize("damage", list(DAMAGE))
+def test_a_damaged_entry_is_rendered_again_with_one_line(damage, good_cache, tmp_path, capsys):
+    cache, rendered = good_cache
+    (tmp_path / "dense").mkdir()
+    for spec in (SMALL, OTHER):
+        _entry(tmp_path, spec).write_bytes(_entry(cache, spec).read_bytes())
+    path = _entry(tmp_path, SMALL)
+    path.write_bytes(DAMAGE[damage](path.read_bytes(), _entry(tmp_path, OTHER).read_bytes()))
+    seq = load_dense_sequence(SMALL, tmp_path)
+    assert not seq.from_cache and len(seq) == SMALL.frames
+    np.testing.assert_array_equal(seq.depths, rendered.depths)
+    lines = capsys.readouterr().err.strip().splitlines()
+    assert len(lines) == 1 and "unusable" in lines[0] and "rendering again" in lines[0], lines
+    assert load_dense_sequence(SMALL, tmp_path).from_cache   # the new entry is sound and used
