@@ -34,8 +34,13 @@ error in the weak direction changes it), while the slope averages it out. This s
 (crates 0 -> 5 from the truth alternated between +1.19 and −0.36 mm forever) and the noisy
 jitter: converged when a step is below ``converge_rot_deg``/``converge_trans`` (taken without a
 trial association: it cannot move the pose farther; ``pairs`` are then those before it) or the
-radius below ``converge_trans``. ``iterations`` counts the steps' associations (the trials and
-the shortened steps) plus the last, untried step; the last allowed iteration is taken untried.
+radius below ``converge_trans``; an overshot step whose secant point lies within ``SETTLE`` x
+``converge_trans`` (0.3 mm of the points' rms motion) ends there without a further association:
+re-associating at that scale measured the pair set's noise, not the cost (on 29 crates frames
+frame-to-model, 7.4 associations a frame without this rule, 5.9 with it, the error to the true
+pose median 0.37 / 0.36 mm, p90 0.97 / 0.96 mm). ``iterations`` counts the steps' associations (the
+trials and the shortened steps) plus the last, untried step; the last allowed iteration is taken
+untried.
 
 **Failure** (``failed=True`` with a ``reason``, never an exception for data): no valid pixel, too
 few pairs at the initial guess, no convergence within ``max_iterations``, and at the final pose a
@@ -178,6 +183,10 @@ class IcpResult:
 NUMERICAL_RANK = 1e-12
 # A rejected step shrinks the trust radius to this share of its length (Nocedal & Wright, alg. 4.1).
 SHRINK = 0.25
+# An overshot step whose secant point moves the points by less than this many converge_trans ends
+# the iteration there, untried: at that scale the re-associated slope is the pair set's noise
+# (module docstring, **Iteration**).
+SETTLE = 3.0
 
 
 @njit(cache=True)
@@ -461,6 +470,12 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
         else:                                             # overshot: the minimum along δ lies inside
             alpha = slope0 / (slope0 - slope1)            # the secant's zero of the slope, in (0, 1)
             delta, radius = alpha * delta, alpha * size
+            if radius < SETTLE * cfg.converge_trans:     # the minimum is within the pairs' noise of here
+                TRn, Ttn = cur.stepped(delta)
+                cur = replace(cur, TR=TRn, Tt=Ttn)
+                step_deg, step_m = float(np.degrees(np.linalg.norm(delta[:3]))), float(np.linalg.norm(delta[3:]))
+                converged = True
+                break
             cur, it = linearised_at(delta), it + 1
         step_deg, step_m = float(np.degrees(np.linalg.norm(delta[:3]))), float(np.linalg.norm(delta[3:]))
         if radius < cfg.converge_trans:     # no step moving the points by more than this improves the fit
