@@ -136,7 +136,20 @@ class Splatter:
         blocks = pmap.blocks_in_view(self.K, R, t) if index else np.arange(-(-len(pmap) // BLOCK))
         return self._splat(pmap._pos, pmap._w, len(pmap), blocks, BLOCK, R, t)
 
+    def shown_rows(self, pmap: PointMap, R: np.ndarray, t: np.ndarray, index: bool = True) -> tuple[np.ndarray, int]:
+        """``(predict_map(...).source, predict_map(...).scanned)`` without copying the image-sized
+        index and depth maps out of the work space (what frame-to-model tracking needs)."""
+        blocks = pmap.blocks_in_view(self.K, R, t) if index else np.arange(-(-len(pmap) // BLOCK))
+        _, scanned = self._splat_kernel(pmap._pos, pmap._w, len(pmap), blocks, BLOCK, R, t)
+        return self._index[self._index >= 0], scanned
+
     def _splat(self, pos, w, n, blocks, block, R, t) -> Prediction:
+        landed, scanned = self._splat_kernel(pos, w, n, blocks, block, R, t)
+        shape = (self.K.height, self.K.width)
+        return Prediction(self._index.reshape(shape).copy(), self._zbuf.reshape(shape).copy(), landed, scanned)
+
+    def _splat_kernel(self, pos, w, n, blocks, block, R, t) -> tuple[int, int]:
+        """``splat_kernel`` into this splatter's work space: (points landed, points visited)."""
         K = self.K
         if len(self._rows) < n:     # the landed points' work space, grown (doubling) with the map
             size = max(n, 2 * len(self._rows))
@@ -148,9 +161,7 @@ class Splatter:
                                        np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f),
                                        float(K.cx), float(K.cy), K.width, K.height, self.band, self._zmin,
                                        self._zbuf, self._index, self._rows, self._pixels, self._depths)
-        shape = (K.height, K.width)
-        return Prediction(self._index.reshape(shape).copy(), self._zbuf.reshape(shape).copy(), int(landed),
-                          int(scanned))
+        return int(landed), int(scanned)
 
 
 def predict(positions: np.ndarray, weights: np.ndarray, K: Intrinsics, R: np.ndarray, t: np.ndarray,

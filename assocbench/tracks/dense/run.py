@@ -76,9 +76,8 @@ def view_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray
     """The map points visible from the predicted pose ``(R, t)``, one per pixel (``prediction``:
     the model rendered into the view, ``dense.prediction: view``); ``index``: visit only the map's
     blocks in view (the same points)."""
-    shown = splatter.predict_map(pmap, R, t, index)
-    return Source(*gather_rows(shown.source, pmap.positions, pmap.normals, pmap.true_points, pmap.geom),
-                  shown.scanned)
+    rows, scanned = splatter.shown_rows(pmap, R, t, index)
+    return Source(*gather_rows(rows, pmap.positions, pmap.normals, pmap.true_points, pmap.geom), scanned)
 
 
 def model_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, dense) -> Source:

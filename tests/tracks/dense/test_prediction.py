@@ -4,12 +4,13 @@ one surface layer), and ICP against it touches at most one source point a pixel 
 
 from __future__ import annotations
 
+import dense_world as dw
 import numpy as np
 from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, source_set
 
 from assocbench.associators.dense import ProjectiveAssociator
 from assocbench.models.camera import Intrinsics
-from assocbench.tracks.dense.fusion import PointMap
+from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse
 from assocbench.tracks.dense.icp import icp
 from assocbench.tracks.dense.prediction import Splatter, predict
 from assocbench.tracks.dense.run import view_source
@@ -127,3 +128,18 @@ def test_icp_against_the_view_touches_at_most_a_point_a_pixel_whatever_the_map_s
     np.testing.assert_array_equal(res_big.R, res_small.R)
     err_m, err_deg = pose_error(res_big.R, res_big.t, RB, tB)
     assert not res_big.failed and err_m < 1e-3 and err_deg < 0.05
+
+
+def test_shown_rows_are_the_predictions_source_without_its_maps():
+    """Frame-to-model tracking reads only the shown points and the visited count: the lighter call
+    gives exactly the prediction's."""
+    _, _, frames = dw.sequence(4, yaw_per_frame=4.0)
+    pmap = PointMap()
+    for k, f in enumerate(frames[:3]):
+        fuse(pmap, f, f.R, f.t, k, FusionConfig())
+    splat, f = Splatter(dw.K320), frames[3]
+    for index in (True, False):
+        rows, scanned = splat.shown_rows(pmap, f.R, f.t, index)
+        full = splat.predict_map(pmap, f.R, f.t, index)
+        np.testing.assert_array_equal(rows, full.source)
+        assert scanned == full.scanned and len(rows) > 1000
