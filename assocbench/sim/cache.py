@@ -79,7 +79,11 @@ def _read(path: Path, key: str, load: Callable[[Path, str], T], what: str) -> T 
             return None
         return load(path, key)
     except PermissionError as exc:  # a cache we may not read is a setting to fix, not damage
-        raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
+        # name the file or folder refused (an entry's chmod 000 left its folder readable: naming
+        # only the cache folder sent the user looking at the wrong permissions)
+        denied = exc.filename or path
+        raise UserError(f"cannot read {CACHE.what} {path.parent.parent} ({denied}: {exc.strerror}); "
+                        f"make it readable or delete it, or {CACHE.fix()}") from None
     except DAMAGED as exc:
         reason = str(exc) if isinstance(exc, Unusable) else f"{type(exc).__name__}: {exc}".splitlines()[0][:120]
     print(f"assocbench: cached {what} {path} is unusable ({reason}); discarding it and rendering again",

@@ -67,3 +67,25 @@ def test_a_damaged_entry_is_rendered_again_with_one_line(damage, good_cache, tmp
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "unusable" in lines[0] and "rendering again" in lines[0], lines
     assert load_dense_sequence(SMALL, tmp_path).from_cache   # the new entry is sound and used
+
+
+def test_an_unreadable_entry_is_one_line_naming_the_entry_and_the_setting(good_cache, monkeypatch):
+    """An entry made unreadable (chmod 000) leaves its folder readable: the error names the entry
+    itself, not only the cache folder, and ASSOCBENCH_CACHE. (np.load raises what open() raises for
+    such a file, since a test run as root reads it anyway.)"""
+    import errno
+
+    from assocbench.errors import UserError
+
+    cache, _ = good_cache
+    entry = _entry(cache, SMALL)
+
+    def denied(file, *args, **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied", str(file))
+
+    monkeypatch.setattr(np, "load", denied)
+    with pytest.raises(UserError) as err:
+        load_dense_sequence(SMALL, cache)
+    message = str(err.value)
+    assert "\n" not in message and str(entry) in message and "Permission denied" in message
+    assert "ASSOCBENCH_CACHE" in message and entry.is_file()   # nothing deleted
