@@ -89,3 +89,16 @@ def test_an_unreadable_entry_is_one_line_naming_the_entry_and_the_setting(good_c
     message = str(err.value)
     assert "\n" not in message and str(entry) in message and "Permission denied" in message
     assert "ASSOCBENCH_CACHE" in message and entry.is_file()   # nothing deleted
+
+
+def test_a_factor_that_does_not_divide_the_image_keeps_the_intrinsics_size(tmp_path):
+    """``depth.downsample 3`` on 64x48 keeps 21x16 pixels, as its intrinsics (W//s, H//s) say: the
+    stride alone kept 22 columns, every run failed in its worker with a shape error, and the entry
+    stored was discarded as damaged by the next run."""
+    from assocbench.tracks.dense.depth_sensor import DepthConfig
+
+    spec = DenseSequenceSpec(scene="crates", frames=2, width=64, height=48, seed=0, depth=DepthConfig(downsample=3))
+    seq = load_dense_sequence(spec, tmp_path)
+    assert (seq.K.width, seq.K.height) == (21, 16) and seq.depths.shape == (2, 16, 21)
+    assert seq.frame(1).depth.shape == (16, 21)
+    assert load_dense_sequence(spec, tmp_path).from_cache   # stored sound, read back
