@@ -86,12 +86,13 @@ def _read(path: Path, key: str, load: Callable[[Path, str], T], what: str) -> T 
                         f"make it readable or delete it, or {CACHE.fix()}") from None
     except DAMAGED as exc:
         reason = str(exc) if isinstance(exc, Unusable) else f"{type(exc).__name__}: {exc}".splitlines()[0][:120]
-    print(f"assocbench: cached {what} {path} is unusable ({reason}); discarding it and rendering again",
-          file=sys.stderr)
     try:
         path.unlink(missing_ok=True)
-    except OSError:
-        pass  # the fresh one is stored over it
+    except OSError as exc:   # a folder we may not change would refuse the fresh entry too: say so before rendering
+        raise UserError(f"cached {what} {path} is unusable ({reason}) and cannot be removed: {exc.strerror}; "
+                        f"{CACHE.fix()}") from None
+    print(f"assocbench: cached {what} {path} is unusable ({reason}); discarding it and rendering again",
+          file=sys.stderr)
     return None
 
 

@@ -102,3 +102,32 @@ def test_a_factor_that_does_not_divide_the_image_keeps_the_intrinsics_size(tmp_p
     assert (seq.K.width, seq.K.height) == (21, 16) and seq.depths.shape == (2, 16, 21)
     assert seq.frame(1).depth.shape == (16, 21)
     assert load_dense_sequence(spec, tmp_path).from_cache   # stored sound, read back
+
+
+def test_a_damaged_entry_that_cannot_be_removed_is_one_line_before_rendering(good_cache, tmp_path, monkeypatch,
+                                                                            capsys):
+    """A damaged entry in a read-only cache folder: one line naming the entry and ASSOCBENCH_CACHE,
+    exit 2 at the CLI, before rendering (it printed "discarding it and rendering again", rendered,
+    then failed to store: two lines and the render's time lost). As root a read-only folder is
+    still writable, so unlink is made to refuse as it would."""
+    import errno
+    from pathlib import Path
+
+    from assocbench.errors import UserError
+    from assocbench.tracks.dense import sequence
+
+    cache, _ = good_cache
+    (tmp_path / "dense").mkdir()
+    entry = _entry(tmp_path, SMALL)
+    entry.write_bytes(_entry(cache, SMALL).read_bytes()[:-1])   # truncated by one byte
+
+    def refused(self, missing_ok=False):
+        raise PermissionError(errno.EACCES, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "unlink", refused)
+    monkeypatch.setattr(sequence, "render_dense", lambda *a: pytest.fail("rendered before the error"))
+    with pytest.raises(UserError) as err:
+        load_dense_sequence(SMALL, tmp_path)
+    message = str(err.value)
+    assert "\n" not in message and str(entry) in message and "cannot be removed" in message
+    assert "ASSOCBENCH_CACHE" in message and capsys.readouterr().err == ""
