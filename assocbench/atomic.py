@@ -46,6 +46,20 @@ _PLACE_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
                  errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG, errno.EIO, errno.ENOENT}
 
 
+def check_cache_folder() -> None:
+    """A one-line ``UserError`` when the cache folder cannot be a folder (it, or the nearest of its
+    parents that exists, is a file), checked before a run compiles or renders: otherwise kernels
+    compiled into the temporary folder for minutes, the sequence rendered, and only storing it said so."""
+    from ._runtime import cache_root
+
+    root = cache_root()
+    for place in (root, *root.parents):
+        if place.exists():
+            if not place.is_dir():
+                raise UserError(f"cannot create {CACHE.what} {root}: {place} is a file; {CACHE.fix()}")
+            return
+
+
 def ensure_dir(path: Path, role: Role = OUTPUT) -> Path:
     """Create ``path`` (and parents) or raise a one-line ``UserError`` if that is impossible."""
     path = Path(path)

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..atomic import check_cache_folder
 from ..harness.leaderboard import write_leaderboard
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import EXECUTORS, run_suite
@@ -29,6 +30,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     suite = load_suite(resolve_suite(args.suite or "leaderboard"))
+    check_cache_folder()
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
     summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
     paths = suite.track_impl.write_leaderboard(summaries, frames, out) or write_leaderboard(summaries, frames, out)

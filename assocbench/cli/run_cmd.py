@@ -12,7 +12,7 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from ..atomic import write_group
+from ..atomic import check_cache_folder, write_group
 from ..harness.config import load_run_config, run_spec
 from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
@@ -58,6 +58,7 @@ def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = run_spec(cfg)
+    check_cache_folder()
     track = spec.track_impl
     out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
                                                                            spec.seed))

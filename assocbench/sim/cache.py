@@ -79,15 +79,20 @@ def _read(path: Path, key: str, load: Callable[[Path, str], T], what: str) -> T 
             return None
         return load(path, key)
     except PermissionError as exc:  # a cache we may not read is a setting to fix, not damage
-        raise UserError(f"cannot read {CACHE.what} {path.parent.parent}: {exc.strerror}; {CACHE.fix()}") from None
+        # name the file or folder refused (an entry's chmod 000 left its folder readable: naming
+        # only the cache folder sent the user looking at the wrong permissions)
+        denied = exc.filename or path
+        raise UserError(f"cannot read {CACHE.what} {path.parent.parent} ({denied}: {exc.strerror}); "
+                        f"make it readable or delete it, or {CACHE.fix()}") from None
     except DAMAGED as exc:
         reason = str(exc) if isinstance(exc, Unusable) else f"{type(exc).__name__}: {exc}".splitlines()[0][:120]
-    print(f"assocbench: cached {what} {path} is unusable ({reason}); discarding it and rendering again",
-          file=sys.stderr)
     try:
         path.unlink(missing_ok=True)
-    except OSError:
-        pass  # the fresh one is stored over it
+    except OSError as exc:   # a folder we may not change would refuse the fresh entry too: say so before rendering
+        raise UserError(f"cached {what} {path} is unusable ({reason}) and cannot be removed: {exc.strerror}; "
+                        f"{CACHE.fix()}") from None
+    print(f"assocbench: cached {what} {path} is unusable ({reason}); discarding it and rendering again",
+          file=sys.stderr)
     return None
 
 

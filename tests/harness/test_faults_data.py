@@ -253,6 +253,26 @@ def test_an_unusable_cache_folder_names_the_cache_not_out(tmp_path, monkeypatch)
     assert "cache folder" in message and "ASSOCBENCH_CACHE" in message and "--out" not in message
 
 
+@pytest.mark.parametrize("command", [["run", "--method", "projective", "--scene", "crates", "--frames", "2"],
+                                     ["leaderboard", "--suite", "dense_ci"]])
+def test_a_cache_variable_naming_a_file_is_one_line_before_any_work(command, tmp_path, monkeypatch, capsys):
+    """ASSOCBENCH_CACHE=<a file>: exit 2 with one line before the run warms kernels or renders (it
+    compiled into the temporary folder for minutes, rendered, and failed only when storing)."""
+    from assocbench.cli.main import main
+    from assocbench.harness import sandbox
+
+    blocker = tmp_path / "cache-is-a-file"
+    blocker.write_text("")
+    monkeypatch.setenv("ASSOCBENCH_CACHE", str(blocker))
+    monkeypatch.setattr(sandbox, "execute", lambda *a, **k: pytest.fail("ran before the error"))
+    monkeypatch.setattr("assocbench.cli.run_cmd.execute", lambda *a, **k: pytest.fail("ran before the error"))
+    monkeypatch.setattr("assocbench.cli.leaderboard_cmd.run_suite", lambda *a, **k: pytest.fail("ran before the error"))
+    assert main([*command, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(blocker) in err[0] and "is a file" in err[0] and "ASSOCBENCH_CACHE" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
 def test_an_unreadable_cache_entry_names_the_cache(good_cache, tmp_path, monkeypatch):
     cache, _ = good_cache
     monkeypatch.setattr(np, "load", lambda *a, **k: (_ for _ in ()).throw(PermissionError(errno.EACCES, "Permission denied")))

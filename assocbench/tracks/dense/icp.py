@@ -39,7 +39,8 @@ radius below ``converge_trans``; an overshot step whose secant point lies within
 re-associating at that scale measured the pair set's noise, not the cost (on 29 crates frames
 frame-to-model, 7.4 associations a frame without this rule, 5.9 with it, the error to the true
 pose median 0.37 / 0.36 mm, p90 0.97 / 0.96 mm). ``iterations`` counts the steps' associations (the
-trials and the shortened steps) plus the last, untried step; the last allowed iteration is taken
+trials and the shortened steps) plus the last, untried step of a small-step or last-iteration exit
+(a settled secant step is not counted: it associates nothing); the last allowed iteration is taken
 untried.
 
 **Failure** (``failed=True`` with a ``reason``, never an exception for data): no valid pixel, too

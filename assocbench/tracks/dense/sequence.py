@@ -40,7 +40,7 @@ from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
 from ...sim.scene import Scene, load_scene
 from ...validation import check_number
-from .depth_sensor import DepthConfig, sensed_frame
+from .depth_sensor import DepthConfig, downsample_intrinsics, sensed_frame
 
 FORMAT_VERSION = 3   # 2: no full_size (compression counts the downsampled pixels); 3: stored, mapped, CRC-32
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
@@ -137,17 +137,19 @@ def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
     rots, pos = spec.camera_path().poses(scene)
     rots, pos = rots[:spec.frames], pos[:spec.frames]
     s = spec.depth.downsample
+    # a factor that does not divide the side keeps W//s pixels (as ``depth_frame``), not ceil(W/s):
+    # the strided image must be the size its intrinsics say
+    h, w = spec.height // s, spec.width // s
     # filled in place: a list of frames stacked at the end would hold every frame twice at the peak
-    depths = np.empty((spec.frames, len(range(0, spec.height, s)), len(range(0, spec.width, s))), np.float32)
+    depths = np.empty((spec.frames, h, w), np.float32)
     geoms = np.empty(depths.shape, np.int32)
     with FrameRenderer(scene, spec.width, spec.height, msaa=0) as renderer:   # depth is not blended
         for k in tqdm(range(spec.frames), desc=f"render depth {scene.name}", unit="frame", leave=False,
                       disable=None, mininterval=0.5):
             depth, geom = renderer.render_depth(rots[k], pos[k])
-            depths[k] = depth[::s, ::s]
-            geoms[k] = geom[::s, ::s]
-        K = renderer.K
-    K_small = Intrinsics(spec.width // s, spec.height // s, K.f / s, K.cx / s, K.cy / s)
+            depths[k] = depth[:h * s:s, :w * s:s]
+            geoms[k] = geom[:h * s:s, :w * s:s]
+        K_small = downsample_intrinsics(renderer.K, s)
     return DenseSequence(scene.name, K_small, depths, geoms, rots, pos, spec.depth, spec.seed)
 
 

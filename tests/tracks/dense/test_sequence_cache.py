@@ -67,3 +67,67 @@ def test_a_damaged_entry_is_rendered_again_with_one_line(damage, good_cache, tmp
     lines = capsys.readouterr().err.strip().splitlines()
     assert len(lines) == 1 and "unusable" in lines[0] and "rendering again" in lines[0], lines
     assert load_dense_sequence(SMALL, tmp_path).from_cache   # the new entry is sound and used
+
+
+def test_an_unreadable_entry_is_one_line_naming_the_entry_and_the_setting(good_cache, monkeypatch):
+    """An entry made unreadable (chmod 000) leaves its folder readable: the error names the entry
+    itself, not only the cache folder, and ASSOCBENCH_CACHE. (np.load raises what open() raises for
+    such a file, since a test run as root reads it anyway.)"""
+    import errno
+
+    from assocbench.errors import UserError
+
+    cache, _ = good_cache
+    entry = _entry(cache, SMALL)
+
+    def denied(file, *args, **kwargs):
+        raise PermissionError(errno.EACCES, "Permission denied", str(file))
+
+    monkeypatch.setattr(np, "load", denied)
+    with pytest.raises(UserError) as err:
+        load_dense_sequence(SMALL, cache)
+    message = str(err.value)
+    assert "\n" not in message and str(entry) in message and "Permission denied" in message
+    assert "ASSOCBENCH_CACHE" in message and entry.is_file()   # nothing deleted
+
+
+def test_a_factor_that_does_not_divide_the_image_keeps_the_intrinsics_size(tmp_path):
+    """``depth.downsample 3`` on 64x48 keeps 21x16 pixels, as its intrinsics (W//s, H//s) say: the
+    stride alone kept 22 columns, every run failed in its worker with a shape error, and the entry
+    stored was discarded as damaged by the next run."""
+    from assocbench.tracks.dense.depth_sensor import DepthConfig
+
+    spec = DenseSequenceSpec(scene="crates", frames=2, width=64, height=48, seed=0, depth=DepthConfig(downsample=3))
+    seq = load_dense_sequence(spec, tmp_path)
+    assert (seq.K.width, seq.K.height) == (21, 16) and seq.depths.shape == (2, 16, 21)
+    assert seq.frame(1).depth.shape == (16, 21)
+    assert load_dense_sequence(spec, tmp_path).from_cache   # stored sound, read back
+
+
+def test_a_damaged_entry_that_cannot_be_removed_is_one_line_before_rendering(good_cache, tmp_path, monkeypatch,
+                                                                            capsys):
+    """A damaged entry in a read-only cache folder: one line naming the entry and ASSOCBENCH_CACHE,
+    exit 2 at the CLI, before rendering (it printed "discarding it and rendering again", rendered,
+    then failed to store: two lines and the render's time lost). As root a read-only folder is
+    still writable, so unlink is made to refuse as it would."""
+    import errno
+    from pathlib import Path
+
+    from assocbench.errors import UserError
+    from assocbench.tracks.dense import sequence
+
+    cache, _ = good_cache
+    (tmp_path / "dense").mkdir()
+    entry = _entry(tmp_path, SMALL)
+    entry.write_bytes(_entry(cache, SMALL).read_bytes()[:-1])   # truncated by one byte
+
+    def refused(self, missing_ok=False):
+        raise PermissionError(errno.EACCES, "Permission denied", str(self))
+
+    monkeypatch.setattr(Path, "unlink", refused)
+    monkeypatch.setattr(sequence, "render_dense", lambda *a: pytest.fail("rendered before the error"))
+    with pytest.raises(UserError) as err:
+        load_dense_sequence(SMALL, tmp_path)
+    message = str(err.value)
+    assert "\n" not in message and str(entry) in message and "cannot be removed" in message
+    assert "ASSOCBENCH_CACHE" in message and capsys.readouterr().err == ""
