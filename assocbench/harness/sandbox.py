@@ -51,6 +51,7 @@ PRELOAD = ["__main__", "assocbench.harness.worker_preload"]
 SERVER_ENV = ("PYTHONSAFEPATH", "PYTHONPATH")   # set only while the forkserver starts
 SAVED_ENV = "ASSOCBENCH_FORKSERVER_SAVED_ENV"   # the user's values of SERVER_ENV, for worker_preload
 TRACKS_ENV = "ASSOCBENCH_FORKSERVER_TRACKS"     # the tracks the forkserver warms too, for worker_preload
+METHODS_ENV = "ASSOCBENCH_FORKSERVER_METHODS"   # the methods whose built-in kernels it warms, for worker_preload
 _GUARD = ("a script that runs assocbench from a process with threads (workers then come from a "
           "forkserver, which imports the script) must keep its top level under "
           "if __name__ == '__main__':")
@@ -163,20 +164,23 @@ def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
     there is no lock that the child could inherit held. Otherwise (a progress monitor, a dask
     worker, a user's threads) a forkserver: workers fork from a clean server, started once (an
     import of assocbench, about 1.5 s) with the built-ins warm."""
+    methods, tracks = list(methods), list(tracks)
     if "fork" in mp.get_all_start_methods() and _single_threaded():
         warm_builtins(methods, tracks)  # here, so that every worker inherits the loaded kernels
         return mp.get_context("fork")
     ctx = mp.get_context("forkserver")
     ctx.set_forkserver_preload(PRELOAD)  # no effect once the server runs: it is started once
-    _start_forkserver(tracks)
+    _start_forkserver(methods, tracks)
     return ctx
 
 
-def _start_forkserver(tracks: Iterable[str] = ()) -> None:
-    """Start the forkserver on this process's ``sys.path``, warming the built-in associators and
-    ``tracks`` (the first task's: a worker forked from it inherits their loaded kernels, where
-    warming its track itself cost each worker 0.5 s, 2.8 ms a frame of a 200-frame dense run; a
-    later task on another track warms its own in its worker). Python 3.11 starts it with ``python -c``
+def _start_forkserver(methods: Iterable[str] = (), tracks: Iterable[str] = ()) -> None:
+    """Start the forkserver on this process's ``sys.path``, warming the built-in associators among
+    ``methods`` and the ``tracks`` (the first task's: a worker forked from it inherits their loaded
+    kernels, where warming its track itself cost each worker 0.5 s, 2.8 ms a frame of a 200-frame
+    dense run; warming every built-in associator cost a first dense run 93-109 s of compiling on a
+    cold machine, for kernels it never calls; a later task's other methods and track warm in its
+    worker, the methods in their warm-up call). Python 3.11 starts it with ``python -c``
     and ignores the ``sys_path`` it is handed, so the working folder came first: run from a clone
     after ``pip install .``, the workers imported the clone's sources, not the installed package
     the main process runs (and compiled every kernel again). PYTHONSAFEPATH drops the working
@@ -187,6 +191,7 @@ def _start_forkserver(tracks: Iterable[str] = ()) -> None:
     saved = {key: os.environ.get(key) for key in SERVER_ENV}
     os.environ[SAVED_ENV] = json.dumps(saved)
     os.environ[TRACKS_ENV] = json.dumps(sorted(set(tracks)))
+    os.environ[METHODS_ENV] = json.dumps(sorted(set(methods)))
     os.environ["PYTHONSAFEPATH"] = "1"
     os.environ["PYTHONPATH"] = os.pathsep.join(entry or os.getcwd() for entry in sys.path)
     try:
@@ -195,6 +200,7 @@ def _start_forkserver(tracks: Iterable[str] = ()) -> None:
         restore_env(saved)
         os.environ.pop(SAVED_ENV, None)
         os.environ.pop(TRACKS_ENV, None)
+        os.environ.pop(METHODS_ENV, None)
 
 
 def restore_env(saved: dict) -> None:
@@ -227,9 +233,12 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
     from .runner import warm_scoring, warm_up
 
     names = sorted({m.lower() for m in methods} & set(BUILTINS) - _warm)
-    scoring = [] if "scoring" in _warm else [warm_scoring]   # every worker scores its frames
+    # the scoring of associations against truth: every worker of a track whose frames are Problems
+    # uses it (no tracks named: assume one does); the dense track scores its pairs its own way
+    scores = not tracks or any(get_track(name).has_problems for name in tracks)
+    scoring = [warm_scoring] if scores and "scoring" not in _warm else []
     warm([partial(warm_up, BUILTINS[name]()) for name in names] + scoring)
-    _warm.update(names + ["scoring"])
+    _warm.update(names + (["scoring"] if scores else []))
 
 
 def warm_track(track) -> None:

@@ -45,3 +45,34 @@ def test_forkserver_workers_ignore_an_assocbench_folder_in_the_working_folder(tm
     assert done.returncode == 0, done.stderr[-2000:]
     assert "worker ran" in done.stdout and "parent ok" in done.stdout
     assert not marker.exists(), "the forkserver imported the working folder's assocbench"
+
+
+WARMED_SCRIPT = '''
+import threading
+from assocbench.harness import sandbox
+
+
+def report():
+    print("warmed", sorted(sandbox._warm))
+
+
+if __name__ == "__main__":
+    threading.Thread(target=threading.Event().wait, daemon=True).start()   # a thread: the forkserver
+    ctx = sandbox._context(["projective"], ["dense"])
+    child = ctx.Process(target=report)
+    child.start()
+    child.join()
+    assert child.exitcode == 0, child.exitcode
+'''
+
+
+def test_a_dense_runs_forkserver_warms_its_track_not_the_feature_associators(tmp_path):
+    """The server warmed every built-in feature associator and their scoring for any first task:
+    a first dense run on a cold machine compiled them for 93-109 s and never called them. It warms
+    the first task's methods and track; a worker forked from it inherits just those."""
+    script = tmp_path / "warmed.py"
+    script.write_text(WARMED_SCRIPT)
+    done = subprocess.run([sys.executable, str(script)], capture_output=True, text=True, timeout=300)
+    assert done.returncode == 0, done.stderr[-2000:]
+    warmed = done.stdout.split("warmed")[1].strip()
+    assert "'track dense'" in warmed and "jcbb" not in warmed and "'scoring'" not in warmed, warmed
