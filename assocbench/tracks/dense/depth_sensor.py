@@ -18,7 +18,7 @@ from ...errors import UserError
 from ...models.camera import Intrinsics
 from ...models.depth_frame import DepthFrame, pixel_rays
 from ...validation import in_range, validate_fields
-from .depth_smoothing import depth_gate, edge_aware_smoothed
+from .depth_smoothing import edge_aware_smoothed
 from .sensor_passes import axial_sigma, edge_free_normals, grazing_kernel, sense
 
 MAX_DOWNSAMPLE = 16
@@ -161,20 +161,11 @@ def sensed_frame(d_true: np.ndarray, seg: np.ndarray, R: np.ndarray, t: np.ndarr
     return DepthFrame(K, a["depth"], a["vertices"], a["normals"], a["true_points"], a["geom"], R, t)
 
 
-def frame_normals(depth: np.ndarray, K: Intrinsics, cfg: DepthConfig) -> np.ndarray:
-    """The normal map of measured ``depth``: ``normal_map`` of the edge-aware smoothed depth
-    (``depth_smoothing``; the raw depth when ``normal_smooth_px`` is 0), NaN where the depth is
-    missing and where a neighbour lies across a depth edge (its difference spans the jump):
-    ``depth_edges``, fused with ``normal_map`` into one compiled pass (``sensor_passes.edge_free_normals``)."""
-    depth = np.ascontiguousarray(depth, dtype=np.float64)
-    normals = np.empty((*depth.shape, 3))
-    _normals_into(depth, depth_gate(depth, cfg.sigma(depth)), K, cfg.normal_smooth_px, np.empty((3, *depth.shape)),
-                  normals)
-    return normals
-
-
 def _normals_into(depth: np.ndarray, gate: np.ndarray, K: Intrinsics, smooth_px: float, work: np.ndarray,
                   out: np.ndarray) -> None:
-    """``frame_normals`` written into ``out``, the smoothing working in ``work`` (3, H, W)."""
+    """The normal map of measured ``depth`` into ``out``: ``normal_map`` of the edge-aware smoothed
+    depth (``depth_smoothing``, working in ``work`` (3, H, W); the raw depth when ``smooth_px`` is 0),
+    NaN where the depth is missing and where a neighbour lies across a depth edge (``depth_edges``),
+    in one compiled pass (``sensor_passes.edge_free_normals``)."""
     smooth = edge_aware_smoothed(depth, smooth_px, gate, work) if smooth_px > 0 else depth
     edge_free_normals(depth, smooth, gate, *pixel_rays(K, *depth.shape), out)
