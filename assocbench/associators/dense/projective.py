@@ -9,9 +9,13 @@ First filter (the homework's 2.1; the points passing it are ``considered``, the 
 ``z > 0`` (in front of the camera: a point behind it would otherwise project through the centre
 onto a real pixel), ``0 ≤ u < W``, ``0 ≤ v < H``, the pixel valid (finite positive depth ``d``,
 finite normal), and the point not hidden behind the pixel's surface, ``z ≤ d + gate(d)``
-(``base``: the gate grows with the depth noise). Second filter, in world coordinates with
-``q = R V + t``, ``n_q = R N``: ``|p − q|² < gate(d)²`` (pixels on the same ray but at another
-depth are not the same surface) and ``n_p · n_q > cos(angle)``.
+(``base``: the gate grows with the depth noise). Second filter, the base's ``|p − q|² < gate(d)²``
+with ``q = R V + t`` (pixels on the same ray but at another depth are not the same surface) and
+``n_p · n_q > cos(angle)`` with ``n_q = R N``, evaluated in the target camera's frame, where they
+read ``|p_c − V|² < gate(d)²`` and ``(Rᵀ n_p) · N > cos(angle)``: a rotation keeps lengths and
+angles, and the point is already there for its projection, so no pixel's vertex and normal is
+rotated into the world (0.59 against 0.94 ms for 45 000 source points of a crates frame-to-model
+frame, the same pairs). The two forms differ only by rounding.
 
 One compiled pass over the source points, O(n), no sort: the pairs come out in source order.
 ``associate_numpy`` is the same computation in plain numpy, operation for operation (the
@@ -57,15 +61,13 @@ def projective_kernel(points, normals, depth, V, N, width, height, f, cx, cy, R,
         if z > d + gate:   # hidden behind the pixel's surface: not visible, not considered
             continue
         considered += 1
-        ex = points[i, 0] - (R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0])
-        ey = points[i, 1] - (R[1, 0] * V[j, 0] + R[1, 1] * V[j, 1] + R[1, 2] * V[j, 2] + t[1])
-        ez = points[i, 2] - (R[2, 0] * V[j, 0] + R[2, 1] * V[j, 1] + R[2, 2] * V[j, 2] + t[2])
+        ex, ey, ez = x - V[j, 0], y - V[j, 1], z - V[j, 2]          # p_c − V
         if not ex * ex + ey * ey + ez * ez < gate * gate:
             continue
-        nx = R[0, 0] * N[j, 0] + R[0, 1] * N[j, 1] + R[0, 2] * N[j, 2]
-        ny = R[1, 0] * N[j, 0] + R[1, 1] * N[j, 1] + R[1, 2] * N[j, 2]
-        nz = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
-        if not normals[i, 0] * nx + normals[i, 1] * ny + normals[i, 2] * nz > cos_thr:
+        mx = R[0, 0] * normals[i, 0] + R[1, 0] * normals[i, 1] + R[2, 0] * normals[i, 2]   # Rᵀ n_p
+        my = R[0, 1] * normals[i, 0] + R[1, 1] * normals[i, 1] + R[2, 1] * normals[i, 2]
+        mz = R[0, 2] * normals[i, 0] + R[1, 2] * normals[i, 1] + R[2, 2] * normals[i, 2]
+        if not mx * N[j, 0] + my * N[j, 1] + mz * N[j, 2] > cos_thr:
             continue
         src[k] = i
         pix[k] = j
@@ -110,11 +112,11 @@ def associate_numpy(points, normals, frame: DepthFrame, R, t, assoc: ProjectiveA
         gate = np.maximum(floor, gate_a + gate_b * dj * dj)
         ok = (dj > 0) & (dj < np.inf) & np.isfinite(N[pix, 0]) & ~(z[src] > dj + gate)
     src, pix, gate = src[ok], pix[ok], gate[ok]
-    Vj, Nj, ps, ns = V[pix], N[pix], p[src], n[src]
-    e = [ps[:, r] - (R[r, 0] * Vj[:, 0] + R[r, 1] * Vj[:, 1] + R[r, 2] * Vj[:, 2] + t[r]) for r in range(3)]
-    nq = [R[r, 0] * Nj[:, 0] + R[r, 1] * Nj[:, 1] + R[r, 2] * Nj[:, 2] for r in range(3)]
+    Vj, Nj, ns = V[pix], N[pix], n[src]
+    e = [c[src] - Vj[:, r] for r, c in enumerate((x, y, z))]
+    m = [R[0, r] * ns[:, 0] + R[1, r] * ns[:, 1] + R[2, r] * ns[:, 2] for r in range(3)]
     cos_thr = assoc.cos_thr
     with np.errstate(invalid="ignore"):
         keep = (e[0] * e[0] + e[1] * e[1] + e[2] * e[2] < gate * gate) & (
-            ns[:, 0] * nq[0] + ns[:, 1] * nq[1] + ns[:, 2] * nq[2] > cos_thr)
+            m[0] * Nj[:, 0] + m[1] * Nj[:, 1] + m[2] * Nj[:, 2] > cos_thr)
     return Pairs(src[keep], pix[keep], len(src))
