@@ -37,6 +37,7 @@ from dataclasses import dataclass, field
 from typing import ClassVar
 
 import numpy as np
+from numba import njit
 
 from ...errors import UserError
 from ...models.depth_frame import DepthFrame
@@ -139,15 +140,36 @@ def checked_pairs(pairs: object, n_source: int, n_pixels: int) -> Pairs:
             raise ValueError(f"Pairs.{name} must be a 1-D integer array, got {a.dtype} of shape {a.shape}")
     if len(src) != len(pix):
         raise ValueError(f"Pairs.source and Pairs.pixel differ in length ({len(src)} and {len(pix)})")
-    if len(src) and (src[0] < 0 or src[-1] >= n_source or np.any(src[1:] <= src[:-1])):
+    src, pix = src.astype(np.int64, copy=False), pix.astype(np.int64, copy=False)
+    if not _source_ascending(src, n_source):
         raise ValueError(f"Pairs.source must be strictly ascending indices in 0..{n_source - 1}")
-    if len(pix) and (pix.min() < 0 or pix.max() >= n_pixels):
-        raise ValueError(f"Pairs.pixel holds {pix.min() if pix.min() < 0 else pix.max()}, "
-                         f"outside the frame's pixels 0..{n_pixels - 1}")
+    bad = _pixel_outside(pix, n_pixels)
+    if bad >= 0:
+        raise ValueError(f"Pairs.pixel holds {pix[bad]}, outside the frame's pixels 0..{n_pixels - 1}")
     considered = pairs.considered
     if not isinstance(considered, (int, np.integer)) or not len(src) <= considered <= n_source:
         raise ValueError(f"Pairs.considered must be an integer in {len(src)}..{n_source}, got {considered!r}")
-    return Pairs(src.astype(np.int64, copy=False), pix.astype(np.int64, copy=False), int(considered))
+    return Pairs(src, pix, int(considered))
+
+
+@njit(cache=True)
+def _source_ascending(src, n_source):
+    """``0 ≤ src[0] < src[1] < … < n_source`` (one compiled pass: ICP checks every association)."""
+    previous = -1
+    for i in src:
+        if i <= previous:
+            return False
+        previous = i
+    return previous < n_source
+
+
+@njit(cache=True)
+def _pixel_outside(pix, n_pixels):
+    """Index of the first entry of ``pix`` outside ``0..n_pixels − 1``, or −1."""
+    for k in range(len(pix)):
+        if pix[k] < 0 or pix[k] >= n_pixels:
+            return k
+    return -1
 
 
 def flat_maps(frame: DepthFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:

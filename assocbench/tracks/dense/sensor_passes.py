@@ -12,12 +12,11 @@ holds each pass against the numpy form of its formula).
 from __future__ import annotations
 
 import numpy as np
-from llvmlite import ir
-from numba import njit, types
-from numba.extending import intrinsic
+from numba import njit
 
 from ...models.depth_frame import NO_GEOM, central_normal, vertex_at
 from .depth_smoothing import across_edge, depth_gate
+from .fused_ops import fma
 
 
 @njit(cache=True)
@@ -53,19 +52,6 @@ def grazing_kernel(V):
             out[v, u] = view_cosine((V[r, c, 0], V[r, c, 1], V[r, c, 2]), (V[r, c + 1, 0], V[r, c + 1, 1], V[r, c + 1, 2]),
                                     (V[r + 1, c, 0], V[r + 1, c, 1], V[r + 1, c, 2]), (V[v, u, 0], V[v, u, 1], V[v, u, 2]))
     return out
-
-
-@intrinsic
-def fma(typingctx, a, b, c):
-    """``a · b + c`` rounded once (LLVM's ``llvm.fma.f64``; one instruction on x86-64 since Haswell)."""
-    sig = types.float64(types.float64, types.float64, types.float64)
-
-    def codegen(context, builder, signature, args):
-        double = ir.DoubleType()
-        fn = builder.module.declare_intrinsic("llvm.fma", [double], ir.FunctionType(double, [double] * 3))
-        return builder.call(fn, args)
-
-    return sig, codegen
 
 
 @njit(cache=True, error_model="numpy")

@@ -1,0 +1,54 @@
+"""A fused multiply-add for the dense track's compiled kernels.
+
+Where the order of a kernel's roundings is part of its result (the true points formed as
+OpenBLAS's kernel forms them, ICP's normal equations), the kernel writes its products with
+``fma`` rather than leaving LLVM to contract ``a * b + c`` or not depending on the machine: an
+``fma`` rounds once on every machine (an instruction on x86-64 since 2013, exact in software
+elsewhere), so the kernel's bits do not depend on the CPU it was compiled for.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+from llvmlite import ir
+from numba import njit, types
+from numba.extending import intrinsic
+
+ZERO21 = (0.0,) * 21   # the upper triangle of a 6 x 6 matrix, row by row, as ``outer_fma`` sums it
+
+
+@intrinsic
+def fma(typingctx, a, b, c):
+    """``a · b + c`` rounded once (LLVM's ``llvm.fma.f64``; one instruction on x86-64 since Haswell)."""
+    sig = types.float64(types.float64, types.float64, types.float64)
+
+    def codegen(context, builder, signature, args):
+        double = ir.DoubleType()
+        fn = builder.module.declare_intrinsic("llvm.fma", [double], ir.FunctionType(double, [double] * 3))
+        return builder.call(fn, args)
+
+    return sig, codegen
+
+
+@njit(cache=True, inline="always")
+def outer_fma(h, a0, a1, a2, a3, a4, a5):
+    """``h + a aᵀ`` on the upper triangle of a symmetric 6 x 6 matrix held as 21 numbers, row by row
+    (``h[0] = H₀₀, h[1] = H₀₁, …, h[20] = H₅₅``), each entry added with one rounding. A tuple, not
+    an array: the sum of a loop stays in registers (an array entry is a load and a store a point)."""
+    return (fma(a0, a0, h[0]), fma(a0, a1, h[1]), fma(a0, a2, h[2]), fma(a0, a3, h[3]), fma(a0, a4, h[4]),
+            fma(a0, a5, h[5]), fma(a1, a1, h[6]), fma(a1, a2, h[7]), fma(a1, a3, h[8]), fma(a1, a4, h[9]),
+            fma(a1, a5, h[10]), fma(a2, a2, h[11]), fma(a2, a3, h[12]), fma(a2, a4, h[13]), fma(a2, a5, h[14]),
+            fma(a3, a3, h[15]), fma(a3, a4, h[16]), fma(a3, a5, h[17]), fma(a4, a4, h[18]), fma(a4, a5, h[19]),
+            fma(a5, a5, h[20]))
+
+
+@njit(cache=True)
+def symmetric6(h):
+    """The symmetric 6 x 6 matrix whose upper triangle ``h`` holds (``outer_fma``'s order)."""
+    H = np.empty((6, 6))
+    k = 0
+    for r in range(6):
+        for q in range(r, 6):
+            H[r, q] = H[q, r] = h[k]
+            k += 1
+    return H
