@@ -72,7 +72,17 @@ from numba import njit
 from ...errors import UserError
 from ...models.depth_frame import NO_GEOM, DepthFrame
 from ...validation import check_number, in_range, validate_fields
-from .voxel_table import EMPTY, cell_key, held_cell, keys_of, table_build, table_delete, table_insert, table_move
+from .voxel_table import (
+    EMPTY,
+    cell_key,
+    held_neighbour,
+    keys_of,
+    table_build,
+    table_delete,
+    table_find,
+    table_insert,
+    table_move,
+)
 
 MIXED_GEOM = -2   # truth of a map point that fused pixels of different geoms
 BLOCK = 64        # points per block of the map's index: a fifth of a 320-pixel row, so a block's box is small
@@ -465,7 +475,7 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, tou
 
 @njit(cache=True)
 def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touched, nt, n, R, t, V, N, TP, G, used, k, lo, hi,
-              oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows):
+              oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows, width):
     """Every valid pixel no map point merged with (raster order): with cells (``inv_voxel`` > 0,
     ``voxel_table``) one whose cell a point holds is a sample of that point (``_take_sample``: the
     samples of one frame count once) when their normals pass the angle gate, and is dropped when
@@ -473,7 +483,11 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touch
     its block's box (a block's first row starts it afresh). Returns (new size, samples merged into their cell's point, samples dropped, table
     slots newly used, points whose truth turned mixed, touched points)."""
     binned = dropped = fresh = mixed = 0
+    last_cell = last_row = -1   # the table's entries only gain keys in this pass, so a found key stays found
+    up_cell, up_row = np.full(width, -1, np.int64), np.full(width, -1, np.int64)
+    u = -1
     for j in range(V.shape[0]):
+        u = 0 if u + 1 == width else u + 1      # the pixel's column
         if used[j] or not (V[j, 2] > 0) or not np.isfinite(N[j, 0]):
             continue
         q0 = R[0, 0] * V[j, 0] + R[0, 1] * V[j, 1] + R[0, 2] * V[j, 2] + t[0]
@@ -484,7 +498,18 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touch
         m2 = R[2, 0] * N[j, 0] + R[2, 1] * N[j, 1] + R[2, 2] * N[j, 2]
         cell = cell_key(q0, q1, q2, m0, m1, m2, inv_voxel, inv_thick) if inv_voxel > 0 else -1
         if cell >= 0:
-            i = held_cell(table_keys, table_rows, cell, q0, q1, q2, inv_thick, pos, 0.5 / inv_thick)
+            if cell == last_cell:     # the previous pixel's cell, held by ``last_row``: no probe
+                i = last_row
+            elif cell == up_cell[u]:
+                last_cell, last_row = cell, up_row[u]
+                i = last_row
+            else:
+                i = table_find(table_keys, table_rows, cell)
+                if i >= 0:
+                    last_cell, last_row = cell, i
+                    up_cell[u], up_row[u] = cell, i
+                else:
+                    i = held_neighbour(table_keys, table_rows, cell, q0, q1, q2, inv_thick, pos, 0.5 / inv_thick)
             if i >= 0:
                 if nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr:
                     nt, mx = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
@@ -494,6 +519,8 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touch
                     dropped += 1
                 continue
             fresh += table_insert(table_keys, table_rows, cell, n)
+            last_cell, last_row = cell, n
+            up_cell[u], up_row[u] = cell, n
         pos[n, 0], pos[n, 1], pos[n, 2] = q0, q1, q2   # for the cell lookups until _apply_samples
         nrm[n, 0], nrm[n, 1], nrm[n, 2] = m0, m1, m2
         for a in range(3):
@@ -604,7 +631,7 @@ def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int
     size, binned, dropped, fresh, mixed_added, nt = _add_pass(
         m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fsum, m._fcount, m._fcall, m._calls, m._touched, nt,
         n, R, t, V, N, TP, G, used, int(k), m._lo, m._hi, m._oldest, stable,
-        1.0 / cfg.voxel if cfg.voxel > 0 else 0.0, 1.0 / max(cfg.voxel, cfg.d_thr), cos_thr, table_keys, table_rows)
+        1.0 / cfg.voxel if cfg.voxel > 0 else 0.0, 1.0 / max(cfg.voxel, cfg.d_thr), cos_thr, table_keys, table_rows, w)
     _apply_samples(m._pos, m._nrm, m._w, m._last, m._tp, m._fsum, m._fcount, m._touched, nt, int(k), m._lo, m._hi,
                    m._oldest, stable)
     m._table_used += int(fresh) if cfg.voxel > 0 else 0

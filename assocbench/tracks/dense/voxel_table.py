@@ -97,8 +97,13 @@ def held_cell(keys, rows, key, q0, q1, q2, inv_thick, pos, reach):
     few cm apart (a crate's slats) from merging across cells: it is half the thickness, the
     noise's scale, not the cell's."""
     i = table_find(keys, rows, key)
-    if i >= 0:
-        return i
+    return i if i >= 0 else held_neighbour(keys, rows, key, q0, q1, q2, inv_thick, pos, reach)
+
+
+@njit(cache=True, inline="always")
+def held_neighbour(keys, rows, key, q0, q1, q2, inv_thick, pos, reach):
+    """``held_cell``'s second half: the row holding the nearer, then the farther, neighbour of the
+    cell ``key`` along the class's axis whose point lies within ``reach`` of ``q`` along it, or −1."""
     axis = (key & 7) >> 1
     coord = q0 if axis == 0 else (q1 if axis == 1 else q2)
     step = np.int64(1) << (43 - 20 * axis)          # one cell along that axis in the packed key
