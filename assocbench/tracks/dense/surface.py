@@ -64,22 +64,39 @@ def _geom_distance(kind, s, qx, qy, qz):
     return -max(ax, max(ay, az))
 
 
+@njit(cache=True, inline="always")
+def _distance_to(g, kinds, sizes, centres, rots, px, py, pz):
+    """Distance from the world point p to geom ``g``'s surface: ``q = R_gᵀ (p − c_g)``, then ``_geom_distance``."""
+    dx, dy, dz = px - centres[g, 0], py - centres[g, 1], pz - centres[g, 2]
+    r = rots[g]   # q = Rᵀ (p − c): row-major xmat, columns are the geom's axes
+    qx = r[0, 0] * dx + r[1, 0] * dy + r[2, 0] * dz
+    qy = r[0, 1] * dx + r[1, 1] * dy + r[2, 1] * dz
+    qz = r[0, 2] * dx + r[1, 2] * dy + r[2, 2] * dz
+    return _geom_distance(kinds[g], sizes[g], qx, qy, qz)
+
+
 @njit(cache=True)
 def _distance_kernel(points, kinds, sizes, centres, rots, bounds, out):
     """``out[i] = min_g distance(points[i], geom g)``, skipping a geom when ``|p − c_g| − bound_g``
-    (a lower bound on its distance) is already no better than the best so far."""
+    (a lower bound on its distance) is already no better than the best so far (compared squared,
+    ``|p − c_g|² > (best + bound_g)²``: no square root per geom and point). The geom nearest to
+    the previous point is tried first: neighbouring points (a map is stored in runs of neighbours)
+    mostly share it, so the bound then skips most others at once (the minimum is the same
+    whichever geom comes first)."""
+    hint = 0
     for i in range(points.shape[0]):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
-        best = np.inf
+        best = _distance_to(hint, kinds, sizes, centres, rots, px, py, pz) if kinds.shape[0] else np.inf
+        nearest = hint
         for g in range(kinds.shape[0]):
             dx, dy, dz = px - centres[g, 0], py - centres[g, 1], pz - centres[g, 2]
-            if np.sqrt(dx * dx + dy * dy + dz * dz) - bounds[g] >= best:
+            reach = best + bounds[g]     # |p − c| ≥ reach: no nearer than best; squared, with a margin
+            if g == hint or dx * dx + dy * dy + dz * dz > reach * reach * (1.0 + 1e-9):   # for rounding
                 continue
-            r = rots[g]   # q = Rᵀ (p − c): row-major xmat, columns are the geom's axes
-            qx = r[0, 0] * dx + r[1, 0] * dy + r[2, 0] * dz
-            qy = r[0, 1] * dx + r[1, 1] * dy + r[2, 1] * dz
-            qz = r[0, 2] * dx + r[1, 2] * dy + r[2, 2] * dz
-            best = min(best, _geom_distance(kinds[g], sizes[g], qx, qy, qz))
+            dist = _distance_to(g, kinds, sizes, centres, rots, px, py, pz)
+            if dist < best:
+                best, nearest = dist, g
+        hint = nearest
         out[i] = best if np.isfinite(px + py + pz) else np.nan
 
 
