@@ -26,7 +26,6 @@ seed gives the same frames and poses) without sending them again.
 
 from __future__ import annotations
 
-import json
 import time
 from collections.abc import Iterator
 from dataclasses import dataclass
@@ -41,6 +40,7 @@ from ..base import MethodCalls
 from .fusion import PointMap, compression_ratio, fuse
 from .icp import IcpConfig, icp
 from .metrics import relative_pose_error, score_associations
+from .picture_json import fixed_json
 from .prediction import Splatter, gather_rows
 from .sequence import DenseSequence
 from .surface import surface_distance
@@ -200,4 +200,4 @@ def run_end(seq: DenseSequence, spec, pmap: PointMap, artifacts: Path | None) ->
     return {"map_median_mm": float(np.median(error_mm)) if len(error_mm) else float("nan"),
             "map_p95_mm": float(np.percentile(error_mm, 95)) if len(error_mm) else float("nan"),
             "compression_pct": 100 * compression_ratio(len(pmap), len(seq), seq.K.width, seq.K.height),
-            "final_map": json.dumps(np.round(picture, 4).tolist())}
+            "final_map": fixed_json(picture)}

@@ -22,7 +22,8 @@ def tiny_frame() -> DepthFrame:
 def warm_dense() -> float | None:
     """Run every dense kernel once on a tiny frame (the projective association, one ICP iteration,
     ICP's direction share, fusion, the model's prediction (the splat), the scoring against truth,
-    the surface distance, the depth sensor's passes and smoothing on the types of a stored frame)
+    the surface distance, the map picture's JSON, the depth sensor's passes and smoothing on the
+    types of a stored frame)
     so that they are loaded (or compiled, with one line on stderr ending in ``done``) before
     anything is timed.
     Returns the seconds spent compiling, None when all came from the cache."""
@@ -31,6 +32,7 @@ def warm_dense() -> float | None:
     from .fusion import FusionConfig, PointMap, fuse
     from .icp import IcpConfig, direction_share, icp
     from .metrics import score_associations
+    from .picture_json import fixed_json
     from .prediction import Splatter, predict
     from .run import view_source
     from .surface import warm_surface
@@ -64,7 +66,7 @@ def warm_dense() -> float | None:
                  lambda: [fuse(pmap, tiny()[0], np.eye(3), np.zeros(3), k, fusion) for k in range(3)],
                  lambda: predict(pmap.positions, pmap.weights, tiny()[0].K, np.eye(3), np.zeros(3)),
                  lambda: view_source(pmap, Splatter(tiny()[0].K), np.eye(3), np.zeros(3)),
-                 warm_surface, score,
+                 warm_surface, score, lambda: fixed_json(np.array([[1.5, -0.25, np.nan, np.inf]])),
                  lambda: sensed_frame(np.ones((6, 6), np.float32), np.zeros((6, 6), np.int32), np.eye(3), np.zeros(3),
                                       tiny()[0].K, DepthConfig(dropout=0.1), np.random.default_rng(0))],
                 "dense kernels", expect_s=20)

@@ -1,0 +1,79 @@
+"""The map's picture as JSON text, written by a compiled pass instead of ``json.dumps``.
+
+The last record of a dense run carries a subsample of the fused map (10 000 points, 4 columns:
+x, y, z in m and the error in mm) as JSON, rounded to 4 decimals. ``json.dumps(np.round(a, 4).tolist())``
+spends 80 ms on it (a Python float and its shortest repr per number: 0.4 ms a frame of a 200-frame
+run); ``fixed_json`` writes each number as ``rint(x · 10⁴)`` with the decimal point put back, in
+one compiled pass (about 2 ms). The text differs (``1.2300`` where ``json.dumps`` writes ``1.23``),
+the numbers do not: ``rint(x · 10⁴) / 10⁴`` is exactly ``np.round(x, 4)``, and the nearest double
+to the decimal ``m/10⁴`` that ``json.loads`` reads is that quotient (IEEE division rounds to
+nearest). Non-finite numbers are written as ``json.dumps`` writes them (``NaN``, ``Infinity``).
+"""
+
+from __future__ import annotations
+
+import json
+
+import numpy as np
+from numba import njit
+
+DECIMALS = 4
+_LIMIT = 1e14   # |x| · 10⁴ below 2⁵³ ≈ 9e15: the integer is exact; beyond it json.dumps writes the array
+
+
+@njit(cache=True)
+def _put(buf, k, text):
+    for c in text:
+        buf[k] = ord(c)
+        k += 1
+    return k
+
+
+@njit(cache=True)
+def _write(a, scale, decimals, buf):
+    """``a`` (rows, cols) as a JSON list of lists into ``buf`` (bytes); returns the length."""
+    k = _put(buf, 0, "[")
+    digits = np.empty(20, np.uint8)
+    for r in range(a.shape[0]):
+        k = _put(buf, k, "[" if r == 0 else ", [")
+        for c in range(a.shape[1]):
+            if c:
+                k = _put(buf, k, ", ")
+            x = a[r, c]
+            if x != x:
+                k = _put(buf, k, "NaN")
+                continue
+            if x == np.inf or x == -np.inf:
+                k = _put(buf, k, "Infinity" if x > 0 else "-Infinity")
+                continue
+            m = np.rint(x * scale)
+            if m < 0 or (m == 0 and np.copysign(1.0, m) < 0):   # -0.0 keeps its sign, as np.round's does
+                k = _put(buf, k, "-")
+                m = -m
+            v = np.int64(m)
+            nd = 0
+            while v > 0 or nd <= decimals:   # at least one digit before the point
+                digits[nd] = 48 + v % 10
+                v //= 10
+                nd += 1
+            for d in range(nd - 1, -1, -1):
+                if d == decimals - 1:
+                    buf[k] = 46   # "."
+                    k += 1
+                buf[k] = digits[d]
+                k += 1
+        k = _put(buf, k, "]")
+    return _put(buf, k, "]")
+
+
+def fixed_json(a: np.ndarray, decimals: int = DECIMALS) -> str:
+    """JSON text of the 2-D array ``a`` rounded to ``decimals`` places: the same numbers as
+    ``json.dumps(np.round(a, decimals).tolist())`` once read (module docstring)."""
+    a = np.ascontiguousarray(a, dtype=np.float64)
+    if a.ndim != 2:
+        raise ValueError(f"fixed_json: a 2-D array is needed, got shape {a.shape}")
+    finite = a[np.isfinite(a)]
+    if finite.size and np.abs(finite).max() * 10.0 ** decimals >= _LIMIT:
+        return json.dumps(np.round(a, decimals).tolist())
+    buf = np.empty(2 + a.shape[0] * (4 + a.shape[1] * 24), np.uint8)
+    return buf[:_write(a, 10.0 ** decimals, decimals, buf)].tobytes().decode("ascii")
