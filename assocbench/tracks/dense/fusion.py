@@ -50,8 +50,11 @@ keeps spare capacity (doubling), so adding is not a copy of the whole map per fr
 
 **The map's index** (``index``): the points are kept in blocks of ``BLOCK`` consecutive rows, each
 with a bounding box ``[lo, hi]`` and a lower bound ``oldest`` of the ``last_seen`` of its unstable
-points. Points are added in raster order, so a block is a short run of neighbouring pixels of one
-frame: a small box. The merge pass visits only the blocks whose box meets the view frustum
+points. A block's points lie close together because the map is kept in spatial order: points are
+appended in raster order (a run of neighbouring pixels of one frame), and once the rows added or
+moved since reach a tenth of the map they are sorted by cell (``map_order``: a later frame's few
+hundred new points are scattered over the image, so unsorted blocks would span the room). Sorting
+moves rows and changes nothing else. The merge pass visits only the blocks whose box meets the view frustum
 (``blocks_in_view``) and, for the dormant rule, those that may hold a dormant point
 (``k − oldest ≥ dormant_frames``); every other block provably has no point that projects into the
 image and none that turns dormant, so skipping it changes nothing: the map, its order and the
@@ -72,6 +75,7 @@ from numba import njit
 from ...errors import UserError
 from ...models.depth_frame import NO_GEOM, DepthFrame
 from ...validation import check_number, in_range, validate_fields
+from .map_order import CELL, SORT_SHARE, morton_keys, permute_rows, renumber_table
 from .voxel_table import (
     EMPTY,
     cell_key,
@@ -170,7 +174,10 @@ class PointMap:
     # for a 200k-point map is as much as the fusion itself
     _BUFFERS = (("_pos", 3, np.float64), ("_nrm", 3, np.float64), ("_tp", 3, np.float64), ("_w", 0, np.float64),
                 ("_last", 0, np.int64), ("_geom", 0, np.int64), ("_remove", 0, np.int64), ("_key", 0, np.int64),
-                ("_fsum", 9, np.float64), ("_fcount", 0, np.int64), ("_fcall", 0, np.int64), ("_touched", 0, np.int64))
+                ("_fsum", 9, np.float64), ("_fcount", 0, np.int64), ("_fcall", 0, np.int64), ("_touched", 0, np.int64),
+                ("_born", 0, np.int64))
+    # the fields a point carries (``sort_spatially`` moves them with it; the rest is per-call work space)
+    _FIELDS = ("_pos", "_nrm", "_tp", "_w", "_last", "_geom", "_key", "_born")
 
     def __init__(self, capacity: int = 0) -> None:
         self._n = 0
@@ -179,6 +186,9 @@ class PointMap:
         self._calls = 0           # ``fuse`` calls so far: ``_fcall`` says in which one a point's frame sums began
         self._voxel = (0.0, 0.0)  # the cells (size, thickness) ``_key`` and the voxel table hold (0: none)
         self._table_keys, self._table_rows, self._table_used = np.full(16, EMPTY, np.int64), np.zeros(16, np.int64), 0
+        self._serial = 0          # the ``born`` serial of the next point added
+        self._unsorted = 0        # rows added or moved since the last ``sort_spatially``
+        self.sort_share: float | None = SORT_SHARE   # ``fuse`` sorts past this share of unsorted rows (None: never)
         self._alloc(max(int(capacity), 16))
 
     def _alloc(self, cap: int) -> None:
@@ -253,12 +263,34 @@ class PointMap:
         m._last[:n] = np.broadcast_to(np.asarray(last_seen, dtype=np.int64), (n,))
         m._tp[:n] = np.nan if true_points is None else np.asarray(true_points, dtype=np.float64).reshape(-1, 3)
         m._geom[:n] = np.broadcast_to(np.asarray(NO_GEOM if geom is None else geom, dtype=np.int64), (n,))
+        m._born[:n] = np.arange(n)
+        m._serial = m._unsorted = n
         m._reindex()
         return m
 
     def copy(self) -> PointMap:
-        return PointMap.from_arrays(self.positions, self.normals, self.weights, self.last_seen,
-                                    self.true_points, self.geom)
+        m = PointMap.from_arrays(self.positions, self.normals, self.weights, self.last_seen, self.true_points, self.geom)
+        m._born[:len(m)], m._serial = self.born, self._serial
+        return m
+
+    def sort_spatially(self) -> None:
+        """Put the rows in spatial order (``map_order``: by the Morton code of their cell, stably),
+        every field moving with its point, the voxel table and the blocks' boxes renewed. Changes no
+        result, only which rows share a block."""
+        n = self._n
+        order = np.argsort(morton_keys(self._pos, n, 1.0 / CELL), kind="stable")
+        for name in self._FIELDS:
+            buf = getattr(self, name)
+            permute_rows(buf, order, np.empty_like(buf[:n]))
+        new_row = np.empty(n, np.int64)
+        new_row[order] = np.arange(n)
+        renumber_table(self._table_keys, self._table_rows, new_row)
+        if np.isfinite(self._stable):   # the boxes, and ``oldest`` for the stable weight fusion last used
+            _index_blocks(self._pos, self._w, self._last, n, self._lo, self._hi, self._oldest,
+                          np.arange(-(-n // BLOCK)), self._stable)
+        else:
+            self._reindex()
+        self._unsorted = 0
 
     def __len__(self) -> int:
         return self._n
@@ -269,6 +301,7 @@ class PointMap:
     last_seen = property(lambda self: self._last[:self._n], doc="(n,) frame of the last merge/addition")
     true_points = property(lambda self: self._tp[:self._n], doc="(n, 3) truth: fused true points")
     geom = property(lambda self: self._geom[:self._n], doc="(n,) truth: geom id, NO_GEOM, MIXED_GEOM")
+    born = property(lambda self: self._born[:self._n], doc="(n,) serial of the point's addition (older: lower)")
 
 
 @njit(cache=True)
@@ -474,8 +507,8 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, tou
 
 
 @njit(cache=True)
-def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touched, nt, n, R, t, V, N, TP, G, used, k, lo, hi,
-              oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows, width):
+def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, fcount, fcall, call, touched, nt, n, R, t, V, N, TP, G,
+              used, k, lo, hi, oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows, width):
     """Every valid pixel no map point merged with (raster order): with cells (``inv_voxel`` > 0,
     ``voxel_table``) one whose cell a point holds is a sample of that point (``_take_sample``: the
     samples of one frame count once) when their normals pass the angle gate, and is dropped when
@@ -529,6 +562,8 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touch
         last[n] = k
         geom[n] = G[j]
         key[n] = cell
+        born[n] = serial
+        serial += 1
         fcall[n] = -1                                   # not this call's: the sample below starts its sums
         nt, _ = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, n, q0, q1, q2, m0, m1, m2, TP, G, j)
         if n % BLOCK == 0:
@@ -542,7 +577,7 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touch
 
 
 @njit(cache=True)
-def _remove_pass(pos, nrm, w, last, tp, geom, key, n, remove, nrem, lo, hi, oldest, stable_w, table_keys,
+def _remove_pass(pos, nrm, w, last, tp, geom, key, born, n, remove, nrem, lo, hi, oldest, stable_w, table_keys,
                  table_rows):
     """Remove the points ``remove[:nrem]`` (ascending; already gone from the voxel table): the holes
     below the new size m = n − nrem are filled, in ascending order, with the surviving points at
@@ -560,7 +595,7 @@ def _remove_pass(pos, nrm, w, last, tp, geom, key, n, remove, nrem, lo, hi, olde
         hole = remove[r]
         for a in range(3):
             pos[hole, a], nrm[hole, a], tp[hole, a] = pos[src, a], nrm[src, a], tp[src, a]
-        w[hole], last[hole], geom[hole], key[hole] = w[src], last[src], geom[src], key[src]
+        w[hole], last[hole], geom[hole], key[hole], born[hole] = w[src], last[src], geom[src], key[src], born[src]
         table_move(table_keys, table_rows, key[src], src, hole)
         _widen(lo, hi, oldest, hole, pos, w, last, stable_w)
         src += 1
@@ -629,16 +664,20 @@ def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int
         V, N, TP, G, float(cfg.d_thr), cos_thr, stable, int(cfg.dormant_frames), int(k), bool(cfg.remove_dormant),
         bool(cfg.remove_outliers), used, remove, blocks, m._lo, m._hi, m._oldest, table_keys, table_rows)
     size, binned, dropped, fresh, mixed_added, nt = _add_pass(
-        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fsum, m._fcount, m._fcall, m._calls, m._touched, nt,
-        n, R, t, V, N, TP, G, used, int(k), m._lo, m._hi, m._oldest, stable,
+        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._born, m._serial, m._fsum, m._fcount, m._fcall,
+        m._calls, m._touched, nt, n, R, t, V, N, TP, G, used, int(k), m._lo, m._hi, m._oldest, stable,
         1.0 / cfg.voxel if cfg.voxel > 0 else 0.0, 1.0 / max(cfg.voxel, cfg.d_thr), cos_thr, table_keys, table_rows, w)
     _apply_samples(m._pos, m._nrm, m._w, m._last, m._tp, m._fsum, m._fcount, m._touched, nt, int(k), m._lo, m._hi,
                    m._oldest, stable)
     m._table_used += int(fresh) if cfg.voxel > 0 else 0
     added = size - n
-    m._n = _remove_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, size, remove, nrem, m._lo, m._hi,
-                        m._oldest, stable, table_keys, table_rows)
+    m._n = _remove_pass(m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._born, size, remove, nrem, m._lo,
+                        m._hi, m._oldest, stable, table_keys, table_rows)
     m._stable = stable
+    m._serial += added
+    m._unsorted += added + nrem     # appended rows, and at most nrem rows moved into holes
+    if m.sort_share is not None and m._unsorted > m.sort_share * len(m):
+        m.sort_spatially()
     return FusionStats(int(merged), int(added), int(nrem), int(dormant), int(outliers), int(considered),
                        int(mixed + mixed_added), len(m), int(scanned), int(binned), int(dropped))
 

@@ -14,9 +14,10 @@ splat with a z-buffer. Here each map point ``p`` is taken into the predicted cam
 (the projective associator's rounding). Which of the points landing on pixel ``j`` (with ``z > 0``)
 the pixel shows is Keller et al.'s rule: of those within ``band`` behind the nearest (the same
 surface: the band is fusion's merge distance ``fusion.d_thr``), the most confident (highest
-weight, the number of measurements averaged into it), ties to the lower map index:
+weight, the number of measurements averaged into it), ties to the point added first (its
+``born`` serial, so the choice does not depend on the map's row order, ``map_order``):
 
-    z_min[j] = min_{i → j} z_i,   index[j] = argmax_{i → j, z_i ≤ z_min[j] + band} (w_i, −i),
+    z_min[j] = min_{i → j} z_i,   index[j] = argmax_{i → j, z_i ≤ z_min[j] + band} (w_i, −born_i),
 
 −1 where no point lands. Plain nearest-wins is biased: where two unmerged points of one surface
 share a pixel (a surface seen again from a new pose adds its unmatched pixels as new points), the
@@ -50,12 +51,13 @@ from .fusion import BLOCK, PointMap, pixel_of
 
 
 @njit(cache=True)
-def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height, band, zmin, zbuf, index, rows,
+def splat_kernel(pos, weights, born, n, blocks, block, R, t, f, cx, cy, width, height, band, zmin, zbuf, index, rows,
                  pixels, depths):
     """The splat of the points of ``blocks`` (ascending ids of runs of ``block`` rows of
     ``pos[:n]``; module docstring) into ``zmin`` (nearest depth), ``zbuf`` (the shown point's depth)
     and ``index`` (W·H each; filled with inf, inf, −1) in place; returns (the points in front of the
-    camera that landed in the image, the points visited). The first pass keeps each landed point's
+    camera that landed in the image, the points visited). Of equal weights the point born first
+    (lower ``born``) is shown. The first pass keeps each landed point's
     (row, pixel, z) in ``rows``, ``pixels``, ``depths`` (room for every visited point), so the
     second reads them in the same order instead of projecting every point again."""
     landed = scanned = 0
@@ -70,9 +72,11 @@ def splat_kernel(pos, weights, n, blocks, block, R, t, f, cx, cy, width, height,
         scanned += max(0, min(n, (b + 1) * block) - b * block)
     for c in range(landed):
         i, j, z = rows[c], pixels[c], depths[c]
-        if z <= zmin[j] + band and (index[j] < 0 or weights[i] > weights[index[j]]):
-            index[j] = i      # strict: of equal weights the lower index (seen first) stays
-            zbuf[j] = z
+        if z <= zmin[j] + band:
+            s = index[j]
+            if s < 0 or weights[i] > weights[s] or (weights[i] == weights[s] and born[i] < born[s]):
+                index[j] = i      # of equal weights the one seen first, whatever the rows' order
+                zbuf[j] = z
     return landed, scanned
 
 
@@ -128,27 +132,27 @@ class Splatter:
         w = np.ascontiguousarray(weights, dtype=np.float64).reshape(-1)
         if w.shape != (len(pos),):
             raise ValueError(f"predict: {len(pos)} positions but {w.shape} weights")
-        return self._splat(pos, w, len(pos), np.zeros(1, np.int64), max(len(pos), 1), R, t)
+        return self._splat(pos, w, np.arange(len(pos)), len(pos), np.zeros(1, np.int64), max(len(pos), 1), R, t)
 
     def predict_map(self, pmap: PointMap, R: np.ndarray, t: np.ndarray, index: bool = True) -> Prediction:
         """``predict`` of the map's points, visiting only its blocks in view (``index``; False: every
         point, the same prediction)."""
         blocks = pmap.blocks_in_view(self.K, R, t) if index else np.arange(-(-len(pmap) // BLOCK))
-        return self._splat(pmap._pos, pmap._w, len(pmap), blocks, BLOCK, R, t)
+        return self._splat(pmap._pos, pmap._w, pmap._born, len(pmap), blocks, BLOCK, R, t)
 
     def shown_rows(self, pmap: PointMap, R: np.ndarray, t: np.ndarray, index: bool = True) -> tuple[np.ndarray, int]:
         """``(predict_map(...).source, predict_map(...).scanned)`` without copying the image-sized
         index and depth maps out of the work space (what frame-to-model tracking needs)."""
         blocks = pmap.blocks_in_view(self.K, R, t) if index else np.arange(-(-len(pmap) // BLOCK))
-        _, scanned = self._splat_kernel(pmap._pos, pmap._w, len(pmap), blocks, BLOCK, R, t)
+        _, scanned = self._splat_kernel(pmap._pos, pmap._w, pmap._born, len(pmap), blocks, BLOCK, R, t)
         return self._index[self._index >= 0], scanned
 
-    def _splat(self, pos, w, n, blocks, block, R, t) -> Prediction:
-        landed, scanned = self._splat_kernel(pos, w, n, blocks, block, R, t)
+    def _splat(self, pos, w, born, n, blocks, block, R, t) -> Prediction:
+        landed, scanned = self._splat_kernel(pos, w, born, n, blocks, block, R, t)
         shape = (self.K.height, self.K.width)
         return Prediction(self._index.reshape(shape).copy(), self._zbuf.reshape(shape).copy(), landed, scanned)
 
-    def _splat_kernel(self, pos, w, n, blocks, block, R, t) -> tuple[int, int]:
+    def _splat_kernel(self, pos, w, born, n, blocks, block, R, t) -> tuple[int, int]:
         """``splat_kernel`` into this splatter's work space: (points landed, points visited)."""
         K = self.K
         if len(self._rows) < n:     # the landed points' work space, grown (doubling) with the map
@@ -157,7 +161,7 @@ class Splatter:
         self._zmin.fill(np.inf)
         self._zbuf.fill(np.inf)
         self._index.fill(-1)
-        landed, scanned = splat_kernel(pos, w, n, blocks, block, np.ascontiguousarray(R, dtype=np.float64),
+        landed, scanned = splat_kernel(pos, w, born, n, blocks, block, np.ascontiguousarray(R, dtype=np.float64),
                                        np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f),
                                        float(K.cx), float(K.cy), K.width, K.height, self.band, self._zmin,
                                        self._zbuf, self._index, self._rows, self._pixels, self._depths)
