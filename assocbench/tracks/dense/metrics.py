@@ -110,15 +110,31 @@ def score_associations(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthF
     are found once."""
     partner = has_partner(src_true, src_geom, frame, tol)
     n_partner = int(partner.sum())
+    tp, geom = _truth_maps(frame)
+    truth, geoms = _f64(src_true), np.ascontiguousarray(src_geom, dtype=np.int64)
     scores = []
     for source, pixel in associations:
-        right = true_pairs(src_true, src_geom, frame, source, pixel, tol)
-        found = np.zeros(len(src_true), bool)
-        found[source[right]] = True
-        precision = float(right.sum() / len(source)) if len(source) else float("nan")
-        recall = float((found & partner).sum() / n_partner) if n_partner else float("nan")
-        scores.append(CorrespondenceScore(len(source), int(right.sum()), n_partner, precision, recall))
+        right, recalled = _count_kernel(truth, geoms, tp, geom, partner, np.ascontiguousarray(source, dtype=np.int64),
+                                        np.ascontiguousarray(pixel, dtype=np.int64), float(tol) ** 2)
+        precision = float(right / len(source)) if len(source) else float("nan")
+        recall = float(recalled / n_partner) if n_partner else float("nan")
+        scores.append(CorrespondenceScore(len(source), int(right), n_partner, precision, recall))
     return scores
+
+
+@njit(cache=True)
+def _count_kernel(src_true, src_geom, tp, geom, partner, source, pixel, tol2):
+    """(true pairs, source points with a partner in at least one true pair) of one association."""
+    found = np.zeros(src_true.shape[0], np.bool_)
+    right = recalled = 0
+    for k in range(source.shape[0]):
+        i = source[k]
+        if _is_true(src_true, src_geom, tp, geom, i, pixel[k], tol2):
+            right += 1
+            if partner[i] and not found[i]:
+                found[i] = True
+                recalled += 1
+    return right, recalled
 
 
 def relative_pose_error(R0_true: np.ndarray, t0_true: np.ndarray, R1_true: np.ndarray, t1_true: np.ndarray,
