@@ -163,7 +163,9 @@ class PointMap:
     """A growing set of surfel-like points in world coordinates: ``positions`` (n, 3), unit
     ``normals`` (n, 3), ``weights`` (n,) (1 + merges), ``last_seen`` (n,) (the frame index of the
     last merge or the addition), and truth for scoring only: ``true_points`` (n, 3) (NaN: unknown)
-    and ``geom`` (n,) (``NO_GEOM`` unknown, ``MIXED_GEOM`` mixed). The properties are views of the
+    and ``geom`` (n,) (``NO_GEOM`` unknown, ``MIXED_GEOM`` mixed), and ``born`` (n,), the serial of
+    the point's addition (a point's identity: rows move, by removal and by ``sort_spatially``, which
+    ``fuse`` calls past ``sort_share`` of unsorted rows; None never sorts). The properties are views of the
     first n rows of buffers with spare capacity; ``fuse`` changes them in place and keeps the index
     of blocks (module docstring) in step, so they are to be read, not written (they stay writable
     arrays because the compiled kernels that read them, e.g. the surface distance, would otherwise

@@ -46,6 +46,7 @@ def test_merge_is_the_homeworks_weighted_average():
     w = np.array([3.0, 1.0])
     tp = np.array([[1.0, 2.0, 3.0], [4.0, 5.0, 6.0]])
     pmap = PointMap.from_arrays(p, n_p, w, 0, tp, 7)
+    pmap.sort_share = None   # rows stay where they are (sorting moves rows only: test_map_order.py)
     st = fuse(pmap, frame, R, t, 1, FusionConfig(angle_deg=30))
     assert (st.merged, st.added, st.removed) == (2, 12 - 2, 0)   # 12 valid pixels (a normal needs all 4 neighbours)
     want_p = (w[:, None] * p + q) / (w[:, None] + 1)                # p <- (w p + R q + t) / (w + 1)
@@ -68,6 +69,7 @@ def test_compiled_kernels_match_the_numpy_reference():
     model, data, frames = dw.sequence(10, yaw_per_frame=2.0)
     for cfg in (FusionConfig(voxel=0), FusionConfig(angle_deg=90, dormant_frames=3, voxel=0)):
         pmap = PointMap()
+        pmap.sort_share = None   # the reference keeps the homework's row order (sorting: test_map_order.py)
         ref = NumpyMap.of(pmap)
         for k, f in enumerate(frames):
             st = fuse(pmap, f, f.R, f.t, k, cfg)
@@ -264,6 +266,7 @@ def test_a_pixel_in_a_held_cell_merges_into_its_point_and_a_frame_counts_once():
     frame = DepthFrame(K, depth, V, N, V.copy(), np.full((5, 6), 4), np.eye(3), np.zeros(3))
     p0, n0 = np.array([0.02, 0.0, 2.0]), np.array([0.0, 0.0, -1.0])
     pmap = PointMap.from_arrays(p0[None], n0[None], 2.0, 0, p0[None], 4)
+    pmap.sort_share = None   # row 0 stays the held point (sorting moves rows only: test_map_order.py)
     st = fuse(pmap, frame, np.eye(3), np.zeros(3), 1, FusionConfig(voxel=0.2))
     # the reference: each cell's samples of this frame averaged, then the homework's merge with weight 1
     # (the cell's neighbours along the normal, z here, are empty: the plane lies in one layer)
