@@ -466,15 +466,20 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, tou
     homework's filters, the sample taken for the merge (``_take_sample``; the points' positions and
     normals stay those of the frame before until ``_apply_samples``), and removals
     marked in ascending order into ``remove`` (and their cells freed in the voxel table at once, so
-    a sample in one adds a fresh point); then the visited blocks' boxes and ``oldest`` anew.
+    a sample in one adds a fresh point); the visited blocks' boxes and ``oldest`` are computed anew
+    on the way (``_index_blocks``'s result, without a second pass over the points).
     Returns (merged, considered, dormant, outliers, mixed, removals, scanned, touched points)."""
     merged = considered = dormant = outliers = mixed = nrem = scanned = nt = 0
     for b in blocks:   # the loops are nested, not a call per block: a call that passes a dozen arrays
         first, end = b * BLOCK, min(n, (b + 1) * BLOCK)   # costs their reference counting
         scanned += end - first
+        box, oldest_b = (np.inf, np.inf, np.inf, -np.inf, -np.inf, -np.inf), NEVER   # the block's, anew
         for i in range(first, end):
-            j, z = pixel_of(pos, i, R, t, f, cx, cy, W, H)
+            box = _grown(box, pos, i)
             unstable = w[i] < stable_w
+            if unstable and last[i] < oldest_b:
+                oldest_b = last[i]
+            j, z = pixel_of(pos, i, R, t, f, cx, cy, W, H)
             if j >= 0:                                        # pass 1: in front, in the image
                 d = V[j, 2]                                  # the vertex's z is the depth
                 if d > 0 and np.isfinite(N[j, 0]):
@@ -504,8 +509,19 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, tou
                 nrem += 1
                 dormant += 1
                 table_delete(table_keys, table_rows, key[i], i)
-    _index_blocks(pos, w, last, n, lo, hi, oldest, blocks, stable_w)
+        lo[b, 0], lo[b, 1], lo[b, 2], hi[b, 0], hi[b, 1], hi[b, 2] = box
+        oldest[b] = oldest_b
     return merged, considered, dormant, outliers, mixed, nrem, scanned, nt
+
+
+@njit(cache=True, inline="always")
+def _grown(box, pos, i):
+    """``box`` (lo x, y, z, hi x, y, z) widened to hold point ``i`` (a NaN coordinate widens nothing),
+    as ``_index_blocks`` computes it."""
+    x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
+    return (min(box[0], x) if x == x else box[0], min(box[1], y) if y == y else box[1],
+            min(box[2], z) if z == z else box[2], max(box[3], x) if x == x else box[3],
+            max(box[4], y) if y == y else box[4], max(box[5], z) if z == z else box[5])
 
 
 @njit(cache=True)
