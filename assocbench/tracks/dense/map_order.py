@@ -14,13 +14,13 @@ near in the order, so a block holds one cell's points or a few neighbouring cell
 moves with all its fields, and the voxel table is told the new rows. A sort costs 4-11 ms
 (50k-160k points), about once every 10-25 frames on the crates path.
 
-Measured by fusing the 500-frame crates path at true poses with the splat of each frame, sorted
-and unsorted maps interleaved frame by frame in one process (``benchmarks/dense_rate.py`` times
-the whole run): splat and fusion 12.2 -> 18.1 ms a frame from the first to the last hundred
-frames with the sort (sorts included), 12.6 -> 21.1 ms without; the points visited 62k -> 99k
-against 67k -> 134k. Cells of 0.1, 0.2, 0.4 and 0.8 m gave the last hundred frames 0.85-0.88 of
-the unsorted time; 0.4 m also left the first hundred no slower (sorted rows visit the image's
-pixels less in order than rows appended in raster order, which the smaller cells pay for).
+Measured by ``benchmarks/dense_map_order.py``: the 500-frame crates path fused at true poses with
+the splat of each frame, sorted and unsorted maps interleaved frame by frame in one process:
+splat and fusion 13.1 -> 19.3 ms a frame from the first to the last hundred frames with the sort
+(sorts included), 13.8 -> 22.4 ms without; the points the splat visits 62k -> 101k against 67k ->
+134k. Cells of 0.1, 0.2, 0.4 and 0.8 m gave the last hundred frames 0.85-0.88 of the unsorted
+time; 0.4 m also left the first hundred no slower (sorted rows visit the image's pixels less in
+order than rows appended in raster order, which the smaller cells pay for).
 
 Nothing computed from the map depends on its row order (the splat breaks a tie of weights by
 the point's ``born`` serial, not by its row), so sorting changes no number of a run: the maps
