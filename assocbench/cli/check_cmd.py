@@ -8,6 +8,7 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..atomic import check_cache_folder
 from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
 from ..harness.suite import Suite, load_suite, resolve_suite
 from ..harness.sweep import run_suite
@@ -57,6 +58,7 @@ def main(args: argparse.Namespace) -> int:
     # every suite and baseline checked before any suite runs: a missing last baseline must not
     # be found only after the first suites ran for minutes
     baselines = [baseline_of(suite, args) for suite in loaded]
+    check_cache_folder()
     return max(check_suite(suite, path, baseline, args) for suite, (path, baseline) in zip(loaded, baselines))
 
 

@@ -6,6 +6,7 @@ import argparse
 import sys
 from pathlib import Path
 
+from ..atomic import check_cache_folder
 from ..harness.export import DRIVES, check_export_folder, export_suite
 from .common import check_output_folder
 
@@ -25,6 +26,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     out = check_export_folder(check_output_folder(Path(args.out)))
+    check_cache_folder()   # before the suite renders
     progress = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
     card = export_suite(args.suite, out, progress, args.drive)
     sizes = card["sizes"]

@@ -6,6 +6,7 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
+from ..atomic import check_cache_folder
 from ..harness.config import load_run_config, run_spec, with_pictures
 from ..tracks.base import get_track
 from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
@@ -29,6 +30,7 @@ def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, scene=args.scene, trajectory=args.trajectory,
                           frames=args.frames, seed=args.seed, resolution=resolution(args.resolution))
     spec = with_pictures(run_spec(cfg), "frame")
+    check_cache_folder()   # before rendering: the rendered sequence is cached
     image, line = get_track(spec.track).frame_picture(spec, args.index)
     write_image(output, image)
     print(line)

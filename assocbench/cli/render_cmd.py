@@ -11,6 +11,7 @@ from pathlib import Path
 
 from tqdm import tqdm
 
+from ..atomic import check_cache_folder
 from ..harness.config import load_run_config, run_spec, with_pictures
 from ..harness.loop_replay import replay_run
 from ..harness.sandbox import execute
@@ -43,6 +44,7 @@ def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = with_pictures(run_spec(cfg), "render")
+    check_cache_folder()   # before the run warms kernels and renders
     track = get_track(spec.track)
     bars = not args.quiet and sys.stderr.isatty()   # the run's, then the drawing's
     records, _ = execute(spec, associations=True, progress=bars)

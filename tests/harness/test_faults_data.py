@@ -273,6 +273,28 @@ def test_a_cache_variable_naming_a_file_is_one_line_before_any_work(command, tmp
     assert not (tmp_path / "out").exists()
 
 
+@pytest.mark.parametrize("command, work", [
+    (["frame", "--scene", "crates", "-o", "{out}/f.png"], "assocbench.cli.frame_cmd.get_track"),
+    (["render", "--method", "jcbb", "--scene", "crates", "--frames", "2", "-o", "{out}/r.mp4"],
+     "assocbench.cli.render_cmd.execute"),
+    (["export", "--suite", "ci", "--out", "{out}/e"], "assocbench.cli.export_cmd.export_suite"),
+    (["check", "--suite", "dense_ci"], "assocbench.cli.check_cmd.check_suite"),
+])
+def test_every_command_that_renders_stops_on_a_cache_file_before_any_work(command, work, tmp_path, monkeypatch,
+                                                                           capsys):
+    """frame, render, export and check render sequences into the cache too: the same one line and
+    exit 2 as run and leaderboard, before they render (they failed only when storing)."""
+    from assocbench.cli.main import main
+
+    blocker = tmp_path / "cache-is-a-file"
+    blocker.write_text("")
+    monkeypatch.setenv("ASSOCBENCH_CACHE", str(blocker))
+    monkeypatch.setattr(work, lambda *a, **k: pytest.fail("worked before the error"))
+    assert main([a.format(out=tmp_path / "out") for a in command]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(blocker) in err[0] and "is a file" in err[0] and "ASSOCBENCH_CACHE" in err[0], err
+
+
 def test_an_unreadable_cache_entry_names_the_cache(good_cache, tmp_path, monkeypatch):
     cache, _ = good_cache
     monkeypatch.setattr(np, "load", lambda *a, **k: (_ for _ in ()).throw(PermissionError(errno.EACCES, "Permission denied")))
