@@ -5,6 +5,7 @@ description is the module docstring's first paragraph, not its first line (which
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -35,3 +36,13 @@ def test_dense_rate_help_shows_the_whole_first_paragraph():
                          check=True).stdout
     described = " ".join(out.split("\n\n", 2)[1].split())
     assert described == first_paragraph(script)
+
+
+def test_dense_rate_pairs_0_prints_no_registration_table(capsys, monkeypatch):
+    """``--pairs 0`` asks for no registration table: none is printed, not an empty table's header."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())   # the script's thread settings stay in this test
+    import dense_rate
+
+    dense_rate.registrations(None, 0, 1)   # no sequence is read either
+    assert capsys.readouterr().out == ""
