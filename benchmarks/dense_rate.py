@@ -136,6 +136,8 @@ def main() -> None:
     ap.add_argument("--scene", default="crates")
     ap.add_argument("--pairs", type=int, default=8, help="frame pairs of the registration table (0: none)")
     args = ap.parse_args()
+    if min(args.frames) < 2:
+        ap.error(f"--frames must be at least 2 (frame 1 is tracked from frame 0), got {min(args.frames)}")
     print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
