@@ -48,8 +48,9 @@ _PLACE_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
 
 def check_cache_folder() -> None:
     """A one-line ``UserError`` when the cache folder cannot be a folder (it, or the nearest of its
-    parents that exists, is a file), checked before a run compiles or renders: otherwise kernels
-    compiled into the temporary folder for minutes, the sequence rendered, and only storing it said so."""
+    parents that exists, is a file) or cannot be created or written (created here if absent),
+    checked before a run compiles or renders: otherwise kernels compiled into the temporary folder
+    for minutes, the sequence rendered, and only storing it said so."""
     from ._runtime import cache_root
 
     root = cache_root()
@@ -57,7 +58,8 @@ def check_cache_folder() -> None:
         if place.exists():
             if not place.is_dir():
                 raise UserError(f"cannot create {CACHE.what} {root}: {place} is a file; {CACHE.fix()}")
-            return
+            break
+    ensure_dir(root, CACHE)
 
 
 def ensure_dir(path: Path, role: Role = OUTPUT) -> Path:

@@ -43,6 +43,8 @@ def main() -> None:
     ap.add_argument("--scene", default="crates")
     ap.add_argument("--share", type=float, default=SORT_SHARE, help="the sorted map's sort_share")
     args = ap.parse_args()
+    if args.frames < 2:
+        ap.error(f"--frames must be at least 2 (frame 1 is tracked from frame 0), got {args.frames}")
     print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
     seq = render_once(args.scene, args.frames)
     warm_dense()   # the kernels loaded (or compiled) before anything is timed

@@ -134,8 +134,10 @@ def main() -> None:
                     help="run lengths at which the whole-map projection is timed too (it is the slow one)")
     ap.add_argument("--runs", type=int, default=3)
     ap.add_argument("--scene", default="crates")
-    ap.add_argument("--pairs", type=int, default=8, help="frame pairs of the registration table")
+    ap.add_argument("--pairs", type=int, default=8, help="frame pairs of the registration table (0: none)")
     args = ap.parse_args()
+    if min(args.frames) < 2:
+        ap.error(f"--frames must be at least 2 (frame 1 is tracked from frame 0), got {min(args.frames)}")
     print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:
@@ -177,7 +179,9 @@ def registrations(seq, pairs: int, runs: int) -> None:
     with our target normals (its k-d tree association), the same 5 cm distance, relative fitness
     and rmse 1e-6 and 100 iterations at most (``benchmarks/dense_vs_open3d.py`` compares the two
     at length). Errors: the estimated camera's distance (mm) and angle (deg) to frame k+1's true
-    pose; time: median of ``runs`` calls (ms)."""
+    pose; time: median of ``runs`` calls (ms). ``pairs`` 0: no table."""
+    if pairs <= 0:
+        return
     from assocbench.associators.registry import make_dense_associator
     from assocbench.tracks.dense.icp import IcpConfig, icp, step_from
     from assocbench.tracks.dense.run import frame_source

@@ -5,6 +5,7 @@ description is the module docstring's first paragraph, not its first line (which
 from __future__ import annotations
 
 import ast
+import os
 import subprocess
 import sys
 from pathlib import Path
@@ -35,3 +36,22 @@ def test_dense_rate_help_shows_the_whole_first_paragraph():
                          check=True).stdout
     described = " ".join(out.split("\n\n", 2)[1].split())
     assert described == first_paragraph(script)
+
+
+def test_dense_rate_pairs_0_prints_no_registration_table(capsys, monkeypatch):
+    """``--pairs 0`` asks for no registration table: none is printed, not an empty table's header."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())   # the script's thread settings stay in this test
+    import dense_rate
+
+    dense_rate.registrations(None, 0, 1)   # no sequence is read either
+    assert capsys.readouterr().out == ""
+
+
+@pytest.mark.parametrize("script", ["dense_rate.py", "dense_map_order.py"])
+def test_dense_benchmarks_refuse_fewer_than_2_frames_in_one_line(script):
+    """``--frames 1`` is a usage error (exit 2, one line), not a traceback after the kernels load."""
+    out = subprocess.run([sys.executable, str(BENCHMARKS / script), "--frames", "1"], capture_output=True,
+                         text=True, timeout=120)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "--frames must be at least 2" in out.stderr.strip().splitlines()[-1]

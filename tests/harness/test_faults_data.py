@@ -295,6 +295,35 @@ def test_every_command_that_renders_stops_on_a_cache_file_before_any_work(comman
     assert len(err) == 1 and str(blocker) in err[0] and "is a file" in err[0] and "ASSOCBENCH_CACHE" in err[0], err
 
 
+@pytest.mark.parametrize("command", [["run", "--method", "projective", "--scene", "crates", "--frames", "2"],
+                                     ["leaderboard", "--suite", "dense_ci"]])
+def test_a_cache_folder_that_cannot_be_created_is_one_line_before_any_work(command, tmp_path, monkeypatch, capsys):
+    """ASSOCBENCH_CACHE under a folder where mkdir fails (e.g. /proc/x, or read-only; mkdir is made
+    to fail here, as root may write anywhere): exit 2 with one line before the kernels compile
+    (they compiled for 18 s into the temporary folder, then the render's store said so)."""
+    from assocbench.cli.main import main
+    from assocbench.harness import sandbox
+
+    locked = tmp_path / "locked"
+    locked.mkdir()
+    real_mkdir = os.mkdir
+
+    def mkdir(path, *args, **kwargs):
+        if str(path).startswith(str(locked)):
+            raise PermissionError(errno.EACCES, "Permission denied", str(path))
+        return real_mkdir(path, *args, **kwargs)
+
+    monkeypatch.setattr(os, "mkdir", mkdir)
+    monkeypatch.setenv("ASSOCBENCH_CACHE", str(locked / "cache"))
+    monkeypatch.setattr(sandbox, "execute", lambda *a, **k: pytest.fail("ran before the error"))
+    monkeypatch.setattr("assocbench.cli.run_cmd.execute", lambda *a, **k: pytest.fail("ran before the error"))
+    monkeypatch.setattr("assocbench.cli.leaderboard_cmd.run_suite", lambda *a, **k: pytest.fail("ran before the error"))
+    assert main([*command, "--out", str(tmp_path / "out")]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(locked / "cache") in err[0] and "Permission denied" in err[0], err
+    assert "ASSOCBENCH_CACHE" in err[0] and not (tmp_path / "out").exists()
+
+
 def test_an_unreadable_cache_entry_names_the_cache(good_cache, tmp_path, monkeypatch):
     cache, _ = good_cache
     monkeypatch.setattr(np, "load", lambda *a, **k: (_ for _ in ()).throw(PermissionError(errno.EACCES, "Permission denied")))

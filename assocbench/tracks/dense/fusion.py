@@ -52,7 +52,7 @@ keeps spare capacity (doubling), so adding is not a copy of the whole map per fr
 with a bounding box ``[lo, hi]`` and a lower bound ``oldest`` of the ``last_seen`` of its unstable
 points. A block's points lie close together because the map is kept in spatial order: points are
 appended in raster order (a run of neighbouring pixels of one frame), and once the rows added or
-moved since reach a tenth of the map they are sorted by cell (``map_order``: a later frame's few
+moved since reach a tenth of the map the whole map is sorted by cell (``map_order``: a later frame's few
 hundred new points are scattered over the image, so unsorted blocks would span the room). Sorting
 moves rows and changes nothing else. The merge pass visits only the blocks whose box meets the view frustum
 (``blocks_in_view``) and, for the dormant rule, those that may hold a dormant point

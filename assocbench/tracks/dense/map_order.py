@@ -8,11 +8,11 @@ moves the last rows into the holes. Later blocks then span the room, and over a 
 path the points visited grew 67k -> 134k while those in view went 64k -> 84k.
 
 So the map is put in spatial order from time to time (``PointMap.sort_spatially``, called by
-``fuse`` once the rows added or moved since the last sort pass ``SORT_SHARE`` of the map): rows
+``fuse`` once the rows added or moved since the last sort pass ``SORT_SHARE`` of the map): all its rows
 sorted, stably, by the Morton (z-order) code of their ``CELL`` cell, which keeps nearby cells
 near in the order, so a block holds one cell's points or a few neighbouring cells'. Every row
-moves with all its fields, and the voxel table is told the new rows. A sort costs 4-11 ms
-(50k-160k points), about once every 10-25 frames on the crates path.
+moves with all its fields, and the voxel table is told the new rows. A sort costs 3.5-15 ms
+(50k-175k points), about once every 10-25 frames on the crates path.
 
 Measured by ``benchmarks/dense_map_order.py``: the 500-frame crates path fused at true poses with
 the splat of each frame, sorted and unsorted maps interleaved frame by frame in one process:

@@ -68,10 +68,13 @@ def _write(a, scale, decimals, buf):
 
 def fixed_json(a: np.ndarray, decimals: int = DECIMALS) -> str:
     """JSON text of the 2-D array ``a`` rounded to ``decimals`` places: the same numbers as
-    ``json.dumps(np.round(a, decimals).tolist())`` once read (module docstring)."""
+    ``json.dumps(np.round(a, decimals).tolist())`` once read (module docstring), for float64 ``a``;
+    other dtypes are rounded as float64 (a float32 array reads back as ``np.round(a.astype(float), 4)``,
+    not as float32's rounding)."""
+    shape = np.shape(a)   # before ascontiguousarray, which makes a 0-d array 1-d
+    if len(shape) != 2:
+        raise ValueError(f"fixed_json: a 2-D array is needed, got shape {shape}")
     a = np.ascontiguousarray(a, dtype=np.float64)
-    if a.ndim != 2:
-        raise ValueError(f"fixed_json: a 2-D array is needed, got shape {a.shape}")
     finite = a[np.isfinite(a)]
     if finite.size and np.abs(finite).max() * 10.0 ** decimals >= _LIMIT:
         return json.dumps(np.round(a, decimals).tolist())

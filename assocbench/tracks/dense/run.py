@@ -189,14 +189,17 @@ def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, a
 
 def run_end(seq: DenseSequence, spec, pmap: PointMap, artifacts: Path | None) -> dict:
     """The run's end, for its last record: the map's distance to the true surfaces (mm), its
-    compression, a subsample for the picture; the whole map to ``artifacts/map.npz`` when asked."""
+    compression, a subsample for the picture; the whole map to ``artifacts/map.npz`` when asked.
+    The subsample and the file list the points in the order they were added (``born``), so the
+    rows' spatial order (``map_order``) changes neither."""
     error = surface_distance(pmap.positions, load_scene(spec.sequence.scene)) if len(pmap) else np.zeros(0)
-    error_mm = 1000 * error
+    birth = np.argsort(pmap.born)   # after the distance, which runs faster over spatially sorted rows
+    positions, error_mm = pmap.positions[birth], 1000 * error[birth]
     if artifacts is not None:
-        np.savez(Path(artifacts) / "map.npz", positions=pmap.positions, normals=pmap.normals, weights=pmap.weights,
-                 error_mm=error_mm)
+        np.savez(Path(artifacts) / "map.npz", positions=positions, normals=pmap.normals[birth],
+                 weights=pmap.weights[birth], error_mm=error_mm)
     step = max(1, len(pmap) // PICTURE_POINTS)
-    picture = np.column_stack([pmap.positions[::step], error_mm[::step]]) if len(pmap) else np.zeros((0, 4))
+    picture = np.column_stack([positions[::step], error_mm[::step]]) if len(pmap) else np.zeros((0, 4))
     return {"map_median_mm": float(np.median(error_mm)) if len(error_mm) else float("nan"),
             "map_p95_mm": float(np.percentile(error_mm, 95)) if len(error_mm) else float("nan"),
             "compression_pct": 100 * compression_ratio(len(pmap), len(seq), seq.K.width, seq.K.height),

@@ -190,3 +190,35 @@ def test_frame_to_frame_after_a_lost_frame_registers_to_the_last_tracked_frame()
     assert valid[1] != valid[2]                       # the two candidate sources can be told apart
     assert recs[2]["icp_failed"] and not recs[3]["icp_failed"]
     assert recs[3]["source_points"] == valid[1] and recs[4]["source_points"] == int(seq.frame(3).valid.sum())
+
+
+def test_the_run_end_picture_and_map_file_do_not_depend_on_the_rows_spatial_order(tmp_path):
+    """The leaderboard's subsample (``final_map``) and ``map.npz`` list the points in the order
+    they were added: a map sorted after every frame and one never sorted give the same bytes."""
+    from types import SimpleNamespace
+
+    import dense_world as dw
+
+    from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse
+    from assocbench.tracks.dense.run import PICTURE_POINTS, run_end
+
+    scene = tmp_path / "world.xml"
+    scene.write_text(dw.WORLD_XML.replace("</worldbody>", '<site name="lm0" pos="2.6 0 1.5"/></worldbody>'))
+    _, _, frames = dw.sequence(6, yaw_per_frame=6.0)
+    seq = type("Seq", (), {"K": dw.K320, "__len__": lambda self: len(frames)})()   # what run_end reads of one
+    spec = SimpleNamespace(sequence=SimpleNamespace(scene=str(scene)))
+    ends = []
+    for share in (None, 0.0):
+        pmap, cfg = PointMap(), FusionConfig(dormant_frames=2)
+        pmap.sort_share = share
+        for k, f in enumerate(frames):
+            fuse(pmap, f, f.R, f.t, k, cfg)
+        assert len(pmap) > PICTURE_POINTS   # a subsample, not the whole map
+        out = tmp_path / f"share{share}"
+        out.mkdir()
+        ends.append((run_end(seq, spec, pmap, out), np.load(out / "map.npz"), pmap.born.copy()))
+    (plain, plain_npz, plain_born), (sorted_, sorted_npz, sorted_born) = ends
+    assert not np.array_equal(plain_born, sorted_born)   # the rows' orders differ
+    assert plain["final_map"] == sorted_["final_map"]
+    for name in ("positions", "normals", "weights", "error_mm"):
+        np.testing.assert_array_equal(plain_npz[name], sorted_npz[name], err_msg=name)

@@ -33,3 +33,13 @@ def test_empty_huge_and_bad_input():
     assert fixed_json(huge) == json.dumps(np.round(huge, 4).tolist())
     with pytest.raises(ValueError, match="2-D"):
         fixed_json(np.zeros(4))
+    with pytest.raises(ValueError, match=r"got shape \(\)"):   # a scalar is named as one, not as shape (1,)
+        fixed_json(np.float64(1.0))
+
+
+def test_other_dtypes_and_layouts_read_back_as_their_float64_rounding():
+    rng = np.random.default_rng(5)
+    wide = rng.normal(0, 50, (30, 8))
+    for a in (wide[::3, ::2], np.asfortranarray(wide[:, :4]), wide[:, :4].astype(np.float32), np.arange(12).reshape(3, 4)):
+        ref = read(json.dumps(np.round(np.asarray(a, np.float64), 4).tolist()))
+        assert np.array_equal(read(fixed_json(a)), ref)
