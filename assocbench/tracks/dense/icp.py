@@ -445,9 +445,9 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     TR, Tt = R0.T.copy(), -R0.T @ t0
     if not frame.valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
-    clock = _Clock()
+    clock, valid = _Clock(), frame.valid.reshape(-1)
     pairs = clock.timed(associator.associate, points, normals, frame, R0, t0)
-    pairs = checked_pairs(pairs, len(points), frame.depth.size)
+    pairs = checked_pairs(pairs, len(points), valid)
     if len(pairs) < cfg.min_pairs:
         return _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
                        f"guess ({pairs.considered} source points considered)")
@@ -457,7 +457,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     def linearised_at(delta: np.ndarray) -> _Linearised:
         TRn, Ttn = cur.stepped(delta)
         pairs = checked_pairs(clock.timed(associator.associate, points, normals, frame, *_pose(TRn, Ttn)),
-                              len(points), frame.depth.size)
+                              len(points), valid)
         return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
 
     radius_max = float(associator.d_thr)

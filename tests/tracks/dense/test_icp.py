@@ -187,17 +187,20 @@ class Mangled(ProjectiveAssociator):
     mangle: object = None
 
     def associate(self, points, normals, frame, R, t):
-        return self.mangle(super().associate(points, normals, frame, R, t), frame.depth.size)
+        return self.mangle(super().associate(points, normals, frame, R, t), frame)
 
 
 MANGLES = {
-    "pixel past the frame": (lambda p, n: Pairs(p.source, np.append(p.pixel[:-1], n), p.considered), "outside"),
-    "negative pixel": (lambda p, n: Pairs(p.source, -p.pixel - 1, p.considered), "outside"),
-    "source not ascending": (lambda p, n: Pairs(p.source[::-1].copy(), p.pixel, p.considered), "ascending"),
-    "float source": (lambda p, n: Pairs(p.source * np.nan, p.pixel, p.considered), "integer"),
-    "lengths differ": (lambda p, n: Pairs(p.source, p.pixel[:-1], p.considered), "length"),
-    "considered too few": (lambda p, n: Pairs(p.source, p.pixel, 1), "considered"),
-    "not Pairs": (lambda p, n: None, "must return Pairs"),
+    "pixel past the frame": (lambda p, f: Pairs(p.source, np.append(p.pixel[:-1], f.depth.size), p.considered),
+                             "outside"),
+    "pixel without depth": (lambda p, f: Pairs(p.source, np.append(p.pixel[:-1], np.flatnonzero(~f.valid)[0]),
+                                                p.considered), "without a valid vertex"),
+    "negative pixel": (lambda p, f: Pairs(p.source, -p.pixel - 1, p.considered), "outside"),
+    "source not ascending": (lambda p, f: Pairs(p.source[::-1].copy(), p.pixel, p.considered), "ascending"),
+    "float source": (lambda p, f: Pairs(p.source * np.nan, p.pixel, p.considered), "integer"),
+    "lengths differ": (lambda p, f: Pairs(p.source, p.pixel[:-1], p.considered), "length"),
+    "considered too few": (lambda p, f: Pairs(p.source, p.pixel, 1), "considered"),
+    "not Pairs": (lambda p, f: None, "must return Pairs"),
 }
 
 
