@@ -448,9 +448,10 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     clock, valid = _Clock(), frame.valid.reshape(-1)
     pairs = clock.timed(associator.associate, points, normals, frame, R0, t0)
     pairs = checked_pairs(pairs, len(points), valid)
-    if len(pairs) < cfg.min_pairs:
-        return _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
-                       f"guess ({pairs.considered} source points considered)")
+    if len(pairs) < cfg.min_pairs:    # the association ran: its time is a stage of the frame's
+        res = _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
+                      f"guess ({pairs.considered} source points considered)")
+        return replace(res, associate_s=clock.seconds)
     gate = getattr(associator, "gate_coefficients", (0.0, 0.0, 0.0))
     cur, first = _Linearised.at(points, frame, pairs, TR, Tt, gate), pairs
 

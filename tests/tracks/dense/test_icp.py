@@ -5,6 +5,7 @@ the homework's stacked A_i, b_i, its update agrees with finite differences, and 
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 import pytest
@@ -178,6 +179,23 @@ def test_nothing_valid_fails_without_an_exception(clean):
         np.testing.assert_array_equal(res.R, B.R)
         res = icp(pts[:0], nrm[:0], B, make_dense_associator(name), B.R, B.t)
         assert res.failed and "too few pairs" in res.reason and len(res.first_pairs) == 0
+
+
+@dataclasses.dataclass
+class Slow(ProjectiveAssociator):
+    """The projective method, 50 ms slower a call."""
+
+    def associate(self, points, normals, frame, R, t):
+        time.sleep(0.05)
+        return super().associate(points, normals, frame, R, t)
+
+
+def test_too_few_pairs_still_reports_the_association_time(clean):
+    """frames.csv's associate_s read 0.0 on a frame failed for too few pairs, though the method ran."""
+    (pts, nrm), B = clean
+    res = icp(pts, nrm, B, Slow(), B.R, B.t, IcpConfig(min_pairs=10**8))
+    assert res.failed and "too few pairs" in res.reason
+    assert res.associate_s >= 0.05
 
 
 @dataclasses.dataclass
