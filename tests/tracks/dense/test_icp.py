@@ -199,6 +199,26 @@ def test_too_few_pairs_still_reports_the_association_time(clean):
 
 
 @dataclasses.dataclass
+class TruthWriter(ProjectiveAssociator):
+    """Pairs as projective, then writes each paired pixel's true point: what scoring compares."""
+
+    def associate(self, points, normals, frame, R, t):
+        pairs = super().associate(points, normals, frame, R, t)
+        frame.true_points.reshape(-1, 3)[pairs.pixel] = points[pairs.source]
+        return pairs
+
+
+def test_a_method_cannot_write_the_frames_truth(clean):
+    """The truth scoring reads stays as it was: the write is an error (the frame fails)."""
+    (pts, nrm), B = clean
+    before = B.true_points.copy()
+    with pytest.raises(ValueError, match="read-only"):
+        icp(pts, nrm, B, TruthWriter(), B.R, B.t)
+    np.testing.assert_array_equal(B.true_points, before)
+    assert B.true_points.flags.writeable
+
+
+@dataclasses.dataclass
 class Mangled(ProjectiveAssociator):
     """The projective pairs passed through ``mangle``: a user's method answering ill-formed pairs."""
 
