@@ -126,12 +126,14 @@ def checked_inputs(points, normals, frame, R, t) -> tuple[np.ndarray, ...]:
     return p, n, R, t
 
 
-def checked_pairs(pairs: object, n_source: int, n_pixels: int) -> Pairs:
+def checked_pairs(pairs: object, n_source: int, valid: np.ndarray) -> Pairs:
     """The ``Pairs`` a method returned, or a ``ValueError`` saying what is wrong (the frame then
     fails, as a feature method's invalid association does): ``source`` and ``pixel`` equal-length
-    1-D integer arrays, ``0 ≤ source < n_source`` strictly ascending, ``0 ≤ pixel < n_pixels``
-    (``H·W``), ``len ≤ considered ≤ n_source``. The compiled kernels index with them unchecked,
-    so an index out of range would read outside the frame (a crash, or garbage taken as a pose)."""
+    1-D integer arrays, ``0 ≤ source < n_source`` strictly ascending, ``0 ≤ pixel < H·W`` on a
+    pixel where ``valid`` (the frame's ``valid``, flat) holds, ``len ≤ considered ≤ n_source``.
+    The compiled kernels index with them unchecked, so an index out of range would read outside
+    the frame (a crash, or garbage taken as a pose), and an invalid pixel's NaN vertex made the
+    normal equations NaN (the frame failed as ``LinAlgError: Eigenvalues did not converge``)."""
     if not isinstance(pairs, Pairs):
         raise ValueError(f"a dense associator must return Pairs, got {type(pairs).__name__}")
     src, pix = np.asarray(pairs.source), np.asarray(pairs.pixel)
@@ -143,9 +145,13 @@ def checked_pairs(pairs: object, n_source: int, n_pixels: int) -> Pairs:
     src, pix = src.astype(np.int64, copy=False), pix.astype(np.int64, copy=False)
     if not _source_ascending(src, n_source):
         raise ValueError(f"Pairs.source must be strictly ascending indices in 0..{n_source - 1}")
-    bad = _pixel_outside(pix, n_pixels)
+    valid = np.ascontiguousarray(valid, dtype=np.bool_).reshape(-1)
+    bad = _pixel_unusable(pix, valid)
+    if bad >= 0 and not 0 <= pix[bad] < len(valid):
+        raise ValueError(f"Pairs.pixel holds {pix[bad]}, outside the frame's pixels 0..{len(valid) - 1}")
     if bad >= 0:
-        raise ValueError(f"Pairs.pixel holds {pix[bad]}, outside the frame's pixels 0..{n_pixels - 1}")
+        raise ValueError(f"Pairs.pixel holds {pix[bad]}, a pixel without a valid vertex and normal "
+                         f"(frame.valid is False there): pair only valid pixels")
     considered = pairs.considered
     if not isinstance(considered, (int, np.integer)) or not len(src) <= considered <= n_source:
         raise ValueError(f"Pairs.considered must be an integer in {len(src)}..{n_source}, got {considered!r}")
@@ -164,10 +170,11 @@ def _source_ascending(src, n_source):
 
 
 @njit(cache=True)
-def _pixel_outside(pix, n_pixels):
-    """Index of the first entry of ``pix`` outside ``0..n_pixels − 1``, or −1."""
+def _pixel_unusable(pix, valid):
+    """Index of the first entry of ``pix`` outside ``0..len(valid) − 1`` or where ``valid`` is
+    False, or −1."""
     for k in range(len(pix)):
-        if pix[k] < 0 or pix[k] >= n_pixels:
+        if pix[k] < 0 or pix[k] >= len(valid) or not valid[pix[k]]:
             return k
     return -1
 

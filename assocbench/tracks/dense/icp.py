@@ -445,19 +445,20 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     TR, Tt = R0.T.copy(), -R0.T @ t0
     if not frame.valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
-    clock = _Clock()
-    pairs = clock.timed(associator.associate, points, normals, frame, R0, t0)
-    pairs = checked_pairs(pairs, len(points), frame.depth.size)
-    if len(pairs) < cfg.min_pairs:
-        return _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
-                       f"guess ({pairs.considered} source points considered)")
+    clock, valid, shown = _Clock(), frame.valid.reshape(-1), _truth_read_only(frame)
+    pairs = clock.timed(associator.associate, points, normals, shown, R0, t0)
+    pairs = checked_pairs(pairs, len(points), valid)
+    if len(pairs) < cfg.min_pairs:    # the association ran: its time is a stage of the frame's
+        res = _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
+                      f"guess ({pairs.considered} source points considered)")
+        return replace(res, associate_s=clock.seconds)
     gate = getattr(associator, "gate_coefficients", (0.0, 0.0, 0.0))
     cur, first = _Linearised.at(points, frame, pairs, TR, Tt, gate), pairs
 
     def linearised_at(delta: np.ndarray) -> _Linearised:
         TRn, Ttn = cur.stepped(delta)
-        pairs = checked_pairs(clock.timed(associator.associate, points, normals, frame, *_pose(TRn, Ttn)),
-                              len(points), frame.depth.size)
+        pairs = checked_pairs(clock.timed(associator.associate, points, normals, shown, *_pose(TRn, Ttn)),
+                              len(points), valid)
         return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
 
     radius_max = float(associator.d_thr)
@@ -501,6 +502,19 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     rho = direction_share(points, normals, cur.pairs, frame, cur.TR, cur.Tt)
     res = _result(cur.TR, cur.Tt, cur.pairs, first, _judged(cur, cfg, R0, t0, rho), cur, it, converged=True)
     return replace(res, associate_s=clock.seconds, direction_share=rho)
+
+
+def _truth_read_only(frame: DepthFrame) -> DepthFrame:
+    """``frame`` as the method sees it: its truth (``true_points``, ``geom``, ``R``, ``t``) as
+    read-only views, so that a write there is an error of the frame, not a change of what scoring
+    compares the pairs with (a method setting each paired pixel's true point to its source point
+    raised crates' precision, 4 frames at one iteration, from 0.079 to 0.908 with the same pairs)."""
+    def read_only(a: np.ndarray) -> np.ndarray:
+        view = np.asarray(a).view()
+        view.flags.writeable = False
+        return view
+    return replace(frame, true_points=read_only(frame.true_points), geom=read_only(frame.geom),
+                   R=read_only(frame.R), t=read_only(frame.t))
 
 
 class _Clock:

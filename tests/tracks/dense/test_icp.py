@@ -5,6 +5,7 @@ the homework's stacked A_i, b_i, its update agrees with finite differences, and 
 from __future__ import annotations
 
 import dataclasses
+import time
 
 import numpy as np
 import pytest
@@ -181,23 +182,63 @@ def test_nothing_valid_fails_without_an_exception(clean):
 
 
 @dataclasses.dataclass
+class Slow(ProjectiveAssociator):
+    """The projective method, 50 ms slower a call."""
+
+    def associate(self, points, normals, frame, R, t):
+        time.sleep(0.05)
+        return super().associate(points, normals, frame, R, t)
+
+
+def test_too_few_pairs_still_reports_the_association_time(clean):
+    """frames.csv's associate_s read 0.0 on a frame failed for too few pairs, though the method ran."""
+    (pts, nrm), B = clean
+    res = icp(pts, nrm, B, Slow(), B.R, B.t, IcpConfig(min_pairs=10**8))
+    assert res.failed and "too few pairs" in res.reason
+    assert res.associate_s >= 0.05
+
+
+@dataclasses.dataclass
+class TruthWriter(ProjectiveAssociator):
+    """Pairs as projective, then writes each paired pixel's true point: what scoring compares."""
+
+    def associate(self, points, normals, frame, R, t):
+        pairs = super().associate(points, normals, frame, R, t)
+        frame.true_points.reshape(-1, 3)[pairs.pixel] = points[pairs.source]
+        return pairs
+
+
+def test_a_method_cannot_write_the_frames_truth(clean):
+    """The truth scoring reads stays as it was: the write is an error (the frame fails)."""
+    (pts, nrm), B = clean
+    before = B.true_points.copy()
+    with pytest.raises(ValueError, match="read-only"):
+        icp(pts, nrm, B, TruthWriter(), B.R, B.t)
+    np.testing.assert_array_equal(B.true_points, before)
+    assert B.true_points.flags.writeable
+
+
+@dataclasses.dataclass
 class Mangled(ProjectiveAssociator):
     """The projective pairs passed through ``mangle``: a user's method answering ill-formed pairs."""
 
     mangle: object = None
 
     def associate(self, points, normals, frame, R, t):
-        return self.mangle(super().associate(points, normals, frame, R, t), frame.depth.size)
+        return self.mangle(super().associate(points, normals, frame, R, t), frame)
 
 
 MANGLES = {
-    "pixel past the frame": (lambda p, n: Pairs(p.source, np.append(p.pixel[:-1], n), p.considered), "outside"),
-    "negative pixel": (lambda p, n: Pairs(p.source, -p.pixel - 1, p.considered), "outside"),
-    "source not ascending": (lambda p, n: Pairs(p.source[::-1].copy(), p.pixel, p.considered), "ascending"),
-    "float source": (lambda p, n: Pairs(p.source * np.nan, p.pixel, p.considered), "integer"),
-    "lengths differ": (lambda p, n: Pairs(p.source, p.pixel[:-1], p.considered), "length"),
-    "considered too few": (lambda p, n: Pairs(p.source, p.pixel, 1), "considered"),
-    "not Pairs": (lambda p, n: None, "must return Pairs"),
+    "pixel past the frame": (lambda p, f: Pairs(p.source, np.append(p.pixel[:-1], f.depth.size), p.considered),
+                             "outside"),
+    "pixel without depth": (lambda p, f: Pairs(p.source, np.append(p.pixel[:-1], np.flatnonzero(~f.valid)[0]),
+                                                p.considered), "without a valid vertex"),
+    "negative pixel": (lambda p, f: Pairs(p.source, -p.pixel - 1, p.considered), "outside"),
+    "source not ascending": (lambda p, f: Pairs(p.source[::-1].copy(), p.pixel, p.considered), "ascending"),
+    "float source": (lambda p, f: Pairs(p.source * np.nan, p.pixel, p.considered), "integer"),
+    "lengths differ": (lambda p, f: Pairs(p.source, p.pixel[:-1], p.considered), "length"),
+    "considered too few": (lambda p, f: Pairs(p.source, p.pixel, 1), "considered"),
+    "not Pairs": (lambda p, f: None, "must return Pairs"),
 }
 
 
