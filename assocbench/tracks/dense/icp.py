@@ -443,9 +443,10 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     points, normals, _, _ = checked_inputs(points, normals, frame, np.eye(3), np.zeros(3))
     R0, t0 = _check_pose(R0, t0)
     TR, Tt = R0.T.copy(), -R0.T @ t0
-    if not frame.valid.any():
+    valid = frame.valid.reshape(-1)   # one mask a call: ``valid`` is computed from the maps each time
+    if not valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
-    clock, valid, shown = _Clock(), frame.valid.reshape(-1), _truth_read_only(frame)
+    clock, shown = _Clock(), _truth_read_only(frame)
     pairs = clock.timed(associator.associate, points, normals, shown, R0, t0)
     pairs = checked_pairs(pairs, len(points), valid)
     if len(pairs) < cfg.min_pairs:    # the association ran: its time is a stage of the frame's
