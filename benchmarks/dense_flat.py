@@ -1,0 +1,139 @@
+"""Is the dense track's per-frame cost flat as the map grows? The crates path driven there and back.
+
+A run's per-frame cost rises along the 500-frame crates path (27 -> 34 ms a frame in
+``dense_rate.py``), and the map grows 2.7x (67k -> 184k points) over it, so the two are easy to
+confuse. This script separates them by driving the path out (frames 0 .. N-1) and back (N-2 .. 0):
+on the way back the camera sees the same views again with a map that holds the whole path, so a
+cost that follows the map would be higher on the way back than on the way out at the same view,
+and a cost that follows the view would not.
+
+What it runs. The dense track's own frame loop (``tracks.dense.run.dense_records``, what
+``assocbench run --method projective --scene crates`` runs in its worker: depth frame, the model
+splatted into the view, ICP frame-to-model, fusion, scoring) on the crates circle at 320x240 with
+``depth.downsample=1``, one core, on a sequence whose frames are the path's frames in the order
+out-and-back; frame k of it draws its own noise (``default_rng([seed, k, 17])``), so the way back
+is a second pass of the sensor over the same poses, not a replay. Rendering is not timed (the
+sequence is cached); the kernels are warmed first. The same loop runs again without the map's
+index (``dense.index=false``: the splat and fusion visit every map point, the same numbers bit for
+bit): the baseline whose cost does follow the map.
+
+Columns, per ``--band`` frames of the path (medians over the band's frames, each leg):
+the map's size on the way out and back, the map points the splat visited a frame (``visited``,
+the points in the blocks meeting the view frustum), the frame's stages (depth frame, prediction,
+ICP, fusion, scoring; ms), of which the two that read the map (the splat and fusion), and those
+two without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
+visited + c · map`` (the map's size before the frame): ``c`` is the cost of the map's size at a
+given view (ms per 100k points), ``b`` the cost of what is in view. Without the index ``visited``
+is the whole map, so there ``b`` and ``c`` share one slope between them.
+
+Usage: python benchmarks/dense_flat.py [--frames 500] [--band 100] [--scene crates]
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import math
+import os
+import time
+
+for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS"):   # one core: before numpy/numba read them
+    os.environ.setdefault(_var, "1")
+os.environ.setdefault("MUJOCO_GL", "egl")
+
+import numpy as np  # noqa: E402
+import pandas as pd  # noqa: E402
+from _util import print_table  # noqa: E402
+from dense_rate import load, render_once, settings  # noqa: E402
+
+from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
+from assocbench.harness.runner import GuardedCalls  # noqa: E402
+from assocbench.tracks.dense.run import dense_records  # noqa: E402
+from assocbench.tracks.dense.track import gate_params  # noqa: E402
+from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
+
+STAGES = ("frame_s", "predict_s", "icp_s", "fusion_s", "score_s")
+
+
+def there_and_back(seq, frames: int):
+    """``seq``'s first ``frames`` frames out (0 .. N-1) and back (N-2 .. 0), and the order."""
+    order = np.r_[np.arange(frames), np.arange(frames - 2, -1, -1)]
+    return dataclasses.replace(seq, depths=seq.depths[order], geoms=seq.geoms[order],
+                               rotations=seq.rotations[order], positions=seq.positions[order]), order
+
+
+def records(seq, scene: str, frames: int, extra: list[str]) -> pd.DataFrame:
+    """The dense track's per-frame records of ``seq`` (the projective method, frame-to-model)."""
+    sets = settings(scene, frames, ["dense.prediction=view", f"limits.frames={2 * frames}", *extra])[1::2]
+    spec = run_spec(load_run_config(None, sets, method="projective", scene=scene, frames=len(seq)))
+    calls = GuardedCalls(time_limit_s=math.inf, faults={}, on_call=lambda k, limit: None)
+    rows = list(dense_records(seq, spec, calls, lambda: make_dense_associator("projective", **gate_params(spec))))
+    out = pd.DataFrame(rows)
+    out["stages_ms"] = 1000 * out[list(STAGES)].fillna(0).sum(axis=1)
+    out["map_ms"] = 1000 * out[["predict_s", "fusion_s"]].fillna(0).sum(axis=1)   # the stages that read the map
+    return out
+
+
+def fit(rec: pd.DataFrame, column: str) -> tuple[float, float, float]:
+    """Least squares ``column = a + b · visited/1e5 + c · map/1e5`` over the frames after the first
+    (the map's size before the frame's fusion): (b, c, the residual's standard deviation), ms per
+    100k points."""
+    part = rec.iloc[1:]
+    before = rec["map_points"].shift(1).iloc[1:]
+    A = np.column_stack([np.ones(len(part)), part["predict_visited"] / 1e5, before / 1e5])
+    coef, *_ = np.linalg.lstsq(A, part[column].to_numpy(), rcond=None)
+    resid = part[column].to_numpy() - A @ coef
+    return float(coef[1]), float(coef[2]), float(np.std(resid))
+
+
+def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, whole: pd.DataFrame) -> list[list]:
+    """One row per band of path frames: out and back, map size, visited, ms with and without the index."""
+    leg = np.where(np.arange(len(order)) < frames, "out", "back")
+    rows = []
+    for lo in range(0, frames, band):
+        cells = [f"{lo}-{min(lo + band, frames) - 1}"]
+        for name in ("out", "back"):
+            pick = (order >= lo) & (order < lo + band) & (leg == name) & (np.arange(len(order)) > 0)
+            a, b = ours[pick], whole[pick]
+            cells += [f"{a['map_points'].median() / 1000:.0f}k", f"{a['predict_visited'].median() / 1000:.0f}k",
+                      a["stages_ms"].median(), a["map_ms"].median(), b["map_ms"].median()]
+        rows.append(cells)
+    return rows
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.split("\n\n")[0])
+    ap.add_argument("--frames", type=int, default=500, help="the path's frames (the loop runs 2N-1)")
+    ap.add_argument("--band", type=int, default=100, help="path frames a row")
+    ap.add_argument("--scene", default="crates")
+    args = ap.parse_args()
+    if args.frames < 2 or args.band < 1:
+        ap.error(f"--frames must be at least 2 and --band at least 1, got {args.frames} and {args.band}")
+    print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
+    seq, order = there_and_back(render_once(args.scene, args.frames), args.frames)
+    warm_dense()
+    start = time.perf_counter()
+    ours = records(seq, args.scene, args.frames, [])
+    ours_s = time.perf_counter() - start
+    start = time.perf_counter()
+    whole = records(seq, args.scene, args.frames, ["dense.index=false"])
+    whole_s = time.perf_counter() - start
+    same = all(np.array_equal(ours[c].to_numpy(), whole[c].to_numpy(), equal_nan=True)
+               for c in ("est_x", "est_y", "est_z", "map_points", "pairs"))
+    print(f"{len(seq)} frames ({args.frames} out, {args.frames - 1} back): the loop took {ours_s:.1f} s with the "
+          f"index, {whole_s:.1f} s without; the same poses, pairs and map sizes: {same}; ICP failures "
+          f"{int(ours['icp_failed'].sum())}")
+    print_table(["path frames", "out: map", "visited", "stages (ms)", "splat + fusion", "no index",
+                 "back: map", "visited", "stages (ms)", "splat + fusion", "no index"],
+                band_rows(order, args.frames, args.band, ours, whole))
+    for label, rec in (("with the index", ours), ("without the index (baseline)", whole)):
+        for column, what in (("stages_ms", "stages"), ("map_ms", "splat + fusion")):
+            b, c, sd = fit(rec, column)
+            print(f"fit {label}, {what}: ms = a + {b:.2f} per 100k visited + {c:.2f} per 100k map points "
+                  f"(residual sd {sd:.2f} ms)")
+    print(f"load after {load()}")
+
+
+if __name__ == "__main__":
+    main()
