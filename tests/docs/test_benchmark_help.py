@@ -48,7 +48,7 @@ def test_dense_rate_pairs_0_prints_no_registration_table(capsys, monkeypatch):
     assert capsys.readouterr().out == ""
 
 
-@pytest.mark.parametrize("script", ["dense_rate.py", "dense_map_order.py"])
+@pytest.mark.parametrize("script", ["dense_rate.py", "dense_map_order.py", "dense_flat.py"])
 def test_dense_benchmarks_refuse_fewer_than_2_frames_in_one_line(script):
     """``--frames 1`` is a usage error (exit 2, one line), not a traceback after the kernels load."""
     out = subprocess.run([sys.executable, str(BENCHMARKS / script), "--frames", "1"], capture_output=True,
