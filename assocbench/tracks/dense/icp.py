@@ -114,7 +114,7 @@ from scipy.linalg import solve_triangular
 
 from ...associators.dense.base import DenseAssociator, Pairs, checked_inputs, checked_pairs, flat_maps
 from ...errors import UserError
-from ...models.depth_frame import DepthFrame
+from ...models.depth_frame import NO_GEOM, DepthFrame
 from ...validation import in_range, validate_fields
 from .fused_ops import ZERO21, fma, outer_fma, symmetric6
 
@@ -466,7 +466,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     valid = frame.valid.reshape(-1)   # one mask a call: ``valid`` is computed from the maps each time
     if not valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
-    clock, shown = _Clock(), _truth_read_only(frame)
+    clock, shown = _Clock(), _as_the_method_sees_it(frame)
     pairs = clock.timed(associator.associate, points, normals, shown, R0, t0)
     pairs = checked_pairs(pairs, len(points), valid)
     if len(pairs) < cfg.min_pairs:    # the association ran: its time is a stage of the frame's
@@ -526,17 +526,25 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     return replace(res, associate_s=clock.seconds, direction_share=rho)
 
 
-def _truth_read_only(frame: DepthFrame) -> DepthFrame:
-    """``frame`` as the method sees it: its truth (``true_points``, ``geom``, ``R``, ``t``) as
-    read-only views, so that a write there is an error of the frame, not a change of what scoring
-    compares the pairs with (a method setting each paired pixel's true point to its source point
-    raised crates' precision, 4 frames at one iteration, from 0.079 to 0.908 with the same pairs)."""
+def _as_the_method_sees_it(frame: DepthFrame) -> DepthFrame:
+    """``frame`` as the method sees it: the measured maps (``depth``, ``vertices``, ``normals``) as
+    read-only views, since fusion merges the same arrays into the map after the method's calls; the
+    truth (``true_points``, ``geom``, ``R``, ``t``) withheld, NaN and ``NO_GEOM`` of the same shapes
+    (read-only broadcasts: no copy), since a method that read the true pose or the true points
+    would be scored on what it was not given. A write is an error of the frame: a method setting
+    each paired pixel's true point to its source point once raised crates' precision, 4 frames at
+    one iteration, from 0.079 to 0.908 with the same pairs."""
     def read_only(a: np.ndarray) -> np.ndarray:
         view = np.asarray(a).view()
         view.flags.writeable = False
         return view
-    return replace(frame, true_points=read_only(frame.true_points), geom=read_only(frame.geom),
-                   R=read_only(frame.R), t=read_only(frame.t))
+
+    def withheld(a: np.ndarray, fill: float) -> np.ndarray:
+        return np.broadcast_to(np.asarray(fill, dtype=np.asarray(a).dtype), np.shape(a))
+
+    return replace(frame, depth=read_only(frame.depth), vertices=read_only(frame.vertices),
+                   normals=read_only(frame.normals), true_points=withheld(frame.true_points, np.nan),
+                   geom=withheld(frame.geom, NO_GEOM), R=withheld(frame.R, np.nan), t=withheld(frame.t, np.nan))
 
 
 class _Clock:

@@ -15,6 +15,7 @@ from assocbench.associators.dense import DENSE_METHODS, Pairs
 from assocbench.associators.dense.projective import ProjectiveAssociator
 from assocbench.associators.registry import make_dense_associator
 from assocbench.errors import UserError
+from assocbench.models.depth_frame import NO_GEOM
 from assocbench.tracks.dense.icp import (
     IcpConfig,
     damping,
@@ -216,6 +217,47 @@ def test_a_method_cannot_write_the_frames_truth(clean):
         icp(pts, nrm, B, TruthWriter(), B.R, B.t)
     np.testing.assert_array_equal(B.true_points, before)
     assert B.true_points.flags.writeable
+
+
+@dataclasses.dataclass
+class MapWriter(ProjectiveAssociator):
+    """Pairs as projective, then pulls each paired pixel's vertex onto its source point: the
+    measured map fusion merges next."""
+
+    def associate(self, points, normals, frame, R, t):
+        pairs = super().associate(points, normals, frame, R, t)
+        frame.vertices.reshape(-1, 3)[pairs.pixel] = 0.0
+        return pairs
+
+
+@dataclasses.dataclass
+class TruthReader(ProjectiveAssociator):
+    """Records what the frame tells a method about the truth."""
+
+    seen: list = dataclasses.field(default_factory=list)
+
+    def associate(self, points, normals, frame, R, t):
+        self.seen.append((frame.R.copy(), frame.t.copy(), frame.true_points.copy(), frame.geom.copy()))
+        return super().associate(points, normals, frame, R, t)
+
+
+def test_a_method_cannot_write_the_measured_maps_or_read_the_truth(clean):
+    """The vertex map fusion merges after ICP stays as measured (the write is an error), and the
+    true pose, points and geoms reach the method as NaN and NO_GEOM of their shapes: it is scored on
+    what it was given."""
+    (pts, nrm), B = clean
+    before = B.vertices.copy()
+    with pytest.raises(ValueError, match="read-only"):
+        icp(pts, nrm, B, MapWriter(), B.R, B.t)
+    np.testing.assert_array_equal(B.vertices, before)
+    reader = TruthReader()
+    res = icp(pts, nrm, B, reader, B.R, B.t)
+    assert not res.failed and reader.seen
+    R, t, true_points, geom = reader.seen[0]
+    assert R.shape == (3, 3) and np.isnan(R).all() and np.isnan(t).all() and t.shape == (3,)
+    assert true_points.shape == B.true_points.shape and np.isnan(true_points).all()
+    assert geom.shape == B.geom.shape and (geom == NO_GEOM).all()
+    assert np.isfinite(B.R).all() and (B.geom != NO_GEOM).any()     # the frame itself keeps its truth
 
 
 @dataclasses.dataclass
