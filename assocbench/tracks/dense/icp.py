@@ -128,7 +128,7 @@ class IcpConfig:
         and moves less than this (m).
     min_pairs: fewer pairs in any iteration is a failure (too little to constrain 6 dof).
     min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure.
-    min_direction_share: the final pairs' share of the information of the source points in view
+    min_direction_share: the final pairs' share of the information of the visible source points
         in the worst-kept motion (``direction_share``) below this is a failure: the pose slid to
         where the surfaces that fix some motion find no partner (a wrong minimum of self-similar
         geometry, e.g. bays' side walls lost after a sideways slide).
@@ -573,7 +573,7 @@ def _judged(cur: _Linearised, cfg: IcpConfig, R0: np.ndarray, t0: np.ndarray, rh
         return (f"inlier share {share:.3f} < min_inlier_share {cfg.min_inlier_share} "
                 f"({len(pairs)} of {pairs.considered} considered pairs kept)")
     if rho < cfg.min_direction_share:
-        return (f"lost direction: the pairs keep {rho:.3f} of the information of the source points in view in the "
+        return (f"lost direction: the pairs keep {rho:.3f} of the information of the visible source points in the "
                 f"motion they constrain worst < min_direction_share {cfg.min_direction_share} (a slide to where "
                 f"the surfaces that fix that motion find no partner: a wrong minimum of self-similar geometry)")
     if rms > cfg.max_rms:
