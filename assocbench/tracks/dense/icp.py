@@ -77,9 +77,9 @@ and from the crates pairs above:
   them: a point hidden behind the measured surface by more than the gate can never pair, so it
   is neither a pair nor a loss. Counted, such points failed 25 frames of a crates view seen
   again, poses right to 1 mm, ρ 0.22-0.25: the model rendered into the view shows surfaces
-  behind the near ones through the near surfaces' gaps and beside their edges, which the fusion
-  trims by the frame's invalid edge normals, 5 302 of 51 603 source points on the revisit against
-  1 474 of 44 780 the first time; ``benchmarks/dense_flat.py``). On the 40-frame leaderboard runs
+  behind the near ones through the near surfaces' gaps and beside their edges (fusion leaves out
+  a frame's pixels without a normal, at depth edges), 5 302 of 51 603 source points on the
+  revisit against 1 474 of 44 780 the first time; ``benchmarks/dense_flat.py``). On the 40-frame leaderboard runs
   (projective, bays and crates, seeds 0 and 1, frame-to-model and frame-to-frame): 0.52-0.90 on
   every step that registered on crates and 0.68-0.80 on bays, and 0.057-0.076 on the four bays
   steps that slid sideways (34-57 mm off the true step; 0.035-0.059 on such steps when hidden
@@ -88,8 +88,8 @@ and from the crates pairs above:
   (``benchmarks/dense_direction_share.py``, bays seed 1 frame-to-model, each wrong step fused)
   the 8 wrong steps' ρ rose from 0.035-0.485 to 0.055-0.521 and 6 of them fall below 0.25
   instead of 7 (the step after the first slide, against a map fused at its wrong pose, 0.16 ->
-  0.255); the first slides stay at 0.055-0.11. Bays is a corridor seen along its length; the constant-position guess is up to 57 mm /
-  2.3 deg off, which puts the side walls, the only surfaces that fix the sideways translation,
+  0.255); the first slides stay at 0.055-0.11. Bays is a corridor seen along its length; the
+  constant-position guess is up to 57 mm / 2.3 deg off, which puts the side walls, the only surfaces that fix the sideways translation,
   beyond the 5 cm gate. The first steps correct the turn by pairing the piers' faces, and the
   correction carries the camera sideways (the GN step itself, not the damping: a smaller trust
   radius slides the same); there the walls stay unpaired, and the pose keeps 0.56-0.68 of the
@@ -396,8 +396,8 @@ def direction_share(points: np.ndarray, normals: np.ndarray, pairs: Pairs, frame
     """ρ = min over motions u of ``uᵀ H_P u / uᵀ H_V u``, the smallest generalised eigenvalue of
     ``(H_P, H_V)`` (``source_information``: the paired source points and every visible source
     point, in front of the camera, projecting into the image and not hidden behind the measured
-    surface by more than the association's ``gate``, the points its inlier share counts): the pairs' share of the
-    information in the motion they keep worst. ``H_V = L Lᵀ`` (Cholesky), ρ = λ_min(L⁻¹ H_P L⁻ᵀ)
+    surface by more than the association's ``gate``, the points its inlier share counts): the
+    pairs' share of the information in the motion they keep worst. ``H_V = L Lᵀ`` (Cholesky), ρ = λ_min(L⁻¹ H_P L⁻ᵀ)
     by triangular solves; invariant to the motion's parametrisation. The plain inlier share counts
     points; ρ weighs them by what they constrain (Gelfand et al. 2003's stability analysis, applied
     to the pairs against the source): a pose that keeps half the points but none that fix one
