@@ -89,11 +89,12 @@ and from the crates pairs above:
   the 8 wrong steps' ρ rose from 0.035-0.485 to 0.055-0.521 and 6 of them fall below 0.25
   instead of 7 (the step after the first slide, against a map fused at its wrong pose, 0.16 ->
   0.255); the first slides stay at 0.055-0.11. Bays is a corridor seen along its length; the
-  constant-position guess is up to 57 mm / 2.3 deg off, which puts the side walls, the only surfaces that fix the sideways translation,
-  beyond the 5 cm gate. The first steps correct the turn by pairing the piers' faces, and the
-  correction carries the camera sideways (the GN step itself, not the damping: a smaller trust
-  radius slides the same); there the walls stay unpaired, and the pose keeps 0.56-0.68 of the
-  points at κ 12-20 and a gated rms of 16 mm, so no other test can see it.
+  constant-position guess is up to 57 mm / 2.3 deg off, which puts the side walls, the only
+  surfaces that fix the sideways translation, beyond the 5 cm gate. The first steps correct the
+  turn by pairing the piers' faces, and the correction carries the camera sideways (the GN step
+  itself, not the damping: a smaller trust radius slides the same); there the walls stay
+  unpaired, and the pose keeps 0.56-0.68 of the points at κ 12-20 and a gated rms of 16 mm, so no
+  other test can see it.
 * residual rms at the true pose: ≤ 0.73 mm noise-free, ≤ 11 mm with the sensor's noise on
   crates; ``max_rms = 0.02`` m catches gross mismatch only (a wrong minimum fits its remaining
   pairs about as well).
