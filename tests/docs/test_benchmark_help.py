@@ -55,3 +55,16 @@ def test_dense_benchmarks_refuse_fewer_than_2_frames_in_one_line(script):
                          text=True, timeout=120)
     assert out.returncode == 2 and "Traceback" not in out.stderr
     assert "--frames must be at least 2" in out.stderr.strip().splitlines()[-1]
+
+
+def test_dense_flat_drives_a_short_path_out_and_back(tmp_path):
+    """4 path frames out and 3 back through the dense frame loop, with and without the map's index:
+    the two loops give the same poses, pairs and map sizes, and the table has a row per band."""
+    env = {**os.environ, "ASSOCBENCH_CACHE": os.environ.get("ASSOCBENCH_CACHE", str(tmp_path / "cache"))}
+    out = subprocess.run([sys.executable, str(BENCHMARKS / "dense_flat.py"), "--frames", "4", "--band", "2"],
+                         capture_output=True, text=True, timeout=600, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "7 frames (4 out, 3 back)" in out.stdout and "the same poses, pairs and map sizes: True" in out.stdout
+    rows = [line.split()[0] for line in out.stdout.splitlines() if line.strip().startswith(("0-1", "2-3"))]
+    assert rows == ["0-1", "2-3"]
+    assert out.stdout.count("fit with the index") == 2 and out.stdout.count("fit without the index") == 2
