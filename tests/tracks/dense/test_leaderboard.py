@@ -30,3 +30,13 @@ def test_a_count_of_frames_of_one_seed_prints_as_a_whole_number():
 def test_a_mean_count_over_seeds_keeps_its_fraction():
     cells = row_cells(dense_markdown(dense_table(summaries([3, 0]))))
     assert cells["ICP failures"] == "1.5" and cells["wrong steps"] == "0"
+
+
+def test_the_leaderboard_picture_gets_the_frames_whose_icp_failed():
+    from assocbench.tracks.dense.leaderboard import pictures
+
+    rows = [{"scenario": "crates/default", "method": "projective", "seed": 0, "frame": k, "icp_failed": k == 2,
+             "final_map": "[0.5, 0.5, 0.0, 1.0]" if k == 3 else None}
+            | {f"{p}{c}": 0.1 * k for p in ("true_", "est_") for c in "xyz"} for k in range(4)]
+    (panel,) = pictures(pd.DataFrame(rows))
+    assert panel["failed"].tolist() == [False, False, True, False]
