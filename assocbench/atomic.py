@@ -46,11 +46,12 @@ _PLACE_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
                  errno.ENOTDIR, errno.EISDIR, errno.ENAMETOOLONG, errno.EIO, errno.ENOENT}
 
 
-def check_cache_folder() -> None:
+def check_cache_folder(*subfolders: str) -> None:
     """A one-line ``UserError`` when the cache folder cannot be a folder (it, or the nearest of its
-    parents that exists, is a file) or cannot be created or written (created here if absent),
-    checked before a run compiles or renders: otherwise kernels compiled into the temporary folder
-    for minutes, the sequence rendered, and only storing it said so."""
+    parents that exists, is a file) or cannot be created or written (created here if absent), or
+    one of its ``subfolders`` (where the tracks store their sequences: ``Track.cache_folder``) is
+    a file; checked before a run compiles or renders: otherwise kernels compiled for 20 s, the
+    sequence rendered, and only storing it said so."""
     from ._runtime import cache_root
 
     root = cache_root()
@@ -60,6 +61,10 @@ def check_cache_folder() -> None:
                 raise UserError(f"cannot create {CACHE.what} {root}: {place} is a file; {CACHE.fix()}")
             break
     ensure_dir(root, CACHE)
+    for sub in subfolders:
+        if (root / sub).exists() and not (root / sub).is_dir():
+            raise UserError(f"cannot use {CACHE.what} {root}: {root / sub} is a file where the cache keeps a "
+                            f"folder; remove or rename it, or {CACHE.fix()}")
 
 
 def ensure_dir(path: Path, role: Role = OUTPUT) -> Path:

@@ -226,14 +226,15 @@ _screen_plain_call = _screen_plain_first_call
 
 def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) -> None:
     """Raise if any matrix of the stack is not symmetric (``|A - Aᵀ| <= 1e-9 · max|A|``) positive
-    (semi)definite: every eigenvalue ``λ >= 0`` (semidefinite: ``λ >= -1e-10 · max|A|``).
+    definite (every eigenvalue ``λ > 0``: a Cholesky factor ``A = L Lᵀ`` exists, which gating and
+    the joint test need) or, with ``allow_semidefinite``, semidefinite (``λ >= -1e-10 · max|A|``).
 
-    A Cholesky factorisation of ``A + τ·I`` (``τ`` the tolerance) decides almost every case at a
-    fraction of an eigendecomposition's cost: success proves ``λ_min(A) > -τ`` up to the
-    factorisation's backward error (about ``n·ε·max|A|``, far inside the semidefinite
-    tolerance), so the matrix passes the eigenvalue test. A failure proves nothing (a singular
-    ``R`` with ``λ_min = 0`` exactly passes that test but not a factorisation), so only then do
-    the eigenvalues decide: the refusals are the eigenvalue test's."""
+    Definite: the factorisation decides; a singular ``R`` (``λ_min = 0``, e.g. all zero: a
+    "noiseless" sensor) is refused, since ``S = P_JJ + R`` is then singular wherever ``P`` is.
+    Semidefinite: a Cholesky factorisation of ``A + τ·I`` (``τ`` the tolerance) decides almost
+    every case at a fraction of an eigendecomposition's cost: success proves ``λ_min(A) > -τ`` up
+    to the factorisation's backward error (about ``n·ε·max|A|``, far inside the tolerance). A
+    failure proves nothing, so only then do the eigenvalues decide: the refusals are theirs."""
     if mats.size == 0:
         return
     stack = mats if mats.ndim == 3 else mats[None]
@@ -259,10 +260,16 @@ def _decide_definite(name: str, mats: np.ndarray, tolerance: float) -> None:
         factorised = dpotrf(shifted.T, lower=0, clean=0, overwrite_a=1)[1] == 0
     if factorised:
         return
+    if tolerance == 0.0:            # definite: no Cholesky factor is the refusal (λ_min <= 0, or so near)
+        k = _first_unfactorised(stack, 0.0)
+        where = "" if mats.ndim == 2 else f"[{k}]"
+        raise ValueError(f"Problem.{name}{where} is not positive definite (singular or indefinite: it has no "
+                         "Cholesky factor); give every noise covariance eigenvalues > 0, e.g. sigma**2 * I "
+                         "with sigma > 0 for a nearly noiseless sensor")
     bad = np.linalg.eigvalsh(mats).min(axis=-1) < -tolerance
     if np.any(bad):
         where = "" if mats.ndim == 2 else f"[{int(np.flatnonzero(bad)[0])}]"
-        raise ValueError(f"Problem.{name}{where} is not positive {'semi' if tolerance > 0 else ''}definite")
+        raise ValueError(f"Problem.{name}{where} is not positive semidefinite")
 
 
 @njit(cache=True)

@@ -8,12 +8,11 @@ from pathlib import Path
 
 import pandas as pd
 
-from ..atomic import check_cache_folder
 from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
 from ..harness.suite import Suite, load_suite, resolve_suite
 from ..harness.sweep import run_suite
 from ..tracks.base import GuardedMetric, iter_tracks
-from .common import check_output_folder, print_table
+from .common import check_cache, check_output_folder, print_table
 
 NAME = "check"
 HELP = "guard accuracy in CI: compare a small suite with a clone's results/baseline*.csv (run from its root)"
@@ -58,7 +57,7 @@ def main(args: argparse.Namespace) -> int:
     # every suite and baseline checked before any suite runs: a missing last baseline must not
     # be found only after the first suites ran for minutes
     baselines = [baseline_of(suite, args) for suite in loaded]
-    check_cache_folder()
+    check_cache()
     return max(check_suite(suite, path, baseline, args) for suite, (path, baseline) in zip(loaded, baselines))
 
 

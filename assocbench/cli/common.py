@@ -84,3 +84,12 @@ def config_digest(cfg: dict) -> str:
     """8 hex digits naming a resolved run config: runs that differ in any setting never share a folder."""
     text = json.dumps(cfg, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:8]
+
+
+def check_cache() -> None:
+    """``atomic.check_cache_folder`` with the sequence subfolder of every registered track: a file
+    where one belongs (``$ASSOCBENCH_CACHE/dense``) stops the command before it compiles or renders."""
+    from ..atomic import check_cache_folder
+    from ..tracks.base import iter_tracks
+
+    check_cache_folder(*sorted({t.cache_folder() for t in iter_tracks()}))

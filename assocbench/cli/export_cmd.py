@@ -6,9 +6,8 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..atomic import check_cache_folder
 from ..harness.export import DRIVES, check_export_folder, export_suite
-from .common import check_output_folder
+from .common import check_cache, check_output_folder
 
 NAME = "export"
 HELP = "write a suite's problems and their truth as a Parquet dataset (problems.parquet, card.yaml)"
@@ -26,7 +25,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     out = check_export_folder(check_output_folder(Path(args.out)))
-    check_cache_folder()   # before the suite renders
+    check_cache()   # before the suite renders
     progress = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
     card = export_suite(args.suite, out, progress, args.drive)
     sizes = card["sizes"]

@@ -6,11 +6,10 @@ from __future__ import annotations
 import argparse
 from pathlib import Path
 
-from ..atomic import check_cache_folder
 from ..harness.config import load_run_config, run_spec, with_pictures
 from ..tracks.base import get_track
 from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
-from .common import add_run_options, check_output_file, resolution
+from .common import add_run_options, check_cache, check_output_file, resolution
 
 NAME = "frame"
 HELP = ("draw one frame with its ground truth (camera: the image; planar, lines: a top view with the scan) "
@@ -30,7 +29,7 @@ def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, scene=args.scene, trajectory=args.trajectory,
                           frames=args.frames, seed=args.seed, resolution=resolution(args.resolution))
     spec = with_pictures(run_spec(cfg), "frame")
-    check_cache_folder()   # before rendering: the rendered sequence is cached
+    check_cache()   # before rendering: the rendered sequence is cached
     image, line = get_track(spec.track).frame_picture(spec, args.index)
     write_image(output, image)
     print(line)

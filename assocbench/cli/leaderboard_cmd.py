@@ -6,12 +6,11 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..atomic import check_cache_folder
 from ..harness.leaderboard import write_leaderboard
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import EXECUTORS, run_suite
 from ..scoring.aggregate import OK
-from .common import check_output_folder
+from .common import check_cache, check_output_folder
 
 NAME = "leaderboard"
 HELP = "run every method of a suite and write the leaderboard (CSV, Markdown, PNG plots)"
@@ -30,7 +29,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     suite = load_suite(resolve_suite(args.suite or "leaderboard"))
-    check_cache_folder()
+    check_cache()
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
     summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
     paths = suite.track_impl.write_leaderboard(summaries, frames, out) or write_leaderboard(summaries, frames, out)

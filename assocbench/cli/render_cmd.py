@@ -11,13 +11,12 @@ from pathlib import Path
 
 from tqdm import tqdm
 
-from ..atomic import check_cache_folder
 from ..harness.config import load_run_config, run_spec, with_pictures
 from ..harness.loop_replay import replay_run
 from ..harness.sandbox import execute
 from ..tracks.base import get_track
 from ..viz.video import check_fps, check_video_path, write_video
-from .common import add_run_options, check_output_file
+from .common import add_run_options, check_cache, check_output_file
 
 NAME = "render"
 HELP = ("write a video (.mp4 or .gif) of a run: camera scenes with the association drawn on every frame "
@@ -44,7 +43,7 @@ def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = with_pictures(run_spec(cfg), "render")
-    check_cache_folder()   # before the run warms kernels and renders
+    check_cache()   # before the run warms kernels and renders
     track = get_track(spec.track)
     bars = not args.quiet and sys.stderr.isatty()   # the run's, then the drawing's
     records, _ = execute(spec, associations=True, progress=bars)

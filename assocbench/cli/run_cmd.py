@@ -12,12 +12,12 @@ import numpy as np
 import pandas as pd
 from scipy.spatial.transform import Rotation
 
-from ..atomic import check_cache_folder, write_group
+from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
 from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
 from ..scoring.trajectory import tum_text
-from .common import add_run_options, check_output_folder, config_digest, print_table, unit_of
+from .common import add_run_options, check_cache, check_output_folder, config_digest, print_table, unit_of
 
 NAME = "run"
 HELP = "run one associator on one scene and print its scores"
@@ -58,7 +58,7 @@ def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = run_spec(cfg)
-    check_cache_folder()
+    check_cache()
     track = spec.track_impl
     out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
                                                                            spec.seed))

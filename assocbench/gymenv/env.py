@@ -20,7 +20,8 @@ each slot may take (see ``actions.py`` for masked sampling and a valid random ac
 invalid action (wrong shape, a padded slot used, an index beyond the frame's features, a
 feature used twice) is never scored silently: with ``invalid_action="penalize"`` (default)
 the step's reward is ``-n`` (as if every candidate were paired wrongly), nothing is counted as
-found, and ``info["invalid_action"]`` says what was wrong; with ``invalid_action="raise"`` the
+found (``step_metrics`` are the empty answer's, with ``jointly_compatible`` False: the action
+was not a compatible association), and ``info["invalid_action"]`` says what was wrong; with ``invalid_action="raise"`` the
 step raises ``ValueError``.
 
 Reward: TP − FP of the step (a wrong pairing costs as much as a right one earns).
@@ -53,12 +54,19 @@ from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
-from ..scoring.metrics import score_frame, unscored_frame
+from ..scoring.metrics import score_frame
 from ..tracks.base import EnvSlots
 from .actions import action_mask
 from .arguments import env_config, env_track
 
 _FORKED_AFTER_EGL = False   # this process was forked from one that had already rendered with EGL
+
+
+def invalid_action_metrics(problem: Problem, truth) -> dict:
+    """``step_metrics`` of an invalid action: the empty answer's counts (every true pair an FN), and
+    ``jointly_compatible`` False, not the empty answer's trivial True. Not NaN, as the harness's
+    failed frame has it: Gymnasium's env checker compares infos with ``==``, and NaN != NaN."""
+    return score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64)) | {"jointly_compatible": False}
 
 
 def _note_fork() -> None:
@@ -153,7 +161,7 @@ class AssociationEnv(gym.Env):
         except ValueError as exc:
             if self.invalid_action == "raise":
                 raise
-            metrics = unscored_frame(self._problem, self._truth)
+            metrics = invalid_action_metrics(self._problem, self._truth)
             reward, info = -float(self._problem.n), {"invalid_action": str(exc)}
             info.update(self._apply(None, str(exc)))
             association = np.full(self._problem.n, NO_MATCH)

@@ -110,23 +110,40 @@ def read_yaml(path: str | Path) -> dict:
     return data
 
 
-def _unknown(key: str, known, where: str) -> UserError:
-    close = difflib.get_close_matches(key, list(known), n=1)
+def _paths(cfg: dict, prefix: str = "") -> list[str]:
+    """Every dotted key of ``cfg`` (``limits.frames``, ``time_limit_s``), free-form sections as one key."""
+    out = []
+    for key, value in cfg.items():
+        out.append(f"{prefix}{key}")
+        if isinstance(value, dict) and key not in FREE_FORM:
+            out += _paths(value, f"{prefix}{key}.")
+    return out
+
+
+def _unknown(key: str, known: list[str], where: str, everywhere: list[str]) -> UserError:
+    """An unknown dotted ``key``; the hint names the key of that name elsewhere in the config
+    (``limits.time_limit_s`` -> ``time_limit_s``), else the closest spelling at its own level."""
+    leaf = key.rpartition(".")[2]
+    moved = [p for p in everywhere if p.rpartition(".")[2] == leaf]
+    close = difflib.get_close_matches(key, moved, n=1, cutoff=0) or difflib.get_close_matches(key, known, n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
     return UserError(f"unknown key {key!r} in {where}{hint}; known keys: {', '.join(known)}")
 
 
-def merge(base: dict, override: dict, where: str, prefix: str = "") -> dict:
-    """``base`` updated by ``override``; keys must exist in ``base`` except in free-form sections."""
+def merge(base: dict, override: dict, where: str, prefix: str = "", everywhere: list[str] | None = None) -> dict:
+    """``base`` updated by ``override``; keys must exist in ``base`` except in free-form sections.
+    ``everywhere``: every dotted key of the whole config, for the hint of an unknown one (the
+    top-level call takes ``base``'s)."""
+    everywhere = _paths(base) if everywhere is None else everywhere
     out = copy.deepcopy(base)
     for key, value in override.items():
         full = f"{prefix}{key}"
         if key not in out:
-            raise _unknown(full, [f"{prefix}{k}" for k in out], where)
+            raise _unknown(full, [f"{prefix}{k}" for k in out], where, everywhere)
         if isinstance(out[key], dict) and key not in FREE_FORM:
             if not isinstance(value, dict):
                 raise UserError(f"{full} in {where} must be a mapping, got {value!r}")
-            out[key] = merge(out[key], value, where, f"{full}.")
+            out[key] = merge(out[key], value, where, f"{full}.", everywhere)
         else:
             out[key] = value
     return out

@@ -59,8 +59,12 @@ def same_feature(a: np.ndarray, t: np.ndarray, labels: np.ndarray) -> np.ndarray
 
 
 def unscored_frame(problem: Problem, truth: FrameTruth) -> dict[str, float]:
-    """Record of a frame the method failed on: scored as if it had returned no pairing."""
-    return score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64))
+    """Record of a frame the method failed on: its counts as if it had returned no pairing (every
+    true pair a FN, so recall pays for the failure); the properties of an answer (``surprisal``,
+    ``jointly_compatible``) NaN, not measured, since the method gave none: the empty set would
+    pass the joint test trivially, and a failed frame must not claim it did."""
+    counts = score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64))
+    return counts | {"surprisal": float("nan"), "jointly_compatible": float("nan")}
 
 
 def true_mass(marginals: np.ndarray, truth_association: np.ndarray) -> float:

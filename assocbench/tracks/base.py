@@ -190,6 +190,11 @@ class Track:
         """The sequence of ``spec`` (from the cache when there is one)."""
         raise self._missing("a sequence")
 
+    def cache_folder(self) -> str:
+        """The subfolder of the cache folder that ``load_sequence`` stores into (its name unless
+        it says otherwise); the CLI checks it is not a file before a run compiles or renders."""
+        return self.name
+
     def problems(self, seq: Any, belief: Any, seed: int) -> list:
         """The open loop's ``(Problem, FrameTruth)`` of every frame of ``seq``."""
         raise self._missing("open-loop problems")

@@ -46,7 +46,7 @@ class LidarTrack(Track):
 
     def load_sequence(self, spec: Any, cache_dir: Path | None = None, use_cache: bool = True) -> Any:
         """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made and stored."""
-        return cached_sequence(self.name, spec_key(spec, self.code), lambda: self.make_sequence(spec), save_pickled,
+        return cached_sequence(self.cache_folder(), spec_key(spec, self.code), lambda: self.make_sequence(spec), save_pickled,
                                load_pickled, cache_dir, use_cache, suffix=".pkl")
 
     def trajectories(self) -> list[tuple[str, str]]:

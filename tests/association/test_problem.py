@@ -18,6 +18,8 @@ def make(**over):
     (dict(P=-np.eye(6)), "Problem.P"),
     (dict(P=np.triu(np.ones((6, 6)))), "Problem.P"),
     (dict(R=np.stack([np.eye(2), -np.eye(2)])), r"Problem.R\[1\]"),
+    (dict(R=np.zeros((2, 2, 2))), r"Problem.R\[0\] is not positive definite"),   # a "noiseless" sensor: S = P_JJ
+    (dict(R=np.stack([np.eye(2), np.ones((2, 2))])), r"Problem.R\[1\] is not positive definite"),   # rank 1
     (dict(z=np.array([[np.nan, 0.0], [0.0, 0.0]])), "Problem.z"),
     (dict(zhat=np.ones((3, 3))), "Problem"),
     (dict(P=np.eye(5)), "Problem.P"),
@@ -53,10 +55,10 @@ def test_valid_association_passes():
 
 
 def _eigen_rule(mats, semidefinite):
-    """The eigenvalue test the Cholesky path must agree with: every ``λ >= 0`` (semidefinite:
+    """The eigenvalue test the Cholesky path must agree with: every ``λ > 0`` (semidefinite:
     ``λ >= -1e-10 · max|A|``)."""
-    tol = 1e-10 * np.abs(mats).max() if semidefinite else 0.0
-    return bool(np.all(np.linalg.eigvalsh(mats).min(axis=-1) >= -tol))
+    smallest = np.linalg.eigvalsh(mats).min(axis=-1)
+    return bool(np.all(smallest >= -1e-10 * np.abs(mats).max())) if semidefinite else bool(np.all(smallest > 0))
 
 
 def _with_smallest_eigenvalue(rng, dim, smallest):
@@ -89,8 +91,8 @@ def test_singular_but_semidefinite_P_is_accepted():
 @pytest.mark.parametrize("smallest", [1e-3, 1e-14, 0.0, -1e-14, -1e-11, -1e-9, -1e-3, -1.0])
 def test_cholesky_validation_agrees_with_the_eigenvalue_test(rng, smallest):
     """Random symmetric P and R with smallest eigenvalue positive, zero, just inside the
-    semidefinite tolerance and outside it: accepted exactly when the eigenvalue rule says. (R is
-    tested strictly definite, so within rounding of λ = 0 either verdict is rounding: skipped.)"""
+    semidefinite tolerance and outside it: accepted exactly when the eigenvalue rule says. (R must
+    be strictly definite, so within rounding of λ = 0 either verdict is rounding: skipped.)"""
     for _ in range(40):
         P = _with_smallest_eigenvalue(rng, 6, smallest)
         assert _accepted("P", P, "Problem.P is not positive semidefinite") == _eigen_rule(P, True)

@@ -99,6 +99,7 @@ def test_bad_actions_raise_or_are_penalised(bad, msg):
     env.reset(seed=0)
     _, reward, _, _, info = env.step(action)
     assert reward == -n and msg in info["invalid_action"] and info["step_metrics"]["tp"] == 0
+    assert info["step_metrics"]["jointly_compatible"] is False   # it was no association, let alone a compatible one
 
 
 def test_examples_run(capsys, monkeypatch):

@@ -295,6 +295,30 @@ def test_every_command_that_renders_stops_on_a_cache_file_before_any_work(comman
     assert len(err) == 1 and str(blocker) in err[0] and "is a file" in err[0] and "ASSOCBENCH_CACHE" in err[0], err
 
 
+@pytest.mark.parametrize("sub, command, work", [
+    ("dense", ["run", "--method", "projective", "--scene", "crates", "--frames", "2", "--out", "{out}"],
+     "assocbench.cli.run_cmd.execute"),
+    ("sequences", ["run", "--method", "mnn", "--frames", "2", "--out", "{out}"], "assocbench.cli.run_cmd.execute"),
+    ("planar", ["leaderboard", "--suite", "planar_ci", "--out", "{out}"], "assocbench.cli.leaderboard_cmd.run_suite"),
+    ("lines", ["frame", "--scene", "crates", "-o", "{out}/f.png"], "assocbench.cli.frame_cmd.get_track"),
+])
+def test_a_file_where_the_cache_keeps_a_subfolder_is_one_line_before_any_work(sub, command, work, tmp_path,
+                                                                               monkeypatch, capsys):
+    """$ASSOCBENCH_CACHE/<a track's subfolder> a plain file: exit 2 with one line naming it before the
+    command compiles or renders (it compiled for 20 s, rendered, and failed when storing: "File exists")."""
+    from assocbench.cli.main import main
+
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    (cache / sub).write_text("")
+    monkeypatch.setenv("ASSOCBENCH_CACHE", str(cache))
+    monkeypatch.setattr(work, lambda *a, **k: pytest.fail("worked before the error"))
+    assert main([a.format(out=tmp_path / "out") for a in command]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(cache / sub) in err[0] and "is a file" in err[0], err
+    assert not (tmp_path / "out").exists()
+
+
 @pytest.mark.parametrize("command", [["run", "--method", "projective", "--scene", "crates", "--frames", "2"],
                                      ["leaderboard", "--suite", "dense_ci"]])
 def test_a_cache_folder_that_cannot_be_created_is_one_line_before_any_work(command, tmp_path, monkeypatch, capsys):

@@ -16,7 +16,8 @@ from ..loop_truth import REVISIT_GAP
 class Column:
     """One metric column. better: ``"high"``, ``"low"`` or ``""`` (a count that describes, not
     ranks); main: shown by default (the others behind the page's "more columns" switch), except in
-    the kinds of suite named in ``minor_in`` (``open``, ``loop``, ``dense``)."""
+    the kinds of suite named in ``minor_in`` (``open``, ``loop``, ``dense``); count: a run's value
+    is a whole number (frames), so a whole mean over seeds prints without decimals."""
 
     key: str
     label: str
@@ -25,6 +26,7 @@ class Column:
     digits: int = 3
     main: bool = True
     minor_in: tuple[str, ...] = ()
+    count: bool = False
 
     def shown(self, kind: str) -> bool:
         """Whether the column is shown by default on a page of a ``kind`` suite."""
@@ -77,9 +79,10 @@ CATALOGUE = (
     Column("precision_start", "precision at start", "precision of ICP's first iteration, from the previous pose",
            "high"),
     Column("recall_start", "recall at start", "recall of ICP's first iteration", "high", main=False),
-    Column("icp_failures", "ICP failures", "frames whose ICP reported failure (pose held, frame not fused)", "low", 1),
+    Column("icp_failures", "ICP failures", "frames whose ICP reported failure (pose held, frame not fused)", "low", 1,
+           count=True),
     Column("wrong_steps", "wrong steps", "steps ICP accepted more than 20 mm off the true step (a silent failure)",
-           "low", 1),
+           "low", 1, count=True),
     Column("ate_deg", "rotation ATE", "RMSE of the rotation error of the tracked poses", "low", 3, main=False),
     Column("final_drift_mm", "final drift", "position error of the last frame", "low", 1),
     Column("step_error_mm", "step error", "RMS relative position error of one frame's step", "low", 2, main=False),

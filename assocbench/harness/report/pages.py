@@ -44,6 +44,13 @@ def _num(value: float, digits: int, none: str = "n/a") -> str:
     return none if value is None or math.isnan(value) else f"{value:.{digits}f}"
 
 
+def _cell_num(value: float, c: Column) -> str:
+    """``_num`` with the column's digits; a count column's whole value (one seed's 3 frames, or
+    a mean over seeds that is whole) without decimals: "3", not "3.0"."""
+    whole = c.count and value is not None and math.isfinite(value) and float(value).is_integer()
+    return _num(value, 0 if whole else c.digits)
+
+
 def _v(value: float) -> str:
     """The exact value a cell sorts by ("" for none)."""
     return "" if value is None or math.isnan(value) else format(float(value), ".10g")
@@ -182,9 +189,9 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
     cells.append(f'<td class="text" data-v="{escape(name)}">{escape(name)}{_badges(r, counts)}</td>')
     for c in columns:
         std = r.get(c.key + "_std")
-        spread = f' <span class="std">&plusmn; {_num(std, c.digits)}</span>' if std is not None and pd.notna(
+        spread = f' <span class="std">&plusmn; {_cell_num(std, c)}</span>' if std is not None and pd.notna(
             std) and pd.notna(r[c.key]) else ""
-        cells.append(f'<td{"" if c.shown(kind) else " class=more"} data-v="{_v(r[c.key])}">{_num(r[c.key], c.digits)}'
+        cells.append(f'<td{"" if c.shown(kind) else " class=more"} data-v="{_v(r[c.key])}">{_cell_num(r[c.key], c)}'
                      f"{spread}</td>")
     if "anees_lo" in r:
         cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]</td>')

@@ -117,15 +117,16 @@ def _track_name(table: pd.DataFrame) -> str:
 
 def _per_scenario(runs: pd.DataFrame) -> pd.DataFrame:
     """Mean (and std, ddof 0) over seeds per scenario x method of a CSV that lists every run;
-    status is ok only when every seed's was."""
+    status is ok only when every seed's was; the counted columns (failed frames...) and ``frames``
+    summed, since the page shows them as "k / frames" over all seeds."""
     metrics = [c for c in runs if c not in LABEL_COLUMNS and c != "seed"]
     grouped = runs.groupby(["scenario", "method"], sort=False)
     table = grouped[metrics].agg(lambda col: col.mean(skipna=False))
     table = table.join(grouped[[c for c in metrics if c in BY_KEY]].std(ddof=0).fillna(0.0).add_suffix("_std"))
     table["status"] = grouped["status"].agg(lambda s: OK if (s == OK).all() else next(v for v in s if v != OK))
     table["seeds"] = grouped.size()
-    if "frames" in runs:
-        table["frames"] = grouped["frames"].sum()
+    for summed in [c for c in (*COUNT_COLUMNS, "frames") if c in runs]:
+        table[summed] = grouped[summed].sum()
     return table.reset_index()
 
 

@@ -34,6 +34,7 @@ from .truth import TruthConfig, label_features, visibility
 FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
 # the sources a cached sequence depends on: shared simulation, measurement models, this track
 CODE = ("sim", "models", "tracks/camera")
+CACHE_FOLDER = "sequences"   # the cache's subfolder of camera sequences (the first track's, named before tracks were)
 
 
 def default_cache_dir() -> Path:
@@ -229,5 +230,5 @@ def load_sequence(spec: SequenceSpec, cache_dir: Path | None = None, use_cache: 
     sound, else rendered and stored. A damaged entry, or one that is not this spec's sequence, is
     rendered again."""
     scene = load_scene(spec.scene)
-    return cached_sequence("sequences", spec.key(scene), lambda: render_sequence(spec, scene), _save,
+    return cached_sequence(CACHE_FOLDER, spec.key(scene), lambda: render_sequence(spec, scene), _save,
                            lambda path, key: _load(path, key, spec), cache_dir, use_cache)

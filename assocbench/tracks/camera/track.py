@@ -18,7 +18,7 @@ from .detect import DetectorConfig
 from .estimator import make_camera_estimator
 from .loop import CameraSensor
 from .pictures import frame_picture, run_pictures
-from .sequence import Sequence, SequenceSpec, load_sequence
+from .sequence import CACHE_FOLDER, Sequence, SequenceSpec, load_sequence
 from .truth import TruthConfig
 
 
@@ -66,6 +66,9 @@ class CameraTrack(Track):
 
     def load_sequence(self, spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
         return load_sequence(spec, cache_dir, use_cache)
+
+    def cache_folder(self) -> str:
+        return CACHE_FOLDER
 
     def problems(self, seq: Sequence, belief, seed: int) -> list:
         return [make_problem(seq, k, belief, seed) for k in range(len(seq))]

@@ -27,9 +27,19 @@ def dense_table(summaries: pd.DataFrame) -> pd.DataFrame:
     return table.reset_index()
 
 
+# a count of frames, as a mean over seeds: a whole number when it is one (every seed of a single-seed
+# suite: "3", not "3.0", which reads as a measured quantity), else one decimal ("1.5")
+COUNT = "count"
+
+
+def count_text(mean: float) -> str:
+    """A mean over seeds of a count of frames: ``"3"`` when whole, ``"1.5"`` otherwise."""
+    return f"{mean:.0f}" if float(mean).is_integer() else f"{mean:.1f}"
+
+
 MD_COLUMNS = (("precision", "precision", "{:.3f}"), ("recall", "recall", "{:.3f}"),
-              ("precision at start", "precision_start", "{:.3f}"), ("ICP failures", "icp_failures", "{:.1f}"),
-              ("wrong steps", "wrong_steps", "{:.1f}"),
+              ("precision at start", "precision_start", "{:.3f}"), ("ICP failures", "icp_failures", COUNT),
+              ("wrong steps", "wrong_steps", COUNT),
               ("ATE mm", "ate_mm", "{:.1f}"), ("final drift mm", "final_drift_mm", "{:.1f}"),
               ("step error mm / deg", ("step_error_mm", "step_error_deg"), "{:.2f} / {:.3f}"),
               ("map points", "map_points", "{:,.0f}"), ("compression %", "compression_pct", "{:.2f}"),
@@ -52,7 +62,9 @@ definition; *map error*: distance of the map's points to the true surfaces.
 
 def _cell(r: pd.Series, col, fmt: str) -> str:
     values = [r[c] for c in (col if isinstance(col, tuple) else (col,))]
-    return "–" if any(pd.isna(v) for v in values) else fmt.format(*values)
+    if any(pd.isna(v) for v in values):
+        return "–"
+    return count_text(*values) if fmt == COUNT else fmt.format(*values)
 
 
 def dense_markdown(table: pd.DataFrame, title: str = "Dense leaderboard") -> str:
@@ -81,6 +93,7 @@ def pictures(frames: pd.DataFrame) -> list[dict]:
         panels.append({"positions": points[:, :3], "error_mm": points[:, 3],
                        "p_true": run[["true_x", "true_y", "true_z"]].to_numpy(float),
                        "p_est": run[["est_x", "est_y", "est_z"]].to_numpy(float),
+                       "failed": run["icp_failed"].eq(True).to_numpy(),
                        "title": f"{method} on {scenario}, seed {run['seed'].iloc[0]}"})
     return panels
 

@@ -1,5 +1,6 @@
 """Top views of the dense track: fused maps coloured by their distance to the true surfaces,
-with the true path (black) and the estimated one (blue).
+with the true path (black), the estimated one (blue) and a red cross at each frame whose ICP failed
+(its pose held at the last tracked one, the frame not fused).
 
 Every map point counts: the points are rasterised into the panel's own pixel grid (one cell per
 screen pixel at ``DPI``), each pixel showing the worst error of the points that fall in it, so the
@@ -21,6 +22,7 @@ ERROR_SCALE_MM = 30.0
 COLORMAP = "viridis"
 DPI = 110
 MARGIN = 0.03   # share of each span left around the map and paths, so no point sits on the frame
+FAILED_LABEL = "ICP failed (pose held)"
 
 
 def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float, float, float]:
@@ -70,15 +72,32 @@ def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
     ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
     if len(p_true):
         ax.plot(*p_true[0, :2], "o", color="black", ms=4)
+    failed = _failed_frames(panel)
+    if failed.any():   # above the paths: a held pose lies on the estimate, where a reader looks for it
+        ax.plot(p_est[failed, 0], p_est[failed, 1], "x", color="#d62728", ms=5, mew=1.2, zorder=3,
+                label=FAILED_LABEL)
     extent = view_limits(panel["positions"], p_true, p_est)
     ax.set_xlim(extent[:2])
     ax.set_ylim(extent[2:])
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}", fontsize=7)
+    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed)}", fontsize=7)
     ax.set_ylabel("y (m)", fontsize=7)
     ax.set_title(textwrap.fill(panel["title"], 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)
     return extent
+
+
+def _failed_frames(panel: dict) -> np.ndarray:
+    """(T,) whether each frame's ICP failed (``failed``, as ``icp_failed``; none when absent)."""
+    failed = np.asarray(panel.get("failed", np.zeros(len(panel["p_est"]), bool)), bool)
+    if failed.shape != (len(panel["p_est"]),):
+        raise ValueError(f"failed has shape {failed.shape}, expected one flag per pose ({len(panel['p_est'])},)")
+    return failed
+
+
+def _failed_note(failed: np.ndarray) -> str:
+    count = int(failed.sum())
+    return f"; ICP failed in {count} of {len(failed)} frames (red crosses)" if count else ""
 
 
 def _finite(positions: np.ndarray, error_mm: np.ndarray) -> np.ndarray:
@@ -104,7 +123,8 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) ->
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
-    ``p_est`` (T, 3) m, ``title``); every map point with a finite x, y and error is drawn."""
+    ``p_est`` (T, 3) m, ``title``, optionally ``failed`` (T,) bool: frames whose ICP failed, marked
+    on the estimate); every map point with a finite x, y and error is drawn."""
     with _collector_paused():
         # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
         map_canvas(panels, columns).savefig(path, dpi=DPI, format="png")
@@ -145,8 +165,10 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         bar = fig.colorbar(colours, ax=axes, shrink=0.6, fraction=0.03, pad=0.05)
         bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7)
         bar.ax.tick_params(labelsize=6)
-        # in the figure's corner, not on a panel, where it would hide map points
-        fig.legend(*axes.flat[0].get_legend_handles_labels(), loc="upper left", fontsize=6, frameon=False)
+        # in the figure's corner, not on a panel, where it would hide map points; every panel's
+        # entries (a failure marker may be on any panel), each label once
+        entries = {label: handle for ax in axes.flat for handle, label in zip(*ax.get_legend_handles_labels())}
+        fig.legend(list(entries.values()), list(entries), loc="upper left", fontsize=6, frameon=False)
     for ax, panel, extent in zip(axes.flat, panels, extents):   # after the colour bar took its room
         _raster_panel(ax, panel, extent)
     return fig
@@ -160,7 +182,8 @@ def map_writers(frames, map_file: Path, out: Path, title: str) -> dict:
     with np.load(map_file) as z:
         m = {k: z[k] for k in z.files}
     p_true, p_est = poses(frames, "true_")[1], poses(frames, "est_")[1]
-    panel = {"positions": m["positions"], "error_mm": m["error_mm"], "p_true": p_true, "p_est": p_est, "title": title}
+    panel = {"positions": m["positions"], "error_mm": m["error_mm"], "p_true": p_true, "p_est": p_est, "title": title,
+             "failed": frames["icp_failed"].eq(True).to_numpy()}
     return {out / "map.ply": lambda p: write_ply(p, m["positions"], m["normals"],
                                                  {"weight": m["weights"], "error_mm": m["error_mm"]}),
             out / "map.png": lambda p: map_figure([panel], p, columns=1)}

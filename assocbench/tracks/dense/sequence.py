@@ -130,6 +130,7 @@ class DenseSequence:
                             self.K, self.depth_cfg, np.random.default_rng([self.seed, k, 17]))
 # the sources a cached sequence depends on: shared simulation, measurement models, this track
 CODE = ("sim", "models", "tracks/dense")
+CACHE_FOLDER = "dense"       # the cache's subfolder of depth sequences
 
 
 def render_dense(spec: DenseSequenceSpec, scene: Scene) -> DenseSequence:
@@ -211,5 +212,5 @@ def load_dense_sequence(spec: DenseSequenceSpec, cache_dir: Path | None = None,
     sound, else rendered and stored. A damaged entry (truncated, another key, wrong shapes) is
     discarded with one line on stderr."""
     scene = load_scene(spec.scene)
-    return cached_sequence("dense", spec.key(scene), lambda: render_dense(spec, scene), _save,
+    return cached_sequence(CACHE_FOLDER, spec.key(scene), lambda: render_dense(spec, scene), _save,
                            lambda path, key: _load(path, key, spec), cache_dir, use_cache, what="depth sequence")

@@ -17,7 +17,7 @@ from .icp import IcpConfig
 from .leaderboard import dense_table, write_dense_leaderboard
 from .plots import map_writers
 from .run import dense_records
-from .sequence import DenseSequence, DenseSequenceSpec, load_dense_sequence
+from .sequence import CACHE_FOLDER, DenseSequence, DenseSequenceSpec, load_dense_sequence
 from .spec import DenseConfig, dense_sequence_spec, dense_settings
 from .summary import DENSE_COLUMNS, summarize_dense
 from .warm import warm_dense
@@ -65,6 +65,9 @@ class DenseTrack(Track):
     def load_sequence(self, spec: DenseSequenceSpec, cache_dir: Path | None = None,
                       use_cache: bool = True) -> DenseSequence:
         return load_dense_sequence(spec, cache_dir, use_cache)
+
+    def cache_folder(self) -> str:
+        return CACHE_FOLDER
 
     def problems(self, seq, belief, seed: int) -> list:
         raise UserError("the dense track's frames are depth images, not association problems: run a dense "

@@ -161,3 +161,23 @@ def test_an_earlier_report_is_replaced_whole_or_kept(tmp_path, monkeypatch):
         write_report(build_report([RESULTS / "planar"]), out)
     monkeypatch.undo()
     assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["report"]   # no temporary left
+
+
+def test_a_dense_count_of_frames_prints_whole_when_it_is(tmp_path):
+    # ICP failures of one run are frames: "3", not "3.0"; a mean over seeds keeps its fraction
+    rows = [{"scenario": "crates/easy-model", "method": m, "seed": s, "status": "ok", "frames": 10, "ate_mm": 1.0,
+             "precision": 0.9, "icp_failures": lost, "wrong_steps": 0}
+            for m, s, lost in (("projective", 0, 3), ("kdtree", 0, 3), ("kdtree", 1, 0))]
+    page = build_report([tiny_leaderboard(tmp_path / "dense", rows)])
+    html = next(v for n, v in page.items() if n.endswith(".html") and n != "index.html").decode()
+    assert 'data-v="3">3 <span class="std">&plusmn; 0</span>' in html            # projective, one seed
+    assert 'data-v="1.5">1.5 <span class="std">&plusmn; 1.5</span>' in html      # kdtree, 3 and 0
+
+
+def test_failed_frames_of_dense_runs_are_summed_over_seeds_as_their_frames_are(tmp_path):
+    # shown as "k / frames" with frames summed over seeds: k must be the sum too (the mean read 2 / 20 for 3 + 0)
+    rows = [{"scenario": "crates/easy-model", "method": "kdtree", "seed": s, "status": "ok", "frames": 10,
+             "ate_mm": 1.0, "precision": 0.9, "failures": failed} for s, failed in ((0, 3), (1, 0))]
+    page = build_report([tiny_leaderboard(tmp_path / "dense", rows)])
+    html = next(v for n, v in page.items() if n.endswith(".html") and n != "index.html").decode()
+    assert 'data-v="3">3 / 20</td>' in html

@@ -15,6 +15,7 @@ from PIL import Image
 from assocbench.tracks.dense.plots import (
     DPI,
     ERROR_SCALE_MM,
+    FAILED_LABEL,
     error_colours,
     map_canvas,
     map_figure,
@@ -141,3 +142,21 @@ def test_no_panel_at_all_is_a_picture_that_says_so(tmp_path):
     assert [t.get_text() for t in fig.texts] == ["no run produced a map"]
     map_figure([], tmp_path / "lb.png", columns=4)
     assert Image.open(tmp_path / "lb.png").size == (round(4.2 * DPI), round(3.8 * DPI))
+
+
+def test_frames_whose_icp_failed_are_marked_on_the_estimate_and_in_the_legend():
+    failed = np.zeros(20, bool)
+    failed[[4, 5, 11]] = True
+    lost = panel([[0.2, 0.1, 0.0]], [1.0]) | {"failed": failed}
+    fig = map_canvas([panel([[0.2, 0.1, 0.0]], [1.0], "kdtree"), lost], columns=2)
+    marks = [line for line in fig.axes[1].get_lines() if line.get_label() == FAILED_LABEL]
+    assert len(marks) == 1 and np.allclose(marks[0].get_xydata(), lost["p_est"][failed, :2])
+    assert fig.axes[1].get_xlabel().endswith("ICP failed in 3 of 20 frames (red crosses)")
+    assert not [line for line in fig.axes[0].get_lines() if line.get_label() == FAILED_LABEL]
+    legend = [t.get_text() for t in fig.legends[0].get_texts()]   # the second panel's marker, in the one legend
+    assert legend == ["true path", "estimate", FAILED_LABEL]
+
+
+def test_a_failed_mask_that_does_not_fit_the_poses_is_refused():
+    with pytest.raises(ValueError, match="one flag per pose"):
+        map_canvas([panel([[0.2, 0.1, 0.0]], [1.0]) | {"failed": np.zeros(3, bool)}])
