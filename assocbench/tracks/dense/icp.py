@@ -73,9 +73,10 @@ and from the crates pairs above:
   minima (measured with hidden points counted; ``considered`` now counts only visible source
   points, see ``associators.dense.base``), so ``min_inlier_share = 0.5`` only catches gross failure.
 * direction share (``direction_share``, the pairs' share of the visible source points'
-  information in the motion they keep worst; visible as the association's inlier share counts
-  them: a point hidden behind the measured surface by more than the gate can never pair, so it
-  is neither a pair nor a loss. Counted, such points failed 25 frames of a crates view seen
+  information in the motion they keep worst; visible as the kdtree's inlier share counts
+  them (the projective one also leaves out points on pixels without a measurement): a point
+  hidden behind the measured surface by more than the gate can never pair, so it is neither a
+  pair nor a loss. Counted, such points failed 25 frames of a crates view seen
   again, poses right to 1 mm, ρ 0.22-0.25: the model rendered into the view shows surfaces
   behind the near ones through the near surfaces' gaps and beside their edges, which the fusion
   trims by the frame's invalid edge normals, 5 302 of 51 603 source points on the revisit against
@@ -396,8 +397,8 @@ def direction_share(points: np.ndarray, normals: np.ndarray, pairs: Pairs, frame
     """ρ = min over motions u of ``uᵀ H_P u / uᵀ H_V u``, the smallest generalised eigenvalue of
     ``(H_P, H_V)`` (``source_information``: the paired source points and every visible source
     point, in front of the camera, projecting into the image and not hidden behind the measured
-    surface by more than the association's ``gate``, the points its inlier share counts): the pairs' share of the
-    information in the motion they keep worst. ``H_V = L Lᵀ`` (Cholesky), ρ = λ_min(L⁻¹ H_P L⁻ᵀ)
+    surface by more than the association's ``gate``; a pixel without a depth hides nothing): the
+    pairs' share of the information in the motion they keep worst. ``H_V = L Lᵀ`` (Cholesky), ρ = λ_min(L⁻¹ H_P L⁻ᵀ)
     by triangular solves; invariant to the motion's parametrisation. The plain inlier share counts
     points; ρ weighs them by what they constrain (Gelfand et al. 2003's stability analysis, applied
     to the pairs against the source): a pose that keeps half the points but none that fix one
