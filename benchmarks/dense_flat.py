@@ -24,7 +24,7 @@ ICP, fusion, scoring; ms), of which the two that read the map (the splat and fus
 two without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
 visited + c · map`` (the map's size before the frame): ``c`` is the cost of the map's size at a
 given view (ms per 100k points), ``b`` the cost of what is in view. Without the index ``visited``
-is the whole map, so there ``b`` and ``c`` share one slope between them.
+is the whole map, so there the fit has one slope (``c`` is not printed).
 
 Usage: python benchmarks/dense_flat.py [--frames 500] [--band 100] [--scene crates]
 """
