@@ -469,7 +469,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
     clock, shown = _Clock(), _as_the_method_sees_it(frame)
     given = _private_copy(points), _private_copy(normals)   # ICP's own stay as they are, whatever the method does
-    pairs = clock.timed(associator.associate, *given, shown, R0.copy(), t0.copy())
+    pairs = clock.timed(_associated, associator, *given, shown, R0.copy(), t0.copy())
     pairs = checked_pairs(pairs, len(points), valid)
     if len(pairs) < cfg.min_pairs:    # the association ran: its time is a stage of the frame's
         res = _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
@@ -480,7 +480,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
 
     def linearised_at(delta: np.ndarray) -> _Linearised:
         TRn, Ttn = cur.stepped(delta)
-        pairs = checked_pairs(clock.timed(associator.associate, *given, shown, *_pose(TRn, Ttn)),
+        pairs = checked_pairs(clock.timed(_associated, associator, *given, shown, *_pose(TRn, Ttn)),
                               len(points), valid)
         return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
 
@@ -555,6 +555,19 @@ def _private_copy(a: np.ndarray) -> np.ndarray:
     out = np.array(a, order="C")
     out.flags.writeable = False
     return out
+
+
+def _associated(associator: DenseAssociator, *args) -> Pairs:
+    """``associator.associate(*args)``; a ``ValueError`` about a read-only array says which arrays the
+    method is handed read-only, since numpy's own words ("output array is read-only") name none."""
+    try:
+        return associator.associate(*args)
+    except ValueError as exc:
+        if "read-only" not in str(exc):
+            raise
+        raise ValueError(f"{type(associator).__name__}.associate: {exc} (the frame's depth, vertices and normals and "
+                         "the source points and normals a method is handed are read-only: copy one to change it)"
+                         ) from exc
 
 
 class _Clock:

@@ -289,6 +289,13 @@ class Vandal(ProjectiveAssociator):
         return pairs
 
 
+def test_a_write_into_the_frame_says_which_arrays_are_read_only(clean):
+    """numpy's "output array is read-only" names no array: the frame's error says what is read-only."""
+    (pts, nrm), B = clean
+    with pytest.raises(ValueError, match=r"MapWriter\.associate: .*read-only \(the frame's depth, vertices and normals"):
+        icp(pts, nrm, B, MapWriter(), B.R, B.t)
+
+
 def test_a_method_forcing_writes_changes_nothing_of_the_callers(clean):
     """What the method is handed has memory of its own: a view's ``base`` (for a sensed frame, the
     one buffer holding the truth too) or ``setflags(write=True)`` reached the frame's maps, the
