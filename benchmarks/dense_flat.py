@@ -24,7 +24,7 @@ ICP, fusion, scoring; ms), of which the two that read the map (the splat and fus
 two without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
 visited + c · map`` (the map's size before the frame): ``c`` is the cost of the map's size at a
 given view (ms per 100k points), ``b`` the cost of what is in view. Without the index ``visited``
-is the whole map, so there ``b`` and ``c`` share one slope between them.
+is the whole map, so there the fit has one slope (``c`` is not printed).
 
 Usage: python benchmarks/dense_flat.py [--frames 500] [--band 100] [--scene crates]
 """
@@ -47,6 +47,7 @@ from _util import print_table  # noqa: E402
 from dense_rate import load, render_once, settings  # noqa: E402
 
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.errors import UserError  # noqa: E402
 from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
 from assocbench.harness.runner import GuardedCalls  # noqa: E402
 from assocbench.tracks.dense.run import dense_records  # noqa: E402
@@ -63,10 +64,16 @@ def there_and_back(seq, frames: int):
                                rotations=seq.rotations[order], positions=seq.positions[order]), order
 
 
+def loop_spec(scene: str, frames: int, extra: list[str]):
+    """The run's spec for the out-and-back loop of a ``frames``-frame path: 2N - 1 frames of a path
+    computed over ``max(N, 200)`` (``dense_rate.settings``), both within ``limits.frames``."""
+    sets = settings(scene, frames, ["dense.prediction=view", f"limits.frames={max(2 * frames, 1000)}", *extra])
+    return run_spec(load_run_config(None, sets[1::2], method="projective", scene=scene, frames=2 * frames - 1))
+
+
 def records(seq, scene: str, frames: int, extra: list[str]) -> pd.DataFrame:
     """The dense track's per-frame records of ``seq`` (the projective method, frame-to-model)."""
-    sets = settings(scene, frames, ["dense.prediction=view", f"limits.frames={max(2 * frames, 1000)}", *extra])[1::2]
-    spec = run_spec(load_run_config(None, sets, method="projective", scene=scene, frames=len(seq)))
+    spec = loop_spec(scene, frames, extra)
     calls = GuardedCalls(time_limit_s=math.inf, faults={}, on_call=lambda k, limit: None)
     rows = list(dense_records(seq, spec, calls, lambda: make_dense_associator("projective", **gate_params(spec))))
     out = pd.DataFrame(rows)
@@ -75,16 +82,29 @@ def records(seq, scene: str, frames: int, extra: list[str]) -> pd.DataFrame:
     return out
 
 
-def fit(rec: pd.DataFrame, column: str) -> tuple[float, float, float]:
+def fit(rec: pd.DataFrame, column: str) -> tuple[float, float, float | None, float]:
     """Least squares ``column = a + b · visited/1e5 + c · map/1e5`` over the frames after the first
-    (the map's size before the frame's fusion): (b, c, the residual's standard deviation), ms per
-    100k points."""
+    (the map's size before the frame's fusion): (a ms, b and c ms per 100k points, the residual's
+    standard deviation ms). Where the splat visited the whole map (no index) the two columns are
+    one: ``c`` is None and ``b`` their one slope (a least-norm split would print it halved twice)."""
     part = rec.iloc[1:]
-    before = rec["map_points"].shift(1).iloc[1:]
-    A = np.column_stack([np.ones(len(part)), part["predict_visited"] / 1e5, before / 1e5])
+    visited, before = part["predict_visited"].to_numpy() / 1e5, rec["map_points"].shift(1).iloc[1:].to_numpy() / 1e5
+    one = np.array_equal(visited, before)
+    A = np.column_stack([np.ones(len(part)), visited] + ([] if one else [before]))
     coef, *_ = np.linalg.lstsq(A, part[column].to_numpy(), rcond=None)
     resid = part[column].to_numpy() - A @ coef
-    return float(coef[1]), float(coef[2]), float(np.std(resid))
+    return float(coef[0]), float(coef[1]), None if one else float(coef[2]), float(np.std(resid))
+
+
+def fit_line(label: str, what: str, rec: pd.DataFrame, column: str) -> str:
+    """One fit as a sentence with its units and the ranges it was fitted over (a short run's
+    narrow range gives slopes that mean nothing: read the residual beside them)."""
+    a, b, c, sd = fit(rec, column)
+    span = (f"over {rec['predict_visited'].iloc[1:].min() / 1000:.0f}k-{rec['predict_visited'].max() / 1000:.0f}k "
+            f"visited, map {rec['map_points'].min() / 1000:.0f}k-{rec['map_points'].max() / 1000:.0f}k")
+    slopes = (f"{b:.2f} ms per 100k map points (visited = the whole map)" if c is None else
+              f"{b:.2f} ms per 100k points visited + {c:.2f} ms per 100k map points")
+    return f"fit {label}, {what}: ms = {a:.1f} + {slopes}; residual sd {sd:.2f} ms, {span}"
 
 
 def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, whole: pd.DataFrame) -> list[list]:
@@ -110,6 +130,14 @@ def main() -> None:
     args = ap.parse_args()
     if args.frames < 2 or args.band < 1:
         ap.error(f"--frames must be at least 2 and --band at least 1, got {args.frames} and {args.band}")
+    try:
+        measure(args)
+    except UserError as exc:   # a bad --scene: one line, as the CLI says it
+        ap.error(str(exc))
+
+
+def measure(args: argparse.Namespace) -> None:
+    """Both loops over the path out and back, the table and the fits."""
     print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
     seq, order = there_and_back(render_once(args.scene, args.frames), args.frames)
     warm_dense()
@@ -124,14 +152,12 @@ def main() -> None:
     print(f"{len(seq)} frames ({args.frames} out, {args.frames - 1} back): the loop took {ours_s:.1f} s with the "
           f"index, {whole_s:.1f} s without; the same poses, pairs and map sizes: {same}; ICP failures "
           f"{int(ours['icp_failed'].sum())}")
-    print_table(["path frames", "out: map", "visited", "stages (ms)", "splat + fusion", "no index",
-                 "back: map", "visited", "stages (ms)", "splat + fusion", "no index"],
+    print_table(["path frames", "out: map (points)", "visited", "stages (ms)", "splat + fusion (ms)", "no index (ms)",
+                 "back: map (points)", "visited", "stages (ms)", "splat + fusion (ms)", "no index (ms)"],
                 band_rows(order, args.frames, args.band, ours, whole))
     for label, rec in (("with the index", ours), ("without the index (baseline)", whole)):
         for column, what in (("stages_ms", "stages"), ("map_ms", "splat + fusion")):
-            b, c, sd = fit(rec, column)
-            print(f"fit {label}, {what}, over {len(rec) - 1} frames: ms = a + {b:.2f} per 100k visited + {c:.2f} "
-                  f"per 100k map points (residual sd {sd:.2f} ms)")
+            print(fit_line(label, what, rec, column))
     print(f"load after {load()}")
 
 

@@ -20,7 +20,8 @@ HELP = "guard accuracy in CI: compare a small suite with a clone's results/basel
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--suite", help="suite YAML or shipped suite name (default: every track's CI suites: ci and "
-                   "loop_ci (camera), planar_ci, lines_ci, dense_ci)")
+                   "loop_ci (camera), planar_ci and planar_isam2_ci (planar; the latter skipped without gtsam), "
+                   "lines_ci, dense_ci)")
     p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
                    "results/baseline_<suite>.csv for another suite; without --suite it is the ci suite's)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")

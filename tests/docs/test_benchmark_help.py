@@ -10,6 +10,7 @@ import subprocess
 import sys
 from pathlib import Path
 
+import numpy as np
 import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
@@ -68,3 +69,44 @@ def test_dense_flat_drives_a_short_path_out_and_back(tmp_path):
     rows = [line.split()[0] for line in out.stdout.splitlines() if line.strip().startswith(("0-1", "2-3"))]
     assert rows == ["0-1", "2-3"]
     assert out.stdout.count("fit with the index") == 2 and out.stdout.count("fit without the index") == 2
+
+
+@pytest.mark.parametrize("frames", [2, 60, 501])
+def test_dense_flat_loop_spec_holds_the_way_back(frames, monkeypatch):
+    """Fewer than 100 path frames made the loop's ``limits.frames`` (2N) lower than the path's 200
+    frames: ``--frames 60`` ended in a traceback after rendering; 501 needs more than 1000."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_flat
+
+    spec = dense_flat.loop_spec("crates", frames, [])
+    assert spec.setting("dense").path_frames == max(frames, 200)
+
+
+def test_dense_flat_refuses_an_unknown_scene_in_one_line():
+    out = subprocess.run([sys.executable, str(BENCHMARKS / "dense_flat.py"), "--scene", "nosuch", "--frames", "3"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "Traceback" not in out.stderr
+    assert "scene 'nosuch' not found" in out.stderr.strip().splitlines()[-1]
+
+
+def test_dense_flat_fit_recovers_the_slopes_and_gives_one_where_visited_is_the_map(monkeypatch):
+    """Without the index the splat visits the whole map: the two columns are one, and the fit's
+    least-norm split printed that slope halved, twice (``2.40 per 100k visited + 2.40 per 100k map``
+    for a 4.8 ms slope)."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_flat
+    import pandas as pd
+
+    rng = np.random.default_rng(0)
+    grown = np.cumsum(rng.integers(500, 2000, 40)) + 50_000
+    visited = grown[:-1] - rng.integers(0, 30_000, 39)
+    rec = pd.DataFrame({"map_points": grown, "predict_visited": np.r_[0, visited]})
+    rec["ms"] = 3.0 + 10.0 * rec["predict_visited"] / 1e5 + 0.5 * rec["map_points"].shift(1).fillna(0) / 1e5
+    np.testing.assert_allclose(dense_flat.fit(rec, "ms"), (3.0, 10.0, 0.5, 0.0), atol=1e-9)
+    rec["predict_visited"] = np.r_[0, grown[:-1]]
+    rec["ms"] = 2.0 + 4.8 * rec["predict_visited"] / 1e5
+    a, b, c, sd = dense_flat.fit(rec, "ms")
+    assert c is None and abs(a - 2.0) < 1e-9 and abs(b - 4.8) < 1e-9
+    assert "4.80 ms per 100k map points (visited = the whole map)" in dense_flat.fit_line("x", "y", rec, "ms")

@@ -260,6 +260,59 @@ def test_a_method_cannot_write_the_measured_maps_or_read_the_truth(clean):
     assert np.isfinite(B.R).all() and (B.geom != NO_GEOM).any()     # the frame itself keeps its truth
 
 
+def forced_writable(a: np.ndarray) -> np.ndarray:
+    """``a`` made writable as a determined method would: ``setflags`` on it, else on its ``base``."""
+    for arr in (a, a.base):
+        try:
+            arr.setflags(write=True)
+            return arr
+        except (ValueError, AttributeError):
+            continue
+    return np.array(a)    # neither: writing a copy changes nothing
+
+
+@dataclasses.dataclass
+class Vandal(ProjectiveAssociator):
+    """Pairs as projective, then forces a write into everything it was handed (the frame's maps
+    and their ``base``, the source points and normals, the pose guess) and records which of them
+    shared memory with the caller's arrays."""
+
+    shared: list = dataclasses.field(default_factory=list)
+    watched: tuple = ()
+
+    def associate(self, points, normals, frame, R, t):
+        pairs = super().associate(points, normals, frame, R, t)
+        handed = (frame.depth, frame.vertices, frame.normals, points, normals, R, t)
+        self.shared += [i for i, a in enumerate(handed) for b in self.watched if np.may_share_memory(a, b)]
+        for a in handed + tuple(a.base for a in handed if a.base is not None and a.base.dtype.kind == "f"):
+            forced_writable(a)[...] = 7.0
+        return pairs
+
+
+def test_a_write_into_the_frame_says_which_arrays_are_read_only(clean):
+    """numpy's "output array is read-only" names no array: the frame's error says what is read-only."""
+    (pts, nrm), B = clean
+    with pytest.raises(ValueError, match=r"MapWriter\.associate: .*read-only \(the frame's depth, vertices and normals"):
+        icp(pts, nrm, B, MapWriter(), B.R, B.t)
+
+
+def test_a_method_forcing_writes_changes_nothing_of_the_callers(clean):
+    """What the method is handed has memory of its own: a view's ``base`` (for a sensed frame, the
+    one buffer holding the truth too) or ``setflags(write=True)`` reached the frame's maps, the
+    source (the map itself under ``dense.prediction: map``) and the pose guess (the true previous pose
+    under ``dense.tracking: truth``; a shifted guess misreported the step error by 86 mm)."""
+    (pts, nrm), B = clean
+    R0, t0 = B.R.copy(), B.t + np.array([0.01, -0.005, 0.0])
+    kept = [a.copy() for a in (B.depth, B.vertices, B.normals, B.true_points, pts, nrm, R0, t0)]
+    vandal = Vandal(watched=(B.depth, B.vertices, B.normals, B.true_points, B.geom, pts, nrm, R0, t0))
+    res = icp(pts, nrm, B, vandal, R0, t0)
+    assert vandal.shared == []
+    for now, before in zip((B.depth, B.vertices, B.normals, B.true_points, pts, nrm, R0, t0), kept, strict=True):
+        np.testing.assert_array_equal(now, before)
+    plain = icp(pts, nrm, B, ProjectiveAssociator(), R0, t0)     # the first call paired before its writes
+    np.testing.assert_array_equal(res.first_pairs.pixel, plain.first_pairs.pixel)
+
+
 @dataclasses.dataclass
 class Mangled(ProjectiveAssociator):
     """The projective pairs passed through ``mangle``: a user's method answering ill-formed pairs."""
