@@ -31,8 +31,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def default_suites() -> list[str]:
-    """Every registered track's CI suites, in registration order; one that cannot run here (an
-    optional package missing) is skipped with a line saying so, not silently."""
+    """Every registered track's CI suites, in the registry's order (``tracks``); one that cannot run
+    here (an optional package missing) is skipped with a line saying so, not silently."""
     out = []
     for track in iter_tracks():
         for name in track.ci_suites:

@@ -362,11 +362,15 @@ def _load_named_modules() -> None:
 
 
 def tracks() -> dict[str, Track]:
-    """Every registered track by name: built-ins first, then plugins and the modules named in
-    ``ASSOCBENCH_TRACKS``."""
+    """Every registered track by name: the built-ins first in their own order (``_BUILTINS``), then
+    plugins and the modules named in ``ASSOCBENCH_TRACKS`` in the order they registered. A
+    built-in's module imported before the registry was asked registers first, so the order is
+    fixed here, not left to the imports (``check`` runs its suites, and names the first missing
+    baseline, in this order)."""
     _load_builtins_and_plugins()
     _load_named_modules()
-    return dict(_TRACKS)
+    ordered = {name: _TRACKS[name] for name in _BUILTINS if name in _TRACKS}
+    return ordered | {name: track for name, track in _TRACKS.items() if name not in ordered}
 
 
 def get_track(name: str) -> Track:
@@ -378,7 +382,7 @@ def get_track(name: str) -> Track:
 
 
 def iter_tracks() -> Iterator[Track]:
-    """The registered tracks in registration order."""
+    """The registered tracks, built-ins first in their own order (``tracks``)."""
     return iter(tracks().values())
 
 

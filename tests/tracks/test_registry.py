@@ -3,6 +3,8 @@ the harness rely on; a scene belongs to one track. Parsing only: nothing renders
 
 from __future__ import annotations
 
+import subprocess
+import sys
 from collections.abc import Mapping
 
 import pytest
@@ -49,3 +51,17 @@ def test_a_scene_two_tracks_claim_is_refused_in_one_line(tmp_path):
         track_for_scene(scene)
     message = str(err.value)
     assert "\n" not in message and "camera and planar" in message and "belongs to one track" in message
+
+
+def test_the_built_ins_come_first_in_their_own_order_whatever_was_imported_first():
+    """A built-in track's module imported before the registry is asked (a dense test, then ``check``
+    in the same worker) registered first, so ``check`` named the dense suite's missing baseline
+    before the camera's: the order must not depend on the imports."""
+    code = ("import assocbench.tracks.dense.track, assocbench.tracks.lines.track\n"
+            "from assocbench.tracks.base import tracks\n"
+            "from assocbench.cli.check_cmd import default_suites\n"
+            "print(list(tracks())[:4]); print(default_suites())")
+    out = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120, check=True)
+    first, suites = out.stdout.strip().splitlines()[-2:]
+    assert first == "['camera', 'planar', 'lines', 'dense']"
+    assert suites.index("'ci'") < suites.index("'loop_ci'") < suites.index("'lines_ci'") < suites.index("'dense_ci'")
