@@ -468,8 +468,11 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     valid = frame.valid.reshape(-1)   # one mask a call: ``valid`` is computed from the maps each time
     if not valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
+    # the method's copies, which ICP then reads too (one copy of the maps in the caches, not two:
+    # 1.2 ms an ICP call): a write the method forces into them moves its own pose, never the
+    # frame fusion merges, the truth scoring reads or the caller's source
     clock, shown = _Clock(), _as_the_method_sees_it(frame)
-    given = _handed("points", points), _handed("normals", normals)   # ICP's own stay as they are, whatever it does
+    given = _handed("points", points), _handed("normals", normals)
     pairs = clock.timed(_associated, associator, *given, shown, R0.copy(), t0.copy())
     pairs = checked_pairs(pairs, len(points), valid)
     if len(pairs) < cfg.min_pairs:    # the association ran: its time is a stage of the frame's
@@ -477,13 +480,13 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
                       f"guess ({pairs.considered} source points considered)")
         return replace(res, associate_s=clock.seconds)
     gate = getattr(associator, "gate_coefficients", (0.0, 0.0, 0.0))
-    cur, first = _Linearised.at(points, frame, pairs, TR, Tt, gate), pairs
+    cur, first = _Linearised.at(given[0], shown, pairs, TR, Tt, gate), pairs
 
     def linearised_at(delta: np.ndarray) -> _Linearised:
         TRn, Ttn = cur.stepped(delta)
         pairs = checked_pairs(clock.timed(_associated, associator, *given, shown, *_pose(TRn, Ttn)),
                               len(points), valid)
-        return _Linearised.at(points, frame, pairs, TRn, Ttn, gate)
+        return _Linearised.at(given[0], shown, pairs, TRn, Ttn, gate)
 
     radius_max = float(associator.d_thr)
     radius, converged, step_deg, step_m, it = radius_max, False, float("nan"), float("nan"), 0
@@ -523,7 +526,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
         res = _result(cur.TR, cur.Tt, cur.pairs, first, f"no convergence in {cfg.max_iterations} iterations "
                       f"(last update {step_deg:.3g} deg, {step_m:.3g} m)", cur, it)
         return replace(res, associate_s=clock.seconds)
-    rho = direction_share(points, normals, cur.pairs, frame, cur.TR, cur.Tt,
+    rho = direction_share(*given, cur.pairs, shown, cur.TR, cur.Tt,
                           getattr(associator, "gate_coefficients", None))   # hidden as the association judges
     res = _result(cur.TR, cur.Tt, cur.pairs, first, _judged(cur, cfg, R0, t0, rho), cur, it, converged=True)
     return replace(res, associate_s=clock.seconds, direction_share=rho)
