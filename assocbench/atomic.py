@@ -62,8 +62,12 @@ def check_cache_folder(*subfolders: str) -> None:
             break
     ensure_dir(root, CACHE)
     for sub in subfolders:
-        if (root / sub).exists() and not (root / sub).is_dir():
-            raise UserError(f"cannot use {CACHE.what} {root}: {root / sub} is a file where the cache keeps a "
+        place = root / sub
+        if place.is_symlink() and not place.exists():  # a dangling link: mkdir says "File exists" late
+            raise UserError(f"cannot use {CACHE.what} {root}: {place} is a broken link where the cache keeps a "
+                            f"folder; remove it, or {CACHE.fix()}")
+        if place.exists() and not place.is_dir():
+            raise UserError(f"cannot use {CACHE.what} {root}: {place} is a file where the cache keeps a "
                             f"folder; remove or rename it, or {CACHE.fix()}")
 
 

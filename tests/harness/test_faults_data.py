@@ -319,6 +319,23 @@ def test_a_file_where_the_cache_keeps_a_subfolder_is_one_line_before_any_work(su
     assert not (tmp_path / "out").exists()
 
 
+def test_a_broken_link_where_the_cache_keeps_a_subfolder_is_one_line_before_any_work(tmp_path, monkeypatch, capsys):
+    """$ASSOCBENCH_CACHE/planar a dangling symlink: exit 2 with one line naming it before the run
+    compiles (``exists()`` is False for it: the kernels compiled for 34 s, then "File exists")."""
+    from assocbench.cli.main import main
+
+    cache = tmp_path / "cache"
+    cache.mkdir()
+    (cache / "planar").symlink_to(tmp_path / "nowhere" / "zz")
+    monkeypatch.setenv("ASSOCBENCH_CACHE", str(cache))
+    monkeypatch.setattr("assocbench.cli.run_cmd.execute", lambda *a, **k: pytest.fail("worked before the error"))
+    out = tmp_path / "out"
+    assert main(["run", "--method", "jcbb", "--scene", "post_grid", "--frames", "2", "--out", str(out)]) == 2
+    err = capsys.readouterr().err.strip().splitlines()
+    assert len(err) == 1 and str(cache / "planar") in err[0] and "broken link" in err[0], err
+    assert not out.exists()
+
+
 @pytest.mark.parametrize("command", [["run", "--method", "projective", "--scene", "crates", "--frames", "2"],
                                      ["leaderboard", "--suite", "dense_ci"]])
 def test_a_cache_folder_that_cannot_be_created_is_one_line_before_any_work(command, tmp_path, monkeypatch, capsys):
