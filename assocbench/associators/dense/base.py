@@ -103,7 +103,11 @@ class DenseAssociator(ABC):
     @abstractmethod
     def associate(self, points: np.ndarray, normals: np.ndarray, frame: DepthFrame,
                   R: np.ndarray, t: np.ndarray) -> Pairs:
-        """Pairs of source points (world) and pixels of ``frame`` seen from the guess (R, t)."""
+        """Pairs of source points (world) and pixels of ``frame`` seen from the guess (R, t).
+
+        Inside ICP the arrays handed here are read-only copies, valid during this call only: the
+        next call writes over them, so a method that keeps a frame or points copies what it keeps.
+        The frame's truth (``true_points``, ``geom``, ``R``, ``t``) is withheld (NaN, ``NO_GEOM``)."""
 
 
 def checked_inputs(points, normals, frame, R, t) -> tuple[np.ndarray, ...]:
