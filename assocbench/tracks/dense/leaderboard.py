@@ -12,7 +12,7 @@ import pandas as pd
 
 from ...atomic import write_group
 from ...scoring.aggregate import OK
-from .plots import map_figure
+from .plots import failure_flags, map_figure
 from .summary import DENSE_COLUMNS
 
 
@@ -93,7 +93,7 @@ def pictures(frames: pd.DataFrame) -> list[dict]:
         panels.append({"positions": points[:, :3], "error_mm": points[:, 3],
                        "p_true": run[["true_x", "true_y", "true_z"]].to_numpy(float),
                        "p_est": run[["est_x", "est_y", "est_z"]].to_numpy(float),
-                       "failed": run["icp_failed"].eq(True).to_numpy(),
+                       **failure_flags(run),
                        "title": f"{method} on {scenario}, seed {run['seed'].iloc[0]}"})
     return panels
 

@@ -1,6 +1,7 @@
 """Top views of the dense track: fused maps coloured by their distance to the true surfaces,
-with the true path (black), the estimated one (blue) and a red cross at each frame whose ICP failed
-(its pose held at the last tracked one, the frame not fused).
+with the true path (black), the estimated one (blue), a red cross at each frame whose ICP failed
+(its pose held at the last tracked one, the frame not fused) and an orange plus at each frame whose
+method raised (its pose held the same way: a failure of the method's code, not of ICP).
 
 Every map point counts: the points are rasterised into the panel's own pixel grid (one cell per
 screen pixel at ``DPI``), each pixel showing the worst error of the points that fall in it, so the
@@ -18,11 +19,14 @@ from pathlib import Path
 
 import numpy as np
 
+from .summary import METHOD_FAILED
+
 ERROR_SCALE_MM = 30.0
 COLORMAP = "viridis"
 DPI = 110
 MARGIN = 0.03   # share of each span left around the map and paths, so no point sits on the frame
 FAILED_LABEL = "ICP failed (pose held)"
+RAISED_LABEL = "method raised (pose held)"
 
 
 def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float, float, float]:
@@ -72,32 +76,35 @@ def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
     ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
     if len(p_true):
         ax.plot(*p_true[0, :2], "o", color="black", ms=4)
-    failed = _failed_frames(panel)
-    if failed.any():   # above the paths: a held pose lies on the estimate, where a reader looks for it
-        ax.plot(p_est[failed, 0], p_est[failed, 1], "x", color="#d62728", ms=5, mew=1.2, zorder=3,
-                label=FAILED_LABEL)
+    failed, raised = _flagged_frames(panel, "failed"), _flagged_frames(panel, "raised")
+    failed = failed & ~raised   # a raising method's frame is its own mark, not ICP's
+    for mask, marker, colour, label in ((failed, "x", "#d62728", FAILED_LABEL), (raised, "+", "#ff7f0e", RAISED_LABEL)):
+        if mask.any():   # above the paths: a held pose lies on the estimate, where a reader looks for it
+            ax.plot(p_est[mask, 0], p_est[mask, 1], marker, color=colour, ms=5, mew=1.2, zorder=3, label=label)
     extent = view_limits(panel["positions"], p_true, p_est)
     ax.set_xlim(extent[:2])
     ax.set_ylim(extent[2:])
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed)}", fontsize=7)
+    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed, raised)}", fontsize=7)
     ax.set_ylabel("y (m)", fontsize=7)
     ax.set_title(textwrap.fill(panel["title"], 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)
     return extent
 
 
-def _failed_frames(panel: dict) -> np.ndarray:
-    """(T,) whether each frame's ICP failed (``failed``, as ``icp_failed``; none when absent)."""
-    failed = np.asarray(panel.get("failed", np.zeros(len(panel["p_est"]), bool)), bool)
-    if failed.shape != (len(panel["p_est"]),):
-        raise ValueError(f"failed has shape {failed.shape}, expected one flag per pose ({len(panel['p_est'])},)")
-    return failed
+def _flagged_frames(panel: dict, key: str) -> np.ndarray:
+    """(T,) the panel's per-frame flags ``key`` (``failed``: ICP failed, as ``icp_failed``;
+    ``raised``: the method's call raised); none when absent."""
+    flags = np.asarray(panel.get(key, np.zeros(len(panel["p_est"]), bool)), bool)
+    if flags.shape != (len(panel["p_est"]),):
+        raise ValueError(f"{key} has shape {flags.shape}, expected one flag per pose ({len(panel['p_est'])},)")
+    return flags
 
 
-def _failed_note(failed: np.ndarray) -> str:
-    count = int(failed.sum())
-    return f"; ICP failed in {count} of {len(failed)} frames (red crosses)" if count else ""
+def _failed_note(failed: np.ndarray, raised: np.ndarray) -> str:
+    notes = [f"ICP failed in {int(failed.sum())} of {len(failed)} frames (red crosses)"] if failed.any() else []
+    notes += [f"the method raised in {int(raised.sum())} of {len(raised)} frames (orange pluses)"] if raised.any() else []
+    return "".join(f"; {n}" for n in notes)
 
 
 def _finite(positions: np.ndarray, error_mm: np.ndarray) -> np.ndarray:
@@ -123,8 +130,9 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) ->
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
-    ``p_est`` (T, 3) m, ``title``, optionally ``failed`` (T,) bool: frames whose ICP failed, marked
-    on the estimate); every map point with a finite x, y and error is drawn."""
+    ``p_est`` (T, 3) m, ``title``, optionally ``failed`` (T,) bool: frames whose ICP failed, and
+    ``raised`` (T,) bool: frames whose method raised, each marked on the estimate); every map point
+    with a finite x, y and error is drawn."""
     with _collector_paused():
         # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
         map_canvas(panels, columns).savefig(path, dpi=DPI, format="png")
@@ -174,6 +182,13 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
     return fig
 
 
+def failure_flags(frames) -> dict:
+    """A run's ``failed`` (ICP failed) and ``raised`` (the method's call failed: it raised, or could
+    not be built; ``icp_reason`` ``METHOD_FAILED``) flags, one per frame, for ``map_figure``."""
+    raised = frames["icp_reason"].eq(METHOD_FAILED).to_numpy() if "icp_reason" in frames else np.zeros(len(frames), bool)
+    return {"failed": frames["icp_failed"].eq(True).to_numpy(), "raised": raised}
+
+
 def map_writers(frames, map_file: Path, out: Path, title: str) -> dict:
     """Writers of ``map.ply`` and ``map.png`` from a run's frames and its worker's ``map.npz``."""
     from ...sim.ply import write_ply
@@ -183,7 +198,7 @@ def map_writers(frames, map_file: Path, out: Path, title: str) -> dict:
         m = {k: z[k] for k in z.files}
     p_true, p_est = poses(frames, "true_")[1], poses(frames, "est_")[1]
     panel = {"positions": m["positions"], "error_mm": m["error_mm"], "p_true": p_true, "p_est": p_est, "title": title,
-             "failed": frames["icp_failed"].eq(True).to_numpy()}
+             **failure_flags(frames)}
     return {out / "map.ply": lambda p: write_ply(p, m["positions"], m["normals"],
                                                  {"weight": m["weights"], "error_mm": m["error_mm"]}),
             out / "map.png": lambda p: map_figure([panel], p, columns=1)}

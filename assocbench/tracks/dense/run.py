@@ -43,6 +43,7 @@ from .metrics import relative_pose_error, score_associations
 from .picture_json import fixed_json
 from .prediction import Splatter, gather_rows
 from .sequence import DenseSequence
+from .summary import METHOD_FAILED
 from .surface import surface_distance
 
 PICTURE_POINTS = 10_000   # map points kept in the last record for the leaderboard's top view
@@ -160,7 +161,7 @@ def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, a
     def held(runtime: float, error: str) -> dict:   # only when the call failed: a pose's columns cost 75 µs
         return {"frame": k, "icp_converged": False, "icp_failed": True, "source_points": len(source.points),
                 **pose_columns("true_", seq.rotations[k], seq.positions[k]), **pose_columns("est_", R0, t0),
-                "icp_reason": "the method failed", "icp_s": runtime, "error": error}
+                "icp_reason": METHOD_FAILED, "icp_s": runtime, "error": error}
 
     if associator is None or k in calls.faults:
         error, runtime = calls.faults.get(k, (build_error, 0.0))

@@ -6,6 +6,7 @@ from __future__ import annotations
 import gc
 
 import numpy as np
+import pandas as pd
 import pytest
 from matplotlib import colormaps
 from matplotlib.cm import ScalarMappable
@@ -16,12 +17,15 @@ from assocbench.tracks.dense.plots import (
     DPI,
     ERROR_SCALE_MM,
     FAILED_LABEL,
+    RAISED_LABEL,
     error_colours,
+    failure_flags,
     map_canvas,
     map_figure,
     view_limits,
     worst_error_grid,
 )
+from assocbench.tracks.dense.summary import METHOD_FAILED
 
 PATH = np.column_stack([np.linspace(0.0, 1.0, 20), np.zeros(20), np.zeros(20)])
 
@@ -155,6 +159,24 @@ def test_frames_whose_icp_failed_are_marked_on_the_estimate_and_in_the_legend():
     assert not [line for line in fig.axes[0].get_lines() if line.get_label() == FAILED_LABEL]
     legend = [t.get_text() for t in fig.legends[0].get_texts()]   # the second panel's marker, in the one legend
     assert legend == ["true path", "estimate", FAILED_LABEL]
+
+
+def test_frames_whose_method_raised_are_their_own_mark_not_icp_failures():
+    """A frame whose method call raised is held as a failed ICP frame is (``icp_failed``), but the
+    picture says which it was: an orange plus and its own count, not a red cross."""
+    frames = pd.DataFrame({"icp_failed": [False, True, True, True, False],
+                           "icp_reason": ["converged", "lost direction", METHOD_FAILED, METHOD_FAILED, "converged"]})
+    flags = failure_flags(frames)
+    assert flags["raised"].tolist() == [False, False, True, True, False]
+    path = PATH[:5]
+    run = panel([[0.2, 0.1, 0.0]], [1.0]) | {"p_true": path, "p_est": path + 0.01, **flags}
+    fig = map_canvas([run], columns=1)
+    lines = {line.get_label(): line for line in fig.axes[0].get_lines()}
+    assert np.allclose(lines[RAISED_LABEL].get_xydata(), run["p_est"][[2, 3], :2])
+    assert np.allclose(lines[FAILED_LABEL].get_xydata(), run["p_est"][[1], :2])
+    assert fig.axes[0].get_xlabel().endswith("; ICP failed in 1 of 5 frames (red crosses); the method raised in 2 of 5 "
+                                             "frames (orange pluses)")
+    assert [t.get_text() for t in fig.legends[0].get_texts()] == ["true path", "estimate", FAILED_LABEL, RAISED_LABEL]
 
 
 def test_a_failed_mask_that_does_not_fit_the_poses_is_refused():
