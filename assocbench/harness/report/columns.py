@@ -79,7 +79,8 @@ CATALOGUE = (
     Column("precision_start", "precision at start", "precision of ICP's first iteration, from the previous pose",
            "high"),
     Column("recall_start", "recall at start", "recall of ICP's first iteration", "high", main=False),
-    Column("icp_failures", "ICP failures", "frames whose ICP reported failure (pose held, frame not fused)", "low", 1,
+    Column("icp_failures", "ICP failures", "frames whose ICP reported failure (pose held, frame not fused; a method "
+           "that raised is a failed frame instead)", "low", 1,
            count=True),
     Column("wrong_steps", "wrong steps", "steps ICP accepted more than 20 mm off the true step (a silent failure)",
            "low", 1, count=True),

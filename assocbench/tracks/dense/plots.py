@@ -25,6 +25,13 @@ ERROR_SCALE_MM = 30.0
 COLORMAP = "viridis"
 DPI = 110
 MARGIN = 0.03   # share of each span left around the map and paths, so no point sits on the frame
+PANEL_WIDTH = 4.2    # inches a column of panels
+AXES_WIDTH = 3.0     # inches of it a panel's axes get, beside the y label and the colour bar's share
+MIN_AXES, MAX_AXES = 1.2, 3.0   # inches: a row's axes height, whatever the scene's aspect
+LABEL_ROOM = 0.8     # inches a row needs besides its axes: the title above, the x label below
+LEGEND_ROOM = 0.25   # inches at the top for the one legend
+BAR_ROOM = 0.6       # inches at the bottom for the colour bar, across, and its label
+EMPTY_HEIGHT = 3.8   # inches of the figure that says no run produced a map
 FAILED_LABEL = "ICP failed (pose held)"
 RAISED_LABEL = "method raised (pose held)"
 
@@ -153,16 +160,50 @@ def _collector_paused():
             gc.enable()
 
 
+def row_heights(panels: Sequence[dict], columns: int) -> list[float]:
+    """Each row's axes height (inches): its tallest panel at the aspect of its extent (y span over x
+    span, ``view_limits``) drawn ``AXES_WIDTH`` wide, within [``MIN_AXES``, ``MAX_AXES``]. A wide
+    scene (bays: 9 m by 3.6 m) gets a short row instead of a square one half white."""
+    cols = min(columns, len(panels)) or 1
+    heights = []
+    for first in range(0, len(panels), cols):
+        aspects = []
+        for panel in panels[first:first + cols]:
+            x0, x1, y0, y1 = view_limits(panel["positions"], panel["p_true"], panel["p_est"])
+            aspects.append((y1 - y0) / (x1 - x0))
+        heights.append(float(np.clip(AXES_WIDTH * max(aspects), MIN_AXES, MAX_AXES)))
+    return heights
+
+
+def figure_size(panels: Sequence[dict], columns: int) -> tuple[float, float]:
+    """(width, height) in inches of ``map_canvas``'s figure: ``PANEL_WIDTH`` a column; the rows'
+    axes (``row_heights``), ``LABEL_ROOM`` around each for its title and x label,
+    ``LEGEND_ROOM`` at the top and ``BAR_ROOM`` at the bottom. No panel: one empty panel's room."""
+    if not panels:
+        return PANEL_WIDTH, EMPTY_HEIGHT
+    cols = min(columns, len(panels))
+    heights = row_heights(panels, columns)
+    height = LEGEND_ROOM + sum(heights) + LABEL_ROOM * len(heights) + BAR_ROOM
+    return PANEL_WIDTH * cols, round(height * DPI) / DPI   # whole pixels: the PNG's size is the figure's
+
+
 def map_canvas(panels: Sequence[dict], columns: int = 3):
-    """The ``Figure`` of ``map_figure``: a grid of panels, one colour bar beside them."""
+    """The ``Figure`` of ``map_figure``: a grid of panels, each row as tall as its panels' aspect
+    needs (``figure_size``), one legend above them and one colour bar below."""
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure  # no pyplot state (as viz.plots)
 
     cols = min(columns, len(panels)) or 1
     rows = -(-len(panels) // cols) or 1
-    fig = Figure(figsize=(4.2 * cols, 3.8 * rows), dpi=DPI)
-    axes = fig.subplots(rows, cols, squeeze=False)
+    width, height = figure_size(panels, columns)
+    fig = Figure(figsize=(width, height), dpi=DPI)
+    heights = row_heights(panels, columns) or [1.0]
+    axes = fig.subplots(rows, cols, squeeze=False, gridspec_kw={"height_ratios": heights})
+    if panels:   # in inches: the legend's strip at the top, each row's title above and x label below
+        fig.subplots_adjust(top=1 - (LEGEND_ROOM + 0.45 * LABEL_ROOM) / height,
+                            bottom=(BAR_ROOM + 0.55 * LABEL_ROOM) / height, hspace=LABEL_ROOM / float(np.mean(heights)),
+                            left=0.6 / width, right=1 - 0.15 / width, wspace=1.0 / AXES_WIDTH)
     extents = [_frame_panel(ax, panel) for ax, panel in zip(axes.flat, panels)]
     for ax in list(axes.flat)[len(panels):]:
         ax.axis("off")
@@ -170,13 +211,18 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         fig.text(0.5, 0.5, "no run produced a map", ha="center", va="center", fontsize=9)
     else:
         colours = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap=COLORMAP)
-        bar = fig.colorbar(colours, ax=axes, shrink=0.6, fraction=0.03, pad=0.05)
-        bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7)
+        # below the panels, across: a wide scene's single panel is barely an inch tall, too short
+        # for a vertical bar's label, and a horizontal bar takes no panel's width
+        bar_width = min(0.6, 3.0 / width)
+        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.36 / height, bar_width, 0.08 / height]),
+                           orientation="horizontal")
+        bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7, labelpad=2)
         bar.ax.tick_params(labelsize=6)
-        # in the figure's corner, not on a panel, where it would hide map points; every panel's
-        # entries (a failure marker may be on any panel), each label once
+        # above the panels, not on one, where it would hide map points; every panel's entries (a
+        # failure marker may be on any panel), each label once, in one row
         entries = {label: handle for ax in axes.flat for handle, label in zip(*ax.get_legend_handles_labels())}
-        fig.legend(list(entries.values()), list(entries), loc="upper left", fontsize=6, frameon=False)
+        fig.legend(list(entries.values()), list(entries), loc="upper center", ncol=len(entries), fontsize=7,
+                   frameon=False, bbox_to_anchor=(0.5, 1.0))
     for ax, panel, extent in zip(axes.flat, panels, extents):   # after the colour bar took its room
         _raster_panel(ax, panel, extent)
     return fig

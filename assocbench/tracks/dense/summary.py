@@ -63,6 +63,15 @@ def wrong_accepted(frames: pd.DataFrame) -> int:
     return int(((~failed) & after_ok & (error > WRONG_STEP_MM)).sum())
 
 
+def icp_failures(frames: pd.DataFrame) -> int:
+    """Tracked frames (k > 0) whose ICP reported failure; a frame whose method call failed (an
+    ``error``: it raised, exited or hung) is held the same way but is not ICP's failure: it is
+    counted in ``failures`` and makes the run not ok (``dense_status``)."""
+    tracked = frames[frames["frame"] > 0]
+    errored = tracked["error"].fillna("").ne("") if "error" in tracked else False
+    return int((tracked["icp_failed"].astype(bool) & ~errored).sum())
+
+
 def dense_status(frames: pd.DataFrame) -> str:
     """``ok``, or why the run's numbers cannot be trusted: the method failed (raised, exited, hung:
     the ``error`` column), or not one correspondence in any tracked frame. Lost frames and wrong
@@ -101,7 +110,7 @@ def summarize_dense(frames: pd.DataFrame) -> dict:
         "failures": int((frames["error"] != "").sum()) if "error" in frames else 0,
         "precision": _mean(tracked, "precision"), "recall": _mean(tracked, "recall"),
         "precision_start": _mean(tracked, "precision_start"), "recall_start": _mean(tracked, "recall_start"),
-        "icp_failures": int(tracked["icp_failed"].sum()), "wrong_steps": wrong_accepted(frames),
+        "icp_failures": icp_failures(frames), "wrong_steps": wrong_accepted(frames),
         "ate_mm": 1000 * ate_rmse(p_true, p_est), "ate_deg": rotation_rmse_deg(R_true, R_est),
         "final_drift_mm": 1000 * float(np.linalg.norm(p_est[-1] - p_true[-1])),
         "step_error_mm": _rms(tracked["step_error_mm"]) if "step_error_mm" in tracked else float("nan"),

@@ -86,6 +86,21 @@ def test_wrong_poses_and_lost_frames_are_counted_results_not_untrusted_runs():
     assert dense_status(frames) == "no correspondences in any frame"
 
 
+def test_a_frame_whose_method_raised_is_a_failure_not_an_icp_failure():
+    """The run holds the pose of a frame whose method raised as it holds a lost frame's, but the
+    two are told apart: ICP losing track is a counted result, the method's code failing makes the
+    run not ok."""
+    import pandas as pd
+
+    from assocbench.tracks.dense.summary import METHOD_FAILED, dense_status, icp_failures
+    frames = pd.DataFrame({"frame": [0, 1, 2, 3], "icp_failed": [False, True, True, False], "pairs": [0, 9, 0, 9],
+                           "icp_reason": ["first frame", "lost direction", METHOD_FAILED, "converged"],
+                           "error": ["", "", "ValueError: boom", ""]})
+    assert icp_failures(frames) == 1 and dense_status(frames) == "1/3 frames failed"
+    frames["error"] = ""
+    assert icp_failures(frames) == 2 and dense_status(frames) == "ok"
+
+
 def test_compiled_truth_equals_its_numpy_definition():
     """``true_pairs`` and ``has_partner`` (compiled) against the definitions written in numpy, on a
     frame of two geoms with noisy source truth, NaN truth and points outside the view."""

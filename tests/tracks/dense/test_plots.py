@@ -17,11 +17,15 @@ from assocbench.tracks.dense.plots import (
     DPI,
     ERROR_SCALE_MM,
     FAILED_LABEL,
+    MAX_AXES,
+    MIN_AXES,
     RAISED_LABEL,
     error_colours,
     failure_flags,
+    figure_size,
     map_canvas,
     map_figure,
+    row_heights,
     view_limits,
     worst_error_grid,
 )
@@ -77,11 +81,13 @@ def test_limits_cover_map_and_paths_with_a_margin():
 def test_png_has_the_figure_size_and_a_point_sits_where_the_axes_put_it(tmp_path):
     """One point of error beyond the scale must come out yellow at the pixel that the axes'
     data-to-pixel mapping gives it (within a pixel), and nowhere else in the panel."""
-    fig = map_canvas([panel([[0.5, 0.3, 0.0]], [99.0])], columns=1)
+    one = [panel([[0.5, 0.3, 0.0]], [99.0])]
+    fig = map_canvas(one, columns=1)
     out = tmp_path / "map.png"
     fig.savefig(out, dpi=DPI)
     image = np.asarray(Image.open(out).convert("RGB")).astype(int)
-    assert image.shape == (round(3.8 * DPI), round(4.2 * DPI), 3)
+    width, height = figure_size(one, 1)
+    assert image.shape == (round(height * DPI), round(width * DPI), 3)
     ax = fig.axes[0]
     x, y = ax.transData.transform((0.5, 0.3))
     column, row = x, image.shape[0] - y
@@ -95,14 +101,16 @@ def test_png_has_the_figure_size_and_a_point_sits_where_the_axes_put_it(tmp_path
 
 def test_map_figure_writes_the_png_of_its_canvas(tmp_path):
     out = tmp_path / "map.png"
-    map_figure([panel([[0.5, 0.3, 0.0]], [5.0])], out, columns=1)
-    assert Image.open(out).size == (round(4.2 * DPI), round(3.8 * DPI))
+    one = [panel([[0.5, 0.3, 0.0]], [5.0])]
+    map_figure(one, out, columns=1)
+    assert Image.open(out).size == tuple(round(inches * DPI) for inches in figure_size(one, 1))
 
 
 def test_empty_map_writes_a_png(tmp_path):
     out = tmp_path / "map.png"
-    map_figure([panel(np.zeros((0, 3)), np.zeros(0))], out, columns=1)
-    assert Image.open(out).size == (round(4.2 * DPI), round(3.8 * DPI))
+    empty = [panel(np.zeros((0, 3)), np.zeros(0))]
+    map_figure(empty, out, columns=1)
+    assert Image.open(out).size == tuple(round(inches * DPI) for inches in figure_size(empty, 1))
     assert np.isinf(worst_error_grid(np.zeros((0, 2)), np.zeros(0), (0, 1, 0, 1), 4, 3)).all()
 
 
@@ -121,7 +129,21 @@ def test_leaderboard_grid_of_panels_has_its_size(tmp_path):
     rng = np.random.default_rng(0)
     panels = [panel(rng.uniform(0, 3, (10_000, 3)), rng.uniform(0, 40, 10_000), f"method {k}") for k in range(6)]
     map_figure(panels, out, columns=4)
-    assert Image.open(out).size == (round(4 * 4.2 * DPI), round(2 * 3.8 * DPI))
+    assert row_heights(panels, 4) == [MAX_AXES, MAX_AXES]   # 3 m square maps: as tall as a row gets
+    assert Image.open(out).size == tuple(round(inches * DPI) for inches in figure_size(panels, 4))
+
+
+def test_a_wide_scene_gets_a_short_row_and_a_tall_one_a_tall_row():
+    """A row is as tall as its tallest panel needs at its aspect: an 8 m by 3.6 m scene (as bays) gets
+    a short row instead of a square one left half white, a tall scene (crates) the tallest row."""
+    wide = panel([[1.0, -1.8, 0.0], [8.0, 1.8, 0.0]], [1.0, 2.0])
+    tall = panel([[1.0, -1.5, 0.0], [3.0, 2.0, 0.0]], [1.0, 2.0])
+    x0, x1, y0, y1 = view_limits(wide["positions"], wide["p_true"], wide["p_est"])
+    short, = row_heights([wide], 1)
+    assert MIN_AXES < short < 1.5 and short == pytest.approx(3.0 * (y1 - y0) / (x1 - x0))
+    assert row_heights([wide, tall], 1) == [short, MAX_AXES]
+    assert row_heights([wide, tall], 2) == [MAX_AXES]   # one row: its tallest panel's height
+    assert figure_size([wide], 1)[1] < figure_size([tall], 1)[1]
 
 
 @pytest.mark.parametrize("enabled", [True, False])
@@ -146,6 +168,7 @@ def test_no_panel_at_all_is_a_picture_that_says_so(tmp_path):
     assert [t.get_text() for t in fig.texts] == ["no run produced a map"]
     map_figure([], tmp_path / "lb.png", columns=4)
     assert Image.open(tmp_path / "lb.png").size == (round(4.2 * DPI), round(3.8 * DPI))
+    assert figure_size([], 4) == (4.2, 3.8)
 
 
 def test_frames_whose_icp_failed_are_marked_on_the_estimate_and_in_the_legend():
