@@ -32,8 +32,10 @@ LABEL_ROOM = 0.8     # inches a row needs besides its axes: the title above, the
 LEGEND_ROOM = 0.25   # inches at the top for the one legend
 BAR_ROOM = 0.6       # inches at the bottom for the colour bar, across, and its label
 EMPTY_HEIGHT = 3.8   # inches of the figure that says no run produced a map
-FAILED_LABEL = "ICP failed (pose held)"
-RAISED_LABEL = "method raised (pose held)"
+# short: all four entries fit in one row above a single 4.2 in panel; "pose held" is in the x label's note
+FAILED_LABEL = "ICP failed"
+RAISED_LABEL = "method raised"
+XLABEL_CHARS = 62   # an x label's line at 7 pt, within a panel's 4.2 in column (centred on its axes)
 
 
 def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float, float, float]:
@@ -92,7 +94,8 @@ def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
     ax.set_xlim(extent[:2])
     ax.set_ylim(extent[2:])
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed, raised)}", fontsize=7)
+    xlabel = f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed, raised)}"
+    ax.set_xlabel(textwrap.fill(xlabel, XLABEL_CHARS), fontsize=7)   # notes can outgrow the panel: wrapped
     ax.set_ylabel("y (m)", fontsize=7)
     ax.set_title(textwrap.fill(panel["title"], 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)
@@ -109,8 +112,11 @@ def _flagged_frames(panel: dict, key: str) -> np.ndarray:
 
 
 def _failed_note(failed: np.ndarray, raised: np.ndarray) -> str:
-    notes = [f"ICP failed in {int(failed.sum())} of {len(failed)} frames (red crosses)"] if failed.any() else []
-    notes += [f"the method raised in {int(raised.sum())} of {len(raised)} frames (orange pluses)"] if raised.any() else []
+    """The counts of the marks, over the tracked frames (the first pose is given), as the run's
+    summary counts them (``icp_failures``; ``failures`` and its status "13/19 frames failed")."""
+    tracked = max(len(failed) - 1, 0)
+    notes = [f"ICP failed in {int(failed.sum())} of {tracked} tracked frames (pose held)"] if failed.any() else []
+    notes += [f"the method raised in {int(raised.sum())} of {tracked} (pose held)"] if raised.any() else []
     return "".join(f"; {n}" for n in notes)
 
 
@@ -137,8 +143,9 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) ->
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
-    ``p_est`` (T, 3) m, ``title``, optionally ``failed`` (T,) bool: frames whose ICP failed, and
-    ``raised`` (T,) bool: frames whose method raised, each marked on the estimate); every map point
+    ``p_est`` (T, 3) m, the first pose given, the others tracked, ``title``, optionally ``failed``
+    (T,) bool: frames whose ICP failed, and ``raised`` (T,) bool: frames whose method raised, each
+    marked on the estimate and counted over the T − 1 tracked frames); every map point
     with a finite x, y and error is drawn."""
     with _collector_paused():
         # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
@@ -214,7 +221,7 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         # below the panels, across: a wide scene's single panel is barely an inch tall, too short
         # for a vertical bar's label, and a horizontal bar takes no panel's width
         bar_width = min(0.6, 3.0 / width)
-        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.36 / height, bar_width, 0.08 / height]),
+        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.3 / height, bar_width, 0.08 / height]),
                            orientation="horizontal")
         bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7, labelpad=2)
         bar.ax.tick_params(labelsize=6)
