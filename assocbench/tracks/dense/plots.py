@@ -30,7 +30,7 @@ AXES_WIDTH = 3.0     # inches of it a panel's axes get, beside the y label and t
 MIN_AXES, MAX_AXES = 1.2, 3.0   # inches: a row's axes height, whatever the scene's aspect
 LABEL_ROOM = 0.8     # inches a row needs besides its axes: the title above, the x label below
 LEGEND_ROOM = 0.25   # inches at the top for the one legend
-BAR_ROOM = 0.6       # inches at the bottom for the colour bar, across, and its label
+BAR_ROOM = 0.66      # inches at the bottom for the colour bar, across, and its label
 EMPTY_HEIGHT = 3.8   # inches of the figure that says no run produced a map
 # short: all four entries fit in one row above a single 4.2 in panel; "pose held" is in the x label's note
 FAILED_LABEL = "ICP failed"
@@ -221,7 +221,7 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         # below the panels, across: a wide scene's single panel is barely an inch tall, too short
         # for a vertical bar's label, and a horizontal bar takes no panel's width
         bar_width = min(0.6, 3.0 / width)
-        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.3 / height, bar_width, 0.08 / height]),
+        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.36 / height, bar_width, 0.08 / height]),
                            orientation="horizontal")
         bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7, labelpad=2)
         bar.ax.tick_params(labelsize=6)
