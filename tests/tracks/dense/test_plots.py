@@ -198,7 +198,7 @@ def test_frames_whose_method_raised_are_their_own_mark_not_icp_failures():
     assert np.allclose(lines[RAISED_LABEL].get_xydata(), run["p_est"][[2, 3], :2])
     assert np.allclose(lines[FAILED_LABEL].get_xydata(), run["p_est"][[1], :2])
     assert fig.axes[0].get_xlabel().replace("\n", " ").endswith(
-        "; ICP failed in 1 of 4 tracked frames (pose held); the method raised in 2 of 4 (pose held)")
+        "; ICP failed in 1 of 4 tracked frames (pose held); the method failed in 2 of 4 (raised or hung; pose held)")
     assert [t.get_text() for t in fig.legends[0].get_texts()] == ["true path", "estimate", FAILED_LABEL, RAISED_LABEL]
 
 
