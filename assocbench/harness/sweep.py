@@ -25,9 +25,18 @@ from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
 # per-frame columns a leaderboard keeps (for its plots and the frames file), where a track's records have them
+# the per-frame columns a leaderboard keeps (its frames table and pictures); ``icp_reason`` tells the
+# dense picture a frame whose method raised from one whose ICP failed (both ``icp_failed``)
 FRAME_COLUMNS = ("n", "m", "runtime_s", "pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "est_z",
                  "true_x", "true_y", "true_z", "odo_x", "odo_y", "final_map", "final_scan", "icp_s", "fusion_s",
-                 "icp_failed", "step_error_mm", "map_points")
+                 "icp_failed", "icp_reason", "step_error_mm", "map_points")
+
+
+def kept_frames(per_frame: pd.DataFrame, label: dict) -> pd.DataFrame:
+    """The leaderboard's per-frame rows of one run: ``label``'s columns, ``frame`` and those of
+    ``FRAME_COLUMNS`` the run has."""
+    kept = ["frame"] + [c for c in FRAME_COLUMNS if c in per_frame]
+    return per_frame.assign(**label)[list(label) + kept]
 
 
 def job_task(job: Job, cache_dir: str | None = None) -> Task:
@@ -50,8 +59,7 @@ def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
             label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}
             summaries.append({**label, **track.summarize(per_frame), "error": errors[0] if errors else ""})
-            kept = ["frame"] + [c for c in FRAME_COLUMNS if c in per_frame]
-            frames.append(per_frame.assign(**label)[list(label) + kept])
+            frames.append(kept_frames(per_frame, label))
     return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
 
 

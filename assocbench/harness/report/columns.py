@@ -80,7 +80,7 @@ CATALOGUE = (
            "high"),
     Column("recall_start", "recall at start", "recall of ICP's first iteration", "high", main=False),
     Column("icp_failures", "ICP failures", "frames whose ICP reported failure (pose held, frame not fused; a method "
-           "that raised is a failed frame instead)", "low", 1,
+           "that raised or hung is a failed frame instead)", "low", 1,
            count=True),
     Column("wrong_steps", "wrong steps", "steps ICP accepted more than 20 mm off the true step (a silent failure)",
            "low", 1, count=True),

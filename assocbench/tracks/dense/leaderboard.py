@@ -53,7 +53,7 @@ is given.
 *precision / recall*: of the pairs of ICP's last iteration against per-pixel truth (a pair is true when
 map point and pixel lie on one geom with true positions within `dense.truth_tol`); *at start*: of its
 first iteration, from the previous pose; *ICP failures*: frames whose ICP reported failure (pose held,
-frame not fused; a frame whose method raised is a failed frame, which makes the run not ok, instead); *wrong steps*: steps ICP accepted more than 20 mm off the true step (a silent failure only
+frame not fused; a frame whose method raised or hung is a failed frame, which makes the run not ok, instead); *wrong steps*: steps ICP accepted more than 20 mm off the true step (a silent failure only
 the truth reveals); both are results of the method, not untrusted runs; *ATE*: RMSE of the positions, no alignment; *step error*: RMS relative pose error of
 one frame's step; *compression*: map points / (frames × pixels of the downsampled input), the homework's 8.87 %
 definition; *map error*: distance of the map's points to the true surfaces.

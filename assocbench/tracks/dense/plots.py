@@ -1,7 +1,8 @@
 """Top views of the dense track: fused maps coloured by their distance to the true surfaces,
 with the true path (black), the estimated one (blue), a red cross at each frame whose ICP failed
 (its pose held at the last tracked one, the frame not fused) and an orange plus at each frame whose
-method raised (its pose held the same way: a failure of the method's code, not of ICP).
+method failed (it raised, hung past ``time_limit_s`` or exited; its pose held the same way: a failure
+of the method's code, not of ICP).
 
 Every map point counts: the points are rasterised into the panel's own pixel grid (one cell per
 screen pixel at ``DPI``), each pixel showing the worst error of the points that fall in it, so the
@@ -30,10 +31,12 @@ AXES_WIDTH = 3.0     # inches of it a panel's axes get, beside the y label and t
 MIN_AXES, MAX_AXES = 1.2, 3.0   # inches: a row's axes height, whatever the scene's aspect
 LABEL_ROOM = 0.8     # inches a row needs besides its axes: the title above, the x label below
 LEGEND_ROOM = 0.25   # inches at the top for the one legend
-BAR_ROOM = 0.6       # inches at the bottom for the colour bar, across, and its label
+BAR_ROOM = 0.66      # inches at the bottom for the colour bar, across, and its label
 EMPTY_HEIGHT = 3.8   # inches of the figure that says no run produced a map
-FAILED_LABEL = "ICP failed (pose held)"
-RAISED_LABEL = "method raised (pose held)"
+# short: all four entries fit in one row above a single 4.2 in panel; "pose held" is in the x label's note
+FAILED_LABEL = "ICP failed"
+RAISED_LABEL = "method failed"   # raised, hung or exited: the run's ``failures``
+XLABEL_CHARS = 62   # an x label's line at 7 pt, within a panel's 4.2 in column (centred on its axes)
 
 
 def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float, float, float]:
@@ -92,7 +95,8 @@ def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
     ax.set_xlim(extent[:2])
     ax.set_ylim(extent[2:])
     ax.set_aspect("equal")
-    ax.set_xlabel(f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed, raised)}", fontsize=7)
+    xlabel = f"x (m){_lost_note(panel['positions'], panel['error_mm'])}{_failed_note(failed, raised)}"
+    ax.set_xlabel(textwrap.fill(xlabel, XLABEL_CHARS), fontsize=7)   # notes can outgrow the panel: wrapped
     ax.set_ylabel("y (m)", fontsize=7)
     ax.set_title(textwrap.fill(panel["title"], 48), fontsize=8)   # a run's header is long: wrapped, not clipped
     ax.tick_params(labelsize=6)
@@ -101,7 +105,7 @@ def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
 
 def _flagged_frames(panel: dict, key: str) -> np.ndarray:
     """(T,) the panel's per-frame flags ``key`` (``failed``: ICP failed, as ``icp_failed``;
-    ``raised``: the method's call raised); none when absent."""
+    ``raised``: the method's call failed: raised, hung or exited); none when absent."""
     flags = np.asarray(panel.get(key, np.zeros(len(panel["p_est"]), bool)), bool)
     if flags.shape != (len(panel["p_est"]),):
         raise ValueError(f"{key} has shape {flags.shape}, expected one flag per pose ({len(panel['p_est'])},)")
@@ -109,8 +113,11 @@ def _flagged_frames(panel: dict, key: str) -> np.ndarray:
 
 
 def _failed_note(failed: np.ndarray, raised: np.ndarray) -> str:
-    notes = [f"ICP failed in {int(failed.sum())} of {len(failed)} frames (red crosses)"] if failed.any() else []
-    notes += [f"the method raised in {int(raised.sum())} of {len(raised)} frames (orange pluses)"] if raised.any() else []
+    """The counts of the marks, over the tracked frames (the first pose is given), as the run's
+    summary counts them (``icp_failures``; ``failures`` and its status "13/19 frames failed")."""
+    tracked = max(len(failed) - 1, 0)
+    notes = [f"ICP failed in {int(failed.sum())} of {tracked} tracked frames (pose held)"] if failed.any() else []
+    notes += [f"the method failed in {int(raised.sum())} of {tracked} (raised or hung; pose held)"] if raised.any() else []
     return "".join(f"; {n}" for n in notes)
 
 
@@ -137,8 +144,9 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) ->
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
     """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
-    ``p_est`` (T, 3) m, ``title``, optionally ``failed`` (T,) bool: frames whose ICP failed, and
-    ``raised`` (T,) bool: frames whose method raised, each marked on the estimate); every map point
+    ``p_est`` (T, 3) m, the first pose given, the others tracked, ``title``, optionally ``failed``
+    (T,) bool: frames whose ICP failed, and ``raised`` (T,) bool: frames whose method failed, each
+    marked on the estimate and counted over the T − 1 tracked frames); every map point
     with a finite x, y and error is drawn."""
     with _collector_paused():
         # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
@@ -229,8 +237,8 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
 
 
 def failure_flags(frames) -> dict:
-    """A run's ``failed`` (ICP failed) and ``raised`` (the method's call failed: it raised, or could
-    not be built; ``icp_reason`` ``METHOD_FAILED``) flags, one per frame, for ``map_figure``."""
+    """A run's ``failed`` (ICP failed) and ``raised`` (the method's call failed: it raised, hung,
+    exited or could not be built; ``icp_reason`` ``METHOD_FAILED``) flags, one per frame, for ``map_figure``."""
     raised = frames["icp_reason"].eq(METHOD_FAILED).to_numpy() if "icp_reason" in frames else np.zeros(len(frames), bool)
     return {"failed": frames["icp_failed"].eq(True).to_numpy(), "raised": raised}
 

@@ -49,7 +49,7 @@ def _mean(frames: pd.DataFrame, col: str) -> float:
 # and from true poses), while ICP sliding along bare walls (kdtree on room) accepted 69-105 mm
 WRONG_STEP_MM = 20.0
 
-# the ``icp_reason`` of a frame whose method call failed (it raised, or could not be built): its pose held
+# the ``icp_reason`` of a frame whose method call failed (it raised, hung, exited or could not be built): its pose held
 METHOD_FAILED = "the method failed"
 
 

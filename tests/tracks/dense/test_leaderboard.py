@@ -40,3 +40,21 @@ def test_the_leaderboard_picture_gets_the_frames_whose_icp_failed():
             | {f"{p}{c}": 0.1 * k for p in ("true_", "est_") for c in "xyz"} for k in range(4)]
     (panel,) = pictures(pd.DataFrame(rows))
     assert panel["failed"].tolist() == [False, False, True, False]
+
+
+def test_the_leaderboard_keeps_what_tells_a_raising_method_from_icp_failing():
+    """The sweep keeps a run's frames for the leaderboard's picture; it must keep ``icp_reason``, or
+    a frame whose method raised is drawn and counted as ICP failing (it was dropped)."""
+    from assocbench.harness.sweep import kept_frames
+    from assocbench.tracks.dense.leaderboard import pictures
+    from assocbench.tracks.dense.summary import METHOD_FAILED
+
+    reasons = ["first frame (given pose)", "no convergence", METHOD_FAILED, "converged"]
+    per_frame = pd.DataFrame([{"frame": k, "icp_failed": k in (1, 2), "icp_reason": reasons[k], "error": "",
+                               "final_map": "[0.5, 0.5, 0.0, 1.0]" if k == 3 else None}
+                              | {f"{p}{c}": 0.1 * k for p in ("true_", "est_") for c in "xyz"} for k in range(4)])
+    per_frame.loc[2, "error"] = "RuntimeError: boom"
+    label = {"scenario": "crates/default", "scene": "crates", "difficulty": "default", "method": "flaky", "seed": 0}
+    (panel,) = pictures(kept_frames(per_frame, label))
+    assert panel["raised"].tolist() == [False, False, True, False]
+    assert (panel["failed"] & ~panel["raised"]).tolist() == [False, True, False, False]

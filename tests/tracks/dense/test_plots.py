@@ -178,7 +178,7 @@ def test_frames_whose_icp_failed_are_marked_on_the_estimate_and_in_the_legend():
     fig = map_canvas([panel([[0.2, 0.1, 0.0]], [1.0], "kdtree"), lost], columns=2)
     marks = [line for line in fig.axes[1].get_lines() if line.get_label() == FAILED_LABEL]
     assert len(marks) == 1 and np.allclose(marks[0].get_xydata(), lost["p_est"][failed, :2])
-    assert fig.axes[1].get_xlabel().endswith("ICP failed in 3 of 20 frames (red crosses)")
+    assert fig.axes[1].get_xlabel().replace("\n", " ").endswith("ICP failed in 3 of 19 tracked frames (pose held)")
     assert not [line for line in fig.axes[0].get_lines() if line.get_label() == FAILED_LABEL]
     legend = [t.get_text() for t in fig.legends[0].get_texts()]   # the second panel's marker, in the one legend
     assert legend == ["true path", "estimate", FAILED_LABEL]
@@ -197,9 +197,37 @@ def test_frames_whose_method_raised_are_their_own_mark_not_icp_failures():
     lines = {line.get_label(): line for line in fig.axes[0].get_lines()}
     assert np.allclose(lines[RAISED_LABEL].get_xydata(), run["p_est"][[2, 3], :2])
     assert np.allclose(lines[FAILED_LABEL].get_xydata(), run["p_est"][[1], :2])
-    assert fig.axes[0].get_xlabel().endswith("; ICP failed in 1 of 5 frames (red crosses); the method raised in 2 of 5 "
-                                             "frames (orange pluses)")
+    assert fig.axes[0].get_xlabel().replace("\n", " ").endswith(
+        "; ICP failed in 1 of 4 tracked frames (pose held); the method failed in 2 of 4 (raised or hung; pose held)")
     assert [t.get_text() for t in fig.legends[0].get_texts()] == ["true path", "estimate", FAILED_LABEL, RAISED_LABEL]
+
+
+@pytest.mark.parametrize("span", [(3.0, 3.0), (9.0, 3.6)])
+def test_a_single_run_with_every_mark_keeps_its_legend_and_x_label_inside_the_picture(span):
+    """A run's ``map.png`` is one 4.2 in panel: with both marks and points not drawn (counts in the
+    thousands), the legend's four entries and the x label's three notes (wrapped) stay inside it,
+    above the colour bar, on a square and a wide scene. The first version's one-row legend and
+    one-line label ran past both edges."""
+    rng = np.random.default_rng(0)
+    positions = rng.uniform(0, 1, (12_345, 3)) * [*span, 0.0]
+    positions[:1_234, 0] = np.nan
+    path = np.column_stack([np.linspace(0.0, 1.0, 1_000), np.zeros(1_000), np.zeros(1_000)])
+    failed, raised = np.zeros(1_000, bool), np.zeros(1_000, bool)
+    failed[100:400], raised[500:700] = True, True
+    run = panel(positions, rng.uniform(0, 40, len(positions)),
+                "flaky_dense:Flaky on crates: model tracking, trajectory circle, 1000 frames, seed 0")
+    fig = map_canvas([run | {"p_true": path, "p_est": path, "failed": failed | raised, "raised": raised}], columns=1)
+    from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    renderer, width = FigureCanvasAgg(fig).get_renderer(), fig.bbox.width
+    fig.draw(renderer)
+    assert fig.axes[0].get_xlabel().count("\n") == 2
+    for artist in (fig.legends[0], fig.axes[0].xaxis.label):
+        box = artist.get_window_extent(renderer)
+        assert 0 <= box.x0 and box.x1 <= width, f"{artist} spans {box.x0:.0f}-{box.x1:.0f} px of {width:.0f}"
+    bar = fig.axes[1]
+    assert fig.axes[0].xaxis.label.get_window_extent(renderer).y0 > bar.get_window_extent(renderer).y1
+    assert bar.xaxis.label.get_window_extent(renderer).y0 >= 0   # the colour bar's label not cut at the bottom
 
 
 def test_a_failed_mask_that_does_not_fit_the_poses_is_refused():

@@ -326,6 +326,30 @@ def test_removal_keeps_the_cells_of_the_moved_points():
     np.testing.assert_array_equal(rows, np.arange(len(pmap)))
 
 
+def test_the_voxel_table_is_never_more_than_half_full():
+    """Linear probing ends at an EMPTY slot; the table (2x the keys since it stopped being 4x) keeps
+    at least half its slots EMPTY after every frame: with tombstones (dormant removal), after the
+    rebuilds a 320x240 frame forces on an empty map, and on a copy (``from_arrays``: keyed afresh),
+    and ``_table_used`` counts exactly the slots not EMPTY."""
+    from assocbench.tracks.dense.voxel_table import EMPTY, GONE
+
+    _, _, frames = dw.sequence(12, smooth=True, yaw_per_frame=3.0)
+    cfg = FusionConfig(dormant_frames=2, stable_weight=4)
+    pmap, tombstones = PointMap(), 0
+    for k, f in enumerate(frames):
+        if k == 6:
+            pmap = pmap.copy()
+        fuse(pmap, f, f.R, f.t, k, cfg)
+        keys = pmap._table_keys
+        assert (keys != EMPTY).sum() == pmap._table_used and 2 * pmap._table_used <= len(keys), k
+        tombstones = max(tombstones, int((keys == GONE).sum()))
+    assert tombstones > 0   # the removals left some: they count as used
+    # the worst case the size is for: 1 mm cells, nearly every pixel of a 320x240 frame adds its own key
+    first = PointMap()
+    added = fuse(first, frames[0], frames[0].R, frames[0].t, 0, FusionConfig(voxel=0.001)).added
+    assert added > 0.85 * 320 * 240 and added == first._table_used <= len(first._table_keys) // 2
+
+
 def test_a_neighbour_cell_takes_a_sample_only_within_half_the_thickness():
     # a floor-like point (normal +z) in the 5 cm layer below z = 2.0; samples just above the layer
     # face join it when they lie within 2.5 cm of it along z, else they start their own cell (a
