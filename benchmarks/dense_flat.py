@@ -19,12 +19,16 @@ bit): the baseline whose cost does follow the map.
 
 Columns, per ``--band`` frames of the path (medians over the band's frames, each leg):
 the map's size on the way out and back, the map points the splat visited a frame (``visited``,
-the points in the blocks meeting the view frustum), the frame's stages (depth frame, prediction,
+the points in the blocks meeting the view frustum), the map points that landed on a valid pixel
+at fusion (``on a pixel``: fusion's ``considered``, the points it merges or tests; against the
+70-74k valid pixels of a crates frame, the map's density in view), the frame's stages (depth frame, prediction,
 ICP, fusion, scoring; ms), of which the two that read the map (the splat and fusion), and those
 two without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
 visited + c · map`` (the map's size before the frame): ``c`` is the cost of the map's size at a
 given view (ms per 100k points), ``b`` the cost of what is in view. Without the index ``visited``
-is the whole map, so there the fit has one slope (``c`` is not printed).
+is the whole map, so there the fit has one slope (``c`` is not printed). Last, the loop's accuracy:
+ATE over every frame, ICP failures and the final map's error (the baseline a change to the map's
+density is judged against).
 
 Usage: python benchmarks/dense_flat.py [--frames 500] [--band 100] [--scene crates]
 """
@@ -50,7 +54,9 @@ from assocbench.associators.registry import make_dense_associator  # noqa: E402
 from assocbench.errors import UserError  # noqa: E402
 from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
 from assocbench.harness.runner import GuardedCalls  # noqa: E402
+from assocbench.scoring.trajectory import ate_rmse  # noqa: E402
 from assocbench.tracks.dense.run import dense_records  # noqa: E402
+from assocbench.tracks.dense.summary import poses  # noqa: E402
 from assocbench.tracks.dense.track import gate_params  # noqa: E402
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
@@ -108,7 +114,8 @@ def fit_line(label: str, what: str, rec: pd.DataFrame, column: str) -> str:
 
 
 def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, whole: pd.DataFrame) -> list[list]:
-    """One row per band of path frames: out and back, map size, visited, ms with and without the index."""
+    """One row per band of path frames: out and back, map size, visited, on a pixel, ms with and
+    without the index."""
     leg = np.where(np.arange(len(order)) < frames, "out", "back")
     rows = []
     for lo in range(0, frames, band):
@@ -117,9 +124,22 @@ def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, who
             pick = (order >= lo) & (order < lo + band) & (leg == name) & (np.arange(len(order)) > 0)
             a, b = ours[pick], whole[pick]
             cells += [f"{a['map_points'].median() / 1000:.0f}k", f"{a['predict_visited'].median() / 1000:.0f}k",
+                      f"{a['fusion_considered'].median() / 1000:.0f}k",
                       a["stages_ms"].median(), a["map_ms"].median(), b["map_ms"].median()]
         rows.append(cells)
     return rows
+
+
+def accuracy_line(rec: pd.DataFrame) -> str:
+    """The loop's accuracy, the baseline a change to the map's density is judged against: ATE over
+    every frame (frame 0 given; a failed frame's held pose counted), ICP failures, and the map's
+    error to the true surfaces at the end (mm)."""
+    _, p_true = poses(rec, "true_")
+    _, p_est = poses(rec, "est_")
+    last = rec.iloc[-1]
+    return (f"accuracy with the index: ATE {1000 * ate_rmse(p_true, p_est):.2f} mm over {len(rec)} frames, "
+            f"{int(rec['icp_failed'].sum())} ICP failures, the map {int(last['map_points']):,} points, "
+            f"{last['map_median_mm']:.2f} / {last['map_p95_mm']:.2f} mm (median / p95) off the true surfaces")
 
 
 def main() -> None:
@@ -152,9 +172,10 @@ def measure(args: argparse.Namespace) -> None:
     print(f"{len(seq)} frames ({args.frames} out, {args.frames - 1} back): the loop took {ours_s:.1f} s with the "
           f"index, {whole_s:.1f} s without; the same poses, pairs and map sizes: {same}; ICP failures "
           f"{int(ours['icp_failed'].sum())}")
-    print_table(["path frames", "out: map (points)", "visited", "stages (ms)", "splat + fusion (ms)", "no index (ms)",
-                 "back: map (points)", "visited", "stages (ms)", "splat + fusion (ms)", "no index (ms)"],
-                band_rows(order, args.frames, args.band, ours, whole))
+    print_table(["path frames", "out: map (points)", "visited", "on a pixel", "stages (ms)", "splat + fusion (ms)",
+                 "no index (ms)", "back: map (points)", "visited", "on a pixel", "stages (ms)", "splat + fusion (ms)",
+                 "no index (ms)"], band_rows(order, args.frames, args.band, ours, whole))
+    print(accuracy_line(ours))
     for label, rec in (("with the index", ours), ("without the index (baseline)", whole)):
         for column, what in (("stages_ms", "stages"), ("map_ms", "splat + fusion")):
             print(fit_line(label, what, rec, column))

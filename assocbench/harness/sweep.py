@@ -24,7 +24,6 @@ from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
-# per-frame columns a leaderboard keeps (for its plots and the frames file), where a track's records have them
 # the per-frame columns a leaderboard keeps (its frames table and pictures); ``icp_reason`` tells the
 # dense picture a frame whose method raised from one whose ICP failed (both ``icp_failed``)
 FRAME_COLUMNS = ("n", "m", "runtime_s", "pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "est_z",

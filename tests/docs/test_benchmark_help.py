@@ -69,6 +69,9 @@ def test_dense_flat_drives_a_short_path_out_and_back(tmp_path):
     rows = [line.split()[0] for line in out.stdout.splitlines() if line.strip().startswith(("0-1", "2-3"))]
     assert rows == ["0-1", "2-3"]
     assert out.stdout.count("fit with the index") == 2 and out.stdout.count("fit without the index") == 2
+    assert "on a pixel" in out.stdout
+    accuracy = [line for line in out.stdout.splitlines() if line.startswith("accuracy with the index: ATE ")]
+    assert len(accuracy) == 1 and "over 7 frames" in accuracy[0] and "(median / p95) off the true surfaces" in accuracy[0]
 
 
 @pytest.mark.parametrize("frames", [2, 60, 501])

@@ -145,7 +145,8 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
             start = time.perf_counter()
             stats = fuse(pmap, frame, R_fuse, t_fuse, k, fusion, dense.index)
             record |= {"fusion_s": time.perf_counter() - start, "merged": stats.merged, "added": stats.added,
-                       "removed": stats.removed, "fusion_visited": stats.scanned}
+                       "removed": stats.removed, "fusion_visited": stats.scanned,
+                       "fusion_considered": stats.considered}
         record["map_points"] = len(pmap)
         if dense.tracking != "truth":
             R_est, t_est = R_k, t_k
