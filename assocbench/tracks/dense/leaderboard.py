@@ -56,7 +56,9 @@ first iteration, from the previous pose; *ICP failures*: frames whose ICP report
 frame not fused; a frame whose method raised or hung is a failed frame, which makes the run not ok, instead); *wrong steps*: steps ICP accepted more than 20 mm off the true step (a silent failure only
 the truth reveals); both are results of the method, not untrusted runs; *ATE*: RMSE of the positions, no alignment; *step error*: RMS relative pose error of
 one frame's step; *compression*: map points / (frames × pixels of the downsampled input), the homework's 8.87 %
-definition; *map error*: distance of the map's points to the true surfaces.
+definition; *map error*: distance of the map's points to the true surfaces; *ICP ms*: median over the
+frames whose method call did not fail. The picture (`leaderboard_map.png`) shows each scenario × method
+at its lowest seed: its marks need not match a mean over seeds.
 """
 
 

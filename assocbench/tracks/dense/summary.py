@@ -102,7 +102,9 @@ def summarize_dense(frames: pd.DataFrame) -> dict:
     R_true, p_true = poses(frames, "true_")
     R_est, p_est = poses(frames, "est_")
     tracked = frames[frames["frame"] > 0]
-    ms = lambda col: 1000 * float(frames[col].dropna().median()) if col in frames and frames[col].notna().any() \
+    # a failed method call's time (it raised at once, or hung until killed) is not ICP's: left out
+    called = frames[frames["error"].fillna("") == ""] if "error" in frames else frames
+    ms = lambda col: 1000 * float(called[col].dropna().median()) if col in called and called[col].notna().any() \
         else float("nan")  # noqa: E731
     seconds = frames[[c for c in METHOD_SECONDS if c in frames]].fillna(0).to_numpy().sum()
     return {

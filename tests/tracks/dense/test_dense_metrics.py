@@ -101,6 +101,24 @@ def test_a_frame_whose_method_raised_is_a_failure_not_an_icp_failure():
     assert icp_failures(frames) == 2 and dense_status(frames) == "ok"
 
 
+def test_icp_ms_leaves_out_the_frames_whose_method_call_failed():
+    """A method that raises at once (or hangs until killed) spends no ICP time worth a median: such a
+    run's ICP ms must not read fast (or slow) because of its failed calls."""
+    import pandas as pd
+
+    from assocbench.tracks.dense.summary import METHOD_FAILED, summarize_dense
+    n = 6
+    pose = {f"{p}{c}": 0.0 for p in ("true_", "est_") for c in ("x", "y", "z", "qx", "qy", "qz")}
+    frames = pd.DataFrame({"frame": range(n), "icp_failed": [False, False, True, True, True, False],
+                           "icp_reason": ["first frame", "converged", METHOD_FAILED, METHOD_FAILED, METHOD_FAILED,
+                                          "converged"],
+                           "error": ["", "", "ValueError: boom", "ValueError: boom", "ValueError: boom", ""],
+                           "icp_s": [np.nan, 0.012, 1e-5, 1e-5, 1e-5, 0.014], "fusion_s": 0.01, "map_points": 100,
+                           **pose, "true_qw": 1.0, "est_qw": 1.0})
+    row = summarize_dense(frames)
+    assert row["icp_ms"] == pytest.approx(13.0) and row["failures"] == 3 and row["icp_failures"] == 0
+
+
 def test_compiled_truth_equals_its_numpy_definition():
     """``true_pairs`` and ``has_partner`` (compiled) against the definitions written in numpy, on a
     frame of two geoms with noisy source truth, NaN truth and points outside the view."""
