@@ -479,7 +479,8 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
         res = _result(TR, Tt, pairs, None, f"too few pairs: {len(pairs)} < min_pairs {cfg.min_pairs} at the initial "
                       f"guess ({pairs.considered} source points considered)")
         return replace(res, associate_s=clock.seconds)
-    gate = getattr(associator, "gate_coefficients", (0.0, 0.0, 0.0))
+    coefficients = getattr(associator, "gate_coefficients", None)   # a duck-typed method may not say
+    gate = (0.0, 0.0, 0.0) if coefficients is None else coefficients
     cur, first = _Linearised.at(given[0], shown, pairs, TR, Tt, gate), pairs
 
     def linearised_at(delta: np.ndarray) -> _Linearised:
@@ -526,8 +527,7 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
         res = _result(cur.TR, cur.Tt, cur.pairs, first, f"no convergence in {cfg.max_iterations} iterations "
                       f"(last update {step_deg:.3g} deg, {step_m:.3g} m)", cur, it)
         return replace(res, associate_s=clock.seconds)
-    rho = direction_share(*given, cur.pairs, shown, cur.TR, cur.Tt,
-                          getattr(associator, "gate_coefficients", None))   # hidden as the association judges
+    rho = direction_share(*given, cur.pairs, shown, cur.TR, cur.Tt, coefficients)   # hidden as the association judges
     res = _result(cur.TR, cur.Tt, cur.pairs, first, _judged(cur, cfg, R0, t0, rho), cur, it, converged=True)
     return replace(res, associate_s=clock.seconds, direction_share=rho)
 
