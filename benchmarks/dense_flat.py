@@ -83,6 +83,10 @@ def records(seq, scene: str, frames: int, extra: list[str]) -> pd.DataFrame:
     calls = GuardedCalls(time_limit_s=math.inf, faults={}, on_call=lambda k, limit: None)
     rows = list(dense_records(seq, spec, calls, lambda: make_dense_associator("projective", **gate_params(spec))))
     out = pd.DataFrame(rows)
+    failed = out[out["error"].fillna("") != ""] if "error" in out else out.iloc[:0]
+    if len(failed):   # held poses and a failed call's time would read as ICP failures and as the loop's cost
+        raise SystemExit(f"dense_flat.py: the method failed on {len(failed)} of {len(out)} frames (first, frame "
+                         f"{int(failed['frame'].iloc[0])}: {failed['error'].iloc[0]}): the loop was not measured")
     out["stages_ms"] = 1000 * out[list(STAGES)].fillna(0).sum(axis=1)
     out["map_ms"] = 1000 * out[["predict_s", "fusion_s"]].fillna(0).sum(axis=1)   # the stages that read the map
     return out

@@ -113,3 +113,20 @@ def test_dense_flat_fit_recovers_the_slopes_and_gives_one_where_visited_is_the_m
     a, b, c, sd = dense_flat.fit(rec, "ms")
     assert c is None and abs(a - 2.0) < 1e-9 and abs(b - 4.8) < 1e-9
     assert "4.80 ms per 100k map points (visited = the whole map)" in dense_flat.fit_line("x", "y", rec, "ms")
+
+
+def test_dense_flat_refuses_a_loop_whose_method_failed(monkeypatch):
+    """A frame whose method call failed (its pose held, ``error`` set) was counted among the ICP
+    failures and its call's time among the loop's cost: the script ends (exit 1) naming the error."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_flat
+
+    def records(seq, spec, calls, build):
+        stages = {name: 0.001 for name in dense_flat.STAGES}
+        yield {"frame": 0, "error": "", **stages}
+        yield {"frame": 1, "error": "RuntimeError: boom", **stages}
+
+    monkeypatch.setattr(dense_flat, "dense_records", records)
+    with pytest.raises(SystemExit, match=r"failed on 1 of 2 frames \(first, frame 1: RuntimeError: boom\)"):
+        dense_flat.records(None, "crates", 3, [])
