@@ -110,11 +110,16 @@ def fit_line(label: str, what: str, rec: pd.DataFrame, column: str) -> str:
     """One fit as a sentence with its units and the ranges it was fitted over (a short run's
     narrow range gives slopes that mean nothing: read the residual beside them)."""
     a, b, c, sd = fit(rec, column)
+    fitted, unknowns = len(rec) - 1, 2 if c is None else 3
+    if fitted <= unknowns:   # the line passes through every point: residual 0.00, slopes meaningless
+        return (f"fit {label}, {what}: not fitted, {fitted} frames after the first for {unknowns} unknowns "
+                f"(more --frames)")
     span = (f"over {rec['predict_visited'].iloc[1:].min() / 1000:.0f}k-{rec['predict_visited'].max() / 1000:.0f}k "
             f"visited, map {rec['map_points'].min() / 1000:.0f}k-{rec['map_points'].max() / 1000:.0f}k")
-    slopes = (f"{b:.2f} ms per 100k map points (visited = the whole map)" if c is None else
-              f"{b:.2f} ms per 100k points visited + {c:.2f} ms per 100k map points")
-    return f"fit {label}, {what}: ms = {a:.1f} + {slopes}; residual sd {sd:.2f} ms, {span}"
+    term = lambda v: f"{'+' if v >= 0 else '−'} {abs(v):.2f}"  # noqa: E731 - "+ -0.5" read badly
+    slopes = (f"{term(b)} ms per 100k map points (visited = the whole map)" if c is None else
+              f"{term(b)} ms per 100k points visited {term(c)} ms per 100k map points")
+    return f"fit {label}, {what}: ms = {a:.1f} {slopes}; residual sd {sd:.2f} ms, {span}"
 
 
 def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, whole: pd.DataFrame) -> list[list]:
