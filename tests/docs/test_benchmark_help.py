@@ -113,3 +113,40 @@ def test_dense_flat_fit_recovers_the_slopes_and_gives_one_where_visited_is_the_m
     a, b, c, sd = dense_flat.fit(rec, "ms")
     assert c is None and abs(a - 2.0) < 1e-9 and abs(b - 4.8) < 1e-9
     assert "4.80 ms per 100k map points (visited = the whole map)" in dense_flat.fit_line("x", "y", rec, "ms")
+
+
+def test_dense_flat_refuses_a_loop_whose_method_failed(monkeypatch):
+    """A frame whose method call failed (its pose held, ``error`` set) was counted among the ICP
+    failures and its call's time among the loop's cost: the script ends (exit 1) naming the error."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_flat
+
+    def records(seq, spec, calls, build):
+        stages = {name: 0.001 for name in dense_flat.STAGES}
+        yield {"frame": 0, "error": "", **stages}
+        yield {"frame": 1, "error": "RuntimeError: boom", **stages}
+
+    monkeypatch.setattr(dense_flat, "dense_records", records)
+    with pytest.raises(SystemExit, match=r"failed on 1 of 2 frames \(first, frame 1: RuntimeError: boom\)"):
+        dense_flat.records(None, "crates", 3, [])
+
+
+def test_dense_flat_does_not_fit_a_line_through_too_few_frames(monkeypatch):
+    """``--frames 2`` (3 loop frames) fitted 2 frames with 3 unknowns (2 without the index): the
+    line passed through every point and printed ``residual sd 0.00 ms``, a perfect fit of
+    meaningless slopes (``ms = 183.6 + -173.58 ms per 100k points visited + -176.06 ...``)."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_flat
+    import pandas as pd
+
+    rec = pd.DataFrame({"map_points": [45_000, 47_000, 47_100], "predict_visited": [0, 39_000, 45_000],
+                        "ms": [20.0, 46.9, 24.7]})
+    line = dense_flat.fit_line("with the index", "stages", rec, "ms")
+    assert "not fitted, 2 frames after the first for 3 unknowns" in line and "residual" not in line
+    rec["predict_visited"] = [0, 45_000, 47_000]   # visited = the map before: one slope, 2 unknowns
+    assert "not fitted, 2 frames after the first for 2 unknowns" in dense_flat.fit_line("x", "y", rec, "ms")
+    rec = pd.concat([rec, pd.DataFrame({"map_points": [47_200], "predict_visited": [47_100], "ms": [30.0]})])
+    line = dense_flat.fit_line("x", "y", rec.reset_index(drop=True), "ms")
+    assert "residual sd" in line and "+ -" not in line

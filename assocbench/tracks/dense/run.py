@@ -107,6 +107,12 @@ def unmeasured_records(seq: DenseSequence, first: int, error: str) -> Iterator[d
                **pose_columns("est_", seq.rotations[0], seq.positions[0])}
 
 
+def fusion_columns(stats) -> dict:
+    """A fused frame's fusion columns of its record (``fuse``'s stats); a frame not fused has none."""
+    return {"merged": stats.merged, "added": stats.added, "removed": stats.removed, "fusion_visited": stats.scanned,
+            "fusion_considered": stats.considered}
+
+
 def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: int = 0,
                   artifacts: Path | None = None) -> Iterator[dict]:
     """Per-frame records of ``spec`` (a ``RunSpec`` of the dense track) from frame ``first`` on.
@@ -121,9 +127,11 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
     pmap, splatter = PointMap(), Splatter(seq.K, fusion.d_thr)   # the band: fusion's same surface
     R_est, t_est = seq.rotations[0].copy(), seq.positions[0].copy()
     start = time.perf_counter()
-    fuse(pmap, frame, R_est, t_est, 0, fusion)
+    stats = fuse(pmap, frame, R_est, t_est, 0, fusion)
+    # frame 0 is fused (into the empty map) as every tracked frame is: its fusion columns are filled
+    # too, since an empty one reads as a frame not fused
     record = {"frame": 0, "icp_converged": True, "icp_failed": False, "icp_reason": "first frame (given pose)",
-              "fusion_s": time.perf_counter() - start, "map_points": len(pmap), "error": "",
+              "fusion_s": time.perf_counter() - start, **fusion_columns(stats), "map_points": len(pmap), "error": "",
               **pose_columns("true_", seq.rotations[0], seq.positions[0]), **pose_columns("est_", R_est, t_est)}
     previous = frame
     for k in range(1, len(seq)):
@@ -144,9 +152,7 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
             R_fuse, t_fuse = (seq.rotations[k], seq.positions[k]) if dense.tracking == "truth" else (R_k, t_k)
             start = time.perf_counter()
             stats = fuse(pmap, frame, R_fuse, t_fuse, k, fusion, dense.index)
-            record |= {"fusion_s": time.perf_counter() - start, "merged": stats.merged, "added": stats.added,
-                       "removed": stats.removed, "fusion_visited": stats.scanned,
-                       "fusion_considered": stats.considered}
+            record |= {"fusion_s": time.perf_counter() - start, **fusion_columns(stats)}
         record["map_points"] = len(pmap)
         if dense.tracking != "truth":
             R_est, t_est = R_k, t_k

@@ -91,7 +91,8 @@ def _last(frames: pd.DataFrame, col: str) -> float:
 
 
 # the method's work a frame, the time ``fps`` divides by: the model's prediction (the splat into
-# the view), ICP and fusion; the sensor's simulation (the depth frame) and the scoring are not the method's
+# the view), ICP and fusion; the sensor's simulation (the depth frame) and the scoring are not the method's.
+# Over the frames whose method call did not fail, as ``icp_ms``: NaN when no tracked frame's did
 METHOD_SECONDS = ("predict_s", "icp_s", "fusion_s")
 
 
@@ -106,7 +107,8 @@ def summarize_dense(frames: pd.DataFrame) -> dict:
     called = frames[frames["error"].fillna("") == ""] if "error" in frames else frames
     ms = lambda col: 1000 * float(called[col].dropna().median()) if col in called and called[col].notna().any() \
         else float("nan")  # noqa: E731
-    seconds = frames[[c for c in METHOD_SECONDS if c in frames]].fillna(0).to_numpy().sum()
+    seconds = called[[c for c in METHOD_SECONDS if c in called]].fillna(0).to_numpy().sum()
+    measured = seconds > 0 and (called["frame"] > 0).any()
     return {
         "frames": len(frames), "status": dense_status(frames),
         "failures": int((frames["error"] != "").sum()) if "error" in frames else 0,
@@ -120,5 +122,5 @@ def summarize_dense(frames: pd.DataFrame) -> dict:
         "map_points": int(frames["map_points"].iloc[-1]), "compression_pct": _last(frames, "compression_pct"),
         "map_median_mm": _last(frames, "map_median_mm"), "map_p95_mm": _last(frames, "map_p95_mm"),
         "icp_ms": ms("icp_s"), "fusion_ms": ms("fusion_s"),
-        "fps": len(frames) / seconds if seconds > 0 else float("nan"),
+        "fps": len(called) / seconds if measured else float("nan"),
     }

@@ -192,6 +192,29 @@ def test_frame_to_frame_after_a_lost_frame_registers_to_the_last_tracked_frame()
     assert recs[3]["source_points"] == valid[1] and recs[4]["source_points"] == int(seq.frame(3).valid.sum())
 
 
+def test_fusion_columns_are_empty_exactly_on_the_frames_not_fused():
+    """``frames.csv``'s fusion columns (``fusion_considered``: map points on a valid pixel) are empty
+    on a frame not fused (its ICP or its method failed) and only there: frame 0, fused into the
+    empty map, had them empty too, so it read as a frame not fused (the cold check found)."""
+    from assocbench.associators.registry import make_dense_associator
+    from assocbench.harness.config import load_run_config, run_spec
+    from assocbench.harness.runner import GuardedCalls
+    from assocbench.tracks.dense.run import dense_records
+    from assocbench.tracks.dense.sequence import load_dense_sequence
+
+    cfg = load_run_config(None, ["resolution=[320,240]", "depth.downsample=1"], method="projective",
+                          scene="crates", frames=4)
+    spec = run_spec(cfg)
+    seq = load_dense_sequence(spec.sequence)
+    calls = GuardedCalls(spec.time_limit_s, {2: ("failed on purpose", 0.0)}, lambda k, limit: None)
+    recs = pd.DataFrame(list(dense_records(seq, spec, calls, lambda: make_dense_associator("projective"))))
+    fused = ~recs["icp_failed"].astype(bool)
+    assert fused.tolist() == [True, True, False, True]
+    assert recs.loc[fused, "fusion_considered"].notna().all() and recs.loc[~fused, "fusion_considered"].isna().all()
+    first = recs.iloc[0]
+    assert first["fusion_considered"] == 0 and first["merged"] == 0 and first["added"] == first["map_points"] > 0
+    assert recs.loc[1, "fusion_considered"] > 0
+
 def test_the_run_end_picture_and_map_file_do_not_depend_on_the_rows_spatial_order(tmp_path):
     """The leaderboard's subsample (``final_map``) and ``map.npz`` list the points in the order
     they were added: a map sorted after every frame and one never sorted give the same bytes."""
