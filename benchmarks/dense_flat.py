@@ -1,4 +1,4 @@
-"""Is the dense track's per-frame cost flat as the map grows? The crates path driven there and back.
+"""Is the dense track's per-frame cost flat as the map grows? A scene's dense path driven there and back.
 
 A run's per-frame cost rises along the 500-frame crates path (27 -> 34 ms a frame in
 ``dense_rate.py``), and the map grows 2.7x (67k -> 184k points) over it, so the two are easy to
@@ -9,7 +9,9 @@ and a cost that follows the view would not.
 
 What it runs. The dense track's own frame loop (``tracks.dense.run.dense_records``, what
 ``assocbench run --method projective --scene crates`` runs in its worker: depth frame, the model
-splatted into the view, ICP frame-to-model, fusion, scoring) on the crates circle at 320x240 with
+splatted into the view, ICP frame-to-model, fusion, scoring) on the scene's own dense path at the
+default path's speed (``dense_rate.path_settings``: the crates circle, 0.175 turns over 500 frames;
+the bays line, 11.25 m of the corridor, its map growing behind the camera) at 320x240 with
 ``depth.downsample=1``, one core, on a sequence whose frames are the path's frames in the order
 out-and-back; frame k of it draws its own noise (``default_rng([seed, k, 17])``), so the way back
 is a second pass of the sensor over the same poses, not a replay. Rendering is not timed (the
@@ -23,7 +25,8 @@ the points in the blocks meeting the view frustum), the map points that landed o
 at fusion (``on a pixel``: fusion's ``considered``, the points it merges or tests; against the
 70-74k valid pixels of a crates frame, the map's density in view), the frame's stages (depth frame, prediction,
 ICP, fusion, scoring; ms), of which the two that read the map (the splat and fusion), and those
-two without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
+two without the index. A line then answers the question: on the way out, from the first band to
+the last, the map's growth and the frame's cost with and without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
 visited + c · map`` (the map's size before the frame): ``c`` is the cost of the map's size at a
 given view (ms per 100k points), ``b`` the cost of what is in view. Without the index ``visited``
 is the whole map, so there the fit has one slope (``c`` is not printed). Last, the loop's accuracy:
@@ -139,6 +142,23 @@ def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, who
     return rows
 
 
+def growth_line(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, whole: pd.DataFrame) -> str:
+    """The question the script asks, in one line: on the way out, from the first band of the path to
+    its last (medians, frame 0 left out; frames >= 2 puts frame 1 in both), how much the map grew and
+    how much a frame's cost did, with the index and without it (the baseline whose cost follows the
+    map)."""
+    out = (np.arange(len(order)) < frames) & (np.arange(len(order)) > 0)
+    first, last = out & (order < min(band, frames)), out & (order >= max(frames - band, 1))
+    med = lambda rec, pick, col: float(rec.loc[pick, col].median())  # noqa: E731
+    grow = lambda rec, col: (f"{med(rec, first, col):.1f} -> {med(rec, last, col):.1f} ms "  # noqa: E731
+                             f"({100 * (med(rec, last, col) / med(rec, first, col) - 1):+.0f} %)")
+    m0, m1 = med(ours, first, "map_points"), med(ours, last, "map_points")
+    return (f"growth on the way out, first -> last band (medians): the map {m0 / 1000:.0f}k -> {m1 / 1000:.0f}k "
+            f"points (x{m1 / m0:.1f}); with the index, stages {grow(ours, 'stages_ms')}, splat + fusion "
+            f"{grow(ours, 'map_ms')}; without it, stages {grow(whole, 'stages_ms')}, splat + fusion "
+            f"{grow(whole, 'map_ms')}")
+
+
 def accuracy_line(rec: pd.DataFrame) -> str:
     """The loop's accuracy, the baseline a change to the map's density is judged against: ATE over
     every frame (frame 0 given; a failed frame's held pose counted), ICP failures, and the map's
@@ -169,8 +189,8 @@ def main() -> None:
 
 def measure(args: argparse.Namespace) -> None:
     """Both loops over the path out and back, the table and the fits."""
+    seq, order = there_and_back(render_once(args.scene, args.frames), args.frames)   # a bad --scene fails here
     print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
-    seq, order = there_and_back(render_once(args.scene, args.frames), args.frames)
     warm_dense()
     start = time.perf_counter()
     ours = records(seq, args.scene, args.frames, [])
@@ -186,6 +206,7 @@ def measure(args: argparse.Namespace) -> None:
     print_table(["path frames", "out: map (points)", "visited", "on a pixel", "stages (ms)", "splat + fusion (ms)",
                  "no index (ms)", "back: map (points)", "visited", "on a pixel", "stages (ms)", "splat + fusion (ms)",
                  "no index (ms)"], band_rows(order, args.frames, args.band, ours, whole))
+    print(growth_line(order, args.frames, args.band, ours, whole))
     print(accuracy_line(ours))
     for label, rec in (("with the index", ours), ("without the index (baseline)", whole)):
         for column, what in (("stages_ms", "stages"), ("map_ms", "splat + fusion")):

@@ -8,8 +8,10 @@ map's density in view grows with every new viewpoint; the default keeps one poin
 and the projection of every map point in every ICP iteration (``dense.prediction=map``).
 
 What it runs. ``assocbench run --method projective --scene crates --frames N`` with
-``resolution=[320,240]``, ``depth.downsample=1`` and the crates circle laid out so that the camera
-moves as far a frame as on the default 200-frame path whatever N (``turns = 0.07 · max(N, 200) / 200``),
+``resolution=[320,240]``, ``depth.downsample=1`` and the scene's own path (the crates circle; the
+bays line with ``--scene bays``) laid out so that the camera moves as far a frame as on the default
+200-frame path whatever N (``turns = 0.07 · max(N, 200) / 200``; bays ``length = 4.5 m · max(N, 200)
+/ 200``, which reaches the corridor's far end past about 600 frames),
 its sequence cached beforehand (rendering is not timed: a cached run is the case stated). The
 command runs in this process (``cli.main.main``), after one untimed warm-up run, so the numbers
 exclude Python's start and numba's compilation but include everything else the command does:
@@ -58,7 +60,7 @@ from _util import print_table  # noqa: E402
 from assocbench.cli.main import main as cli  # noqa: E402
 from assocbench.harness.config import load_run_config  # noqa: E402
 from assocbench.tracks.dense.depth_smoothing import depth_gate, edge_aware_smoothed  # noqa: E402
-from assocbench.tracks.dense.sequence import load_dense_sequence  # noqa: E402
+from assocbench.tracks.dense.sequence import DENSE_PATHS, PATH_FRAMES, load_dense_sequence  # noqa: E402
 from assocbench.tracks.dense.spec import dense_sequence_spec  # noqa: E402
 
 STAGES = (("depth frame", "frame_s"), ("prediction", "predict_s"), ("association", "associate_s"),
@@ -71,11 +73,25 @@ SOURCES = (("view", ["dense.prediction=view"]), ("view, no index (baseline)", ["
            ("map (baseline)", ["dense.prediction=map"]))
 
 
+def path_settings(scene: str, path: int) -> list[str]:
+    """The scene's own dense path (``sequence.DENSE_PATHS``: the crates circle, the bays line) laid
+    out over ``path`` frames at the default 200-frame path's speed a frame: its ``turns`` or
+    ``length`` scaled by path / 200 (crates 0.07 turns, bays 4.5 m at 200 frames: 0.175 turns and
+    11.25 m at 500). A scene without one keeps the run's own path."""
+    if scene not in DENSE_PATHS:
+        return []
+    name, params = DENSE_PATHS[scene]
+    scaled = [f"trajectory_params.{key}={value * path / PATH_FRAMES:.6g}" for key, value in params.items()
+              if key in ("turns", "length")]
+    return [f"trajectory={name}", *scaled]
+
+
 def settings(scene: str, frames: int, source: list[str]) -> list[str]:
-    """The command's ``--set`` options: 320x240, the default path's speed a frame, the source's."""
-    path = max(frames, 200)
+    """The command's ``--set`` options: 320x240, the scene's path at the default path's speed a
+    frame (``path_settings``), the source's."""
+    path = max(frames, PATH_FRAMES)
     sets = ["resolution=[320,240]", "depth.downsample=1", f"dense.path_frames={path}", f"limits.frames={max(path, 1000)}",
-            "trajectory=circle", f"trajectory_params.turns={0.07 * path / 200:.6g}", *source]
+            *path_settings(scene, path), *source]
     return [a for s in sets for a in ("--set", s)]
 
 
