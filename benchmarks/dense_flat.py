@@ -143,19 +143,25 @@ def band_rows(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, who
 
 
 def growth_line(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, whole: pd.DataFrame) -> str:
-    """The question the script asks, in one line: on the way out, from the first band of the path to
-    its last (medians, frame 0 left out; frames >= 2 puts frame 1 in both), how much the map grew and
-    how much a frame's cost did, with the index and without it (the baseline whose cost follows the
-    map)."""
+    """The question the script asks, in one line: on the way out, from the first band of the path
+    (frames 1 .. max(band, 2) - 1, frame 0 left out: it fuses the first map and tracks nothing) to
+    its last (frames N - band .. N - 1), medians, how much the map grew and how much a frame's cost
+    did, with the index and without it (the baseline whose cost follows the map). Bands that share
+    a frame (``2 · band > N``, or N = 2) measure no growth: the line says so, not "x1.0, +0 %"."""
+    lo, hi = max(band, 2) - 1, max(frames - band, 1)
+    if lo >= hi:
+        hint = "more --frames" if frames < 3 else f"--band at most {frames // 2}"
+        return (f"growth on the way out: not measured, the first and last bands of {band} path frames share "
+                f"frames of the {frames} ({hint})")
     out = (np.arange(len(order)) < frames) & (np.arange(len(order)) > 0)
-    first, last = out & (order < min(band, frames)), out & (order >= max(frames - band, 1))
+    first, last = out & (order <= lo), out & (order >= hi)
     med = lambda rec, pick, col: float(rec.loc[pick, col].median())  # noqa: E731
     grow = lambda rec, col: (f"{med(rec, first, col):.1f} -> {med(rec, last, col):.1f} ms "  # noqa: E731
                              f"({100 * (med(rec, last, col) / med(rec, first, col) - 1):+.0f} %)")
     m0, m1 = med(ours, first, "map_points"), med(ours, last, "map_points")
-    return (f"growth on the way out, first -> last band (medians): the map {m0 / 1000:.0f}k -> {m1 / 1000:.0f}k "
-            f"points (x{m1 / m0:.1f}); with the index, stages {grow(ours, 'stages_ms')}, splat + fusion "
-            f"{grow(ours, 'map_ms')}; without it, stages {grow(whole, 'stages_ms')}, splat + fusion "
+    return (f"growth on the way out, path frames 1-{lo} -> {hi}-{frames - 1} (medians): the map {m0 / 1000:.0f}k -> "
+            f"{m1 / 1000:.0f}k points (x{m1 / m0:.1f}); with the index, stages {grow(ours, 'stages_ms')}, splat + "
+            f"fusion {grow(ours, 'map_ms')}; without it, stages {grow(whole, 'stages_ms')}, splat + fusion "
             f"{grow(whole, 'map_ms')}")
 
 

@@ -11,7 +11,7 @@ What it runs. ``assocbench run --method projective --scene crates --frames N`` w
 ``resolution=[320,240]``, ``depth.downsample=1`` and the scene's own path (the crates circle; the
 bays line with ``--scene bays``) laid out so that the camera moves as far a frame as on the default
 200-frame path whatever N (``turns = 0.07 · max(N, 200) / 200``; bays ``length = 4.5 m · max(N, 200)
-/ 200``, which reaches the corridor's far end past about 600 frames),
+/ 200``, which passes the last bays landmark at about 570 frames: a longer path is refused),
 its sequence cached beforehand (rendering is not timed: a cached run is the case stated). The
 command runs in this process (``cli.main.main``), after one untimed warm-up run, so the numbers
 exclude Python's start and numba's compilation but include everything else the command does:
@@ -58,9 +58,12 @@ import pandas as pd  # noqa: E402
 from _util import print_table  # noqa: E402
 
 from assocbench.cli.main import main as cli  # noqa: E402
+from assocbench.errors import UserError  # noqa: E402
 from assocbench.harness.config import load_run_config  # noqa: E402
+from assocbench.sim.scene import load_scene  # noqa: E402
+from assocbench.sim.trajectory import rig_for  # noqa: E402
 from assocbench.tracks.dense.depth_smoothing import depth_gate, edge_aware_smoothed  # noqa: E402
-from assocbench.tracks.dense.sequence import DENSE_PATHS, PATH_FRAMES, load_dense_sequence  # noqa: E402
+from assocbench.tracks.dense.sequence import DENSE_PATHS, PATH_FRAMES, DenseSequenceSpec, load_dense_sequence  # noqa: E402
 from assocbench.tracks.dense.spec import dense_sequence_spec  # noqa: E402
 
 STAGES = (("depth frame", "frame_s"), ("prediction", "predict_s"), ("association", "associate_s"),
@@ -95,11 +98,35 @@ def settings(scene: str, frames: int, source: list[str]) -> list[str]:
     return [a for s in sets for a in ("--set", s)]
 
 
+def sequence_spec(scene: str, frames: int) -> DenseSequenceSpec:
+    """The run's depth sequence, checked before anything renders: a bad ``--scene`` or a path that
+    leaves the scene's landmarks (``check_inside``) is a ``UserError``."""
+    sets = settings(scene, frames, [])[1::2]
+    spec = dense_sequence_spec(load_run_config(None, sets, method="projective", scene=scene, frames=frames))
+    check_inside(spec)
+    return spec
+
+
+def check_inside(spec: DenseSequenceSpec) -> None:
+    """Refuse a stretched line (``path_settings``: bays and corridor) whose camera passes the scene's
+    last landmark along the rig's axis: the bays line, 4.5 m a 200 frames from x = 1.42 m, passes the
+    last bays landmark (x = 14.25 m) at about path frame 570 and reaches the end wall (15 m) near 604
+    (at 700 frames it ends at x = 17.2 m, through the wall)."""
+    if "length" not in DENSE_PATHS.get(spec.scene, ("", {}))[1]:
+        return
+    scene, cam = load_scene(spec.scene), spec.camera_path()
+    rig = rig_for(scene.landmarks, scene.normals, scene.fovy, cam.width / cam.height, scene.free_distance)
+    along, marks = cam.poses(scene)[1] @ rig.axis, scene.landmarks @ rig.axis
+    past = np.flatnonzero((along < marks.min()) | (along > marks.max()))
+    if len(past):
+        raise UserError(f"--frames {cam.frames}: the {spec.scene} line at the default path's speed passes the "
+                        f"scene's last landmark at path frame {past[0]} and would leave the scene; use --frames "
+                        f"at most {past[0] - 1}")
+
+
 def render_once(scene: str, frames: int) -> object:
     """Load (rendering and caching when absent) the run's depth sequence, untimed."""
-    sets = settings(scene, frames, [])[1::2]
-    cfg = load_run_config(None, sets, method="projective", scene=scene, frames=frames)
-    return load_dense_sequence(dense_sequence_spec(cfg))
+    return load_dense_sequence(sequence_spec(scene, frames))
 
 
 def run(scene: str, frames: int, source: list[str], out: Path) -> tuple[float, pd.DataFrame]:
@@ -154,6 +181,11 @@ def main() -> None:
     args = ap.parse_args()
     if min(args.frames) < 2:
         ap.error(f"--frames must be at least 2 (frame 1 is tracked from frame 0), got {min(args.frames)}")
+    try:   # a bad --scene, or a path leaving it, in one line before anything is printed or rendered
+        for n in args.frames:
+            sequence_spec(args.scene, n)
+    except UserError as exc:
+        ap.error(str(exc))
     print(f"load average {load()} on {os.cpu_count()} cores (the machine is shared: timings are noisy)")
     rows = []
     with tempfile.TemporaryDirectory() as tmp:

@@ -124,6 +124,51 @@ def test_dense_flat_growth_line_compares_the_first_and_last_band_of_the_way_out(
     assert "without it, stages 30.0 -> 45.0 ms (+50 %)" in line
 
 
+@pytest.mark.parametrize(("frames", "band", "said"), [
+    (40, 1000, "not measured"), (40, 30, "not measured"), (2, 1, "not measured"),
+    (40, 1, "path frames 1-1 -> 39-39 (medians): the map 101k -> 139k points (x1.4)"),
+    (40, 15, "path frames 1-14 -> 25-39 (medians)")])
+def test_dense_flat_growth_line_measures_only_bands_apart(frames, band, said, monkeypatch):
+    """``--band 1000 --frames 40`` compared a band with itself and printed 'the map x1.0, +0 %', a
+    flat cost that was never measured; ``--band 1`` left the first band empty (frame 0 is left out)
+    and printed 'nank -> ... (xnan)'. Bands that share a frame now say so; the line names its frames
+    (with --frames 40 --band 15 the last band is 25-39, not the table's last row, 30-39)."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_flat
+    import pandas as pd
+
+    order = np.r_[np.arange(frames), np.arange(frames - 2, -1, -1)]
+    rec = pd.DataFrame({"map_points": 100_000 + 1000.0 * np.arange(len(order)), "stages_ms": 30.0 + order,
+                        "map_ms": 10.0 + order})
+    line = dense_flat.growth_line(order, frames, band, rec, rec)
+    assert said in line and "nan" not in line and "x1.0" not in line
+
+
+def test_dense_rate_refuses_an_unknown_scene_in_one_line():
+    """``dense_rate.py --scene nosuch`` printed the load line, then a traceback, exit 1."""
+    out = subprocess.run([sys.executable, str(BENCHMARKS / "dense_rate.py"), "--scene", "nosuch", "--frames", "3"],
+                         capture_output=True, text=True, timeout=120)
+    assert out.returncode == 2 and "Traceback" not in out.stderr and out.stdout == ""
+    assert "scene 'nosuch' not found" in out.stderr.strip().splitlines()[-1]
+
+
+def test_dense_benchmarks_refuse_a_line_stretched_out_of_the_scene(monkeypatch):
+    """The bays line stretched to the default speed is 15.75 m at 700 frames: from x = 1.42 m it
+    passed the last landmark (14.25 m) near frame 570 and went through the end wall (15 m) near 604,
+    ending at x = 17.2 m. It is refused before anything renders."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    monkeypatch.setattr(os, "environ", os.environ.copy())
+    import dense_rate
+
+    from assocbench.errors import UserError
+
+    with pytest.raises(UserError, match=r"--frames 700: the bays line .* at path frame 569 .* at most 568$"):
+        dense_rate.sequence_spec("bays", 700)
+    assert dense_rate.sequence_spec("bays", 500).camera_path().trajectory_params == {"length": 11.25}
+    assert dense_rate.sequence_spec("crates", 2000).camera_path().trajectory_params == {"turns": 0.7}   # a circle stays
+
+
 def test_dense_flat_refuses_an_unknown_scene_in_one_line():
     out = subprocess.run([sys.executable, str(BENCHMARKS / "dense_flat.py"), "--scene", "nosuch", "--frames", "3"],
                          capture_output=True, text=True, timeout=120)
