@@ -156,8 +156,9 @@ def growth_line(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, w
     out = (np.arange(len(order)) < frames) & (np.arange(len(order)) > 0)
     first, last = out & (order <= lo), out & (order >= hi)
     med = lambda rec, pick, col: float(rec.loc[pick, col].median())  # noqa: E731
+    change = lambda v: f"{'+' if round(v) >= 0 else '−'}{abs(v):.0f} %"  # noqa: E731 - the fits' minus sign
     grow = lambda rec, col: (f"{med(rec, first, col):.1f} -> {med(rec, last, col):.1f} ms "  # noqa: E731
-                             f"({100 * (med(rec, last, col) / med(rec, first, col) - 1):+.0f} %)")
+                             f"({change(100 * (med(rec, last, col) / med(rec, first, col) - 1))})")
     m0, m1 = med(ours, first, "map_points"), med(ours, last, "map_points")
     return (f"growth on the way out, path frames 1-{lo} -> {hi}-{frames - 1} (medians): the map {m0 / 1000:.0f}k -> "
             f"{m1 / 1000:.0f}k points (x{m1 / m0:.1f}); with the index, stages {grow(ours, 'stages_ms')}, splat + "

@@ -122,6 +122,8 @@ def test_dense_flat_growth_line_compares_the_first_and_last_band_of_the_way_out(
     assert "the map 120k -> 190k points (x1.6)" in line
     assert "with the index, stages 30.0 -> 30.0 ms (+0 %), splat + fusion 10.0 -> 10.0 ms (+0 %)" in line
     assert "without it, stages 30.0 -> 45.0 ms (+50 %)" in line
+    whole["map_ms"] = np.where(out, 10.0 - 4.0 * (order >= 4), 20.0)
+    assert "splat + fusion 10.0 -> 6.0 ms (−40 %)" in dense_flat.growth_line(order, frames, 2, ours, whole)
 
 
 @pytest.mark.parametrize(("frames", "band", "said"), [
