@@ -77,10 +77,10 @@ from ...models.depth_frame import NO_GEOM, DepthFrame
 from ...validation import check_number, in_range, validate_fields
 from .map_order import CELL, SORT_SHARE, morton_keys, permute_rows, renumber_table
 from .voxel_table import (
-    EMPTY,
     cell_key,
     held_neighbour,
     keys_of,
+    new_table,
     table_build,
     table_delete,
     table_find,
@@ -90,7 +90,12 @@ from .voxel_table import (
 
 MIXED_GEOM = -2   # truth of a map point that fused pixels of different geoms
 BLOCK = 64        # points per block of the map's index: a fifth of a 320-pixel row, so a block's box is small
-NEVER = np.iinfo(np.int64).max   # ``oldest`` of a block without unstable points
+NEVER = np.iinfo(np.int64).max
+# a point's sums of one ``fuse`` call, one row of ``_fsum``: Σq, Σm, Σtruth (0-8), their count
+# (COUNT) and the call they belong to (CALL, exact in a float below 2^53). One row, not three
+# arrays: the cell pass adds samples to points at random rows, and each array was a cache miss
+# more (fusion 13.9 -> 12.9 ms a crates frame with the voxel table's slots packed too)
+SUM_COLUMNS, COUNT, CALL = 11, 9, 10   # ``oldest`` of a block without unstable points
 
 
 @dataclass(frozen=True)
@@ -176,7 +181,7 @@ class PointMap:
     # for a 200k-point map is as much as the fusion itself
     _BUFFERS = (("_pos", 3, np.float64), ("_nrm", 3, np.float64), ("_tp", 3, np.float64), ("_w", 0, np.float64),
                 ("_last", 0, np.int64), ("_geom", 0, np.int64), ("_remove", 0, np.int64), ("_key", 0, np.int64),
-                ("_fsum", 9, np.float64), ("_fcount", 0, np.int64), ("_fcall", 0, np.int64), ("_touched", 0, np.int64),
+                ("_fsum", SUM_COLUMNS, np.float64), ("_touched", 0, np.int64),
                 ("_born", 0, np.int64))
     # the fields a point carries (``sort_spatially`` moves them with it; the rest is per-call work space)
     _FIELDS = ("_pos", "_nrm", "_tp", "_w", "_last", "_geom", "_key", "_born")
@@ -185,9 +190,9 @@ class PointMap:
         self._n = 0
         self._used = np.zeros(0, dtype=np.bool_)
         self._stable = -np.inf   # the stable weight the blocks' ``oldest`` assumes (-inf: every point counted)
-        self._calls = 0           # ``fuse`` calls so far: ``_fcall`` says in which one a point's frame sums began
+        self._calls = 0           # ``fuse`` calls so far: ``_fsum[:, CALL]`` says in which one a point's frame sums began
         self._voxel = (0.0, 0.0)  # the cells (size, thickness) ``_key`` and the voxel table hold (0: none)
-        self._table_keys, self._table_rows, self._table_used = np.full(16, EMPTY, np.int64), np.zeros(16, np.int64), 0
+        (self._table_keys, self._table_rows), self._table_used = new_table(16), 0
         self._serial = 0          # the ``born`` serial of the next point added
         self._unsorted = 0        # rows added or moved since the last ``sort_spatially``
         self.sort_share: float | None = SORT_SHARE   # ``fuse`` sorts past this share of unsorted rows (None: never)
@@ -230,7 +235,7 @@ class PointMap:
             # that (a quarter full) made the add pass's probes miss the caches more: 16 MB of table at
             # 100k points, its pass 4.5-4.6 against 3.9-4.2 ms a crates frame
             size = 1 << max(4, int(2 * (self._n + extra)).bit_length())
-            self._table_keys, self._table_rows = np.empty(size, np.int64), np.zeros(size, np.int64)
+            self._table_keys, self._table_rows = new_table(size)
             self._table_used = table_build(self._table_keys, self._table_rows, self._key, self._n)
 
     def blocks_in_view(self, K, R: np.ndarray, t: np.ndarray) -> np.ndarray:
@@ -411,22 +416,22 @@ def pixel_of(pos, i, R, t, f, cx, cy, width, height):
 
 
 @njit(cache=True, inline="always")
-def _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j):
+def _take_sample(geom, fsum, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j):
     """Add the sample ``q``, ``m`` (world; truth ``TP[j]``, ``G[j]``) to map point ``i``'s sums of
-    the ``fuse`` call ``call`` (``fsum``: Σq, Σm, Σtruth; ``fcount``: how many); the call's first
+    the ``fuse`` call ``call`` (``fsum`` columns 0-8: Σq, Σm, Σtruth; ``COUNT``: how many); the call's first
     sample starts them and lists the point in ``touched[nt]``. ``_apply_samples`` merges them once
     the frame is read. Returns (the number of touched points, 1 when the point's truth turned
     ``MIXED_GEOM``)."""
     x = (q0, q1, q2, m0, m1, m2, TP[j, 0], TP[j, 1], TP[j, 2])
-    if fcall[i] != call:
+    if fsum[i, CALL] != call:
         for r in range(9):
             fsum[i, r] = x[r]
-        fcount[i], fcall[i], touched[nt] = 1, call, i
+        fsum[i, COUNT], fsum[i, CALL], touched[nt] = 1.0, call, i
         nt += 1
     else:
         for r in range(9):
             fsum[i, r] += x[r]
-        fcount[i] += 1
+        fsum[i, COUNT] += 1.0
     if geom[i] != G[j] and geom[i] >= 0:   # NO_GEOM stays; a first disagreement: MIXED_GEOM
         geom[i] = -2
         return nt, 1
@@ -434,9 +439,9 @@ def _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0
 
 
 @njit(cache=True)
-def _apply_samples(pos, nrm, w, last, tp, fsum, fcount, touched, nt, k, lo, hi, oldest, stable_w):
+def _apply_samples(pos, nrm, w, last, tp, fsum, touched, nt, k, lo, hi, oldest, stable_w):
     """The homework's merge of frame ``k`` into each touched point, its samples' mean
-    ``(q̄, m̄, t̄) = Σ / c`` (c = ``fcount``) taken as ONE measurement of weight 1:
+    ``(q̄, m̄, t̄) = Σ / c`` (c = ``fsum[i, COUNT]``) taken as ONE measurement of weight 1:
 
         p ← (w p + q̄) / (w + 1),   n ← (w n + m̄) / (w + 1),  n ← n / ‖n‖,
         true ← (w true + t̄) / (w + 1),   w ← w + 1,   last_seen ← k
@@ -447,7 +452,7 @@ def _apply_samples(pos, nrm, w, last, tp, fsum, fcount, touched, nt, k, lo, hi, 
     for r in range(nt):     # reciprocals: 3 divisions a point, not 15 (fusion 10.6 against 11.2-12.0 ms a crates frame)
         i = touched[r]
         wi = w[i]
-        mean, keep = 1.0 / (fcount[i] * (wi + 1)), wi / (wi + 1)     # Σ/c/(w+1) and w/(w+1)
+        mean, keep = 1.0 / (fsum[i, COUNT] * (wi + 1)), wi / (wi + 1)     # Σ/c/(w+1) and w/(w+1)
         for a in range(3):
             pos[i, a] = keep * pos[i, a] + mean * fsum[i, a]
             tp[i, a] = keep * tp[i, a] + mean * fsum[i, a + 6]
@@ -462,7 +467,7 @@ def _apply_samples(pos, nrm, w, last, tp, fsum, fcount, touched, nt, k, lo, hi, 
 
 
 @njit(cache=True)
-def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, touched, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
+def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, call, touched, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
                 dormant_frames, k, drop_dormant, drop_outliers, used, remove, blocks, lo, hi, oldest, table_keys,
                 table_rows):
     """One pass over the points of ``blocks`` (ascending; every block: the whole map): project, the
@@ -496,7 +501,7 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, fcount, fcall, call, tou
                     e0, e1, e2 = pos[i, 0] - q0, pos[i, 1] - q1, pos[i, 2] - q2
                     if (e0 * e0 + e1 * e1 + e2 * e2 < d_thr * d_thr
                             and nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr):   # pass 2
-                        nt, mx = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
+                        nt, mx = _take_sample(geom, fsum, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
                         mixed += mx
                         used[j] = True
                         merged += 1
@@ -528,7 +533,7 @@ def _grown(box, pos, i):
 
 
 @njit(cache=True)
-def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, fcount, fcall, call, touched, nt, n, R, t, V, N, TP, G,
+def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, call, touched, nt, n, R, t, V, N, TP, G,
               used, k, lo, hi, oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows, width):
     """Every valid pixel no map point merged with (raster order): with cells (``inv_voxel`` > 0,
     ``voxel_table``) one whose cell a point holds is a sample of that point (``_take_sample``: the
@@ -566,7 +571,7 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, fcount, fcal
                     i = held_neighbour(table_keys, table_rows, cell, q0, q1, q2, inv_thick, pos, 0.5 / inv_thick)
             if i >= 0:
                 if nrm[i, 0] * m0 + nrm[i, 1] * m1 + nrm[i, 2] * m2 > cos_thr:
-                    nt, mx = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
+                    nt, mx = _take_sample(geom, fsum, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j)
                     mixed += mx
                     binned += 1
                 else:
@@ -585,8 +590,8 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, fcount, fcal
         key[n] = cell
         born[n] = serial
         serial += 1
-        fcall[n] = -1                                   # not this call's: the sample below starts its sums
-        nt, _ = _take_sample(geom, fsum, fcount, fcall, call, touched, nt, n, q0, q1, q2, m0, m1, m2, TP, G, j)
+        fsum[n, CALL] = -1.0                            # not this call's: the sample below starts its sums
+        nt, _ = _take_sample(geom, fsum, call, touched, nt, n, q0, q1, q2, m0, m1, m2, TP, G, j)
         if n % BLOCK == 0:
             b = n // BLOCK
             for a in range(3):
@@ -675,20 +680,20 @@ def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int
         m.index_cells(float(cfg.voxel), max(float(cfg.voxel), float(cfg.d_thr)), h * w)
         table_keys, table_rows = m._table_keys, m._table_rows
     else:   # no cells: nothing to look up, and the keys go stale (a later fuse with cells keys afresh)
-        m._voxel, table_keys, table_rows = (0.0, 0.0), np.full(16, EMPTY, np.int64), np.zeros(16, np.int64)
+        m._voxel, (table_keys, table_rows) = (0.0, 0.0), new_table(16)
     cos_thr = float(np.cos(np.deg2rad(cfg.angle_deg)))
     blocks = _merge_blocks(m.blocks_in_view(K, R, t), m._oldest, -(-n // BLOCK), int(k), int(cfg.dormant_frames),
                            bool(cfg.remove_dormant)) if index else np.arange(-(-n // BLOCK))
     merged, considered, dormant, outliers, mixed, nrem, scanned, nt = _merge_pass(
-        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fsum, m._fcount, m._fcall, m._calls, m._touched, n,
+        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._fsum, m._calls, m._touched, n,
         R, t, float(K.f), float(K.cx), float(K.cy), w, h,
         V, N, TP, G, float(cfg.d_thr), cos_thr, stable, int(cfg.dormant_frames), int(k), bool(cfg.remove_dormant),
         bool(cfg.remove_outliers), used, remove, blocks, m._lo, m._hi, m._oldest, table_keys, table_rows)
     size, binned, dropped, fresh, mixed_added, nt = _add_pass(
-        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._born, m._serial, m._fsum, m._fcount, m._fcall,
+        m._pos, m._nrm, m._w, m._last, m._tp, m._geom, m._key, m._born, m._serial, m._fsum,
         m._calls, m._touched, nt, n, R, t, V, N, TP, G, used, int(k), m._lo, m._hi, m._oldest, stable,
         1.0 / cfg.voxel if cfg.voxel > 0 else 0.0, 1.0 / max(cfg.voxel, cfg.d_thr), cos_thr, table_keys, table_rows, w)
-    _apply_samples(m._pos, m._nrm, m._w, m._last, m._tp, m._fsum, m._fcount, m._touched, nt, int(k), m._lo, m._hi,
+    _apply_samples(m._pos, m._nrm, m._w, m._last, m._tp, m._fsum, m._touched, nt, int(k), m._lo, m._hi,
                    m._oldest, stable)
     m._table_used += int(fresh) if cfg.voxel > 0 else 0
     added = size - n

@@ -27,7 +27,8 @@ seen (ElasticFusion and voxel-hashed surfel maps bound their density the same wa
 
 The table is open addressing with linear probing over int64 keys (cell coordinates packed 20 bits
 each, offset by 2^19, and the class in the low 3 bits: ±5 km at 1 cm), ``EMPTY`` and ``GONE``
-(a removed point's tombstone) marking free slots; ``rows`` holds the map row of each key. Fusion's
+(a removed point's tombstone) marking free slots; ``rows`` holds the map row of each key, beside
+it in memory (``new_table``: two views of one array, a slot's key and row in one cache line). Fusion's
 removal moves rows, so it tells the table (``table_move``); a removed point is deleted at once
 (``table_delete``) so that a sample in its cell adds a fresh point. The table is rebuilt from the
 map's keys when its slots in use (tombstones included) would pass half its size.
@@ -42,6 +43,15 @@ EMPTY = -1          # a slot never used
 GONE = -2           # a removed key's slot (tombstone): probing goes on past it
 OFFSET = 1 << 19    # cell coordinates are stored offset by this, in 20 bits each
 _MIX = -7046029254386353131   # 0x9E3779B97F4A7C15 (Fibonacci hashing) as a signed int64
+
+
+def new_table(size: int) -> tuple[np.ndarray, np.ndarray]:
+    """An empty table of ``size`` slots (a power of two): ``(keys, rows)``, two strided views of one
+    (size, 2) array, so that a slot's key and row share a cache line: a probe that finds its key
+    reads its row without a second miss (fusion's cell pass probes a table of megabytes at random)."""
+    slots = np.empty((size, 2), np.int64)
+    slots[:, 0], slots[:, 1] = EMPTY, 0
+    return slots[:, 0], slots[:, 1]
 
 
 @njit(cache=True, inline="always")

@@ -350,13 +350,33 @@ def test_the_voxel_table_is_never_more_than_half_full():
     assert added > 0.85 * 320 * 240 and added == first._table_used <= len(first._table_keys) // 2
 
 
+def test_a_slot_key_and_row_share_a_cache_line_through_rebuilds_and_copies():
+    """The cell pass probes a table of megabytes at random: a found key's row must lie beside it (a
+    second array was a second cache miss). Every table a map holds, its first, the one rebuilt for
+    a frame's keys and a copy's, is one (size, 2) array."""
+    from assocbench.tracks.dense.voxel_table import EMPTY, new_table, table_find, table_insert
+
+    keys, rows = new_table(8)
+    assert keys.base is rows.base and keys.strides == rows.strides == (16,) and (keys == EMPTY).all()
+    table_insert(keys, rows, 12345, 7)
+    assert table_find(keys, rows, 12345) == 7 and keys.base[:, 0].tolist().count(12345) == 1
+    _, _, frames = dw.sequence(4, smooth=True, yaw_per_frame=3.0)
+    pmap, sizes = PointMap(), set()
+    for k, f in enumerate(frames):
+        fuse(pmap, f, f.R, f.t, k)
+        for m in (pmap, pmap.copy()):
+            assert m._table_keys.base is m._table_rows.base and m._table_keys.strides == (16,), k
+            sizes.add(len(m._table_keys))
+    assert len(sizes) >= 2   # the first table (a copy's) and one rebuilt for a frame's keys
+
+
 def test_a_neighbour_cell_takes_a_sample_only_within_half_the_thickness():
     # a floor-like point (normal +z) in the 5 cm layer below z = 2.0; samples just above the layer
     # face join it when they lie within 2.5 cm of it along z, else they start their own cell (a
     # crate's slats 6 cm apart merged across layers and slid frame-to-model tracking 60 mm in z)
-    from assocbench.tracks.dense.voxel_table import EMPTY, cell_key, held_cell, table_insert
+    from assocbench.tracks.dense.voxel_table import cell_key, held_cell, new_table, table_insert
 
-    keys, rows = np.full(16, EMPTY, np.int64), np.zeros(16, np.int64)
+    keys, rows = new_table(16)
     inv_size, inv_thick = 100.0, 20.0
     pos = np.array([[0.155, 0.005, 1.985]])
     table_insert(keys, rows, cell_key(*pos[0], 0.0, 0.0, 1.0, inv_size, inv_thick), 0)
