@@ -26,10 +26,11 @@ at fusion (``on a pixel``: fusion's ``considered``, the points it merges or test
 70-74k valid pixels of a crates frame, the map's density in view), the frame's stages (depth frame, prediction,
 ICP, fusion, scoring; ms), of which the two that read the map (the splat and fusion), and those
 two without the index. A line then answers the question: on the way out, from the first band to
-the last, the map's growth and the frame's cost with and without the index. Then least-squares fits over every frame of each loop, ``ms = a + b ·
-visited + c · map`` (the map's size before the frame): ``c`` is the cost of the map's size at a
-given view (ms per 100k points), ``b`` the cost of what is in view. Without the index ``visited``
-is the whole map, so there the fit has one slope (``c`` is not printed). Last, the loop's accuracy:
+the last, the map's growth and the frame's cost with and without the index. Then least-squares
+fits over every frame of each loop, ``ms = a + b · visited + c · map`` (the map's size before the
+frame): ``c`` is the cost of the map's size at a given view (ms per 100k points), ``b`` the cost
+of what is in view. Without the index ``visited`` is the whole map, so there the fit has one
+slope (``c`` is not printed). Last, the loop's accuracy:
 ATE over every frame, ICP failures and the final map's error (the baseline a change to the map's
 density is judged against).
 
