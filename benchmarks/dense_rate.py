@@ -121,7 +121,7 @@ def check_inside(spec: DenseSequenceSpec) -> None:
     if len(past):
         raise UserError(f"--frames {cam.frames}: the {spec.scene} line at the default path's speed passes the "
                         f"scene's last landmark at path frame {past[0]} and would leave the scene; use --frames "
-                        f"at most {past[0] - 1}")
+                        f"at most {past[0]}")
 
 
 def render_once(scene: str, frames: int) -> object:

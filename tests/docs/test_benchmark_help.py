@@ -165,8 +165,9 @@ def test_dense_benchmarks_refuse_a_line_stretched_out_of_the_scene(monkeypatch):
 
     from assocbench.errors import UserError
 
-    with pytest.raises(UserError, match=r"--frames 700: the bays line .* at path frame 569 .* at most 568$"):
+    with pytest.raises(UserError, match=r"--frames 700: the bays line .* at path frame 569 .* at most 569$"):
         dense_rate.sequence_spec("bays", 700)
+    dense_rate.sequence_spec("bays", 569)   # frames 0-568 all lie within the landmarks
     assert dense_rate.sequence_spec("bays", 500).camera_path().trajectory_params == {"length": 11.25}
     assert dense_rate.sequence_spec("crates", 2000).camera_path().trajectory_params == {"turns": 0.7}   # a circle stays
 
