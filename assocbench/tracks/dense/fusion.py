@@ -90,12 +90,12 @@ from .voxel_table import (
 
 MIXED_GEOM = -2   # truth of a map point that fused pixels of different geoms
 BLOCK = 64        # points per block of the map's index: a fifth of a 320-pixel row, so a block's box is small
-NEVER = np.iinfo(np.int64).max
+NEVER = np.iinfo(np.int64).max   # ``oldest`` of a block without unstable points
 # a point's sums of one ``fuse`` call, one row of ``_fsum``: Σq, Σm, Σtruth (0-8), their count
 # (COUNT) and the call they belong to (CALL, exact in a float below 2^53). One row, not three
 # arrays: the cell pass adds samples to points at random rows, and each array was a cache miss
 # more (fusion 13.9 -> 12.9 ms a crates frame with the voxel table's slots packed too)
-SUM_COLUMNS, COUNT, CALL = 11, 9, 10   # ``oldest`` of a block without unstable points
+SUM_COLUMNS, COUNT, CALL = 11, 9, 10
 
 
 @dataclass(frozen=True)
