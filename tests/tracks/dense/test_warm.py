@@ -16,19 +16,17 @@ from assocbench.tracks.dense import (
     depth_smoothing,
     fusion,
     icp,
-    map_order,
     metrics,
     prediction,
     sensor_passes,
     surface,
-    voxel_table,
 )
 from assocbench.tracks.dense.run import dense_records
 from assocbench.tracks.dense.sequence import load_dense_sequence
 from assocbench.tracks.dense.warm import warm_dense
 
 MODULES = (depth_frame, depth_sensor, depth_smoothing, sensor_passes, fusion, icp, metrics, prediction, surface,
-           projective, map_order, voxel_table)   # the last two: the voxel table's layout is a compiled type too
+           projective)
 
 
 def versions() -> dict:
