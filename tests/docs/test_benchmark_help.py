@@ -237,3 +237,22 @@ def test_dense_flat_does_not_fit_a_line_through_too_few_frames(monkeypatch):
     rec = pd.concat([rec, pd.DataFrame({"map_points": [47_200], "predict_visited": [47_100], "ms": [30.0]})])
     line = dense_flat.fit_line("x", "y", rec.reset_index(drop=True), "ms")
     assert "residual sd" in line and "+ -" not in line
+
+
+def test_dense_fusion_ab_times_two_trees_and_says_whether_their_maps_agree(tmp_path):
+    """The A/B of two fusion versions: one tree against itself builds one map (a hash each round,
+    the same), and its table has every kernel's row. A folder that is no checkout is one line,
+    exit 2, before any child runs."""
+    repo = BENCHMARKS.parent
+    env = {**os.environ, "ASSOCBENCH_CACHE": os.environ.get("ASSOCBENCH_CACHE", str(tmp_path / "cache"))}
+    script = str(BENCHMARKS / "dense_fusion_ab.py")
+    out = subprocess.run([sys.executable, script, str(repo), str(repo), "--pairs", "1", "--frames", "3", "--from", "1"],
+                         capture_output=True, text=True, timeout=600, env=env)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert "the same map bit for bit: yes" in out.stdout
+    assert all(row in out.stdout for row in ("fuse", "merge pass", "cell pass", "samples' merge", "map hash"))
+    for argv, said in (([str(tmp_path), str(repo)], "not a checkout of assocbench"),
+                       ([str(repo), str(repo), "--from", "0"], "0 < --from < --frames")):
+        bad = subprocess.run([sys.executable, script, *argv], capture_output=True, text=True, timeout=60)
+        assert bad.returncode == 2 and "Traceback" not in bad.stderr and bad.stdout == ""
+        assert said in bad.stderr.strip().splitlines()[-1]

@@ -94,7 +94,8 @@ NEVER = np.iinfo(np.int64).max   # ``oldest`` of a block without unstable points
 # a point's sums of one ``fuse`` call, one row of ``_fsum``: Σq, Σm, Σtruth (0-8), their count
 # (COUNT) and the call they belong to (CALL, exact in a float below 2^53). One row, not three
 # arrays: the cell pass adds samples to points at random rows, and each array was a cache miss
-# more (fusion 13.9 -> 12.9 ms a crates frame with the voxel table's slots packed too)
+# more (fusion 13.8 -> 12.4 ms a crates frame with the voxel table's slots packed too:
+# benchmarks/dense_fusion_ab.py)
 SUM_COLUMNS, COUNT, CALL = 11, 9, 10
 
 
