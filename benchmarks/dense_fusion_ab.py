@@ -11,7 +11,9 @@ view), the cell pass (``_add_pass``: the pixels no point merged with) and the sa
 build the map and compile). Columns: ms a frame, the median over the rounds of each process's
 mean; the map's points at the end; the hash of its positions, normals and weights (one hash for
 both trees: the same map bit for bit). A tree is a checkout of this repository, e.g.
-``git worktree add /tmp/before HEAD~1``; each keeps numba's cache beside its own sources.
+``git worktree add /tmp/before HEAD~1``; each keeps numba's cache beside its own sources. The
+frames come from this script's ``dense_rate.py`` run on each tree's ``assocbench``, so a tree
+older than what ``dense_rate.py`` imports fails, in one line naming its error.
 
 Usage: python benchmarks/dense_fusion_ab.py BEFORE AFTER [--pairs 13] [--frames 300] [--from 150]
 """
