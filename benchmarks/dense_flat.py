@@ -110,6 +110,12 @@ def fit(rec: pd.DataFrame, column: str) -> tuple[float, float, float | None, flo
     return float(coef[0]), float(coef[1]), None if one else float(coef[2]), float(np.std(resid))
 
 
+def signed(value: float, digits: int, gap: str = "") -> str:
+    """``value`` to ``digits`` decimals with its sign as a typeset "+" or "−" (``gap`` after it):
+    "+ -0.5" and "-58 %" read badly beside each other. A value that rounds to zero is "+"."""
+    return f"{'+' if round(value, digits) >= 0 else '−'}{gap}{abs(value):.{digits}f}"
+
+
 def fit_line(label: str, what: str, rec: pd.DataFrame, column: str) -> str:
     """One fit as a sentence with its units and the ranges it was fitted over (a short run's
     narrow range gives slopes that mean nothing: read the residual beside them)."""
@@ -120,9 +126,8 @@ def fit_line(label: str, what: str, rec: pd.DataFrame, column: str) -> str:
                 f"(more --frames)")
     span = (f"over {rec['predict_visited'].iloc[1:].min() / 1000:.0f}k-{rec['predict_visited'].max() / 1000:.0f}k "
             f"visited, map {rec['map_points'].min() / 1000:.0f}k-{rec['map_points'].max() / 1000:.0f}k")
-    term = lambda v: f"{'+' if v >= 0 else '−'} {abs(v):.2f}"  # noqa: E731 - "+ -0.5" read badly
-    slopes = (f"{term(b)} ms per 100k map points (visited = the whole map)" if c is None else
-              f"{term(b)} ms per 100k points visited {term(c)} ms per 100k map points")
+    slopes = (f"{signed(b, 2, ' ')} ms per 100k map points (visited = the whole map)" if c is None else
+              f"{signed(b, 2, ' ')} ms per 100k points visited {signed(c, 2, ' ')} ms per 100k map points")
     return f"fit {label}, {what}: ms = {a:.1f} {slopes}; residual sd {sd:.2f} ms, {span}"
 
 
@@ -157,9 +162,8 @@ def growth_line(order: np.ndarray, frames: int, band: int, ours: pd.DataFrame, w
     out = (np.arange(len(order)) < frames) & (np.arange(len(order)) > 0)
     first, last = out & (order <= lo), out & (order >= hi)
     med = lambda rec, pick, col: float(rec.loc[pick, col].median())  # noqa: E731
-    change = lambda v: f"{'+' if round(v) >= 0 else '−'}{abs(v):.0f} %"  # noqa: E731 - the fits' minus sign
     grow = lambda rec, col: (f"{med(rec, first, col):.1f} -> {med(rec, last, col):.1f} ms "  # noqa: E731
-                             f"({change(100 * (med(rec, last, col) / med(rec, first, col) - 1))})")
+                             f"({signed(100 * (med(rec, last, col) / med(rec, first, col) - 1), 0)} %)")
     m0, m1 = med(ours, first, "map_points"), med(ours, last, "map_points")
     return (f"growth on the way out, path frames 1-{lo} -> {hi}-{frames - 1} (medians): the map {m0 / 1000:.0f}k -> "
             f"{m1 / 1000:.0f}k points (x{m1 / m0:.1f}); with the index, stages {grow(ours, 'stages_ms')}, splat + "
