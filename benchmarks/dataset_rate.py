@@ -19,6 +19,7 @@ from _util import print_table
 from assocbench.dataset import read_problems
 from assocbench.dataset.writer import DatasetWriter
 from assocbench.harness.config import run_spec
+from assocbench.harness.runner import Problems
 from assocbench.harness.suite import load_suite, resolve_suite
 
 
@@ -29,10 +30,10 @@ def suite_problems(name: str) -> list:
     for job in suite.jobs:
         for difficulty, cfg in job.runs:
             spec = run_spec(cfg)
-            seq = spec.track_impl.load_sequence(spec.sequence)
-            for k, (p, t) in enumerate(spec.track_impl.problems(seq, spec.belief, spec.seed)):
-                out.append(({"track": suite.track, "scene": job.scene, "difficulty": difficulty, "seed": job.seed,
-                             "frame": k}, p, t))
+            problems = Problems(spec.track_impl, spec.source, spec)
+            for k in range(len(problems)):
+                out.append(({"track": suite.track, "scene": job.name, "difficulty": difficulty, "seed": job.seed,
+                             "frame": k}, *problems[k]))
     return out
 
 

@@ -65,12 +65,11 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb  # noqa: E402
 
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402
-from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse, warm_fusion  # noqa: E402
+from assocbench.tracks.dense.fusion import PointMap, fuse, warm_fusion  # noqa: E402
 from assocbench.tracks.dense.metrics import score_correspondences  # noqa: E402
 from assocbench.tracks.dense.run import Source, frame_source, map_source  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
-from assocbench.tracks.dense.spec import DenseConfig  # noqa: E402
+from assocbench.tracks.dense.settings import DenseConfig, DepthConfig, FusionConfig
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 SCENES = ("crates", "bays")

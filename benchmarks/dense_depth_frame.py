@@ -30,11 +30,10 @@ import numpy as np  # noqa: E402
 from _util import print_table  # noqa: E402
 from numba import njit  # noqa: E402
 
-from assocbench.harness.config import load_run_config  # noqa: E402
+from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
 from assocbench.models.depth_frame import NO_GEOM, DepthFrame, vertex_map  # noqa: E402
 from assocbench.tracks.dense.depth_smoothing import depth_gate, edge_aware_smoothed  # noqa: E402
 from assocbench.tracks.dense.sequence import load_dense_sequence  # noqa: E402
-from assocbench.tracks.dense.spec import dense_sequence_spec  # noqa: E402
 
 FIELDS = ("depth", "vertices", "normals", "true_points", "geom", "valid")
 
@@ -182,7 +181,7 @@ def sequence(scene: str, seed: int, frames: int):
     """The leaderboard's sequence of ``scene`` at 320x240 (rendered and cached when absent, untimed)."""
     sets = ["resolution=[320,240]", "depth.downsample=1", "dense.path_frames=200"]
     cfg = load_run_config(None, sets, method="projective", scene=scene, frames=frames, seed=seed)
-    return load_dense_sequence(dense_sequence_spec(cfg))
+    return load_dense_sequence(run_spec(cfg).source.spec)
 
 
 def clock(fn) -> float:

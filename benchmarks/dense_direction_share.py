@@ -23,8 +23,8 @@ from _util import print_table
 from assocbench.associators.registry import make_dense_associator
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.runner import GuardedCalls
-from assocbench.tracks.dense.icp import IcpConfig
 from assocbench.tracks.dense.run import dense_records
+from assocbench.tracks.dense.settings import IcpConfig
 from assocbench.tracks.dense.track import gate_params
 from assocbench.tracks.dense.warm import warm_dense
 
@@ -36,7 +36,7 @@ def records(scene: str, seed: int, tracking: str, frames: int) -> list[dict]:
     cfg = load_run_config(None, [f"dense.tracking={tracking}", "dense.path_frames=200", "icp.min_direction_share=0"],
                           method="projective", scene=scene, frames=frames, seed=seed)
     spec = run_spec(cfg)
-    seq = spec.track_impl.load_sequence(spec.sequence)
+    seq = spec.source.sequence
     calls = GuardedCalls(spec.time_limit_s, {}, lambda k, limit: None)
     return list(dense_records(seq, spec, calls, lambda: make_dense_associator(spec.method, **gate_params(spec))))
 

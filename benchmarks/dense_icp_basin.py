@@ -30,10 +30,10 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import pose_error  # noqa: E402
 
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402
-from assocbench.tracks.dense.icp import IcpConfig, icp  # noqa: E402
+from assocbench.tracks.dense.icp import icp  # noqa: E402
 from assocbench.tracks.dense.run import frame_source  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
+from assocbench.tracks.dense.settings import DepthConfig, IcpConfig
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 GAPS = {"crates": (5, 20, 30, 40, 50, 60, 70, 90, 130), "bays": (1, 2, 4, 6, 10, 20, 40, 90)}

@@ -28,7 +28,8 @@ from dense_synthetic import ROOM, perturb, render, room_frame, source_set  # noq
 
 from assocbench.associators.dense.projective import associate_numpy  # noqa: E402
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.icp import IcpConfig, icp, normal_equations, solve_update, stability_transform  # noqa: E402
+from assocbench.tracks.dense.icp import icp, normal_equations, solve_update, stability_transform  # noqa: E402
+from assocbench.tracks.dense.settings import IcpConfig
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 

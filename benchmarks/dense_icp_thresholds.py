@@ -41,7 +41,8 @@ from dense_synthetic import (  # noqa: E402  # noqa: E402
 )
 
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
-from assocbench.tracks.dense.icp import IcpConfig, icp  # noqa: E402
+from assocbench.tracks.dense.icp import icp  # noqa: E402
+from assocbench.tracks.dense.settings import IcpConfig
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 SIZES = (0, 1, 3, 5, 10, 15, 20, 30, 45)

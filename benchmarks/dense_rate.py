@@ -59,12 +59,11 @@ from _util import print_table  # noqa: E402
 
 from assocbench.cli.main import main as cli  # noqa: E402
 from assocbench.errors import UserError  # noqa: E402
-from assocbench.harness.config import load_run_config  # noqa: E402
+from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
 from assocbench.sim.scene import load_scene  # noqa: E402
 from assocbench.sim.trajectory import rig_for  # noqa: E402
 from assocbench.tracks.dense.depth_smoothing import depth_gate, edge_aware_smoothed  # noqa: E402
 from assocbench.tracks.dense.sequence import DENSE_PATHS, PATH_FRAMES, DenseSequenceSpec, load_dense_sequence  # noqa: E402
-from assocbench.tracks.dense.spec import dense_sequence_spec  # noqa: E402
 
 STAGES = (("depth frame", "frame_s"), ("prediction", "predict_s"), ("association", "associate_s"),
           ("ICP", "icp_s"), ("fusion", "fusion_s"), ("scoring", "score_s"))
@@ -102,7 +101,7 @@ def sequence_spec(scene: str, frames: int) -> DenseSequenceSpec:
     """The run's depth sequence, checked before anything renders: a bad ``--scene`` or a path that
     leaves the scene's landmarks (``check_inside``) is a ``UserError``."""
     sets = settings(scene, frames, [])[1::2]
-    spec = dense_sequence_spec(load_run_config(None, sets, method="projective", scene=scene, frames=frames))
+    spec = run_spec(load_run_config(None, sets, method="projective", scene=scene, frames=frames)).source.spec
     check_inside(spec)
     return spec
 
@@ -231,8 +230,9 @@ def registrations(seq, pairs: int, runs: int) -> None:
     if pairs <= 0:
         return
     from assocbench.associators.registry import make_dense_associator
-    from assocbench.tracks.dense.icp import IcpConfig, icp, step_from
+    from assocbench.tracks.dense.icp import icp, step_from
     from assocbench.tracks.dense.run import frame_source
+    from assocbench.tracks.dense.settings import IcpConfig
 
     small_gicp, o3d = optional("small_gicp"), optional("open3d")
     if o3d is not None and hasattr(o3d.utility, "set_max_threads"):

@@ -103,10 +103,10 @@ from dense_synthetic import pose_error  # noqa: E402
 from assocbench.associators.dense.base import DenseAssociator, Pairs  # noqa: E402
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
 from assocbench.models.depth_frame import DepthFrame  # noqa: E402
-from assocbench.tracks.dense.depth_sensor import DepthConfig  # noqa: E402
-from assocbench.tracks.dense.icp import IcpConfig, IcpResult, icp  # noqa: E402
+from assocbench.tracks.dense.icp import IcpResult, icp  # noqa: E402
 from assocbench.tracks.dense.run import frame_source  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402
+from assocbench.tracks.dense.settings import DepthConfig, IcpConfig  # noqa: E402
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402
 
 REG = o3d.pipelines.registration

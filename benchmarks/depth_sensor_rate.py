@@ -23,7 +23,8 @@ from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
 from assocbench.sim.scenegen.dense import DENSE_SCENES
 from assocbench.tracks.camera.sequence import SequenceSpec, trajectory_poses
-from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
+from assocbench.tracks.dense.depth_sensor import depth_frame
+from assocbench.tracks.dense.settings import DepthConfig
 
 
 def timed(fn) -> tuple[float, object]:

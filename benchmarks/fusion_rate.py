@@ -29,7 +29,8 @@ sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import dense_world as dw  # noqa: E402
 from fusion_reference import NumpyMap, fuse_numpy  # noqa: E402
 
-from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse, warm_fusion  # noqa: E402
+from assocbench.tracks.dense.fusion import PointMap, fuse, warm_fusion  # noqa: E402
+from assocbench.tracks.dense.settings import FusionConfig
 
 
 def sweep(seed: int, frames: int, cfg: FusionConfig, smooth: bool) -> PointMap:

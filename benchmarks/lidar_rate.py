@@ -20,12 +20,14 @@ import time
 import numpy as np
 from _util import print_table
 
-from assocbench.sim.lidar import LidarConfig, scan
+from assocbench.sim.lidar import scan
 from assocbench.sim.planar_scene import load_planar_scene
 from assocbench.sim.planar_trajectory import planar_trajectory
+from assocbench.sim.settings import LidarConfig
 from assocbench.tracks.planar.geometric_sensor import geometric_detections
-from assocbench.tracks.planar.post_detect import PostDetectorConfig, detect_posts, label_detections
+from assocbench.tracks.planar.post_detect import detect_posts, label_detections
 from assocbench.tracks.planar.sequence import PlanarSequenceSpec, lidar_frame
+from assocbench.tracks.planar.settings import PostDetectorConfig
 
 
 def rate(fn, items) -> float:

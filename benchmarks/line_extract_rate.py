@@ -21,7 +21,8 @@ from _util import print_table, summary_ms
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from line_synth import room, synth_scan  # noqa: E402
 
-from assocbench.tracks.lines.extract import LineExtractorConfig, extract_lines  # noqa: E402
+from assocbench.tracks.lines.extract import extract_lines  # noqa: E402
+from assocbench.tracks.lines.settings import LineExtractorConfig
 
 POSES = [np.array([2.0, 1.5, 0.0]), np.array([1.2, 3.1, 2.5]), np.array([4.9, 0.9, -1.0])]
 TARGET_MS = {"split_merge": "<= 0.5", "ransac": "<= 5", "polar": "-"}

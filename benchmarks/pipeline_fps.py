@@ -18,9 +18,10 @@ from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
 from assocbench.sim.trajectory import make_trajectory, rig_for
 from assocbench.tracks.camera.belief import make_problem
-from assocbench.tracks.camera.detect import DetectorConfig, detect
+from assocbench.tracks.camera.detect import detect
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
-from assocbench.tracks.camera.truth import TruthConfig, label_features, visibility
+from assocbench.tracks.camera.settings import DetectorConfig, TruthConfig
+from assocbench.tracks.camera.truth import label_features, visibility
 
 
 def pipeline(scene_name: str, width: int, height: int, frames: int, msaa: int | None) -> list[float]:

@@ -11,9 +11,9 @@ import sys
 
 from assocbench.sim.line_scene import load_line_scene
 from assocbench.sim.scenegen.lines import LINE_SCENES
-from assocbench.tracks.lines.extract import METHODS, LineExtractorConfig
 from assocbench.tracks.lines.metrics import extraction_scores
 from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
+from assocbench.tracks.lines.settings import METHODS, LineExtractorConfig
 
 
 def main(frames: int = 500, seed: int = 0) -> None:

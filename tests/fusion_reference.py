@@ -9,7 +9,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from assocbench.models.depth_frame import DepthFrame
-from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig
+from assocbench.tracks.dense.fusion import MIXED_GEOM
+from assocbench.tracks.dense.settings import FusionConfig
 
 
 @dataclass

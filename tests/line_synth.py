@@ -8,7 +8,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from assocbench.models.range_bearing import wrap
-from assocbench.sim.lidar import LidarConfig, Scan
+from assocbench.sim.scan import Scan
+from assocbench.sim.settings import LidarConfig
 
 
 @dataclass

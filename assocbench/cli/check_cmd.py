@@ -8,10 +8,14 @@ from pathlib import Path
 
 import pandas as pd
 
+from ..errors import UserError
 from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
 from ..harness.suite import Suite, load_suite, resolve_suite
 from ..harness.sweep import run_suite
-from ..tracks.base import GuardedMetric, iter_tracks
+from ..scoring.aggregate import leaderboard_table
+from ..tracks.base import GuardedMetric
+from ..tracks.capabilities import OwnLeaderboard, has
+from ..tracks.registry import iter_tracks
 from .common import check_cache, check_output_folder, print_table
 
 NAME = "check"
@@ -19,9 +23,8 @@ HELP = "guard accuracy in CI: compare a small suite with a clone's results/basel
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML or shipped suite name (default: every track's CI suites: ci and "
-                   "loop_ci (camera), planar_ci and planar_isam2_ci (planar; the latter skipped without gtsam), "
-                   "lines_ci, dense_ci)")
+    p.add_argument("--suite", help="suite YAML or shipped suite name (default: every track's CI suites, "
+                   "assocbench list suites; one that needs a missing package is skipped, saying so)")
     p.add_argument("--baseline", help="baseline CSV (default: results/baseline.csv for ci, "
                    "results/baseline_<suite>.csv for another suite; without --suite it is the ci suite's)")
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
@@ -31,16 +34,22 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def default_suites() -> list[str]:
-    """Every registered track's CI suites, in the registry's order (``tracks``); one that cannot run
-    here (an optional package missing) is skipped with a line saying so, not silently."""
+    """Every registered track's CI suites (``Track.suites``, ``ci``), in the registry's order."""
+    return [name for track in iter_tracks() for name, entry in track.suites().items() if entry.ci]
+
+
+def runnable(suites: list[Suite], named: bool) -> list[Suite]:
+    """The suites that can run here; one that cannot (a module it ``requires`` is missing) is
+    skipped with a line saying so, or refused when it was named (``--suite``)."""
     out = []
-    for track in iter_tracks():
-        for name in track.ci_suites:
-            why = track.ci_suite_skipped(name)
-            if why:
-                print(f"{name} skipped: {why}")
-            else:
-                out.append(name)
+    for suite in suites:
+        why = suite.missing()
+        if why and named:
+            raise UserError(f"suite {suite.name} cannot run here: {why}")
+        if why:
+            print(f"{suite.name} skipped: {why}")
+        else:
+            out.append(suite)
     return out
 
 
@@ -54,11 +63,11 @@ def main(args: argparse.Namespace) -> int:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
         suites = ["ci"] if args.baseline is not None else default_suites()
-    loaded = [load_suite(resolve_suite(s)) for s in suites]
+    loaded = runnable([load_suite(resolve_suite(s)) for s in suites], named=bool(args.suite))
     # every suite and baseline checked before any suite runs: a missing last baseline must not
     # be found only after the first suites ran for minutes
     baselines = [baseline_of(suite, args) for suite in loaded]
-    check_cache()
+    check_cache(*(suite.first_source() for suite in loaded))
     return max(check_suite(suite, path, baseline, args) for suite, (path, baseline) in zip(loaded, baselines))
 
 
@@ -74,13 +83,14 @@ def baseline_of(suite: Suite, args: argparse.Namespace) -> tuple[Path, pd.DataFr
 def check_suite(suite: Suite, baseline_path: Path, baseline: pd.DataFrame | None, args: argparse.Namespace) -> int:
     """Run one suite and compare it with its ``baseline`` (None: rewrite the baseline at
     ``baseline_path``): exit status. The columns compared are the suite's track's
-    (``Track.check_metrics``)."""
+    (``Track.guards``)."""
     tolerance = check_tolerance(suite.tolerance if args.tolerance is None else args.tolerance)
     tolerances = suite.tolerances() | {"tolerance": tolerance}
     guards = suite.guards()
     with tempfile.TemporaryDirectory(prefix="assocbench-check-") as scratch:  # always a fresh run
         summaries, _ = run_suite(suite, Path(scratch), args.jobs, progress=not args.quiet)
-    table = suite.track_impl.leaderboard_table(summaries)
+    track = suite.track_impl
+    table = track.leaderboard_table(summaries) if has(track, OwnLeaderboard) else leaderboard_table(summaries)
     if args.update:
         write_ok_table(table, baseline_columns(guards), baseline_path)
         print(f"wrote baseline {baseline_path} ({len(table)} rows)")

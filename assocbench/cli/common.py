@@ -13,17 +13,20 @@ import pandas as pd
 
 from ..errors import UserError
 from ..scoring.units import unit_of  # noqa: F401  (run's table imports it from here)
-from ..sim.render import MIN_SIDE  # a zero side made the camera rig divide by zero
+from ..sim.settings import MIN_SIDE  # a zero side made the camera rig divide by zero
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
     """The flags that pick a sequence and a belief (see configs/default.yaml)."""
-    p.add_argument("--scene", help="shipped scene name or path to an MJCF file")
+    p.add_argument("--track", help="the run's track (assocbench list tracks); default: the method's own track, else "
+                   "the scene's, else camera")
+    p.add_argument("--scene", help="a scene or dataset the track ships (assocbench list scenes), or a file of the "
+                   "track's kind (an MJCF, a log)")
     p.add_argument("--trajectory", help="camera: circle | line | figure-eight | loop | waypoints | mjcf-cameras; "
                    "planar and lines: loop | ellipse | waypoints (assocbench list trajectories)")
     p.add_argument("--frames", type=int, help="number of frames")
     p.add_argument("--seed", type=int, help="seed of trajectory jitter, belief errors and clutter")
-    p.add_argument("--config", help="YAML run config (default: the shipped configs/default.yaml)")
+    p.add_argument("--config", help="YAML run config, merged on the track's defaults (docs/reference/settings.md)")
     p.add_argument("--set", action="append", metavar="KEY=VALUE", dest="sets",
                    help="override a config key, e.g. --set belief.sigma_rotation=2 (repeatable)")
     p.add_argument("--loop", action="store_true", default=None,
@@ -86,10 +89,10 @@ def config_digest(cfg: dict) -> str:
     return hashlib.sha256(text.encode()).hexdigest()[:8]
 
 
-def check_cache() -> None:
-    """``atomic.check_cache_folder`` with the sequence subfolder of every registered track: a file
-    where one belongs (``$ASSOCBENCH_CACHE/dense``) stops the command before it compiles or renders."""
+def check_cache(*sources) -> None:
+    """``atomic.check_cache_folder`` with the sequence cache's subfolder of each source that has one:
+    a file where one belongs (``$ASSOCBENCH_CACHE/dense``) stops the command before it compiles or
+    renders."""
     from ..atomic import check_cache_folder
-    from ..tracks.base import iter_tracks
 
-    check_cache_folder(*sorted({t.cache_folder() for t in iter_tracks()}))
+    check_cache_folder(*sorted({f for s in sources if (f := getattr(s, "cache_folder", None))}))

@@ -7,6 +7,7 @@ import sys
 from pathlib import Path
 
 from ..harness.export import DRIVES, check_export_folder, export_suite
+from ..harness.suite import load_suite, resolve_suite
 from .common import check_cache, check_output_folder
 
 NAME = "export"
@@ -14,7 +15,7 @@ HELP = "write a suite's problems and their truth as a Parquet dataset (problems.
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", required=True, help="suite YAML or shipped suite name (camera, planar or lines track)")
+    p.add_argument("--suite", required=True, help="suite YAML or shipped suite name, of a track whose frames are association problems")
     p.add_argument("--out", required=True, help="a new or empty folder")
     p.add_argument("--drive", default="open", metavar="|".join(DRIVES) + "|METHOD",
                    help="open: beliefs sampled around the truth (default); oracle: a closed-loop suite's own "
@@ -25,7 +26,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     out = check_export_folder(check_output_folder(Path(args.out)))
-    check_cache()   # before the suite renders
+    check_cache(load_suite(resolve_suite(args.suite)).first_source())   # before the suite renders
     progress = (lambda line: None) if args.quiet else (lambda line: print(line, file=sys.stderr))
     card = export_suite(args.suite, out, progress, args.drive)
     sizes = card["sizes"]

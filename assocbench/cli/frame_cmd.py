@@ -7,13 +7,12 @@ import argparse
 from pathlib import Path
 
 from ..harness.config import load_run_config, run_spec, with_pictures
-from ..tracks.base import get_track
 from ..viz.draw import IMAGE_FORMATS, check_image_path, write_image
 from .common import add_run_options, check_cache, check_output_file, resolution
 
 NAME = "frame"
-HELP = ("draw one frame with its ground truth (camera: the image; planar, lines: a top view with the scan) "
-        "as a PNG, or JPEG etc. by extension")
+HELP = ("draw one frame with its ground truth, as the run's track pictures it (a rendered image with its "
+        "detections, a top view with the scan), as a PNG, or JPEG etc. by extension")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -26,11 +25,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     output = check_output_file(Path(args.output), check_image_path)   # before rendering: no time wasted
-    cfg = load_run_config(args.config, args.sets, scene=args.scene, trajectory=args.trajectory,
+    cfg = load_run_config(args.config, args.sets, track=args.track, scene=args.scene, trajectory=args.trajectory,
                           frames=args.frames, seed=args.seed, resolution=resolution(args.resolution))
     spec = with_pictures(run_spec(cfg), "frame")
-    check_cache()   # before rendering: the rendered sequence is cached
-    image, line = get_track(spec.track).frame_picture(spec, args.index)
+    check_cache(spec.source)   # before rendering: the rendered sequence is cached
+    image, line = spec.track_impl.frame_picture(spec, args.index)
     write_image(output, image)
     print(line)
     print(f"wrote {output}")

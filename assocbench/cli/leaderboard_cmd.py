@@ -6,10 +6,12 @@ import argparse
 import sys
 from pathlib import Path
 
-from ..harness.leaderboard import write_leaderboard
+from ..errors import UserError
+from ..harness.leaderboard import write_card, write_leaderboard
 from ..harness.suite import load_suite, resolve_suite
 from ..harness.sweep import EXECUTORS, run_suite
 from ..scoring.aggregate import OK
+from ..tracks.capabilities import OwnLeaderboard, has
 from .common import check_cache, check_output_folder
 
 NAME = "leaderboard"
@@ -17,8 +19,8 @@ HELP = "run every method of a suite and write the leaderboard (CSV, Markdown, PN
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("--suite", help="suite YAML or shipped suite name: leaderboard (default), loop (closed loop), "
-                   "planar (posts), lines (walls), dense (depth frames); the *_ci suites are check's")
+    p.add_argument("--suite", help="suite YAML or a track's shipped suite (assocbench list suites); default: "
+                   "leaderboard")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
     p.add_argument("--executor", choices=EXECUTORS, default="local", help="local processes or a dask cluster")
     p.add_argument("--address", help="dask scheduler address, e.g. tcp://127.0.0.1:8786")
@@ -29,10 +31,16 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 def main(args: argparse.Namespace) -> int:
     suite = load_suite(resolve_suite(args.suite or "leaderboard"))
-    check_cache()
+    why = suite.missing()
+    if why:
+        raise UserError(f"suite {suite.name} cannot run here: {why}")
+    check_cache(suite.first_source())
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
     summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
-    paths = suite.track_impl.write_leaderboard(summaries, frames, out) or write_leaderboard(summaries, frames, out)
+    track = suite.track_impl
+    paths = track.write_leaderboard(summaries, frames, out) if has(track, OwnLeaderboard) else \
+        write_leaderboard(summaries, frames, out, track, suite.scene_paths())
+    paths["card"] = write_card(out, track, suite.loop)
     print(paths["md"].read_text())
     print("wrote " + ", ".join(str(p) for p in paths.values()))
     untrusted = summaries[summaries["status"] != OK]

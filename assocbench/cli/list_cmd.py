@@ -1,41 +1,49 @@
-"""``assocbench list``: methods (plugins included), scenes, trajectories and tracks, each tagged with its track."""
+"""``assocbench list``: tracks, methods (plugins included), scenes, suites and trajectories, each
+tagged with its track."""
 
 from __future__ import annotations
 
 import argparse
 
 from ..associators.registry import available
-from ..sim.scene import shipped_scenes
-from ..tracks.base import iter_tracks, track_for_method, track_for_scene
+from ..tracks.capabilities import Requirements, Trajectories, has
+from ..tracks.inference import track_for_method
+from ..tracks.registry import iter_tracks
 
 NAME = "list"
-HELP = "list methods, scenes, trajectories and tracks"
+HELP = "list tracks, methods, scenes, suites and trajectories"
+KINDS = ("tracks", "methods", "scenes", "suites", "trajectories")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
-    p.add_argument("what", nargs="?", choices=("methods", "scenes", "trajectories", "tracks"), help="only this kind")
+    p.add_argument("what", nargs="?", choices=KINDS, help="only this kind")
 
 
 def main(args: argparse.Namespace) -> int:
     tracks = list(iter_tracks())
-    listed = {name: f"[{t.name}] {line}" for t in tracks for name, line in t.shipped_scenes().items()}
     sections = {
+        "tracks": {t.name: t.summary + _unavailable(t) for t in tracks},
         "methods": {name: (f"[{own.name}] " if (own := track_for_method(name)) else "") + line
                     for name, line in available().items()},
-        "scenes": {name: listed.get(name, f"[{track_for_scene(path).name}] {path}")
-                   for name, path in shipped_scenes().items()},
+        "scenes": {name: f"[{t.name}] {line}" for t in tracks for name, line in t.scenes().items()},
+        "suites": {name: f"[{t.name}] {entry.path.name}" + (" (check)" if entry.ci else "")
+                   for t in tracks for name, entry in t.suites().items()},
         "trajectories": _trajectories(tracks),
-        "tracks": {t.name: t.summary for t in tracks},
     }
-    for title, items in sections.items():
+    for title in KINDS:
         if args.what and args.what != title:
             continue
         print(f"{title}:")
-        rows = list(items.items()) if isinstance(items, dict) else items
-        width = max(len(k) for k, _ in rows)
-        for name, line in rows:
+        items = sections[title]
+        width = max((len(k) for k in items), default=0)
+        for name, line in items.items():
             print(f"  {name:<{width}}  {line}")
     return 0
+
+
+def _unavailable(track) -> str:
+    why = track.unavailable() if has(track, Requirements) else None
+    return f" (unavailable here: {why})" if why else ""
 
 
 def _trajectories(tracks: list) -> dict[str, str]:
@@ -44,7 +52,7 @@ def _trajectories(tracks: list) -> dict[str, str]:
     the tracks it belongs to."""
     described: dict[str, dict[str, list[str]]] = {}
     for t in tracks:
-        for name, line in t.trajectories():
+        for name, line in (t.trajectories() if has(t, Trajectories) else []):
             described.setdefault(name, {}).setdefault(line, []).append(t.name)
     return {name: "; ".join(f"[{', '.join(owners)}] {line.rstrip('.')}" for line, owners in lines.items())
             for name, lines in described.items()}

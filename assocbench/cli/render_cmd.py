@@ -14,14 +14,13 @@ from tqdm import tqdm
 from ..harness.config import load_run_config, run_spec, with_pictures
 from ..harness.loop_replay import replay_run
 from ..harness.sandbox import execute
-from ..tracks.base import get_track
 from ..viz.video import check_fps, check_video_path, write_video
 from .common import add_run_options, check_cache, check_output_file
 
 NAME = "render"
-HELP = ("write a video (.mp4 or .gif) of a run: camera scenes with the association drawn on every frame "
-        "(with --loop beside a top view of the trajectories and the map); planar and lines scenes as a top "
-        "view with the scan and each feature coloured by the method's decision")
+HELP = ("write a video (.mp4 or .gif) of a run, each frame as its track pictures it: the association drawn "
+        "on the rendered image (with --loop beside a top view of the trajectories and the map), or a top view "
+        "with the scan and each feature coloured by the method's decision")
 
 
 def add_arguments(p: argparse.ArgumentParser) -> None:
@@ -40,16 +39,15 @@ def main(args: argparse.Namespace) -> int:
     method is not called again)."""
     output = check_output_file(Path(args.output), check_video_path)
     fps = check_fps(args.fps)
-    cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
+    cfg = load_run_config(args.config, args.sets, track=args.track, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = with_pictures(run_spec(cfg), "render")
-    check_cache()   # before the run warms kernels and renders
-    track = get_track(spec.track)
+    check_cache(spec.source)   # before the run warms kernels and renders
+    track = spec.track_impl
     bars = not args.quiet and sys.stderr.isatty()   # the run's, then the drawing's
     records, _ = execute(spec, associations=True, progress=bars)
-    seq = track.load_sequence(spec.sequence)   # cached by execute: nothing is simulated twice
     failures = [f"frame {r.frame}: {r.error}" for r in records.itertuples() if r.error]
-    pictures = track.run_pictures(spec, seq, replay_run(spec, seq, records))
+    pictures = track.run_pictures(spec, spec.source, replay_run(spec, records))
     count = write_video(output, tqdm(pictures, total=len(records), desc=f"render {spec.method}", unit="frame",
                                      disable=not bars), fps)
     print(f"wrote {output} ({count} frames)")

@@ -14,9 +14,11 @@ from scipy.spatial.transform import Rotation
 
 from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
+from ..harness.runner import describe_run
 from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
 from ..scoring.trajectory import tum_text
+from ..tracks.capabilities import RunFiles, has
 from .common import add_run_options, check_cache, check_output_folder, config_digest, print_table, unit_of
 
 NAME = "run"
@@ -54,33 +56,43 @@ def tum_writers(frames: pd.DataFrame, out: Path) -> dict:
     return {out / "truth.txt": writer("true_"), out / "estimate.txt": writer("est_")}
 
 
+def source_labels(source) -> dict:
+    """What a simulated source's path was (``trajectory``: the resolved name), for the summary."""
+    resolve = getattr(getattr(source, "spec", None), "resolved_trajectory", None)
+    return {"trajectory": resolve()} if callable(resolve) else {}
+
+
 def main(args: argparse.Namespace) -> int:
-    cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
+    cfg = load_run_config(args.config, args.sets, track=args.track, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
     spec = run_spec(cfg)
-    check_cache()
+    check_cache(spec.source)
     track = spec.track_impl
-    out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.sequence.scene, spec.method,
+    out = check_output_folder(Path(args.out) if args.out else default_out(cfg, spec.source.name, spec.method,
                                                                            spec.seed))
     with tempfile.TemporaryDirectory(prefix="assocbench-run-") as artifacts:   # end-of-run files of the worker
         show = sys.stderr.isatty() if args.progress is None else args.progress
         frames, summary = execute(spec, artifacts=Path(artifacts), progress=show)
-        row = {"scene": spec.sequence.scene, "trajectory": spec.sequence.resolved_trajectory(),
-               "method": spec.method, "seed": spec.seed, **track.run_labels(spec),
-               **{k: summary[k] for k in track.summary_columns(spec.loop)}}
+        labels, words = describe_run(track, spec)
+        row = {"track": track.name, "scene": spec.source.name, **source_labels(spec.source),
+               "method": spec.method, "seed": spec.seed, **labels,
+               **{k: summary[k] for k in track.columns(spec.loop).summary}}
         summary_df = pd.DataFrame([row])
-        title = f"{row['method']} on {Path(row['scene']).stem}: {track.describe_run(spec)}, trajectory " \
-                f"{row['trajectory']}, {row['frames']} frames, seed {row['seed']}"
+        path = f", trajectory {row['trajectory']}" if "trajectory" in row else ""
+        title = f"{row['method']} on {row['scene']} ({track.name} track): {words}{path}, {row['frames']} frames, " \
+                f"seed {row['seed']}"
         writers = {out / name: partial(df.to_csv, index=False, float_format="%.9g")   # all files or none
                    for name, df in (("frames.csv", frames), ("summary.csv", summary_df))}
         if "est_x" in frames:   # an estimated trajectory (closed loop, dense tracking): TUM files for evo
             writers |= tum_writers(frames, out)
-        writers |= track.run_writers(frames, Path(artifacts), out, title)
+        if has(track, RunFiles):
+            writers |= track.run_files(frames, Path(artifacts), out, title)
         write_group(writers)
     if args.format == "table":
         print(title)
+        units = track.columns(spec.loop).units
         print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values()),
-                                  "unit": [unit_of(m) for m in summary]}), "table")
+                                  "unit": [units.get(m) or unit_of(m) for m in summary]}), "table")
         print("wrote " + ", ".join(str(p) for p in writers))
     else:
         print_table(summary_df, args.format)

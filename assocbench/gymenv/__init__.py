@@ -1,5 +1,5 @@
-"""Gymnasium environments: the ids come from the track registry (``Track.gym_envs``). Every
-track with association problems offers, per shipped scene, ``assocbench/<Scene>-v0`` (open loop:
+"""Gymnasium environments: the ids come from the track registry (each track's ``GymEnvs``
+capability). A track with association problems offers, per shipped scene, ``assocbench/<Scene>-v0`` (open loop:
 the belief is sampled around the truth) and ``assocbench/<Scene>Loop-v0`` (closed loop: the
 belief is the track's estimator updated with the agent's own actions): ``assocbench/Room-v0``,
 ``assocbench/ParkLoop-v0``, ``assocbench/Hallway-v0``, ... ``env_ids()`` lists them.
@@ -13,7 +13,8 @@ from __future__ import annotations
 import gymnasium as gym
 
 from ..errors import UserError
-from ..tracks.base import GymEnv, iter_tracks
+from ..tracks.capabilities import GymEnv, GymEnvs, has
+from ..tracks.registry import iter_tracks
 from .actions import action_mask, sample_mask, sample_valid_action
 from .env import AssociationEnv, classical_action
 from .loop_env import LoopAssociationEnv
@@ -22,11 +23,11 @@ ENTRY_POINTS = {False: "assocbench.gymenv.env:AssociationEnv", True: "assocbench
 
 
 def env_ids() -> dict[str, tuple[str, GymEnv]]:
-    """Every registered track's Gymnasium envs: id -> (track name, ``GymEnv``), in the registry's
-    order; an id two tracks declare is a one-line ``UserError`` naming both."""
+    """Every registered track's Gymnasium envs (``GymEnvs``): id -> (track name, ``GymEnv``), in the
+    registry's order; an id two tracks declare is a one-line ``UserError`` naming both."""
     out: dict[str, tuple[str, GymEnv]] = {}
     for track in iter_tracks():
-        for env in track.gym_envs():
+        for env in (track.gym_envs() if has(track, GymEnvs) else ()):
             if env.id in out and out[env.id][0] != track.name:
                 raise UserError(f"Gymnasium env id {env.id} is declared by the {out[env.id][0]} and {track.name} "
                                 "tracks: rename one track's scene")
@@ -36,9 +37,9 @@ def env_ids() -> dict[str, tuple[str, GymEnv]]:
 
 def register_envs() -> None:
     """Register every track's envs with Gymnasium (idempotent: ids already registered are kept)."""
-    for env_id, (_, env) in env_ids().items():
+    for env_id, (name, env) in env_ids().items():
         if env_id not in gym.registry:
-            gym.register(id=env_id, entry_point=ENTRY_POINTS[env.loop], kwargs={"scene": env.scene})
+            gym.register(id=env_id, entry_point=ENTRY_POINTS[env.loop], kwargs={"scene": env.scene, "track": name})
 
 
 __all__ = ["AssociationEnv", "LoopAssociationEnv", "action_mask", "classical_action", "env_ids", "register_envs",

@@ -13,8 +13,11 @@ import numpy as np
 from ..errors import UserError
 from ..harness.config import RunSpec, defaults, merge, run_spec
 from ..harness.suite import shipped_difficulties
-from ..sim.render import MAX_SIDE, MIN_SIDE
+from ..sim.settings import MAX_SIDE, MIN_SIDE
 from ..tracks.base import Track
+from ..tracks.capabilities import GymEnvs, OwnFrames, has, lacks
+from ..tracks.inference import infer_track
+from ..tracks.registry import get_track
 from ..validation import check_number
 
 
@@ -32,7 +35,8 @@ def _resolution(resolution: Any) -> list[int]:
 
 
 def _difficulty(difficulty: Any) -> dict:
-    """The run-config override a difficulty stands for: a shipped level, or belief settings."""
+    """The run-config override a difficulty stands for: a shipped level, or belief settings (a
+    shipped level's settings of another section than ``belief`` are left to the suites)."""
     levels = shipped_difficulties()
     if isinstance(difficulty, str):
         if difficulty not in levels:
@@ -48,34 +52,47 @@ def _difficulty(difficulty: Any) -> dict:
 
 
 def env_config(scene: Any, trajectory: Any, frames: Any, difficulty: Any, resolution: Any,
-               config: Any) -> tuple[dict, RunSpec]:
+               config: Any, track: Any = None) -> tuple[dict, RunSpec]:
     """The merged run config of an env and its resolved ``RunSpec`` (every value checked by
-    ``run_spec``); a bad argument raises a one-line ``UserError`` naming it."""
+    ``run_spec``); a bad argument raises a one-line ``UserError`` naming it. The env's track is
+    ``track`` (or ``config["track"]``), else the scene's; ``trajectory`` and ``resolution`` apply
+    where the track has them (a trajectory given to a track without one is refused)."""
     if not isinstance(scene, (str, os.PathLike)) or not str(scene):
-        raise UserError(f"scene must be a shipped scene name or the path of an MJCF file, got {scene!r}")
+        raise UserError(f"scene must be a scene's name or the path of a file of the track's kind, got {scene!r}")
     if trajectory is not None and not isinstance(trajectory, str):
         raise UserError(f"trajectory must be a trajectory name or None, got {trajectory!r}")
     frames = check_number(_plain(frames), "frames", integer=True, lo=1)
     if config is not None and not isinstance(config, Mapping):
         raise UserError(f"config must be a mapping of run-config overrides, got {config!r}")
-    cfg = merge(merge(defaults(), _difficulty(difficulty), "difficulty"), dict(config or {}), "config")
-    cfg = merge(cfg, {"scene": os.fspath(scene), "trajectory": trajectory, "frames": frames,
-                      "resolution": _resolution(resolution)}, "env arguments")
+    named = track if track is not None else (config or {}).get("track")
+    impl = get_track(named) if named is not None else infer_track(os.fspath(scene), None)
+    cfg = defaults(impl)
+    if "belief" in cfg:   # a difficulty is belief settings: the shipped levels' (medium by default)
+        cfg = merge(cfg, _difficulty("medium" if difficulty is None else difficulty), "difficulty", impl.name)
+    elif difficulty is not None:
+        raise UserError(f"difficulty sets the open-loop belief, which the {impl.name} track has not: drop it "
+                        "(or set the track's own settings with config=)")
+    cfg = merge(cfg, {k: v for k, v in dict(config or {}).items() if k != "track"}, "config", impl.name)
+    given = {"scene": os.fspath(scene), "frames": frames}
+    if trajectory is not None or "trajectory" in cfg:
+        given["trajectory"] = trajectory
+    if "resolution" in cfg:
+        given["resolution"] = _resolution(resolution)
+    cfg = merge(cfg, given, "env arguments", impl.name)
     return cfg, run_spec(cfg)
 
 
 def env_track(spec: RunSpec) -> Track:
-    """The track of the env's run, if it offers this kind of env (one of its ``Track.gym_envs``
-    is open or closed loop as the run is); else a one-line ``UserError`` saying why."""
+    """The track of the env's run, if it offers this kind of env (one of its ``gym_envs`` is open or
+    closed loop as the run is); else a one-line ``UserError`` saying why."""
     track = spec.track_impl
+    where = f"scene {spec.source.name!r}"
+    if not has(track, GymEnvs) or has(track, OwnFrames):
+        raise lacks(track, f"Gymnasium env ({where})", "its frames are not association problems with a pairing to "
+                    "choose; run it with `assocbench run`")
     kinds = {env.loop for env in track.gym_envs()}
     if spec.loop in kinds:
         return track
-    where = f"scene {spec.sequence.scene!r}, method {spec.method!r}"
-    if not track.has_problems:
-        raise UserError(f"the {track.name} track ({where}) has no Gymnasium env: its frames are not association "
-                        f"problems with a pairing to choose (the dense track matches depth pixels inside ICP); "
-                        f"run it with `assocbench run`")
     kind = "closed-loop" if spec.loop else "open-loop"
     other = "only an open-loop one" if False in kinds else "only a closed-loop one" if kinds else "none at all"
     raise UserError(f"the {track.name} track ({where}) offers no {kind} Gymnasium env ({other})")

@@ -54,8 +54,9 @@ from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
+from ..harness.runner import Problems, load_source
 from ..scoring.metrics import score_frame
-from ..tracks.base import EnvSlots
+from ..tracks.capabilities import EnvSlots, Pictures, RunFrame, has
 from .actions import action_mask
 from .arguments import env_config, env_track
 
@@ -94,20 +95,22 @@ class AssociationEnv(gym.Env):
     metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track whose frames are not rendered images
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
-                 difficulty: str | dict = "medium", resolution: tuple[int, int] = (640, 480),
+                 difficulty: str | dict | None = None, resolution: tuple[int, int] = (640, 480),
                  render_mode: str | None = None, config: dict | None = None,
-                 invalid_action: str = "penalize") -> None:
+                 invalid_action: str = "penalize", track: str | None = None) -> None:
         if render_mode not in (None, "rgb_array"):
             raise UserError(f"render_mode must be None or 'rgb_array', got {render_mode!r}")
         if invalid_action not in ("penalize", "raise"):
             raise UserError(f"invalid_action must be 'penalize' or 'raise', got {invalid_action!r}")
         self.invalid_action = invalid_action
-        self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config)
+        self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config, track)
         self._track = env_track(spec)
-        if render_mode is not None and not self._track.renders_frames:
-            raise UserError(f"render_mode {render_mode!r} draws rendered frames, which the {self._track.name} track "
-                            f"(scene {spec.sequence.scene!r}) has not: pass render_mode=None")
-        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if self._track.renders_frames else []}
+        self._gl = getattr(self._track, "renders_frames", False)   # its pictures are MuJoCo GL renders
+        pictures = has(self._track, Pictures)
+        if render_mode is not None and not pictures:
+            raise UserError(f"render_mode {render_mode!r} draws the track's pictures, which the {self._track.name} "
+                            f"track (scene {spec.source.name!r}) has not: pass render_mode=None")
+        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if pictures else []}
         n_max, m_max, d = self._slots(spec)
         self.max_landmarks, self.max_features, self.dim = n_max, m_max, d
         self.render_mode = render_mode
@@ -122,12 +125,13 @@ class AssociationEnv(gym.Env):
         })
         self.action_space = spaces.MultiDiscrete(np.full(n_max, m_max + 1), start=np.full(n_max, NO_MATCH))
         self._seq = None
-        self._problems: list = []
+        self._problems = None
         self._seed = 0
         self._frame = 0
         self._problem = self._truth = None
         self._last: tuple | None = None   # (frame, problem, association) of the last step
-        self._renderer = None
+        self._pictures = None        # the track's picture generator, fed one frame at a time
+        self._shown = None           # the frame ``render`` draws next
 
     # -- episode -------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -136,14 +140,16 @@ class AssociationEnv(gym.Env):
         if options:
             raise UserError(f"AssociationEnv.reset takes no options, got {sorted(options)}; "
                             "pass settings to the constructor (gymnasium.make kwargs)")
-        if self._track.renders_frames:   # a track of no GL images never renders: a forked worker may run it
+        if self._gl:   # a track of no GL images never renders: a forked worker may run it
             _check_can_render()
         super().reset(seed=seed)
         self._seq = self._problem = self._truth = None   # a reset that fails leaves no episode to step
         seed = int(seed) if seed is not None else int(self.np_random.integers(0, 2**31 - 1))
         spec = run_spec(merge(self._cfg, {"seed": seed}, "seed"))
-        self._seq = self._track.load_sequence(spec.sequence)
+        self._seq = spec.source
+        load_source(self._seq, None)
         self._seed, self._spec, self._belief = seed, spec, spec.belief
+        self.close()   # the last episode's pictures
         self._frame = 0
         self._last = None
         self._load_frame()
@@ -168,7 +174,7 @@ class AssociationEnv(gym.Env):
         else:
             metrics = score_frame(self._problem, self._truth, association)
             reward, info = float(metrics["tp"] - metrics["fp"]), self._apply(association, "")
-        self._last = (self._frame, self._problem, association)
+        self._last, self._last_truth = (self._frame, self._problem, association), self._truth
         info.update(step_metrics=metrics, scored_frame=self._frame)
         self._frame += 1
         if not self._over:
@@ -184,10 +190,10 @@ class AssociationEnv(gym.Env):
         return self._track.env_slots(spec)
 
     def _load_frame(self) -> None:
-        """The open loop's frame: every frame's problem is made at the episode's first frame (the
-        track's ``problems``, as ``assocbench run`` makes them), then read in turn."""
+        """The open loop's frame: its problem made when the episode reaches it (the track's
+        ``problem``, as ``assocbench run`` makes it)."""
         if self._frame == 0:
-            self._problems = self._track.problems(self._seq, self._belief, self._seed)
+            self._problems = Problems(self._track, self._seq, self._spec)
         self._take(*self._problems[self._frame])
 
     def _take(self, problem: Problem, truth) -> None:
@@ -248,26 +254,32 @@ class AssociationEnv(gym.Env):
 
     # -- pictures ------------------------------------------------------------------------
     def render(self) -> np.ndarray | None:
-        """The frame of the last step with that step's association drawn (lab-8 colours);
-        right after ``reset``, the first frame with its predictions and no association."""
+        """The frame of the last step with that step's association drawn, as the track pictures a
+        run (``Pictures.run_pictures``); right after ``reset``, the first frame with no association."""
         if self.render_mode != "rgb_array" or self._problem is None:
             return None
-        from ..sim.render import FrameRenderer
-        from ..sim.scene import load_scene
-        from ..viz.overlay import draw_association
-
         k, problem, association = self._last or (self._frame, self._problem, np.full(self._problem.n, NO_MATCH))
-        if self._renderer is None:
-            _check_can_render()
-            s = self._spec.sequence
-            self._renderer = FrameRenderer(load_scene(s.scene), s.width, s.height, s.msaa)
-        rgb = self._renderer.render(self._seq.rotations[k], self._seq.positions[k])["rgb"]
-        return draw_association(rgb, problem, association)
+        truth = self._truth if self._last is None else self._last_truth
+        self._shown = self._run_frame(k, problem, truth, association)
+        if self._pictures is None:
+            if self._gl:
+                _check_can_render()
+            self._pictures = self._track.run_pictures(self._spec, self._seq, self._feed())
+        return next(self._pictures)
+
+    def _feed(self):
+        """The frames ``render`` asks the track's picture generator for, one per call."""
+        while True:
+            yield self._shown
+
+    def _run_frame(self, k: int, problem: Problem, truth, association: np.ndarray) -> RunFrame:
+        """Frame ``k`` as a recorded run's frame (open loop: no estimator)."""
+        return RunFrame(k, problem, truth, association, "", score_frame(problem, truth, association))
 
     def close(self) -> None:
-        if self._renderer is not None:
-            self._renderer.close()
-            self._renderer = None
+        if self._pictures is not None:
+            self._pictures.close()   # the generator's own cleanup (a renderer's GL context) runs now
+            self._pictures = None
 
 
 def classical_action(info: dict, size: int, method: str = "jcbb", **params) -> np.ndarray:

@@ -34,7 +34,8 @@ import numpy as np
 from ..errors import UserError
 from ..estimators.config import MODES
 from ..harness.config import RunSpec
-from ..tracks.base import EnvSlots
+from ..scoring.metrics import score_frame
+from ..tracks.capabilities import EnvSlots, RunFrame
 from .env import AssociationEnv
 
 if TYPE_CHECKING:   # imported when an episode starts: `import assocbench` stays free of the harness
@@ -62,7 +63,7 @@ def loop_config(config: Any, mode: Any, estimator: Any) -> dict:
     if not isinstance(section, Mapping):
         raise UserError(f"config['estimator'] must be a mapping of estimator settings, got {section!r}")
     section = {**section, **(estimator or {}), **({"mode": mode} if mode is not None else {})}
-    return {**cfg, "loop": True, "estimator": section}
+    return {**cfg, "loop": True, **({"estimator": section} if section else {})}
 
 
 class LoopAssociationEnv(AssociationEnv):
@@ -73,13 +74,14 @@ class LoopAssociationEnv(AssociationEnv):
     ``{"odometry_sigma_rotation": 0.5}``); ``config`` may hold an ``estimator`` section too."""
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
-                 difficulty: str | dict = "medium", resolution: tuple[int, int] = (640, 480),
+                 difficulty: str | dict | None = None, resolution: tuple[int, int] = (640, 480),
                  render_mode: str | None = None, config: dict | None = None,
                  invalid_action: str = "penalize", mode: str | None = None,
-                 estimator: dict | None = None) -> None:
+                 estimator: dict | None = None, track: str | None = None) -> None:
         self._loop: ClosedLoop | None = None
+        self._record: dict = {}
         super().__init__(scene, trajectory, frames, difficulty, resolution, render_mode,
-                         loop_config(config, mode, estimator), invalid_action)
+                         loop_config(config, mode, estimator), invalid_action, track)
 
     @property
     def filter(self):
@@ -99,12 +101,19 @@ class LoopAssociationEnv(AssociationEnv):
         if self._frame == 0:
             from ..harness.loop import ClosedLoop
 
-            self._loop = ClosedLoop(self._seq, self._belief, self._spec.estimator, self._seed)
+            self._loop = ClosedLoop(self._seq, self._spec)
         self._take(*self._loop.begin(self._frame))
+
+    def _run_frame(self, k: int, problem, truth, association: np.ndarray) -> RunFrame:
+        """Frame ``k`` with the filter after its update (before the first step: the filter at frame 0)."""
+        state = self._record if self._last is not None else {"pos_err": float("nan"), "rot_err_deg": float("nan"),
+                                                             "nees": float("nan"), "map_size": 0}
+        return RunFrame(k, problem, truth, association, "", {**state, **score_frame(problem, truth, association)},
+                        self._loop.filter)
 
     def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
         """Update the filter with the action (None: a failed frame, no update) and report its state."""
-        record = self._loop.finish(association, error=error)
+        record = self._record = self._loop.finish(association, error=error)
         info = {key: record[key] for key in LOOP_INFO}
         if record["error"] and association is not None:   # the update itself failed (not positive definite)
             info["filter_error"] = record["error"]

@@ -1,298 +1,300 @@
-"""Run configuration: YAML files and ``--set key=value`` overrides, checked against a schema.
+"""Run configuration: one schema per track, its defaults, the user's YAML and ``--set`` overrides
+merged on them, and the resolved ``RunSpec``.
 
-A run config is a nested mapping whose keys and defaults come from the dataclasses of each
-stage (``DetectorConfig``, ``TruthConfig``, ``BeliefConfig``); unknown keys are errors.
+A run's settings are the common ones (``RunKeys``, ``Limits``) and its track's (``Track.settings``):
+the defaults come from those dataclasses alone, the one source of defaults for ``run``, a suite's
+``base``, ``export`` and the Gymnasium envs. A key the run's track does not have is refused in one
+line naming the track (and the tracks that do have it); every value is checked once, when the
+typed ``Settings`` are built (``settings.Schema.build``).
+
+The run's track is the one named (``track:``, ``--track``), else inferred: the method's own, the
+scene's, else the default track (``tracks.inference``).
 """
 
 from __future__ import annotations
 
 import copy
 import difflib
-import re
-from dataclasses import asdict, dataclass
-from importlib import resources
+from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-import yaml
-
 from ..associators.registry import make_associator
-from ..belief.config import BeliefConfig
 from ..errors import UserError
-from ..estimators.config import EstimatorConfig
-from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
-from ..tracks.base import Track, get_track, iter_tracks, track_for_run
-from ..validation import check_number, free_mapping, typed_section
-
-COMMON: dict = {
-    "scene": "room",
-    "trajectory": None,
-    "trajectory_params": {},
-    "frames": 40,
-    "seed": 0,
-    "resolution": [640, 480],
-    "msaa": None,
-    "belief": asdict(BeliefConfig()),
-    "loop": False,
-    "estimator": asdict(EstimatorConfig()),
-    "method": "jcbb",
-    "params": {},
-    "time_limit_s": 30.0,
-    "limits": {"frames": 5000, "clutter": 1000},
-}
-
-
-def defaults() -> dict:
-    """The run config's schema and defaults: the settings every run has, then each registered
-    track's sections (a section two tracks share, such as ``lidar``, must agree)."""
-    out = copy.deepcopy(COMMON)
-    for track in iter_tracks():
-        for name, section in track.config_sections().items():
-            if name in out and out[name] != section:
-                raise UserError(f"track {track.name} declares settings section {name!r} with other defaults than "
-                                "another track or the common settings; rename its section")
-            out[name] = copy.deepcopy(section)
-    return out
-
+from ..settings import Schema, Section, Settings
+from ..sources.base import FrameSource
+from ..tracks.base import Track
+from ..tracks.capabilities import ClosedLoop, OwnFrames, Pictures, Requirements, has, lacks
+from ..tracks.inference import infer_track, track_for_method
+from ..tracks.registry import DEFAULT_TRACK, get_track, iter_tracks
+from ..validation import in_range
+from .yamlfile import parse_sets, read_yaml
 
 ORACLE = "oracle"   # the closed loop's reference method: the true association
-FREE_FORM = {"trajectory_params", "params"}  # checked by the trajectory / associator itself
+LOOP_ONLY = "estimator"   # the section a run outside the closed loop must leave alone
 
 
-def shipped_config(name: str) -> Path:
-    """Path of a YAML shipped in ``assocbench/configs`` (``default.yaml``, ``ci.yaml``...)."""
-    return Path(str(resources.files("assocbench.configs"))) / name
+@dataclass(frozen=True)
+class RunKeys:
+    """The settings every run has, whatever its track.
+
+    track: the run's track (`assocbench list tracks`); null: the method's own track, else the scene's,
+        else camera.
+    scene: what the track reads: a scene or dataset it ships (`assocbench list scenes`), or a file of its
+        kind (an MJCF, a log); null: the track's first.
+    frames: how many frames a run takes; null: the track's default (40 on a simulated track).
+    seed: seeds the simulated noise, the belief's errors and the clutter.
+    method: the associator (`assocbench list methods`) or pkg.module:Class.
+    params: the method's parameters, e.g. {confidence: 0.95}.
+    loop: true: the closed loop, the track's estimator updated with the method's own pairings.
+    time_limit_s: the most one call of the method may take (s); a call past it is a failed frame.
+    """
+
+    track: str | None = None
+    scene: str | None = None
+    frames: int | None = field(default=None, metadata=in_range(1, None))
+    seed: int = field(default=0, metadata=in_range(0, 2**32 - 1))
+    method: str = "jcbb"
+    params: dict = field(default_factory=dict, metadata={"accepts": "a mapping (the method's parameters)"})
+    loop: bool = False
+    time_limit_s: float = field(default=30.0, metadata=in_range(0, 86400, lo_open=True) | {"unit": "s"})
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
-    """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
-    last silently, so a typo'd override would be lost without a word)."""
+@dataclass(frozen=True)
+class Limits:
+    """Sizes refused before anything runs (raise them here or with --set limits.frames=N).
 
-    def construct_mapping(self, node, deep=False):
-        seen = set()
-        for key_node, _ in node.value:
-            key = self.construct_object(key_node, deep=deep)
-            if key in seen:
-                raise yaml.constructor.ConstructorError(
-                    None, None, f"duplicate key {key!r}: give each key once", key_node.start_mark)
-            seen.add(key)
-        return super().construct_mapping(node, deep)
+    frames: the longest sequence a run may take (frames); about 10 minutes of rendering at 640x480.
+    clutter: the most clutter features a frame (belief.clutter).
+    """
+
+    frames: int = field(default=5000, metadata=in_range(1, None))
+    clutter: int = field(default=1000, metadata=in_range(1, None))
 
 
-# YAML 1.1 (PyYAML) reads 5e-1 or 1e-3 as strings: it wants a dot and a signed exponent. Floats
-# people type in settings are read as floats here, in files and in --set alike.
-_FLOAT = re.compile(r"""^[-+]?(?:[0-9][0-9_]*\.[0-9_]*(?:[eE][-+]?[0-9]+)?
-                    |[0-9][0-9_]*[eE][-+]?[0-9]+
-                    |\.[0-9_]+(?:[eE][-+]?[0-9]+)?
-                    |\.(?:inf|Inf|INF))$|^\.(?:nan|NaN|NAN)$""", re.X)
-_UniqueKeyLoader.add_implicit_resolver("tag:yaml.org,2002:float", _FLOAT, list("-+0123456789."))
+COMMON = Schema((RunKeys,), {"limits": Section(Limits)})
 
 
-def read_yaml(path: str | Path) -> dict:
-    """Parse a YAML mapping, or raise a one-line ``UserError`` (duplicate keys included)."""
-    path = Path(path)
-    if path.is_dir():
-        raise UserError(f"config file {path} is a folder; pass a YAML file")
-    if not path.is_file():
-        raise UserError(f"config file {path} not found; pass an existing YAML file")
-    try:
-        data = yaml.load(path.read_text(), Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader
-    except UnicodeDecodeError:
-        raise UserError(f"{path} is not a text YAML file") from None
-    except yaml.YAMLError as exc:
-        mark = getattr(exc, "problem_mark", None)
-        where = f" at line {mark.line + 1}" if mark else ""
-        raise UserError(f"malformed YAML in {path}{where}: {getattr(exc, 'problem', exc)}") from None
-    if data is None:
-        return {}
-    if not isinstance(data, dict):
-        raise UserError(f"{path} must hold a mapping of keys to values, got {type(data).__name__}")
-    return data
+def run_schema(track: Track) -> Schema:
+    """The whole schema of a run on ``track``: the common settings and the track's."""
+    return COMMON + track.settings()
 
 
-def _paths(cfg: dict, prefix: str = "") -> list[str]:
-    """Every dotted key of ``cfg`` (``limits.frames``, ``time_limit_s``), free-form sections as one key."""
+def defaults(track: Track | str | None = None) -> dict:
+    """The run config's defaults on ``track`` (a name or a ``Track``; None: the default track), its
+    name filled in."""
+    track = get_track(track or DEFAULT_TRACK) if not isinstance(track, Track) else track
+    return run_schema(track).defaults() | {"track": track.name}
+
+
+def owners(key: str) -> list[str]:
+    """The tracks whose schema has the dotted ``key`` (``belief.sigma_pixel``)."""
+    section, _, leaf = key.partition(".")
     out = []
-    for key, value in cfg.items():
-        out.append(f"{prefix}{key}")
-        if isinstance(value, dict) and key not in FREE_FORM:
-            out += _paths(value, f"{prefix}{key}.")
+    for track in iter_tracks():
+        schema = run_schema(track)
+        if (not leaf and section in schema.key_fields()) or \
+                (leaf and section in schema.sections and leaf in {f.name for f in schema.sections[section].fields()}):
+            out.append(track.name)
     return out
 
 
-def _unknown(key: str, known: list[str], where: str, everywhere: list[str]) -> UserError:
-    """An unknown dotted ``key``; the hint names the key of that name elsewhere in the config
-    (``limits.time_limit_s`` -> ``time_limit_s``), else the closest spelling at its own level."""
+def _paths(cfg: dict, sections: set[str]) -> list[str]:
+    """Every dotted key of ``cfg`` (``limits.frames``, ``time_limit_s``); a section's keys dotted."""
+    return [p for key, value in cfg.items()
+            for p in ([key] + ([f"{key}.{k}" for k in value] if key in sections else []))]
+
+
+def _unknown(key: str, known: list[str], where: str, track: str, everywhere: list[str]) -> UserError:
+    """An unknown dotted ``key``: the tracks that have it, else the key of that name elsewhere
+    (``limits.time_limit_s`` -> ``time_limit_s``) or the closest spelling."""
+    others = [t for t in owners(key) if t != track]
+    if others:
+        return UserError(f"{key} in {where} is not a setting of the {track} track (this run's), but of the "
+                         f"{', '.join(others)} track{'s' if len(others) > 1 else ''}: drop it, or name that track")
     leaf = key.rpartition(".")[2]
     moved = [p for p in everywhere if p.rpartition(".")[2] == leaf]
     close = difflib.get_close_matches(key, moved, n=1, cutoff=0) or difflib.get_close_matches(key, known, n=1)
     hint = f" (did you mean {close[0]!r}?)" if close else ""
-    return UserError(f"unknown key {key!r} in {where}{hint}; known keys: {', '.join(known)}")
+    return UserError(f"unknown key {key!r} in {where}{hint}; the {track} track's keys: {', '.join(known)}")
 
 
-def merge(base: dict, override: dict, where: str, prefix: str = "", everywhere: list[str] | None = None) -> dict:
-    """``base`` updated by ``override``; keys must exist in ``base`` except in free-form sections.
-    ``everywhere``: every dotted key of the whole config, for the hint of an unknown one (the
-    top-level call takes ``base``'s)."""
-    everywhere = _paths(base) if everywhere is None else everywhere
+def merge(base: dict, override: dict, where: str, track: str | None = None) -> dict:
+    """``base`` (a complete config of ``track``, ``base["track"]`` when None) updated by
+    ``override``: every key must be one of ``base``'s; a section (a mapping in ``base`` that is
+    not a free-form key such as ``params``) is merged key by key."""
+    track = track or str(base.get("track"))
+    sections = set(run_schema(get_track(track)).sections)
+    everywhere = _paths(base, sections)
     out = copy.deepcopy(base)
     for key, value in override.items():
-        full = f"{prefix}{key}"
         if key not in out:
-            raise _unknown(full, [f"{prefix}{k}" for k in out], where, everywhere)
-        if isinstance(out[key], dict) and key not in FREE_FORM:
-            if not isinstance(value, dict):
-                raise UserError(f"{full} in {where} must be a mapping, got {value!r}")
-            out[key] = merge(out[key], value, where, f"{full}.", everywhere)
-        else:
+            raise _unknown(str(key), list(out), where, track, everywhere)
+        if key not in sections:
             out[key] = value
+            continue
+        if not isinstance(value, dict):
+            raise UserError(f"{key} in {where} must be a mapping, got {_short(value)}")
+        for sub, item in value.items():
+            if sub not in out[key]:
+                raise _unknown(f"{key}.{sub}", [f"{key}.{k}" for k in out[key]], where, track, everywhere)
+            out[key][sub] = item
     return out
 
 
-def parse_sets(items: list[str] | None) -> dict:
-    """``["belief.clutter=5", "frames=10"]`` -> nested mapping (values parsed as YAML)."""
-    out: dict = {}
-    for item in items or []:
-        key, sep, raw = item.partition("=")
-        if not sep or not key.strip():
-            raise UserError(f"--set expects key=value, got {item!r}")
-        try:
-            value = yaml.load(raw, Loader=_UniqueKeyLoader)  # noqa: S506 - a SafeLoader
-        except yaml.YAMLError:
-            value = raw
-        node = out
-        parts = key.strip().split(".")
-        for part in parts[:-1]:
-            node = node.setdefault(part, {})
-        node[parts[-1]] = value
-    return out
+def _short(value: Any, most: int = 80) -> str:
+    """``repr(value)`` cut to ``most`` characters, for a message."""
+    text = repr(value)
+    return text if len(text) <= most else text[:most] + "..."
+
+
+def _named(layers: list[tuple[dict, str]], key: str) -> Any:
+    """The value the last layer that gives ``key`` gives (None if none does)."""
+    return next((layer[key] for layer, _ in reversed(layers) if layer.get(key) is not None), None)
+
+
+def run_track(layers: list[tuple[dict, str]]) -> Track:
+    """The track the layers name (the last ``track``), else the one inferred from their scene and method."""
+    named = _named(layers, "track")
+    if named is not None:
+        return get_track(named)
+    return infer_track(_named(layers, "scene"), _named(layers, "method"))
 
 
 def load_run_config(config: str | Path | None = None, sets: list[str] | None = None, **flags) -> dict:
-    """Defaults, then the YAML ``config`` (``configs/default.yaml`` if None), then ``--set``, then flags."""
-    path = Path(config) if config else shipped_config("default.yaml")
-    cfg = merge(defaults(), read_yaml(path), str(path))
-    cfg = merge(cfg, parse_sets(sets), "--set")
-    return merge(cfg, {k: v for k, v in flags.items() if v is not None}, "command-line flags")
+    """The run config: the defaults of the run's track, then the YAML ``config``, then ``--set``,
+    then the command-line ``flags`` (None: not given). A key both ``--set`` and a flag give is
+    refused: one of the two values would be dropped without a word."""
+    given = {k: v for k, v in flags.items() if v is not None}
+    sets = parse_sets(sets)
+    both = sorted(set(sets) & set(given))
+    if both:
+        raise UserError(f"{both[0]} is given twice, by --set and by its own flag (--{both[0].replace('_', '-')}): "
+                        "give it once")
+    layers = ([(read_yaml(config), str(config))] if config else []) + [(sets, "--set"), (given, "command-line flags")]
+    track = run_track(layers)
+    cfg = defaults(track)
+    for layer, where in layers:
+        cfg = merge(cfg, layer, where, track.name)
+    cfg["track"] = track.name
+    return cfg
 
 
 @dataclass(frozen=True)
 class RunSpec:
-    """A fully resolved run: which sequence, which belief, which method."""
+    """A fully resolved run: its track, frame source and checked settings, and the method."""
 
-    sequence: Any                # the track's sequence spec
-    belief: BeliefConfig
-    seed: int
+    track: str                   # the registered track that reads the source
+    source: FrameSource          # its frames (read lazily, in the worker)
+    settings: Settings           # every setting, typed and checked (the common ones and the track's)
     method: str
     params: dict
-    time_limit_s: float = 30.0   # per associate() call; a call past it is a failed frame
-    loop: bool = False           # closed loop: the belief is the estimator's posterior
-    estimator: EstimatorConfig = EstimatorConfig()
-    track: str = "camera"        # the registered track that makes the sequence and its problems
-    settings: tuple = ()          # the track's own typed sections, ((name, value), ...) (Track.run_settings)
 
     @property
     def track_impl(self) -> Track:
         """The registered ``Track`` of this run."""
         return get_track(self.track)
 
-    def setting(self, name: str):
-        """The track's typed settings section ``name`` (e.g. the dense track's ``icp``)."""
-        return dict(self.settings)[name]
+    @property
+    def seed(self) -> int:
+        return self.settings.seed
 
+    @property
+    def loop(self) -> bool:
+        return self.settings.loop
 
-def _check_limits(cfg: dict) -> dict:
-    """The size limits (``limits.frames``, ``limits.clutter``), themselves checked."""
-    limits = cfg["limits"]
-    return {k: check_number(limits[k], f"limits.{k}", integer=True, lo=1) for k in COMMON["limits"]}
+    @property
+    def time_limit_s(self) -> float:
+        return float(self.settings.time_limit_s)
 
+    @property
+    def frames(self) -> int:
+        return len(self.source)
 
-def _check_sizes(cfg: dict) -> None:
-    """Sizes that would render for hours or allocate GiB are refused before anything runs."""
-    limits = _check_limits(cfg)
-    check_number(cfg["frames"], "frames", integer=True, lo=1)
-    if cfg["frames"] > limits["frames"]:
-        raise UserError(f"frames {cfg['frames']} exceeds limits.frames = {limits['frames']} (about 10 minutes of "
-                        f"rendering); lower it or raise limits.frames (--set limits.frames=N, or in a suite's base)")
-    clutter = cfg["belief"].get("clutter", 0) if isinstance(cfg["belief"], dict) else 0
-    if isinstance(clutter, int) and not isinstance(clutter, bool) and clutter > limits["clutter"]:
-        raise UserError(f"belief.clutter {clutter} exceeds limits.clutter = {limits['clutter']} features per "
-                        f"frame; lower it or raise limits.clutter (--set limits.clutter=N, or in a suite's base)")
-    res = cfg["resolution"]
-    if not (isinstance(res, (list, tuple)) and len(res) == 2):
-        raise UserError(f"resolution must be [width, height] in pixels, got {res!r}")
-    for name, value in zip(("width", "height"), res):
-        check_number(value, f"resolution {name}", integer=True, lo=MIN_SIDE, hi=MAX_SIDE)
+    @property
+    def belief(self) -> Any:
+        """The open-loop belief's settings (a track with a ``belief`` section), else None."""
+        return self.settings.get("belief")
+
+    @property
+    def estimator(self) -> Any:
+        """The closed loop's estimator settings (a track with an ``estimator`` section), else None."""
+        return self.settings.get(LOOP_ONLY)
+
+    def setting(self, name: str) -> Any:
+        """The settings section ``name`` (e.g. the dense track's ``icp``)."""
+        return self.settings[name]
+
+    def with_method(self, method: str, params: dict) -> RunSpec:
+        """This run with another method (a suite's runs share everything else)."""
+        return RunSpec(self.track, self.source, self.settings, method, dict(params))
 
 
 def run_spec(cfg: dict) -> RunSpec:
-    """Resolve a merged config mapping into typed stage settings. Every value is checked here,
-    before anything runs: types, finiteness, ranges, sizes against ``limits``, the method and
-    its parameters (built once and thrown away). The run's track is the method's own (a dense
-    method) or the scene's; the track reads its sections (``Track.sequence_spec``,
-    ``Track.run_settings``)."""
-    _check_sizes(cfg)
-    check_number(cfg["seed"], "seed", integer=True, lo=0, hi=2**32 - 1)
-    check_number(cfg["time_limit_s"], "time_limit_s", lo=0, hi=86400, lo_open=True)
-    check_msaa(cfg["msaa"])
-    for key in ("scene", "method"):
-        if not isinstance(cfg[key], str) or not cfg[key]:
-            raise UserError(f"{key} must be a name or a path, got {cfg[key]!r}")
-    if cfg["trajectory"] is not None and not isinstance(cfg["trajectory"], str):
-        raise UserError(f"trajectory must be a name or null, got {cfg['trajectory']!r}")
-    if not isinstance(cfg["loop"], bool):
-        raise UserError(f"loop must be true or false, got {cfg['loop']!r}")
-    track = track_for_run(cfg["scene"], cfg["method"])
-    check_every_section(cfg, track)
-    estimator = typed_section(EstimatorConfig, cfg["estimator"], "estimator")
-    seq = track.sequence_spec(cfg, estimator)
-    settings = track.run_settings(cfg)
-    params = free_mapping(cfg, "params")
-    if track.has_problems:
-        check_method(cfg["method"], params, cfg["loop"], track.name)
-    else:
-        track.check_method(cfg["method"], params, cfg["loop"])
-    return RunSpec(seq, typed_section(BeliefConfig, cfg["belief"], "belief"), cfg["seed"], cfg["method"],
-                   params, float(cfg["time_limit_s"]), cfg["loop"], estimator, track.name, settings)
+    """Resolve a merged config (``load_run_config``, a suite's cell) into a ``RunSpec``. Every value is
+    checked here, once, before anything runs: types and ranges, the method and its parameters
+    (built once and thrown away), the closed loop, the sizes against ``limits``."""
+    track = get_track(cfg.get("track") or infer_track(cfg.get("scene"), cfg.get("method")).name)
+    cfg = merge(defaults(track), {k: v for k, v in cfg.items() if k != "track"}, "the run config", track.name)
+    settings = run_schema(track).build(cfg)
+    if not isinstance(settings.method, str) or not settings.method:
+        raise UserError(f"method must be a name or pkg.module:Class, got {settings.method!r}")
+    _check_track_can(track, settings, cfg)
+    check_method(settings.method, settings.params, settings.loop, track)
+    source = track.source(settings)
+    _check_sizes(source, settings)
+    return RunSpec(track.name, source, settings, settings.method, dict(settings.params))
 
 
-def check_every_section(cfg: dict, track: Track) -> None:
-    """Check every track's settings, used by this run or not (a NaN in a section the run ignores
-    is still a mistake), and refuse a setting that cannot apply to the run: another track's
-    section changed from its defaults, or the estimator's settings outside the closed loop."""
-    base = defaults()
-    for other in iter_tracks():
-        for name, cls in other.section_types().items():
-            section = typed_section(cls, cfg[name], name)
-            if callable(getattr(section, "check", None)):
-                section.check()
-    used = set(COMMON) | set(track.config_sections())
-    for name in base:
-        if name not in used and cfg[name] != base[name]:
-            owners = [t.name for t in iter_tracks() if name in t.config_sections()]
-            changed = next(f"{name}.{k}" for k, v in cfg[name].items() if base[name].get(k) != v)
-            raise UserError(f"{changed} is a setting of the {' and '.join(owners)} track, but this run is on the "
-                            f"{track.name} track (scene {cfg['scene']!r}, method {cfg['method']!r}): drop it")
-    if not cfg["loop"] and cfg["estimator"] != base["estimator"]:
-        changed = next(k for k, v in cfg["estimator"].items() if base["estimator"].get(k) != v)
-        raise UserError(f"estimator.{changed} applies to the closed loop only: add --loop (loop: true) or drop it")
+def _check_track_can(track: Track, settings: Settings, cfg: dict) -> None:
+    """Refuse what the track cannot do: run at all here (a missing package), a closed loop, or
+    estimator settings outside one."""
+    why = track.unavailable() if has(track, Requirements) else None
+    if why:
+        raise UserError(f"the {track.name} track is unavailable here: {why}")
+    if settings.loop and not has(track, ClosedLoop):
+        raise lacks(track, "closed loop", "drop --loop (loop: true)")
+    base = defaults(track).get(LOOP_ONLY)
+    if not settings.loop and base is not None and cfg[LOOP_ONLY] != base:
+        changed = next(k for k, v in cfg[LOOP_ONLY].items() if base.get(k) != v)
+        raise UserError(f"{LOOP_ONLY}.{changed} applies to the closed loop only: add --loop (loop: true) or drop it")
+
+
+def _check_sizes(source: FrameSource, settings: Settings) -> None:
+    """Sizes that would render for hours or allocate GiB are refused before anything runs."""
+    limits = settings.limits
+    if len(source) > limits.frames:
+        raise UserError(f"frames {len(source)} exceeds limits.frames = {limits.frames} (about 10 minutes of "
+                        f"rendering); lower it or raise limits.frames (--set limits.frames=N, or in a suite's base)")
+    belief = settings.get("belief")
+    if belief is not None and belief.clutter > limits.clutter:
+        raise UserError(f"belief.clutter {belief.clutter} exceeds limits.clutter = {limits.clutter} features per "
+                        f"frame; lower it or raise limits.clutter (--set limits.clutter=N, or in a suite's base)")
 
 
 def with_pictures(spec: RunSpec, what: str) -> RunSpec:
-    """``spec``, or a one-line error saying where to look instead when its track has no pictures
-    for ``what`` (``frame``, ``render``: ``Track.pictures``)."""
-    track = get_track(spec.track)
-    if not track.pictures:
-        instead = track.pictures_elsewhere or f"`assocbench leaderboard --suite {next(iter(track.suites), track.name)}`"
-        raise UserError(f"{what} does not serve the {track.name} track (scene {spec.sequence.scene!r}): "
-                        f"see its runs in {instead}")
+    """``spec``, or a one-line error when its track draws no pictures (``frame``, ``render``)."""
+    track = spec.track_impl
+    if not has(track, Pictures):
+        elsewhere = getattr(track, "pictures_elsewhere", "") or \
+            f"the leaderboard's pictures (`assocbench leaderboard --suite {next(iter(track.suites()), track.name)}`)"
+        raise UserError(f"{what} does not serve the {track.name} track (scene {spec.source.name!r}): see its runs in "
+                        f"{elsewhere}")
     return spec
 
 
-def check_method(method: str, params: dict, loop: bool, track: str | None = None) -> None:
+def check_method(method: str, params: dict, loop: bool, track: Track) -> None:
     """Refuse an unknown method or bad parameters now (built once and thrown away). ``oracle``
-    (the true association) exists only in the closed loop, as its reference row. A method whose
-    class has ``check_track(track, params)`` (a learned model of one track) is asked about ``track``."""
+    (the true association) exists only in the closed loop, as its reference row. A track with its
+    own frame loop checks its methods itself (``OwnFrames``); a method whose class has
+    ``check_track(track, params)`` (a learned model of one track) is asked about the track."""
+    if has(track, OwnFrames):
+        track.check_method(method, params)
+        return
+    own = track_for_method(method)
+    if own is not None and own.name != track.name:
+        raise UserError(f"method {method} runs on the {own.name} track (it is one of its own methods), not on the "
+                        f"{track.name} track: drop --track, or name --track {own.name}")
     if method == ORACLE:
         if not loop:
             raise UserError("method 'oracle' (the true association) is the closed loop's reference; "
@@ -302,5 +304,6 @@ def check_method(method: str, params: dict, loop: bool, track: str | None = None
         return
     associator = make_associator(method, **params)
     hook = getattr(type(associator), "check_track", None)
-    if track is not None and callable(hook):
-        hook(track, params)
+    if callable(hook):
+        hook(track.name, params)
+

@@ -25,13 +25,11 @@ import numpy as np
 from ..association.compatibility import pairwise_nis
 from ..association.problem import NO_MATCH, Problem
 from ..association.truth import FrameTruth
-from ..belief.config import BeliefConfig
 from ..errors import UserError
-from ..estimators.config import EstimatorConfig
 from ..estimators.ekf_core import NotPositiveDefinite
 from ..scoring.loop_summary import ESTIMATOR_FAILED
 from ..scoring.metrics import score_frame, true_mass
-from ..tracks.base import get_track
+from ..tracks.registry import get_track
 from .config import ORACLE
 from .loop_truth import MapTruth, RevisitCounter, loop_truth, map_quality
 from .runner import WARM_UP, _build, call_method, describe, failed_record, warm_up
@@ -71,19 +69,19 @@ class GuardedEstimator:
 class ClosedLoop:
     """One method's closed-loop run on one sequence (see the module docstring)."""
 
-    def __init__(self, seq, belief: BeliefConfig, est: EstimatorConfig, seed: int) -> None:
-        self.seq, self.belief, self.est, self.seed = seq, belief, est, seed
-        track = get_track(seq.track)
-        self.filter = _guarded(track.make_estimator, seq, est, belief, seed)
+    def __init__(self, source, run) -> None:
+        track = get_track(run.track)
+        self.seq, self.belief, self.est, self.seed = source.sequence, run.belief, run.estimator, run.seed
+        self.filter = _guarded(track.estimator, source, run)
         self._est = GuardedEstimator(self.filter)   # what the loop itself calls
-        self.sensor = track.loop_sensor(seq, belief, est, seed)
+        self.sensor = track.loop_sensor(source, run)
         self.revisits = RevisitCounter()
         self.truth = MapTruth()
         self.in_map = None
         self._pending: tuple | None = None   # frame begun, not finished: (k, problem, truth, data, labels)
         self._labels: dict[int, np.ndarray] = {}   # each frame's feature labels (two-view landmarks' truth)
-        if est.mode == "localisation":
-            self.in_map = np.zeros(len(seq.landmarks), bool)
+        if self.est.mode == "localisation":
+            self.in_map = np.zeros(len(self.seq.landmarks), bool)
             self.in_map[self._est.book.ids] = True
             for mid in self._est.book.ids:
                 self.truth.tie(mid, mid)
@@ -186,19 +184,20 @@ def recorded_answer(recorded, k: int) -> tuple:
     return np.asarray(association, dtype=np.int64), 0.0, {}, ""
 
 
-def loop_records(seq, belief: BeliefConfig, est: EstimatorConfig, seed: int, method: str, params: dict,
-                 time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
+def loop_records(source, run, first: int = 0, faults: dict | None = None,
                  on_call: Callable[[int, float], None] = lambda k, limit: None,
                  replay: dict | None = None) -> Iterator[dict]:
-    """Per-frame records of ``method`` in the closed loop, frames ``first..`` (frames before
-    ``first`` are replayed from ``replay[k] = (association, error)``). ``faults`` and ``on_call``
-    as in ``runner.frame_records``."""
+    """Per-frame records of the run's method in its closed loop on ``source``, frames ``first..``
+    (frames before ``first`` are replayed from ``replay[k] = (association, error)``). ``faults``
+    and ``on_call`` as in ``runner.frame_records``."""
     faults, replay = faults or {}, replay or {}
+    method, params, time_limit_s = run.method, run.params, run.time_limit_s
     try:
-        loop = ClosedLoop(seq, belief, est, seed)
+        loop = ClosedLoop(source, run)
     except EstimatorFailed as exc:   # the estimator could not even start: no frame is measured
-        yield from estimator_failed_records(range(first, len(seq)), 0, exc)
+        yield from estimator_failed_records(range(first, len(source)), 0, exc)
         return
+    seq = loop.seq
     associator, build_error = None, ""
     if method != ORACLE and WARM_UP not in faults:
         on_call(WARM_UP, 10 * time_limit_s)

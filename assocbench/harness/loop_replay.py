@@ -18,19 +18,20 @@ from collections.abc import Iterator
 import numpy as np
 import pandas as pd
 
-from ..tracks.base import RunFrame, get_track
+from ..tracks.capabilities import RunFrame
 from .config import RunSpec
 from .loop import ClosedLoop, EstimatorFailed, recorded_answer
+from .runner import Problems
 
 REPLAY_TOLERANCE_M = 1e-6   # the replayed filter must put the sensor where the run did
 POSITION_COLUMNS = ("est_x", "est_y", "est_z")
 
 
-def replay_run(spec: RunSpec, seq, records: pd.DataFrame) -> Iterator[RunFrame]:
-    """The recorded frames of ``spec``'s run on ``seq`` (``records``: its frames table with an
-    ``association`` column, as ``execute(spec, associations=True)`` returns it), in frame order."""
+def replay_run(spec: RunSpec, records: pd.DataFrame) -> Iterator[RunFrame]:
+    """The recorded frames of ``spec``'s run (``records``: its frames table with an ``association``
+    column, as ``execute(spec, associations=True)`` returns it), in frame order."""
     rows = {int(r["frame"]): r for r in records.to_dict("records")}
-    yield from (_closed_loop if spec.loop else _open_loop)(spec, seq, rows)
+    yield from (_closed_loop if spec.loop else _open_loop)(spec, rows)
 
 
 def _shown(association, n: int) -> np.ndarray:
@@ -40,21 +41,21 @@ def _shown(association, n: int) -> np.ndarray:
     return np.asarray(association, np.int64)
 
 
-def _open_loop(spec: RunSpec, seq, rows: dict) -> Iterator[RunFrame]:
-    problems = get_track(spec.track).problems(seq, spec.belief, spec.seed)
+def _open_loop(spec: RunSpec, rows: dict) -> Iterator[RunFrame]:
+    problems = Problems(spec.track_impl, spec.source, spec)
     for k, row in sorted(rows.items()):
         problem, truth = problems[k]
         yield RunFrame(k, problem, truth, _shown(row.get("association"), problem.n), row.get("error") or "", row)
 
 
-def _closed_loop(spec: RunSpec, seq, rows: dict) -> Iterator[RunFrame]:
+def _closed_loop(spec: RunSpec, rows: dict) -> Iterator[RunFrame]:
     recorded = {k: (r.get("association"), r.get("error") or "") for k, r in rows.items()}
     try:
-        loop = ClosedLoop(seq, spec.belief, spec.estimator, spec.seed)
+        loop = ClosedLoop(spec.source, spec)
     except EstimatorFailed:   # the run's estimator failed at its start: nothing to draw
         return
     warned = False
-    for k in range(len(seq)):
+    for k in range(len(spec.source)):
         try:
             problem, truth = loop.begin(k)
             answer = recorded_answer(recorded, k)

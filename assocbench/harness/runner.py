@@ -14,16 +14,18 @@ import signal
 import time
 from collections.abc import Callable, Iterator
 from dataclasses import dataclass
+from pathlib import Path
 
 import numpy as np
 
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..association.truth import FrameTruth
 from ..associators.registry import make_associator
-from ..belief.config import BeliefConfig
 from ..errors import UserError
+from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
-from ..tracks.base import get_track
+from ..tracks.base import loop_words
+from ..tracks.capabilities import OwnFrames, has
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
 WARM_UP_FACTOR = 10   # warm-up may compile (numba, a plugin's JIT): it gets 10x the per-call limit
@@ -57,14 +59,32 @@ def warm_up(associator) -> None:
             raise
 
 
-def frame_problems(seq, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
-    """The problem and truth of every frame (open loop: the sampled belief of the scene's track);
-    built once and shared by every method of a sweep, each checked whole (``Problem.validate``)
-    before any method sees it."""
-    problems = get_track(seq.track).problems(seq, belief, seed)
-    for problem, _ in problems:
-        problem.validate()
-    return problems
+def load_source(source, cache_dir: Path | None) -> None:
+    """Read a simulated source's sequence (from ``cache_dir`` when the task names one) before its
+    frames are asked for; a recorded source reads its frames itself."""
+    load = getattr(source, "load", None)
+    if callable(load):
+        load(cache_dir)
+
+
+class Problems:
+    """The open loop's problem and truth of each frame of a run, built when first asked for
+    (``track.problem``), checked whole before any method sees it (``Problem.validate``), and kept
+    for the run's other methods: a worker builds each frame once, whatever the methods."""
+
+    def __init__(self, track, source, run) -> None:
+        self.track, self.source, self.run = track, source, run
+        self._built: dict[int, tuple[Problem, FrameTruth]] = {}
+
+    def __len__(self) -> int:
+        return len(self.source)
+
+    def __getitem__(self, k: int) -> tuple[Problem, FrameTruth]:
+        if k not in self._built:
+            problem, truth = self.track.problem(self.source, k, self.run)
+            problem.validate()
+            self._built[k] = (problem, truth)
+        return self._built[k]
 
 
 def private_copy(problem: Problem) -> Problem:
@@ -166,7 +186,7 @@ def _build(method: str, params: dict):
     return guarded_build(lambda: make_associator(method, **params))
 
 
-def frame_records(problems: list[tuple[Problem, FrameTruth]], method: str, params: dict,
+def frame_records(problems: Problems, method: str, params: dict,
                   time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
                   on_call: Callable[[int, float], None] = lambda k, limit: None) -> Iterator[dict]:
     """Per-frame records of ``method`` on ``problems[first:]``, one at a time. A method that raises,
@@ -229,3 +249,16 @@ class GuardedCalls:
             return None, time.perf_counter() - start, describe(exc)
         return out, time.perf_counter() - start, ""
 
+
+def summarize_run(track, frames) -> dict:
+    """The summary row of one run's per-frame records: the track's own (``OwnFrames``), else the
+    shared metrics of association problems (``scoring.aggregate.summarize``)."""
+    return track.summarize(frames) if has(track, OwnFrames) else summarize(frames)
+
+
+def describe_run(track, run) -> tuple[dict, str]:
+    """Columns that say how a run was made, and the same in words: the track's own (``OwnFrames``),
+    else the loop (``open``, or the estimator's mode and name in the closed loop)."""
+    if has(track, OwnFrames):
+        return track.describe(run)
+    return {"loop": run.estimator.mode if run.loop else "open"}, loop_words(run)

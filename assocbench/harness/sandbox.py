@@ -28,7 +28,7 @@ import time
 import traceback
 from collections import deque
 from collections.abc import Callable, Iterable
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, field
 from functools import partial
 from multiprocessing.connection import wait
 from pathlib import Path
@@ -37,12 +37,13 @@ import pandas as pd
 from tqdm import tqdm
 
 from ..errors import UserError
-from ..tracks.base import get_track
+from ..tracks.capabilities import OwnFrames, WarmUp, has
+from ..tracks.registry import get_track
 from .config import RunSpec
 from .loop import loop_records
 from .progress import RunProgress
 from .records import RecordSpool, frame_table
-from .runner import WARM_UP, GuardedCalls, describe, frame_problems, frame_records
+from .runner import WARM_UP, GuardedCalls, Problems, describe, frame_records, load_source, summarize_run
 
 # modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
 # from re-running the main script, and the preload module loads the built-ins' kernels
@@ -135,23 +136,23 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
         spec = task.runs[r][1]
         track = spec.track_impl
         warm_track(track)   # no-op where the parent warmed it and forked this worker
-        seq = track.load_sequence(spec.sequence, cache)
-        problems = frame_problems(seq, spec.belief, spec.seed) if track.has_problems and not spec.loop else None
+        load_source(spec.source, cache)
+        problems = None if spec.loop or has(track, OwnFrames) else Problems(track, spec.source, spec)
         for mi in range(resume[1] if r == resume[0] else 0, len(task.methods)):
             _, method, params = task.methods[mi]
+            run = spec.with_method(method, params)
             first = resume[2] if (r, mi) == resume[:2] else 0
             announce = lambda k, limit, r=r, mi=mi: send(("call", r, mi, k, limit))  # noqa: E731
-            if spec.loop:
-                records = loop_records(seq, spec.belief, spec.estimator, spec.seed, method, params,
-                                       spec.time_limit_s, first, faults.get((r, mi)), announce,
-                                       replay if (r, mi) == resume[:2] else None)
-            elif problems is None:   # a track whose frames are not Problems runs its own frame loop
-                calls = GuardedCalls(spec.time_limit_s, faults.get((r, mi)) or {}, announce)
-                records = track.frame_records(seq, replace(spec, method=method, params=dict(params)), calls, first,
-                                              Path(task.artifacts) if task.artifacts else None)
-            else:
+            if problems is not None:
                 records = frame_records(problems, method, params, spec.time_limit_s, first,
                                         faults.get((r, mi)), announce)
+            elif spec.loop:
+                records = loop_records(spec.source, run, first, faults.get((r, mi)), announce,
+                                       replay if (r, mi) == resume[:2] else None)
+            else:   # the track's own frame loop (its frames are not Problems)
+                calls = GuardedCalls(spec.time_limit_s, faults.get((r, mi)) or {}, announce)
+                records = track.records(spec.source, run, calls, first,
+                                        Path(task.artifacts) if task.artifacts else None)
             for record in records:
                 send(("frame", r, mi, record["frame"], record))
 
@@ -235,7 +236,7 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
     names = sorted({m.lower() for m in methods} & set(BUILTINS) - _warm)
     # the scoring of associations against truth: every worker of a track whose frames are Problems
     # uses it (no tracks named: assume one does); the dense track scores its pairs its own way
-    scores = not tracks or any(get_track(name).has_problems for name in tracks)
+    scores = not tracks or any(not has(get_track(name), OwnFrames) for name in tracks)
     scoring = [warm_scoring] if scores and "scoring" not in _warm else []
     warm([partial(warm_up, BUILTINS[name]()) for name in names] + scoring)
     _warm.update(names + (["scoring"] if scores else []))
@@ -249,7 +250,8 @@ def warm_track(track) -> None:
     otherwise the dense track compiled inside its timed frames (a first run's fps 9.4 against 29.7
     warm)."""
     if f"track {track.name}" not in _warm:
-        track.warm_up()
+        if has(track, WarmUp):
+            track.warm_up()
         _warm.add(f"track {track.name}")
 
 
@@ -471,14 +473,14 @@ def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = F
     (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
     ``artifacts``: a folder for the run's end-of-run files (the dense track's map); ``progress``:
     a bar over the frames on stderr (``RunProgress``)."""
-    name = f"{Path(spec.sequence.scene).stem} seed {spec.seed}"
+    name = f"{spec.source.name} seed {spec.seed}"
     task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
                 str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)
-    bar = RunProgress(spec.method, spec.sequence.frames) if progress else None
+    bar = RunProgress(spec.method, len(spec.source)) if progress else None
     try:
         supervisor = Supervisor(1, watch=bar.watch if bar else None)
         frames = supervisor.run_one_table(task, () if associations else ("association",))[(0, 0)]
     finally:
         if bar is not None:
             bar.close()
-    return frames, spec.track_impl.summarize(frames)
+    return frames, summarize_run(spec.track_impl, frames)

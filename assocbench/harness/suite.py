@@ -3,30 +3,36 @@
 A suite file has the keys ``base`` (a run config applied to every run), ``scenes``,
 ``difficulties`` (name -> run-config overrides, e.g. ``{belief: {sigma_rotation: 2}}``),
 ``methods`` (names, or mappings ``{name, method, params}`` so a label can point at a plugin),
-``seeds``, and optionally ``tolerance`` (for ``check``), ``description`` and ``backends``
-(name -> run-config overrides, e.g. ``{isam2: {estimator: {name: isam2}}}``): each difficulty
-is then run once per back end, as the difficulty ``<difficulty>-<backend>``.
+``seeds``, and optionally ``track`` (the suite's track; else inferred from its methods and
+scenes), ``tolerance`` (for ``check``), ``description``, ``requires`` (modules beyond the core it
+needs, ``[gtsam]``: ``check`` skips it where one is missing) and ``backends`` (name -> run-config
+overrides, e.g. ``{isam2: {estimator: {name: isam2}}}``): each difficulty is then run once per back
+end, as the difficulty ``<difficulty>-<backend>``. docs/reference/suites.md describes every key.
 """
 
 from __future__ import annotations
 
 import hashlib
+import importlib.util
 import json
 from dataclasses import dataclass, field
 from functools import cached_property
 from pathlib import Path
 
 from ..associators.registry import associator_class
+from ..configs import shipped_config
 from ..errors import UserError
 from ..fingerprint import class_digest, package_digest
-from ..sim.scene import scene_digest
-from ..sim.waypoints import waypoint_digest
-from ..tracks.base import GuardedMetric, Track, get_track, iter_tracks, track_for_run
+from ..sources.base import short_name
+from ..tracks.base import GuardedMetric, Track
+from ..tracks.inference import infer_track
+from ..tracks.registry import get_track, iter_tracks
 from ..validation import check_number
-from .config import check_method, defaults, merge, read_yaml, run_spec
+from .config import check_method, defaults, merge, run_spec
+from .yamlfile import read_yaml
 
-SUITE_KEYS = ("description", "base", "scenes", "difficulties", "backends", "methods", "seeds", "tolerance",
-              "ate_tolerance")
+SUITE_KEYS = ("description", "track", "requires", "base", "scenes", "difficulties", "backends", "methods", "seeds",
+              "tolerance", "ate_tolerance")
 
 
 @dataclass(frozen=True)
@@ -49,24 +55,17 @@ class Job:
 
     @cached_property
     def key(self) -> str:
-        """Hash of the job's settings and of the code that runs it (this package and each method's
-        package), so results stored by other code are never reused. Computed once per job: a
-        source edited while a sweep runs must not make a job stored under one key be looked up
-        under another."""
+        """Hash of the job's settings, its frame sources' content keys (``source.key``: the scene's or
+        log's files, a waypoint file, the code that makes the frames) and the code that runs it (this
+        package and each method's package), so results stored by other code or from other inputs
+        are never reused. Computed once per job: a source edited while a sweep runs must not make a
+        job stored under one key be looked up under another."""
         code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests()
-        code.append(scene_digest(self.scene))   # the scene's content, not its path: an edited MJCF recomputes
-        code += self._waypoint_digests()         # likewise a waypoint file's
-        code += self._param_file_digests()       # and a file a method's parameter names (a learned model)
+        code += [run_spec(cfg).source.key for _, cfg in self.runs]
+        code += self._param_file_digests()       # a file a method's parameter names (a learned model)
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
         return hashlib.sha256(payload.encode()).hexdigest()[:16]
-
-    def _waypoint_digests(self) -> list[str]:
-        """The content of each run's waypoint file (``trajectory: waypoints``, any track): its
-        name alone is in the settings, and an edited file must drive the new path."""
-        digests = (waypoint_digest(cfg.get("trajectory"), cfg.get("trajectory_params") or {}, self.scene)
-                   for _, cfg in self.runs)
-        return [d for d in digests if d is not None]
 
     def _param_file_digests(self) -> list[str]:
         """The content of each file a method's parameter names (``params.model`` of ``learned``, or
@@ -76,10 +75,15 @@ class Job:
         return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
 
     def _track_digests(self) -> list[str]:
-        """Digests of the job's tracks that live outside this package (a user's track module):
-        editing one must not reuse numbers its old code made. Built-ins are in ``package_digest``."""
-        found = {type(track_for_run(self.scene, m.method)) for m in self.methods}
-        return sorted(class_digest(cls) for cls in found if not cls.__module__.startswith("assocbench."))
+        """Digests of the job's track when it lives outside this package (a user's track module):
+        editing it must not reuse numbers its old code made. Built-ins are in ``package_digest``."""
+        cls = type(get_track(self.runs[0][1]["track"]))
+        return [] if cls.__module__.startswith("assocbench.") else [class_digest(cls)]
+
+    @property
+    def name(self) -> str:
+        """The job's scene or dataset by its short name (never a machine path)."""
+        return short_name(self.scene)
 
 
 def _method_digest(method: str) -> str:
@@ -97,8 +101,9 @@ class Suite:
     jobs: tuple[Job, ...]
     tolerance: float
     ate_tolerance: float = 0.01   # m: a closed loop's ATE may rise this much above the baseline
-    track: str = "camera"         # every run of a suite is on one track (one table, one baseline)
+    track: str = ""               # every run of a suite is on one track (one table, one baseline)
     loop: bool = False            # closed-loop runs: their trajectory is guarded too
+    requires: tuple[str, ...] = ()   # modules beyond the core it needs (``requires: [gtsam]``)
 
     @property
     def track_impl(self) -> Track:
@@ -106,17 +111,31 @@ class Suite:
 
     def guards(self) -> tuple[GuardedMetric, ...]:
         """The columns ``check`` compares (the track's)."""
-        return self.track_impl.check_metrics(self.loop)
+        return self.track_impl.guards(self.loop)
 
     def tolerances(self) -> dict[str, float]:
         return {"tolerance": self.tolerance, "ate_tolerance": self.ate_tolerance}
+
+    def first_source(self):
+        """The frame source of the suite's first run (its cache folder is checked before a sweep)."""
+        return run_spec(self.jobs[0].runs[0][1]).source if self.jobs else None
+
+    def scene_paths(self) -> dict[str, str]:
+        """Each job's scene by its short name (the scenario's) -> the scene it names (a user MJCF's path)."""
+        return {job.name: job.scene for job in self.jobs}
+
+    def missing(self) -> str | None:
+        """Why this suite cannot run here (a module it ``requires`` is not installed), or None."""
+        absent = [m for m in self.requires if importlib.util.find_spec(m) is None]
+        return f"{', '.join(absent)} not installed (pip install 'assocbench[{absent[0]}]')" if absent else None
+
     def rows(self) -> list[tuple[str, str]]:
         """The (scenario, method label) rows a run of this suite must produce."""
         first = {}
         for job in self.jobs:
             for difficulty, _ in job.runs:
                 for m in job.methods:
-                    first.setdefault((f"{job.scene}/{difficulty}", m.label), None)
+                    first.setdefault((f"{job.name}/{difficulty}", m.label), None)
         return list(first)
 
 
@@ -159,8 +178,11 @@ def load_suite(path: str | Path) -> Suite:
             raise UserError(f"unknown key {key!r} in {path}; known keys: {', '.join(SUITE_KEYS)}")
     if not isinstance(raw.get("base") or {}, dict):
         raise UserError(f"'base' in {path} must be a run-config mapping")
-    base = merge(defaults(), raw.get("base") or {}, f"{path} base")
-    scenes = _list(raw, "scenes", [base["scene"]], str(path))
+    methods = _methods(raw.get("methods"), str(path))
+    track = suite_track(raw, methods, str(path))
+    base = merge(defaults(track), {k: v for k, v in (raw.get("base") or {}).items() if k != "track"},
+                 f"{path} base", track.name)
+    scenes = _list(raw, "scenes", [base["scene"] or next(iter(track.scenes()), None)], str(path))
     difficulties = raw.get("difficulties") or {"default": {}}
     seeds = _list(raw, "seeds", [base["seed"]], str(path))
     for key in ("difficulties", "backends"):
@@ -174,15 +196,12 @@ def load_suite(path: str | Path) -> Suite:
         raise UserError(f"'scenes' in {path} must be a list of scene names or MJCF paths")
     _refuse_duplicates(seeds, "seeds", str(path), "list each seed once")
     _refuse_duplicates(scenes, "scenes", str(path), "list each scene once")
-    methods = _methods(raw.get("methods"), str(path))
+    _refuse_duplicates([short_name(sc) for sc in scenes], "scene names", str(path),
+                       "two files of one name would share their scenarios; rename one")
     parts = [p for o in difficulties.values() for p in (o if isinstance(o, list) else [o])]
     loop = base.get("loop") is True or any(isinstance(p, dict) and p.get("loop") is True for p in parts)
-    track = suite_track(methods, scenes, base, str(path))
     for m in methods:   # unknown methods, broken plugins, bad parameters: now
-        if track.has_problems:
-            check_method(m.method, m.params, loop, track.name)
-        else:
-            track.check_method(m.method, m.params, loop)
+        check_method(m.method, m.params, loop, track)
     tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)
     jobs = []
     for scene in scenes:
@@ -191,28 +210,42 @@ def load_suite(path: str | Path) -> Suite:
             for name, override in difficulties.items():
                 cfg = base
                 for part in override if isinstance(override, list) else [override]:
-                    cfg = merge(cfg, part or {}, f"{path} difficulty {name}")
-                # the run's method names its track (a dense method): the worker builds that track's run
-                cfg = merge(cfg, {"scene": scene, "seed": seed, "method": methods[0].method}, str(path))
+                    cfg = merge(cfg, part or {}, f"{path} difficulty {name}", track.name)
+                cfg = merge(cfg, {"scene": scene, "seed": seed, "method": methods[0].method}, str(path), track.name)
                 run_spec(cfg)  # validate now
                 runs.append((str(name), cfg))
             jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
     ate_tolerance = check_number(raw.get("ate_tolerance", 0.01), f"ate_tolerance in {path}", lo=0)
-    return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance), track.name, loop)
+    return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance), track.name, loop,
+                 _requires(raw, str(path)))
 
 
-def suite_track(methods: tuple[MethodEntry, ...], scenes: list, base: dict, where: str) -> Track:
-    """The one track of a suite's runs: each method's own (a dense method), else each scene's;
-    a suite mixing tracks is refused (its runs are scored differently: one table cannot hold them)."""
+def _requires(raw: dict, where: str) -> tuple[str, ...]:
+    """The suite's ``requires``: modules it needs beyond the core (``[gtsam]``)."""
+    value = raw.get("requires") or []
+    if not isinstance(value, list) or not all(isinstance(v, str) and v for v in value):
+        raise UserError(f"'requires' in {where} must be a list of module names, e.g. [gtsam]")
+    return tuple(value)
+
+
+def suite_track(raw: dict, methods: tuple[MethodEntry, ...], where: str) -> Track:
+    """The one track of a suite's runs: its ``track`` (or its base's), else the track each method
+    and scene implies; a suite mixing tracks is refused (its runs are scored differently: one table
+    cannot hold them)."""
+    base = raw.get("base") or {}
+    named = raw.get("track") or base.get("track")
+    if named is not None:
+        return get_track(named)
+    scenes = raw.get("scenes") or [base.get("scene")]
     found = {}
     for m in methods:
-        for scene in scenes:
-            found.setdefault(track_for_run(scene, m.method).name,
-                             f"{m.label} on {scene}")
+        for scene in scenes if isinstance(scenes, list) else [None]:
+            scene = scene if isinstance(scene, str) else None
+            found.setdefault(infer_track(scene, m.method).name, f"{m.label} on {scene or 'the default scene'}")
     if len(found) > 1:
         runs = "; ".join(f"{name}: {example}" for name, example in found.items())
         raise UserError(f"suite {where} mixes tracks ({runs}): a track's runs are scored differently, so put "
-                        "them in separate suites")
+                        "them in separate suites (or name the suite's track: track: NAME)")
     return get_track(next(iter(found)))
 
 
@@ -229,23 +262,20 @@ def _crossed(difficulties: dict, backends: dict) -> dict:
 
 
 def resolve_suite(name: str) -> Path:
-    """A suite file: ``name`` itself when it is a path that exists or ends in .yaml/.yml, else
-    the shipped ``configs/<name>.yaml`` of a registered track (``Track.suites``)."""
-    from .config import shipped_config
-
+    """A suite file: ``name`` itself when it is a path that exists or ends in .yaml/.yml, else a
+    registered track's shipped suite of that name (``Track.suites``: the built-ins' in
+    ``assocbench/configs``, a plugin's in its own package)."""
     path = Path(name)
     if path.exists() or path.suffix in (".yaml", ".yml") or len(path.parts) > 1:
         return path
-    shipped = shipped_config(f"{name}.yaml")
-    if not shipped.is_file():
-        known = ", ".join(s for track in iter_tracks() for s in track.suites)
-        raise UserError(f"suite {name!r} is neither a file nor a shipped suite ({known}); pass a YAML path")
-    return shipped
+    shipped = {suite: entry.path for track in iter_tracks() for suite, entry in track.suites().items()}
+    if name not in shipped:
+        raise UserError(f"suite {name!r} is neither a file nor a shipped suite ({', '.join(shipped)}); "
+                        "pass a YAML path")
+    return shipped[name]
 
 
 def shipped_difficulties() -> dict[str, dict]:
     """The difficulty levels of the shipped leaderboard (``easy``, ``medium``, ``hard``):
     run-config overrides, defined once in ``configs/leaderboard.yaml``."""
-    from .config import shipped_config
-
     return dict(read_yaml(shipped_config("leaderboard.yaml"))["difficulties"])

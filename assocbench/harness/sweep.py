@@ -20,27 +20,21 @@ from ..errors import UserError
 from .config import run_spec
 from .jobstore import load_job, store_job
 from .records import frame_table
+from .runner import summarize_run
 from .sandbox import Supervisor, Task, TaskFailed
 from .suite import Job, Suite
 
 EXECUTORS = ("local", "dask")
-# the per-frame columns a leaderboard keeps (its frames table and pictures); ``icp_reason`` tells the
-# dense picture a frame whose method raised from one whose ICP failed (both ``icp_failed``)
-FRAME_COLUMNS = ("n", "m", "runtime_s", "pos_err", "rot_err_deg", "nees", "nees_dof", "est_x", "est_y", "est_z",
-                 "true_x", "true_y", "true_z", "odo_x", "odo_y", "final_map", "final_scan", "icp_s", "fusion_s",
-                 "icp_failed", "icp_reason", "step_error_mm", "map_points")
-
-
-def kept_frames(per_frame: pd.DataFrame, label: dict) -> pd.DataFrame:
-    """The leaderboard's per-frame rows of one run: ``label``'s columns, ``frame`` and those of
-    ``FRAME_COLUMNS`` the run has."""
-    kept = ["frame"] + [c for c in FRAME_COLUMNS if c in per_frame]
+def kept_frames(per_frame: pd.DataFrame, label: dict, columns: tuple[str, ...]) -> pd.DataFrame:
+    """The leaderboard's per-frame rows of one run: ``label``'s columns, ``frame`` and those of the
+    track's ``columns`` (``Columns.frames``) the run has."""
+    kept = ["frame"] + [c for c in columns if c in per_frame]
     return per_frame.assign(**label)[list(label) + kept]
 
 
 def job_task(job: Job, cache_dir: str | None = None) -> Task:
     """The worker task of ``job``: its runs (difficulty, resolved spec) and its methods."""
-    return Task(f"{job.scene} seed {job.seed}", tuple((f"{job.scene}/{d} seed {job.seed}", run_spec(cfg))
+    return Task(f"{job.name} seed {job.seed}", tuple((f"{job.name}/{d} seed {job.seed}", run_spec(cfg))
                                                       for d, cfg in job.runs),
                 tuple((m.label, m.method, dict(m.params)) for m in job.methods), cache_dir)
 
@@ -51,14 +45,15 @@ def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
     a ``RecordSpool``)."""
     summaries, frames = [], []
     for r, (difficulty, cfg) in enumerate(job.runs):
-        track = run_spec(cfg).track_impl
+        spec = run_spec(cfg)
+        track = spec.track_impl
         for mi, entry in enumerate(job.methods):
             per_frame = frame_table(records[(r, mi)])
             errors = sorted(set(per_frame["error"]) - {""})
-            label = {"scenario": f"{job.scene}/{difficulty}", "scene": job.scene, "difficulty": difficulty,
+            label = {"scenario": f"{job.name}/{difficulty}", "scene": job.name, "difficulty": difficulty,
                      "method": entry.label, "seed": job.seed}
-            summaries.append({**label, **track.summarize(per_frame), "error": errors[0] if errors else ""})
-            frames.append(kept_frames(per_frame, label))
+            summaries.append({**label, **summarize_run(track, per_frame), "error": errors[0] if errors else ""})
+            frames.append(kept_frames(per_frame, label, track.columns(spec.loop).frames))
     return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
 
 
@@ -161,6 +156,6 @@ def _reloaded(out: Path, job: Job) -> tuple[pd.DataFrame, pd.DataFrame]:
     """A job stored by this sweep, read back verified (so every job's frames have CSV dtypes)."""
     result = load_job(out, job)
     if result is None:
-        raise UserError(f"job {job.scene} seed {job.seed} was stored under {out / 'jobs'} but cannot be read back; "
+        raise UserError(f"job {job.name} seed {job.seed} was stored under {out / 'jobs'} but cannot be read back; "
                         "run again to recompute it")
     return result

@@ -17,7 +17,6 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
 
 import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
@@ -25,10 +24,8 @@ import numpy as np
 from ..errors import UserError
 from ..models.range_bearing import wrap
 from . import footprint
+from .scan import Scan
 from .scene import WALL_PREFIX, Scene, mjcf_error, resolve_scene_path
-
-if TYPE_CHECKING:
-    from .lidar import Scan
 
 MIN_HALF_SIZE = 1e-3      # m: a wall thinner, shorter or lower than 2 mm is refused (faces need a length)
 MIN_FACE_LENGTH = 0.2     # m: shorter faces are no map line of their own (the extractor's min_length is 0.3)

@@ -13,17 +13,10 @@ from ..models.camera import CV_TO_MUJOCO, Intrinsics
 from ..models.depth_frame import NO_GEOM
 from . import gl  # loads mujoco under MUJOCO_GL; GL_ERROR says if the backend could not load
 from .scene import Scene
+from .settings import MAX_SIDE, MIN_SIDE, check_msaa  # noqa: F401  (the renderer checks sizes; callers import them here)
 
-MAX_MSAA = 16
 FAR_SHARE = 0.999   # a depth within 0.1 % of the far plane is "nothing hit" (float32 readback)
 GEOM_TYPE = int(mujoco.mjtObj.mjOBJ_GEOM)   # a plain int: numpy compares an enum object element by element
-MIN_SIDE, MAX_SIDE = 16, 8192   # frame size in pixels: the smallest we render, the most GL contexts reliably offer
-
-
-def check_msaa(msaa: int | None) -> None:
-    """Raise a one-line ``UserError`` unless ``msaa`` is None or an integer in 0..16."""
-    if msaa is not None and (isinstance(msaa, bool) or not isinstance(msaa, int) or not 0 <= msaa <= MAX_MSAA):
-        raise UserError(f"msaa must be null (the scene's own setting) or an integer 0..{MAX_MSAA}, got {msaa!r}")
 
 
 GL_CHECK = "MUJOCO_GL=egl python -c \"import mujoco; mujoco.Renderer(mujoco.MjModel.from_xml_string('<mujoco/>'))\""

@@ -64,6 +64,20 @@ def mjcf_error(path: Path, exc: Exception) -> UserError:
     return UserError(f"cannot load MJCF {path}: {said}")
 
 
+def mjcf_names(path: Path) -> tuple[int, int, int]:
+    """How many ``lm*`` sites, ``lm*`` geoms and ``lw*`` geoms an MJCF names (parsed, not compiled;
+    a one-line error for bad XML): what the tracks' scene conventions read."""
+    try:
+        spec = mujoco.MjSpec.from_file(str(path))
+    except (ValueError, RuntimeError) as exc:
+        raise mjcf_error(path, exc) from None
+
+    def named(items, prefix: str) -> int:
+        return sum(1 for item in items if item.name.startswith(prefix))
+
+    return named(spec.sites, LANDMARK_PREFIX), named(spec.geoms, LANDMARK_PREFIX), named(spec.geoms, WALL_PREFIX)
+
+
 @dataclass
 class Scene:
     """A compiled scene with its landmarks and the camera the renderer drives."""

@@ -14,12 +14,13 @@ from ..belief.planar import open_loop_pose
 from ..errors import UserError
 from ..scoring.decisions import feature_decisions
 from ..viz.plane_view import PlaneFrame, plane_bounds, plane_view, to_world
-from .base import RunFrame
+from .base import loop_words
+from .capabilities import RunFrame
 
 
 def scan_sequence(track, spec) -> Any:
     """The run's sequence with each frame's scan kept (``keep_scans``; its own cache entry)."""
-    return track.load_sequence(replace(spec.sequence, keep_scans=True))
+    return track.lidar_source(replace(spec.source.spec, keep_scans=True)).sequence
 
 
 def scan_points(seq, k: int) -> np.ndarray:
@@ -55,7 +56,7 @@ def view_box(track, seq, the_map: dict) -> tuple[float, float, float, float]:
 def frame_picture(track, spec, index: int) -> tuple[np.ndarray, str]:
     """Frame ``index`` as the lidar saw it, at the true pose: the scan, each feature marked as a
     landmark's or spurious, and the landmarks it could have detected but did not."""
-    seq_spec = spec.sequence
+    seq_spec = spec.source.spec
     if not 0 <= index < seq_spec.frames:
         raise UserError(f"--index {index} is outside the trajectory's 0..{seq_spec.frames - 1}; "
                         f"raise --frames or lower it")
@@ -76,7 +77,7 @@ def frame_picture(track, spec, index: int) -> tuple[np.ndarray, str]:
 
 
 def _caption(track, spec, rf: RunFrame, frames: int) -> str:
-    head = f"{spec.sequence.scene} | {spec.method} | frame {rf.k} of {frames} | {track.describe_run(spec)}"
+    head = f"{spec.source.name} | {spec.method} | frame {rf.k} of {frames} | {loop_words(spec)}"
     if rf.error:
         return f"{head}\nFAILED: {rf.error[:90]}"
     r = rf.record

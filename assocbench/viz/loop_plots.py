@@ -11,6 +11,7 @@ Save them with ``viz.plots.save_figure``. Methods keep ``viz.plots.method_styles
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping, Sequence
 
 import numpy as np
@@ -246,3 +247,21 @@ def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
     fig.text(0.5, 0.005, what, ha="center", va="bottom", fontsize=7)
     fig.tight_layout(rect=(0, 0.03, 1, 1 if not title else 0.95))
     return fig
+
+
+def final_maps(frames: pd.DataFrame) -> dict[str, np.ndarray] | None:
+    """Each method's final confirmed map (N, 2) from the ``final_map`` column of its last frame;
+    None when the frames do not record it (results written before it was recorded)."""
+    if "final_map" not in frames:
+        return None
+    out = {}
+    for method, run in frames.groupby("method"):
+        last = run.sort_values("frame")["final_map"].dropna()
+        out[method] = np.array(json.loads(last.iloc[-1]), dtype=float).reshape(-1, 2) if len(last) else np.zeros((0, 2))
+    return out
+
+
+def landmark_map_figure(frames: pd.DataFrame, landmarks: np.ndarray, title: str = ""):
+    """``map_figure`` of one seed's closed-loop ``frames`` over the true ``landmarks`` (x, y first),
+    with each method's final map (``final_maps``)."""
+    return map_figure(frames, landmarks, final_maps(frames), title=title)

@@ -107,7 +107,7 @@ def _section_classes() -> dict[str, tuple[type, str]]:
     """``{section: (dataclass, owner)}`` for every typed section: the common ones and each track's."""
     from assocbench.belief.config import BeliefConfig
     from assocbench.estimators.config import EstimatorConfig
-    from assocbench.tracks.base import iter_tracks
+    from assocbench.tracks.registry import iter_tracks
 
     out = {"belief": (BeliefConfig, "every track (open loop)"), "estimator": (EstimatorConfig, "every track (closed loop)")}
     for track in iter_tracks():
@@ -119,7 +119,7 @@ def _section_classes() -> dict[str, tuple[type, str]]:
 
 def _yaml_comments() -> dict[str, str]:
     """``{dotted key: comment}`` from ``configs/default.yaml``'s end-of-line comments."""
-    from assocbench.harness.config import shipped_config
+    from assocbench.configs import shipped_config
 
     out, section = {}, None
     for line in shipped_config("default.yaml").read_text().splitlines():
@@ -151,7 +151,8 @@ def setting_keys() -> list[str]:
 
 def settings_markdown() -> str:
     """The settings reference: the plain settings, then one table per section."""
-    from assocbench.harness.config import defaults, merge, read_yaml, shipped_config
+    from assocbench.harness.config import defaults, merge
+    from assocbench.harness.yamlfile import read_yaml, shipped_config
 
     schema = defaults()
     run_default = merge(defaults(), read_yaml(shipped_config("default.yaml")), "default.yaml")
@@ -212,7 +213,7 @@ def cli_markdown() -> str:
 def gym_envs_markdown() -> str:
     """One row per registered Gymnasium env id: its track, scene (with the scene's description) and loop."""
     from assocbench.gymenv import env_ids
-    from assocbench.tracks.base import get_track
+    from assocbench.tracks.registry import get_track
 
     out = ["| id | track | scene | loop |", "|---|---|---|---|"]
     for env_id, (track, env) in env_ids().items():

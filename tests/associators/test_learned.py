@@ -19,9 +19,9 @@ from assocbench.associators.learned.associator import assign_log_odds
 from assocbench.associators.learned.features import FEATURES, pair_features
 from assocbench.associators.learned.forest import load_forest, parse_forest, shipped_path
 from assocbench.cli.main import main
+from assocbench.configs import shipped_config
 from assocbench.errors import UserError
-from assocbench.harness.config import shipped_config
-from assocbench.tracks.base import iter_tracks
+from assocbench.tracks.registry import iter_tracks
 
 SHIPPED = json.loads(shipped_path("camera").read_text())
 # every shipped model and the (d, angular dims) of its track's problems

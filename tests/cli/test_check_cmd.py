@@ -47,7 +47,8 @@ def test_a_named_baseline_that_is_missing_names_the_path_not_the_clone(tmp_path,
 def test_the_verdict_gives_each_guarded_column_its_tolerance_in_its_unit():
     """The ok line printed one figure, "within tolerance 0.02", for every suite, while the dense
     suite's ATE and map error may rise by 2 mm and the loop's ATE by 0.01 m."""
-    from assocbench.tracks.base import ACCURACY_GUARDS, ATE_GUARD, get_track
+    from assocbench.tracks.base import ACCURACY_GUARDS, ATE_GUARD
+    from assocbench.tracks.registry import get_track
 
     tolerances = {"tolerance": 0.02, "ate_tolerance": 0.002}
     dense = check_cmd.tolerance_text(get_track("dense").check_metrics(False), tolerances)
@@ -60,7 +61,7 @@ def test_the_help_names_every_ci_suite_check_runs_by_default():
     """``--suite``'s help lists the default suites by hand: it had left out planar_isam2_ci."""
     import argparse
 
-    from assocbench.tracks.base import iter_tracks
+    from assocbench.tracks.registry import iter_tracks
 
     parser = argparse.ArgumentParser()
     check_cmd.add_arguments(parser)

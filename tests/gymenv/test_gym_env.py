@@ -68,7 +68,11 @@ def test_rendered_frame_shows_the_association_colours():
     env.step(action)
     img = env.render()
     assert img.shape == (480, 640, 3) and img.dtype == np.uint8
-    blank = env.unwrapped._renderer.render(env._seq.rotations[0], env._seq.positions[0])["rgb"]
+    from assocbench.sim.render import FrameRenderer
+    from assocbench.sim.scene import load_scene
+
+    with FrameRenderer(load_scene("room"), 640, 480) as renderer:
+        blank = renderer.render(env._seq.sequence.rotations[0], env._seq.sequence.positions[0])["rgb"]
     for j in range(problem.n):
         u, v = np.rint(problem.zhat[j]).astype(int)
         if not (3 <= u < 637 and 3 <= v < 477):

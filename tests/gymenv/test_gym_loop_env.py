@@ -127,7 +127,7 @@ def test_the_env_is_the_harness_closed_loop(runs, mode):
     map of ``assocbench run --loop`` with jcbb or the oracle (``loop_records``)."""
     env = runs[mode, "env"]
     for agent, method in (("jcbb", "jcbb"), ("truth", "oracle")):
-        records = list(loop_records(env._seq, env._belief, env._spec.estimator, 0, method, {}))
+        records = list(loop_records(env._seq, env._spec.with_method(method, {})))
         infos = runs[mode, agent]
         for key in ("pos_err", "rot_err_deg", "nees", "map_size"):
             np.testing.assert_allclose(column(infos, key), [r[key] for r in records], rtol=1e-12, err_msg=key)
@@ -145,7 +145,7 @@ def test_an_invalid_action_is_a_failed_frame_and_leaves_the_filter_alone():
     _, reward, _, _, info = env.step(twice)
     assert "more than once" in info["invalid_action"] and reward == -info["step_metrics"]["n"]
     assert np.isfinite(info["pos_err"])
-    reference = ClosedLoop(env._seq, env._belief, env._spec.estimator, 0)
+    reference = ClosedLoop(env._seq, env._spec)
     reference.frame(0, lambda problem, truth: (None, 0.0, {}, "failed"))
     reference.begin(1)
     assert np.array_equal(env.filter.p, reference.filter.p) and np.array_equal(env.filter.R, reference.filter.R)

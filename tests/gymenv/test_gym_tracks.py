@@ -12,7 +12,8 @@ from gymnasium.utils.env_checker import check_env
 
 from assocbench.errors import UserError
 from assocbench.gymenv import LoopAssociationEnv, env_ids, register_envs, sample_mask, sample_valid_action
-from assocbench.tracks.base import EnvSlots, GymEnv, get_track
+from assocbench.tracks.capabilities import EnvSlots, GymEnv
+from assocbench.tracks.registry import get_track
 
 IDS = env_ids()                                    # id -> (track, GymEnv)
 SHORT = {"frames": 2}
@@ -21,7 +22,7 @@ CAMERA = {"resolution": (320, 240)}                # small frames: the camera tr
 
 def kwargs(env_id: str, **extra) -> dict:
     track = get_track(IDS[env_id][0])
-    return {**SHORT, **(CAMERA if track.renders_frames else {}), **extra}
+    return {**SHORT, **(CAMERA if getattr(track, "renders_frames", False) else {}), **extra}
 
 
 def first_per_track_and_mode() -> list[str]:
@@ -36,7 +37,7 @@ def test_every_track_with_problems_offers_open_and_closed_envs_per_scene():
     tracks = {track for track, _ in IDS.values()}
     assert {"camera", "planar", "lines"} <= tracks and "dense" not in tracks
     for name in ("camera", "planar", "lines"):
-        scenes = get_track(name).shipped_scenes()
+        scenes = get_track(name).scenes()
         for loop in (False, True):
             assert sorted(env.scene for track, env in IDS.values() if track == name and env.loop == loop) \
                 == sorted(scenes)
@@ -51,8 +52,8 @@ def test_checker_masks_and_a_bad_action(env_id):
     real feature on the n real ones; masked samples stay inside it; the true association scores
     every true pair; a feature used twice is refused (raise) or penalised with -n."""
     track = get_track(IDS[env_id][0])
-    env = gym.make(env_id, **kwargs(env_id, render_mode="rgb_array" if track.renders_frames else None))
-    check_env(env.unwrapped, skip_render_check=not track.renders_frames)
+    env = gym.make(env_id, **kwargs(env_id, render_mode="rgb_array" if getattr(track, "renders_frames", False) else None))
+    check_env(env.unwrapped, skip_render_check=not getattr(track, "renders_frames", False))
     obs, info = env.reset(seed=3)
     rng, done = np.random.default_rng(0), False
     while not done:
@@ -89,7 +90,7 @@ def vector_episodes(env_id: str, mode: str) -> list:
     actions drawn from a fixed generator: everything each step returns."""
     # a track of rendered frames spawns its workers (a forked one cannot render once this process has);
     # the others fork theirs, which they may: they never render
-    spawn = mode == "async" and get_track(IDS[env_id][0]).renders_frames
+    spawn = mode == "async" and getattr(get_track(IDS[env_id][0]), "renders_frames", False)
     envs = gym.make_vec(env_id, num_envs=2, vectorization_mode=mode,
                         vector_kwargs={"context": "spawn"} if spawn else {}, **kwargs(env_id, frames=3))
     obs, info = envs.reset(seed=[21, 22])
@@ -141,15 +142,23 @@ def test_an_unknown_scene_is_a_one_line_error(env_id):
 
 
 @pytest.mark.parametrize("env_id", ["assocbench/Park-v0", "assocbench/HallwayLoop-v0"])
-def test_a_track_of_no_rendered_frames_refuses_render_mode(env_id):
-    with pytest.raises(UserError, match="render_mode 'rgb_array' draws rendered frames, which the (planar|lines) track"):
-        gym.make(env_id, render_mode="rgb_array", **SHORT)
-    assert gym.make(env_id, **SHORT).unwrapped.metadata["render_modes"] == []
+def test_a_lidar_track_renders_its_top_view(env_id):
+    """The planar and lines envs draw what ``assocbench render`` draws for their runs: the top view
+    with the scan and each feature coloured by the action (Gymnasium's RecordVideo needs it)."""
+    env = gym.make(env_id, render_mode="rgb_array", **SHORT)
+    assert env.unwrapped.metadata["render_modes"] == ["rgb_array"]
+    _, info = env.reset(seed=0)
+    first = env.render()
+    env.step(info["truth"])
+    after = env.render()
+    assert first.dtype == np.uint8 and first.ndim == 3 and first.shape == after.shape and first.shape[2] == 3
+    assert not np.array_equal(first, after)   # the next frame, with the step's decisions drawn
+    env.close()
 
 
 def test_the_dense_track_has_no_env_and_says_why():
-    with pytest.raises(UserError, match="the dense track .* has no Gymnasium env: its frames are not association"):
-        gym.make("assocbench/Room-v0", config={"method": "projective"}, **SHORT)
+    with pytest.raises(UserError, match="the dense track has no Gymnasium env .scene 'room'.: its frames are not association"):
+        gym.make("assocbench/Room-v0", track="dense", config={"method": "projective"}, **SHORT)
 
 
 def test_lines_slam_is_refused_in_one_line():
@@ -174,7 +183,7 @@ def toy_envs(tmp_path):
     import sys
     from pathlib import Path
 
-    from assocbench.tracks import base
+    from assocbench.tracks import registry as base
 
     sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tracks"))
     from toy_track import ToyTrack
@@ -187,7 +196,7 @@ def toy_envs(tmp_path):
             return (GymEnv("assocbench/Toy-v0", str(scene)),)
 
         def env_slots(self, spec):
-            n = spec.sequence.landmarks
+            n = spec.source.landmarks
             return EnvSlots(n, n + spec.belief.clutter)
 
     base._TRACKS.pop("toy", None)
@@ -206,12 +215,12 @@ def test_a_plugin_track_gets_its_env_from_the_registry(toy_envs):
     assert env.unwrapped.max_landmarks == 12
     _, info = env.reset(seed=0)
     assert info["problem"].n == 12
-    with pytest.raises(UserError, match="the toy track .* offers no closed-loop Gymnasium env .only an open-loop one"):
+    with pytest.raises(UserError, match="the toy track has no closed loop"):
         LoopAssociationEnv(scene=env.unwrapped._cfg["scene"], frames=2)
 
 
 def test_an_env_id_two_tracks_declare_is_refused(toy_envs):
-    from assocbench.tracks import base
+    from assocbench.tracks import registry as base
 
     base._TRACKS["toy"].gym_envs = lambda: (GymEnv("assocbench/Room-v0", "room"),)
     with pytest.raises(UserError, match="assocbench/Room-v0 is declared by the camera and toy tracks"):
@@ -228,7 +237,7 @@ def test_a_method_through_a_lidar_env_matches_assocbench_run(env_id, loop, metho
     from assocbench.gymenv import classical_action
     from assocbench.harness.config import defaults, merge, run_spec
     from assocbench.harness.loop import loop_records
-    from assocbench.harness.runner import frame_problems, frame_records
+    from assocbench.harness.runner import Problems, frame_records
     from assocbench.harness.suite import shipped_difficulties
 
     env = gym.make(env_id, frames=4, difficulty="medium").unwrapped
@@ -237,23 +246,23 @@ def test_a_method_through_a_lidar_env_matches_assocbench_run(env_id, loop, metho
     while not done:
         _, _, done, _, info = env.step(classical_action(info, env.max_landmarks, method))
         counts.append((info["step_metrics"]["tp"], info["step_metrics"]["fp"], info["step_metrics"]["fn"]))
-    cfg = merge(merge(defaults(), shipped_difficulties()["medium"], "t"),
-                {"scene": IDS[env_id][1].scene, "frames": 4, "seed": 2, "method": method, "loop": loop}, "t")
+    track, env_spec = IDS[env_id]
+    cfg = merge(merge(defaults(track), shipped_difficulties()["medium"], "t"),
+                {"scene": env_spec.scene, "frames": 4, "seed": 2, "method": method, "loop": loop}, "t")
     spec = run_spec(cfg)
-    seq = spec.track_impl.load_sequence(spec.sequence)
     if loop:
-        records = list(loop_records(seq, spec.belief, spec.estimator, spec.seed, method, {}))
+        records = list(loop_records(spec.source, spec))
     else:
-        records = list(frame_records(frame_problems(seq, spec.belief, spec.seed), method, {}))
+        records = list(frame_records(Problems(spec.track_impl, spec.source, spec), method, {}))
     assert counts == [(r["tp"], r["fp"], r["fn"]) for r in records]
     assert sum(tp for tp, _, _ in counts) > 0
 
 
 def test_a_frame_beyond_the_tracks_slots_is_a_one_line_error(toy_envs):
     """A track whose ``env_slots`` is no bound is named, instead of a numpy broadcasting error."""
-    from assocbench.tracks import base
+    from assocbench.tracks import registry as base
 
-    base._TRACKS["toy"].env_slots = lambda spec: EnvSlots(spec.sequence.landmarks - 1, 40)
+    base._TRACKS["toy"].env_slots = lambda spec: EnvSlots(spec.source.landmarks - 1, 40)
     register_envs()
     env = gym.make("assocbench/Toy-v0", frames=2)
     with pytest.raises(RuntimeError, match=r"^frame 0 has 12 candidates .* 11 x 40 slots .* the toy track's "
@@ -270,4 +279,4 @@ def test_the_classical_agent_example_runs_a_planar_loop_env(capsys, monkeypatch)
     monkeypatch.setattr(sys, "argv", ["example", "jcbb", "assocbench/ParkLoop-v0"])
     runpy.run_path(str(example), run_name="__main__")
     out = capsys.readouterr().out
-    assert "jcbb: return" in out and "drawn" not in out and "final pose error 0.0" in out   # under 10 cm
+    assert "jcbb: return" in out and "last frame drawn (" in out and "final pose error 0.0" in out   # under 10 cm

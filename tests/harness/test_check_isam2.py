@@ -14,7 +14,7 @@ from assocbench.cli import check_cmd
 from assocbench.cli.main import main
 from assocbench.errors import UserError
 from assocbench.harness.check import compare, read_baseline
-from assocbench.tracks.base import get_track
+from assocbench.tracks.registry import get_track
 
 ROW = {"scenario": "park/hard", "method": "lsa", "precision": 0.96, "recall": 0.95, "f1": 0.955, "perfect": 0.66,
        "ate_rmse": 0.0029, "ate_smoothed": 0.0026, "status": "ok"}

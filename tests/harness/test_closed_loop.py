@@ -7,9 +7,12 @@ NEES, and bad settings or bad answers never end in a traceback or a silent good 
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 import pandas as pd
 import pytest
+from runs import run_on
 
 from assocbench.belief.config import BeliefConfig
 from assocbench.estimators.config import EstimatorConfig
@@ -36,9 +39,15 @@ def room_rgbd(private_cache):
     return load_sequence(SequenceSpec(scene="room", frames=FRAMES, feature_depth=True))
 
 
-def run_loop(seq, method="oracle", seed=0, est=None, belief=None, **kw) -> pd.DataFrame:
-    return pd.DataFrame(list(loop_records(seq, belief or BeliefConfig(), est or EstimatorConfig(), seed, method,
-                                          {}, **kw)))
+def run_loop(seq, method="oracle", seed=0, est=None, belief=None, time_limit_s=math.inf, **kw) -> pd.DataFrame:
+    source, run = run_on(seq, method, seed=seed, belief=belief or BeliefConfig(), estimator=est or EstimatorConfig(),
+                         time_limit_s=time_limit_s)
+    return pd.DataFrame(list(loop_records(source, run, **kw)))
+
+
+def closed_loop(seq) -> ClosedLoop:
+    """The closed loop of the oracle on ``seq`` with the default belief and estimator."""
+    return ClosedLoop(*run_on(seq, belief=BeliefConfig(), estimator=EstimatorConfig()))
 
 
 @pytest.mark.parametrize("seed", [0, 1, 2])
@@ -70,7 +79,7 @@ def test_one_wrong_pairing_shows_in_pose_error_and_nees(room100):
     bad_frame = 30
 
     def runs(wrong: bool) -> pd.DataFrame:
-        loop, rows = ClosedLoop(room100, BeliefConfig(), EstimatorConfig(), 0), []
+        loop, rows = closed_loop(room100), []
         for k in range(bad_frame + 3):
             def decide(problem, truth, k=k):
                 a = truth.association.copy()
@@ -118,7 +127,7 @@ class _Broken:
 
 def test_invalid_association_is_a_failed_frame_and_does_not_touch_the_filter(room100):
     method = _Broken()
-    loop, rows = ClosedLoop(room100, BeliefConfig(), EstimatorConfig(), 0), []
+    loop, rows = closed_loop(room100), []
     for k in range(8):
         cov_before = np.trace(loop.filter.pose_covariance)
         rows.append(loop.frame(k, lambda problem, truth: call_method(method, problem)))

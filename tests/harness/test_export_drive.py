@@ -38,8 +38,7 @@ def leaderboard_loop(suite_file, method: str, params: dict) -> pd.DataFrame:
     """The per-frame records of the leaderboard's own closed loop of ``method`` on the suite's run."""
     job = load_suite(suite_file).jobs[0]
     spec = run_spec(job.runs[0][1])
-    seq = spec.track_impl.load_sequence(spec.sequence)
-    return pd.DataFrame(list(loop_records(seq, spec.belief, spec.estimator, spec.seed, method, params)))
+    return pd.DataFrame(list(loop_records(spec.source, spec.with_method(method, params))))
 
 
 def exported(suite_file, tmp_path, drive: str) -> list:

@@ -47,9 +47,8 @@ def isam2_spec(frames: int = FRAMES):
 @pytest.mark.parametrize("where", ["_flush", "joint_covariance", "predict"])   # update, problem, odometry
 def test_a_back_end_exception_fails_the_rest_of_its_run_only(monkeypatch, where):
     spec = isam2_spec()
-    seq = spec.track_impl.load_sequence(spec.sequence)
     inject(monkeypatch, where)
-    frames = pd.DataFrame(loop_records(seq, spec.belief, spec.estimator, spec.seed, "oracle", {}))
+    frames = pd.DataFrame(loop_records(spec.source, spec.with_method("oracle", {})))
     assert list(frames["frame"]) == list(range(FRAMES))
     failed = frames["error"] != ""
     first = int(failed.to_numpy().argmax())
@@ -132,4 +131,4 @@ def test_a_replay_for_pictures_ends_where_the_estimator_failed(room_sequence, mo
                           seed=0, loop=True)
     n = len(room_sequence)   # a run whose every frame failed: the replay only predicts
     records = pd.DataFrame({"frame": range(n), "association": [None] * n, "error": ["failed"] * n})
-    assert [f.k for f in replay_run(run_spec(cfg), room_sequence, records)] == [0, 1, 2]
+    assert [f.k for f in replay_run(run_spec(cfg), records)] == [0, 1, 2]

@@ -13,8 +13,9 @@ from cli.test_cli import assert_one_line_error
 from assocbench import make_associator
 from assocbench.cli.main import main
 from assocbench.errors import UserError
-from assocbench.harness.config import load_run_config, read_yaml, run_spec
+from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.suite import load_suite
+from assocbench.harness.yamlfile import read_yaml
 from assocbench.scoring.aggregate import OK, summarize
 
 
@@ -302,6 +303,6 @@ def test_a_row_that_is_not_ok_never_ranks_first():
 
 def test_settings_in_scientific_notation_are_numbers():
     """YAML 1.1 reads 5e-1 as a string; settings read it as the number people meant."""
-    from assocbench.harness.config import parse_sets
+    from assocbench.harness.yamlfile import parse_sets
 
     assert parse_sets(["a=5e-1", "b=-2E-3", "c=1e300", "d=abc"]) == {"a": 0.5, "b": -0.002, "c": 1e300, "d": "abc"}

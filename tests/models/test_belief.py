@@ -10,8 +10,8 @@ from assocbench.belief.config import BeliefConfig, map_mask
 from assocbench.models.camera import Intrinsics, look_at
 from assocbench.models.pinhole import perturb_pose, predict_bundle
 from assocbench.tracks.camera.belief import make_problem
-from assocbench.tracks.camera.detect import DetectorConfig
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
+from assocbench.tracks.camera.settings import DetectorConfig
 
 
 def test_analytic_jacobians_match_central_differences(rng):

@@ -68,7 +68,7 @@ def test_the_lidar_tracks_sequences_are_cached_and_heal(tmp_path, capsys):
 
 @pytest.mark.parametrize("track", ["planar", "lines"])
 def test_a_lidar_tracks_key_follows_its_models_not_another_track(package_copy, track):
-    from assocbench.tracks.base import get_track
+    from assocbench.tracks.registry import get_track
     code = __import__(f"assocbench.tracks.{track}.track", fromlist=["CODE"]).CODE
     before = fingerprint.sources_digest(*code)
     _edit(package_copy / "tracks/camera/detect.py")

@@ -10,8 +10,9 @@ from PIL import Image
 
 from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
-from assocbench.tracks.base import RunFrame, get_track
+from assocbench.tracks.capabilities import RunFrame
 from assocbench.tracks.plane_pictures import _caption, view_box
+from assocbench.tracks.registry import get_track
 from assocbench.viz.plane_view import DPI, FEATURE_KINDS, WIDTH_IN, figure_size
 
 RIGHT_FEATURES_PX = 300   # the key's mark alone is about 60 pixels

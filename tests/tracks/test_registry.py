@@ -12,7 +12,9 @@ import pytest
 from assocbench.errors import UserError
 from assocbench.harness.config import defaults
 from assocbench.harness.suite import load_suite, resolve_suite
-from assocbench.tracks.base import Track, iter_tracks, scene_marks, track_for_scene
+from assocbench.tracks.base import Track
+from assocbench.tracks.inference import scene_marks, track_for_scene
+from assocbench.tracks.registry import iter_tracks
 
 TRACKS = list(iter_tracks())
 

@@ -9,8 +9,8 @@ import tracemalloc
 
 import pytest
 
-from assocbench.tracks.lines.extract import LineExtractorConfig
 from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence, warm_extraction
+from assocbench.tracks.lines.settings import LineExtractorConfig
 from assocbench.tracks.planar.sequence import PlanarSequenceSpec, make_planar_sequence
 
 SHORT, LONG = 20, 80

@@ -147,7 +147,8 @@ def test_an_interrupted_leaderboard_resumes_to_the_same_table(toy, tmp_path):
     assert fresh.returncode == 0, fresh.stderr
     pd.testing.assert_frame_equal(_without_timing(out / "leaderboard.csv"),
                                   _without_timing(tmp_path / "fresh" / "leaderboard.csv"))
-    assert set(pd.read_csv(out / "leaderboard.csv")["scenario"]) == {f"{scene}/easy", f"{scene}/hard"}
+    # scenarios by the scene's short name, never its path
+    assert set(pd.read_csv(out / "leaderboard.csv")["scenario"]) == {"toy/easy", "toy/hard"}
 
 
 def test_check_guards_a_user_track(toy, tmp_path):
@@ -171,7 +172,7 @@ def test_check_guards_a_user_track(toy, tmp_path):
 @pytest.fixture
 def toy_module(tmp_path, monkeypatch):
     """A copy of the toy track's module in ``tmp_path``, named in ASSOCBENCH_TRACKS; unregistered after."""
-    from assocbench.tracks import base
+    from assocbench.tracks import registry as base
 
     (tmp_path / "toy_copy.py").write_text((HERE / "toy_track.py").read_text())
     monkeypatch.syspath_prepend(str(tmp_path))
@@ -182,14 +183,15 @@ def toy_module(tmp_path, monkeypatch):
 
 
 def test_a_track_module_named_in_the_environment_registers(toy_module, toy):
-    from assocbench.tracks.base import get_track, track_for_scene
+    from assocbench.tracks.inference import track_for_scene
+    from assocbench.tracks.registry import get_track
 
     assert get_track("toy").summary and track_for_scene(toy[0]).name == "toy"
 
 
 def test_a_track_module_that_does_not_import_is_one_line(monkeypatch):
     from assocbench.errors import UserError
-    from assocbench.tracks.base import iter_tracks
+    from assocbench.tracks.registry import iter_tracks
 
     monkeypatch.setenv("ASSOCBENCH_TRACKS", "camera_and_more, no_such_track_module")
     with pytest.raises(UserError, match=r"^track module 'camera_and_more' named in ASSOCBENCH_TRACKS failed "

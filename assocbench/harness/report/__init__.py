@@ -41,7 +41,7 @@ def build_report(folders: Sequence[Path | str], names: Sequence[str] | None = No
 def _name(suites: list[Suite]) -> None:
     """Give each suite its title (track and loop; its folder where two would read alike) and a
     file name unique in the report."""
-    base = [f"{s.track.capitalize()}, {s.loop_words}" if s.track else f"Leaderboard {s.source}" for s in suites]
+    base = [", ".join(filter(None, [s.track.replace("_", " ").capitalize(), s.loop_words])) for s in suites]
     taken = {"index"}
     for s, title in zip(suites, base):
         s.title = title if base.count(title) == 1 else f"{title} ({s.source})"

@@ -58,19 +58,19 @@ def _v(value: float) -> str:
 
 # --- overview -------------------------------------------------------------------------------
 def overview_body(suites: list[Suite]) -> str:
-    """The ranking rule, one ranking table per kind of method (feature associators; dense
-    associators), and the list of suites."""
+    """The ranking rule, one ranking table per kind of method (feature associators; each track's
+    own methods), and the list of suites."""
     rule = " ".join(RANK_RULE.split("\n\n", 1)[1].split())
     out = ["<h1>Leaderboard across tracks</h1>",
            '<p class="lead">Every method of every leaderboard in this report, ranked in each scenario '
            "(a scene at a difficulty, with its back end) by its track's primary metric. Each track's page has the "
            "full table (every metric, mean &plusmn; std over seeds), its plots and top views.</p>",
            f'<div class="rule"><b>Rank rule.</b> {escape(rule)}</div>']
-    groups = (("Feature associators (camera, planar, lines)", [s for s in suites if s.kind != "dense"]),
-              ("Dense associators (depth frames)", [s for s in suites if s.kind == "dense"]))
-    for heading, members in groups:
-        if members:
-            out += [f"<h2>{heading}</h2>", _ranking_table(members)]
+    for family in dict.fromkeys(s.family for s in suites):
+        members = [s for s in suites if s.family == family]
+        tracks = ", ".join(dict.fromkeys(s.track for s in members))
+        heading = f"Feature associators ({tracks})" if family == "feature" else f"The {family} track's methods"
+        out += [f"<h2>{escape(heading)}</h2>", _ranking_table(members)]
     out += ["<h2>Leaderboards in this report</h2>", _suite_list(suites)]
     return "\n".join(out) + "\n"
 
@@ -107,7 +107,7 @@ def _suite_list(suites: list[Suite]) -> str:
         seeds = "" if "seeds" not in t else f"{int(t['seeds'].min())}" + (
             f"&ndash;{int(t['seeds'].max())}" if t["seeds"].max() != t["seeds"].min() else "")
         rows.append(f'<tr><td class="text"><a href="{s.slug}.html">{escape(s.title)}</a></td>'
-                    f'<td class="text">{escape(s.track or "?")}, {s.loop_words}</td>'
+                    f'<td class="text">{escape(", ".join(filter(None, [s.track, s.loop_words])))}</td>'
                     f'<td class="text">{escape(s.primary.header)}, {BETTER[s.primary.better]}</td>'
                     f'<td>{t["scenario"].nunique()}</td><td>{t["method"].nunique()}</td><td>{seeds}</td>'
                     f'<td class="text"><code>{escape(s.source)}</code></td></tr>')
@@ -132,7 +132,7 @@ def suite_body(suite: Suite, pictures: list[str]) -> str:
     columns = metric_columns(suite)
     seeds = f"over {int(t['seeds'].max())} seeds" if "seeds" in t else ""
     out = [f"<h1>{escape(suite.title)}</h1>",
-           f'<p class="lead">{escape(suite.track or "unknown")} track, {suite.loop_words}. One row per scenario and '
+           f'<p class="lead">{escape(suite.track)} track{", " + suite.loop_words if suite.loop_words else ""}. One row per scenario and '
            f"method: the mean &plusmn; std {seeds}. Click a column's header to sort by it; pick a scene, difficulty, "
            f"back end or method to filter. Ranked on the overview by {escape(suite.primary.header)} "
            f"({BETTER[suite.primary.better]}). Rows in <i>italics</i>: the true association, a reference, not a "

@@ -1,12 +1,18 @@
 """Read one leaderboard folder (``assocbench leaderboard --out``) into what the report shows: its
 table (one row per scenario x method), which track and loop it is, its primary metric, its pictures.
 
-Every way a folder can be unusable is a one-line ``UserError`` naming the file and what to do."""
+What the track is, how its runs were made and what ranks them is the folder's card
+(``leaderboard.json``, written with the leaderboard from the track: ``harness.leaderboard.card``), so a
+plugin's leaderboard reads right wherever the report is built, with the plugin installed or not. A
+folder without a card (written before cards were) asks the track registry, from its scenarios'
+scene and its methods. Every way a folder can be unusable is a one-line ``UserError`` naming the
+file and what to do."""
 
 from __future__ import annotations
 
 import hashlib
 import io
+import json
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -15,14 +21,13 @@ import pandas as pd
 
 from ...errors import UserError
 from ...scoring.aggregate import OK
-from ...tracks.base import track_for_run
-from ..leaderboard import scenario_key
+from ...tracks.inference import infer_track
+from ..leaderboard import CARD_KEYS, scenario_key
 from .columns import BY_KEY, COUNT_COLUMNS, Column
 
 CSV_NAME = "leaderboard.csv"
+CARD_NAME = "leaderboard.json"
 LABEL_COLUMNS = ("scenario", "method", "status", "error", "scene", "difficulty")
-# the metric a suite's methods are ranked by, first match: a dense suite's, a closed loop's, an open loop's
-PRIMARY = (("ate_mm", "dense"), ("ate_rmse", "loop"), ("f1", "open"))
 # the pictures `leaderboard` writes, in the order a reader wants them; others follow by name
 PICTURE_ORDER = ("leaderboard_pr.png", "leaderboard_ate.png", "leaderboard_nees.png", "leaderboard_runtime.png",
                  "leaderboard_map.png")
@@ -39,20 +44,36 @@ class Suite:
     source: str
     digest: str
     table: pd.DataFrame
-    kind: str                       # open | loop | dense
-    track: str                      # camera, planar, lines, dense, ... ("" when no track claims its scenes)
+    card: dict                      # the folder's leaderboard.json (``harness.leaderboard.card``)
     pictures: list[tuple[str, bytes]] = field(default_factory=list)
     title: str = ""
     slug: str = ""
 
     @property
+    def track(self) -> str:
+        return self.card["track"]
+
+    @property
+    def kind(self) -> str:
+        """``loop`` for a closed-loop suite, else ``open`` (which columns a page shows first)."""
+        return "loop" if self.card["loop"] else "open"
+
+    @property
+    def family(self) -> str:
+        """What kind of method it ranks: ``feature`` (association problems), or its track's own."""
+        return self.card["methods"]
+
+    @property
     def primary(self) -> Column:
-        """The column its methods are ranked by: F1 (open loop), ATE (closed loop, dense)."""
-        return BY_KEY[next(key for key, kind in PRIMARY if kind == self.kind)]
+        """The column its methods are ranked by: the track's primary metric."""
+        m = self.card["primary"]
+        known = BY_KEY.get(m["name"])
+        return known or Column(m["name"], m["name"].replace("_", " "), f"the {self.track} track's primary metric",
+                               "high" if m["higher_better"] else "low", 3)
 
     @property
     def loop_words(self) -> str:
-        return {"open": "open loop", "loop": "closed loop", "dense": "ICP tracking and fusion"}[self.kind]
+        return self.card["words"]
 
 
 def read_suite(path: Path, source: str) -> Suite:
@@ -66,13 +87,15 @@ def read_suite(path: Path, source: str) -> Suite:
                         f"(e.g. results/planar)")
     data = csv.read_bytes()
     table = _parse(data, source if csv == path else f"{source}/{CSV_NAME}")
-    kind = next(kind for key, kind in PRIMARY if key in table)
-    track = _track_name(table)
-    if "seed" in table:   # the dense track writes every run; the report shows the mean over seeds
+    card = read_card(csv.parent / CARD_NAME, table, source)
+    if card["primary"]["name"] not in table:
+        raise UserError(f"{source}/{CSV_NAME} has no column {card['primary']['name']}, the metric its track ranks "
+                        "by; regenerate it with `assocbench leaderboard`")
+    if "seed" in table:   # a track's own leaderboard may list every run; the report shows the mean over seeds
         table = _per_scenario(table)
     table = _with_parts(table)
     pictures = [(p.name, p.read_bytes()) for p in _pictures(csv.parent)] if csv.parent.is_dir() else []
-    return Suite(source, hashlib.sha256(data).hexdigest(), table, kind, track, pictures)
+    return Suite(source, hashlib.sha256(data).hexdigest(), table, card, pictures)
 
 
 def _parse(data: bytes, name: str) -> pd.DataFrame:
@@ -85,8 +108,6 @@ def _parse(data: bytes, name: str) -> pd.DataFrame:
     missing = [c for c in ("scenario", "method") if c not in table]
     if missing:
         raise UserError(f"{name} is not a leaderboard: no {' or '.join(missing)} column; {fix}")
-    if not any(key in table for key, _ in PRIMARY):
-        raise UserError(f"{name} is not a leaderboard: none of the columns f1, ate_rmse, ate_mm; {fix}")
     if not len(table) or table[["scenario", "method"]].isna().any().any():
         raise UserError(f"{name} has no rows or a row without scenario or method; {fix}")
     key = ["scenario", "method"] + (["seed"] if "seed" in table else [])
@@ -105,14 +126,29 @@ def _parse(data: bytes, name: str) -> pd.DataFrame:
     return table
 
 
-def _track_name(table: pd.DataFrame) -> str:
-    """The track of the first row's scene and method; "" when its scene is not at hand (a user's
-    MJCF file elsewhere): the report is then titled by its folder."""
-    scene = table["scenario"].iloc[0].rpartition("/")[0]
+def read_card(path: Path, table: pd.DataFrame, source: str) -> dict:
+    """The folder's card, checked; without one, the card its track would write (``harness.leaderboard.card``),
+    the track found from the first row's scene and method (one line when none is found)."""
+    if path.is_file():
+        try:
+            card = json.loads(path.read_text())
+            missing = [k for k in CARD_KEYS if k not in card]
+        except (OSError, ValueError) as exc:
+            raise UserError(f"{source}/{CARD_NAME} is not readable JSON ({exc}); regenerate the folder with "
+                            "`assocbench leaderboard`") from None
+        if missing or not isinstance(card.get("primary"), dict) or "name" not in card["primary"]:
+            raise UserError(f"{source}/{CARD_NAME} lacks {', '.join(missing) or 'primary.name'}; regenerate the "
+                            "folder with `assocbench leaderboard`")
+        return card
+    from ..leaderboard import card as track_card
+
+    scene = str(table["scenario"].iloc[0]).rpartition("/")[0]
     try:
-        return track_for_run(scene, table["method"].iloc[0]).name
+        track = infer_track(scene, str(table["method"].iloc[0]))
     except (UserError, OSError, ValueError):
-        return ""
+        raise UserError(f"{source} has no {CARD_NAME} and its scenes name no track here; regenerate it with "
+                        "`assocbench leaderboard` (which writes the card)") from None
+    return track_card(track, "ate_rmse" in table or "anees" in table)
 
 
 def _per_scenario(runs: pd.DataFrame) -> pd.DataFrame:
@@ -154,7 +190,7 @@ def caption(name: str, suite: Suite) -> str:
     stem = name.removesuffix(".png").removeprefix("leaderboard_")
     kind, _, scene = stem.partition("_")
     if stem == "map":
-        return "top view of the fused maps" if suite.kind == "dense" else f"top view, {suite.table['scene'].iloc[0]}"
+        return f"top view, {suite.table['scene'].iloc[0]}" if suite.kind == "loop" else "top view"
     if kind in CAPTIONS:
         return CAPTIONS[kind] + (f", {scene}" if scene else "")
     return stem.replace("_", " ")

@@ -12,7 +12,7 @@ from ...sim.render import FrameRenderer
 from ...sim.scene import load_scene
 from ...viz.overlay import draw_association
 from ...viz.topview import top_view, view_bounds
-from ..base import RunFrame
+from ..capabilities import RunFrame
 from .sequence import Sequence
 from .truth_frame import draw_truth_frame, render_truth_frame
 
@@ -22,7 +22,7 @@ TRUTH_KEY = ("green +: true projection, yellow ring: labelled feature, dark red 
 
 def frame_picture(spec, index: int) -> tuple[np.ndarray, str]:
     """Frame ``index`` rendered alone, detected and labelled, its truth drawn (``truth_frame``)."""
-    seq = spec.sequence
+    seq = spec.source.spec
     tf = render_truth_frame(seq, index)
     title = f"{seq.scene} {seq.resolved_trajectory()} frame {index}"
     return draw_truth_frame(tf, title), f"{title}: {tf.summary()}\n({TRUTH_KEY})"
@@ -54,7 +54,7 @@ def _title(method: str, rf: RunFrame) -> tuple[str, str]:
 def run_pictures(spec, seq: Sequence, frames: Iterable[RunFrame]) -> Iterator[np.ndarray]:
     """Each frame re-rendered with the method's association drawn on it (lab-8 colours); in the
     closed loop beside the top view after that frame's update, on a box fixed for the whole video."""
-    s = spec.sequence
+    s = spec.source.spec
     bounds = view_bounds(seq.positions, seq.landmarks)   # fixed for the whole video: no jumping
     size = (seq.K.height, top_view_width(bounds, seq.K.height))
     est_p = []

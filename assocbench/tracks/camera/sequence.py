@@ -26,10 +26,12 @@ from ...models.camera import Intrinsics
 from ...sim.cache import Unusable, cached_sequence
 from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
-from ...sim.scene import Scene, load_scene
+from ...sim.scene import Scene, load_scene, resolve_scene_path, scene_digest
 from ...sim.waypoints import waypoint_digest
-from .detect import DetectorConfig, detect
-from .truth import TruthConfig, label_features, visibility
+from ...sources.base import SimulatedSource, short_name
+from .detect import detect
+from .settings import DetectorConfig, TruthConfig
+from .truth import label_features, visibility
 
 FORMAT_VERSION = 5  # 5: optional rendered depth at each feature (RGB-D, for the closed loop's SLAM)
 # the sources a cached sequence depends on: shared simulation, measurement models, this track
@@ -68,14 +70,15 @@ class SequenceSpec:
         """The trajectory's name (the scene's default when None), checked (``CameraPath``)."""
         return self.path().resolved_trajectory()
 
-    def key(self, scene: Scene) -> str:
+    def key(self) -> str:
         """Cache key: a hash of every setting, the scene's files, a waypoint file's content, the
         format version, the sources in ``CODE`` and the MuJoCo and OpenCV versions."""
-        payload = asdict(self) | {"trajectory": self.resolved_trajectory(), "scene": scene.digest,
+        path = resolve_scene_path(self.scene)
+        payload = asdict(self) | {"trajectory": self.resolved_trajectory(), "scene": scene_digest(path),
                                   "format": FORMAT_VERSION, "code": sources_digest(*CODE),
                                   "mujoco": mujoco.__version__, "opencv": cv2.__version__}
         if payload["trajectory"] == "waypoints":
-            payload["waypoints"] = waypoint_digest("waypoints", self.trajectory_params, scene.path)
+            payload["waypoints"] = waypoint_digest("waypoints", self.trajectory_params, path)
         return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
@@ -229,6 +232,19 @@ def load_sequence(spec: SequenceSpec, cache_dir: Path | None = None, use_cache: 
     """The sequence of ``spec``: from the shared sequence cache (``sim.cache``) when present and
     sound, else rendered and stored. A damaged entry, or one that is not this spec's sequence, is
     rendered again."""
-    scene = load_scene(spec.scene)
-    return cached_sequence(CACHE_FOLDER, spec.key(scene), lambda: render_sequence(spec, scene), _save,
+    return cached_sequence(CACHE_FOLDER, spec.key(), lambda: render_sequence(spec), _save,
                            lambda path, key: _load(path, key, spec), cache_dir, use_cache)
+
+
+def sequence_frame(seq: Sequence, k: int) -> dict:
+    """Frame ``k`` of a rendered sequence: the camera's pose, its detected features and their
+    labels, which landmarks were truly visible and where they project."""
+    return {"R": seq.rotations[k], "p": seq.positions[k], "features": seq.features[k], "labels": seq.labels[k],
+            "visible": seq.visible[k], "projections": seq.projections[k]}
+
+
+def camera_source(spec: SequenceSpec) -> SimulatedSource:
+    """The rendered sequence of ``spec`` as a frame source (rendered or read from the cache when
+    first read; keyed by ``SequenceSpec.key``)."""
+    return SimulatedSource("camera", spec, short_name(spec.scene), spec.frames, SequenceSpec.key, load_sequence,
+                           sequence_frame, CACHE_FOLDER)

@@ -1,97 +1,119 @@
-"""The camera track: rendered RGB frames, Shi-Tomasi corners, the pinhole bundle (lab 8)."""
+"""The camera track: rendered RGB frames, Shi-Tomasi corners, the pinhole bundle (lab 8).
+
+This module stays light (the registry imports it to list the track): rendering, detection and
+the estimator are imported inside the hooks that use them."""
 
 from __future__ import annotations
 
-from pathlib import Path
+from typing import Any
 
 import numpy as np
 
+from ...belief.config import BeliefConfig
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
-from ...sim.scene import load_scene
-from ...sim.scenegen.camera import SCENES
-from ...sim.trajectory import TRAJECTORIES, check_trajectory_params
-from ...validation import free_mapping, typed_section
-from ..base import EnvSlots, SceneMarks, Track, first_line, register_track
-from .belief import make_problem
-from .detect import DetectorConfig
-from .estimator import make_camera_estimator
-from .loop import CameraSensor
-from .pictures import frame_picture, run_pictures
-from .sequence import CACHE_FOLDER, Sequence, SequenceSpec, load_sequence
-from .truth import TruthConfig
+from ...settings import Schema, Section, Settings
+from ...sim.settings import ImageKeys, PathKeys
+from ...sources.base import FrameSource
+from ..base import FeatureTrack, SuiteFile, first_line
+from ..capabilities import EnvSlots, GymEnv, SceneMarks, gym_envs_of
+from .settings import DetectorConfig, TruthConfig
+
+DEFAULT_FRAMES = 40
+SUITES = {"leaderboard": False, "ci": True, "loop": False, "loop_ci": True}   # name -> guarded by check
+SCENES = ("room", "checkerboard", "corridor")
 
 
-class CameraTrack(Track):
-    """Rendered frames of scenes whose landmarks are ``lm*`` sites; every scene no other track claims."""
+class CameraTrack(FeatureTrack):
+    """Rendered frames of scenes whose landmarks are ``lm*`` sites; every MJCF no other track claims."""
 
     name = "camera"
     summary = "rendered RGB frames, Shi-Tomasi corners, pinhole model; camera EKF-SLAM in the closed loop"
-    ci_suites = ("ci", "loop_ci")
-    suites = ("leaderboard", "ci", "loop", "loop_ci")
-    pictures = True
-    renders_frames = True
-    gym_modes = ("open", "loop")
-    fallback = True
-    spec_type = SequenceSpec
+    estimator_words = "camera EKF-SLAM"
+    renders_frames = True    # sequences are MuJoCo GL images: the envs' render_mode draws them, no fork after
+    fallback = True          # an MJCF that follows no track's convention is a camera scene
 
+    # --- core ----------------------------------------------------------------------------
+    def settings(self) -> Schema:
+        return Schema((PathKeys, ImageKeys), {"detector": Section(DetectorConfig), "truth": Section(TruthConfig),
+                                              "belief": Section(BeliefConfig), "estimator": Section(EstimatorConfig)})
+
+    def source(self, settings: Settings) -> FrameSource:
+        """Rendered frames and detected corners along the path (``resolution``, ``msaa``, ``detector``,
+        ``truth``); RGB-D depth at each feature for the closed loop's slam mode."""
+        from ...sim.trajectory import check_trajectory_params
+        from .sequence import SequenceSpec, camera_source
+
+        est = settings.estimator
+        if est.name != "ekf":
+            raise UserError(f"estimator.name {est.name} is not the camera track's: its estimator is ekf")
+        res = settings.resolution
+        spec = SequenceSpec(
+            scene=settings.scene or SCENES[0], trajectory=settings.trajectory, frames=settings.frames or DEFAULT_FRAMES,
+            seed=settings.seed, width=res[0], height=res[1], msaa=settings.msaa,
+            trajectory_params=dict(settings.trajectory_params), detector=settings.detector, truth=settings.truth,
+            feature_depth=settings.loop and est.mode == "slam",   # RGB-D, and the truth of texture corners
+        )
+        check_trajectory_params(spec.resolved_trajectory(), spec.trajectory_params)
+        return camera_source(spec)
+
+    def problem(self, source: FrameSource, k: int, run: Any):
+        from .belief import make_problem
+
+        return make_problem(source.sequence, k, run.belief, run.seed)
+
+    def suites(self) -> dict[str, SuiteFile]:
+        from ...configs import shipped_config
+
+        return {name: SuiteFile(shipped_config(f"{name}.yaml"), ci) for name, ci in SUITES.items()}
+
+    def scenes(self) -> dict[str, str]:
+        from ...sim.scenegen.camera import SCENES as BUILDERS
+
+        return {name: first_line(build.__doc__) for name, build in BUILDERS.items()}
+
+    # --- capabilities ----------------------------------------------------------------------
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.landmark_sites > 0
 
-    def section_types(self) -> dict[str, type]:
-        return {"detector": DetectorConfig, "truth": TruthConfig}
+    def estimator(self, source: FrameSource, run: Any):
+        from .estimator import make_camera_estimator
 
-    def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> SequenceSpec:
-        """Rendered frames and detected corners (``resolution``, ``msaa``, ``detector``,
-        ``truth``); RGB-D depth at each feature for the closed loop's slam mode."""
-        if estimator.name != "ekf":
-            raise UserError(f"estimator.name {estimator.name} serves the planar track only; scene {cfg['scene']!r} "
-                            "is a camera scene, whose estimator is ekf")
-        res = cfg["resolution"]
-        seq = SequenceSpec(
-            scene=cfg["scene"], trajectory=cfg["trajectory"], frames=cfg["frames"], seed=cfg["seed"],
-            width=res[0], height=res[1], msaa=cfg["msaa"], trajectory_params=free_mapping(cfg, "trajectory_params"),
-            detector=typed_section(DetectorConfig, cfg["detector"], "detector"),
-            truth=typed_section(TruthConfig, cfg["truth"], "truth"),
-            feature_depth=cfg["loop"] and estimator.mode == "slam",   # RGB-D, and the truth of texture corners
-        )
-        check_trajectory_params(seq.resolved_trajectory(), seq.trajectory_params)
-        return seq
+        return make_camera_estimator(source.sequence, run.estimator, run.belief, run.seed)
 
-    def frame_picture(self, spec, index: int) -> tuple[np.ndarray, str]:
-        return frame_picture(spec, index)
+    def loop_sensor(self, source: FrameSource, run: Any):
+        from .loop import CameraSensor
 
-    def run_pictures(self, spec, seq: Sequence, frames):
-        return run_pictures(spec, seq, frames)
+        return CameraSensor(source.sequence, run.belief, run.estimator, run.seed)
 
-    def load_sequence(self, spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
-        return load_sequence(spec, cache_dir, use_cache)
+    def frame_picture(self, run: Any, index: int) -> tuple[np.ndarray, str]:
+        from .pictures import frame_picture
 
-    def cache_folder(self) -> str:
-        return CACHE_FOLDER
+        return frame_picture(run, index)
 
-    def problems(self, seq: Sequence, belief, seed: int) -> list:
-        return [make_problem(seq, k, belief, seed) for k in range(len(seq))]
+    def run_pictures(self, run: Any, source: FrameSource, frames):
+        from .pictures import run_pictures
 
-    def make_estimator(self, seq: Sequence, cfg: EstimatorConfig, belief, seed: int):
-        return make_camera_estimator(seq, cfg, belief, seed)
+        return run_pictures(run, source.sequence, frames)
 
-    def loop_sensor(self, seq: Sequence, belief, est: EstimatorConfig, seed: int) -> CameraSensor:
-        return CameraSensor(seq, belief, est, seed)
+    def gym_envs(self) -> tuple[GymEnv, ...]:
+        return gym_envs_of(self.scenes(), ("open", "loop"))
 
-    def env_slots(self, spec) -> EnvSlots:
+    def env_slots(self, run: Any) -> EnvSlots:
         """N: every landmark of the scene; M: the detector's ``max_features`` plus ``belief.clutter``."""
-        return EnvSlots(len(load_scene(spec.sequence.scene).landmarks),
-                        spec.sequence.detector.max_features + spec.belief.clutter)
+        from ...sim.scene import load_scene
 
-    def shipped_scenes(self) -> dict[str, str]:
-        return {name: first_line(build.__doc__) for name, build in SCENES.items()}
+        spec = run.source.spec
+        return EnvSlots(len(load_scene(spec.scene).landmarks), spec.detector.max_features + run.belief.clutter)
 
     def trajectories(self) -> list[tuple[str, str]]:
+        from ...sim.trajectory import TRAJECTORIES
+
         return [(name, first_line(fn.__doc__)) for name, fn in TRAJECTORIES.items()]
 
-    def landmarks(self, scene: str) -> np.ndarray:
-        return load_scene(scene).landmarks
+    def map_figure(self, frames: Any, scene: str, title: str):
+        """The shared top view: true path, estimates and final maps over the true landmarks."""
+        from ...sim.scene import load_scene
+        from ...viz.loop_plots import landmark_map_figure
 
-
-register_track(CameraTrack)
+        return landmark_map_figure(frames, load_scene(scene).landmarks, title)

@@ -2,32 +2,13 @@
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import mujoco  # loaded under MUJOCO_GL by assocbench.sim (gl.py) before this module runs
 import numpy as np
 
 from ...models.camera import Intrinsics, project
 from ...sim.normals import RENDERED_GROUPS
 from ...sim.scene import Scene
-from ...validation import in_range, one_of, validate_fields
-
-
-@dataclass(frozen=True)
-class TruthConfig:
-    """Settings of the truth labelling; all enter the sequence cache key.
-
-    gate_px: a feature is labelled with a landmark when each is the other's nearest and
-        they are closer than this (px).
-    occlusion: ``ray`` (``mj_multiRay`` towards each landmark) or ``depth`` (rendered z-depth
-        at the projection; one extra render pass).
-    """
-
-    gate_px: float = field(default=2.0, metadata=in_range(0, 50, lo_open=True))
-    occlusion: str = field(default="ray", metadata=one_of("ray", "depth"))
-
-    def __post_init__(self) -> None:
-        validate_fields(self, "truth")
+from .settings import TruthConfig
 
 
 def occluded_by_ray(scene: Scene, p: np.ndarray, points: np.ndarray, tol: float = 0.02) -> np.ndarray:

@@ -10,69 +10,14 @@ working range. Vertex and normal maps are built from the NOISY depth (``depth_fr
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
-
 import numpy as np
 
 from ...errors import UserError
 from ...models.camera import Intrinsics
 from ...models.depth_frame import DepthFrame, pixel_rays
-from ...validation import in_range, validate_fields
 from .depth_smoothing import edge_aware_smoothed
-from .sensor_passes import axial_sigma, edge_free_normals, grazing_kernel, sense
-
-MAX_DOWNSAMPLE = 16
-
-
-@dataclass(frozen=True)
-class DepthConfig:
-    """Settings of the depth sensor (section ``depth:`` of a run config); all enter the cache key.
-
-    downsample: keep pixel ``(s·i, s·j)``; the intrinsics become exactly
-        ``K' = (W//s, H//s, f/s, cx/s, cy/s)``, so a kept pixel's ray is unchanged.
-    sigma_base, sigma_quad: axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m, 1/m).
-    grazing_deg: a pixel whose view ray meets the surface more than this from its normal drops out.
-    dropout: extra share of pixels dropped at random.
-    min_depth, max_depth: the working range (m); a measured depth outside it is missing.
-    normal_smooth_px: sigma (px) of the edge-aware Gaussian (``depth_smoothing``) that smooths
-        the depth the NORMALS are computed from (vertices keep the raw depth); 0 takes normals from
-        the raw depth. At 320x240 the default noise is about the spacing of neighbouring vertices,
-        so raw neighbour-difference normals are off by a median 43-64 deg at 1-4 m. On crates
-        frame 50 (noise as default; measured with the 2-D window the separable filter replaced, which
-        gives 1.5 deg at 3 px too) the median error is 2.9 deg at 2 px and 1.5 deg at 3 px, and
-        ICP from the identity registered two crates frames 11 cm / 7 deg apart only at 3 px
-        (0.15 mm / 0.013 deg; at 2 px it slid 13 cm off): the default is 3.
-    """
-
-    downsample: int = field(default=2, metadata=in_range(1, MAX_DOWNSAMPLE))
-    sigma_base: float = field(default=0.0012, metadata=in_range(0, 1))
-    sigma_quad: float = field(default=0.0019, metadata=in_range(0, 1))
-    grazing_deg: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))
-    dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True))
-    min_depth: float = field(default=0.2, metadata=in_range(0, None, lo_open=True))
-    max_depth: float = field(default=8.0, metadata=in_range(0, None, lo_open=True))
-    normal_smooth_px: float = field(default=3.0, metadata=in_range(0, 10))
-
-    def __post_init__(self) -> None:
-        self.check()
-
-    def check(self) -> None:
-        """One-line ``UserError`` naming the bad setting (``depth.<field>``) and what it accepts."""
-        validate_fields(self, "depth")
-        if self.min_depth >= self.max_depth:
-            raise UserError(f"depth.min_depth ({self.min_depth}) must be below depth.max_depth "
-                            f"({self.max_depth}): the sensor's working range would be empty")
-        if 0 < self.normal_smooth_px < MIN_SMOOTH_PX:   # a Gaussian this narrow weighs no neighbour: no smoothing
-            raise UserError(f"depth.normal_smooth_px must be 0 (no smoothing) or at least {MIN_SMOOTH_PX} px, "
-                            f"got {self.normal_smooth_px}")
-
-    def sigma(self, z: np.ndarray) -> np.ndarray:
-        """Axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m) at depth ``z`` (m)."""
-        # the compiled pass's own formula, run by numpy: the same values, and nothing to compile for a new input type
-        return axial_sigma.py_func(np.asarray(z, dtype=np.float64), self.sigma_base, self.sigma_quad)
-
-
-MIN_SMOOTH_PX = 0.1   # below it exp(-1/(2σ²)) < 1e-21: the neighbours' weights vanish (and 1/σ² overflows)
+from .sensor_passes import edge_free_normals, grazing_kernel, sense
+from .settings import DepthConfig
 
 
 def downsample_intrinsics(K: Intrinsics, s: int) -> Intrinsics:

@@ -67,15 +67,16 @@ they hold unstable points about to turn dormant, so the work per frame follows w
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from ...errors import UserError
 from ...models.depth_frame import NO_GEOM, DepthFrame
-from ...validation import check_number, in_range, validate_fields
+from ...validation import check_number
 from .map_order import CELL, SORT_SHARE, morton_keys, permute_rows, renumber_table
+from .settings import FusionConfig
 from .voxel_table import (
     cell_key,
     held_neighbour,
@@ -97,49 +98,6 @@ NEVER = np.iinfo(np.int64).max   # ``oldest`` of a block without unstable points
 # more (fusion 13.8 -> 12.4 ms a crates frame with the voxel table's slots packed too:
 # benchmarks/dense_fusion_ab.py)
 SUM_COLUMNS, COUNT, CALL = 11, 9, 10
-
-
-@dataclass(frozen=True)
-class FusionConfig:
-    """Settings of point-based fusion (the ``fusion:`` section of a run config).
-
-    d_thr: pass 2's distance gate |p − q| (m); also the margin of the see-through outlier test.
-    angle_deg: pass 2's normal gate, the angle between map and frame normals (deg); 180 turns it
-        off. It needs smooth normals: ``normal_map`` of raw depth with σ(z) = 0.0012 + 0.0019 z² at
-        320x240 is off by 58° (median) at 2-3 m, so a 20° gate refuses ~90 % of the pairs and biases
-        what it keeps (a point merges with the samples whose noise tilts the normal its own way):
-        the map is then no better than one frame. Normals of the depth box-filtered 5x5 with a ±2 px
-        stencil (median 5° off) work at 20° (tests/test_point_fusion.py has both).
-    dormant_frames: an unstable point not merged for this many frames is removed.
-    stable_weight: a point with at least this weight (merges + 1) is stable: never removed.
-    remove_dormant / remove_outliers: the homework bonus's two removals (false: keep everything).
-    voxel: one map point per cell of this size (m) and normal class (``voxel_table``): a pixel no
-        map point merged with merges into the point holding its cell instead of being added, so the
-        map's density is bounded and its size plateaus once the scene is seen. 0: the homework's
-        rule (every such pixel is added; the map grows with every new viewpoint). 1 cm is the
-        pixel footprint z/f at 2 m at 320x240 with a 60° field of view (f = 208 px), the near
-        half of the crates and bays paths' depths; the cell is ``d_thr`` thick along the normal's
-        dominant axis (``voxel_table``). Coarser cells thin the model rendered into the view, ICP's
-        source, and with it its conditioning: at 2 cm crates seed 1 lost 3 of 40 frames
-        frame-to-model (κ 1 060-1 400 > ``icp.max_condition``). Crates, 200 frames
-        frame-to-model (map points, ATE, map error median/p95): 1 cm 108k, 1.4 mm, 0.43/3.5 mm;
-        the homework's rule 1.7 mm, 0.36/2.9 mm (docs/tracks/dense.md).
-    """
-
-    d_thr: float = field(default=0.05, metadata=in_range(0, 10, lo_open=True))
-    angle_deg: float = field(default=20.0, metadata=in_range(0, 180, lo_open=True))
-    dormant_frames: int = field(default=20, metadata=in_range(1, 10**9))
-    stable_weight: int = field(default=3, metadata=in_range(1, 10**9))
-    remove_dormant: bool = True
-    remove_outliers: bool = True
-    voxel: float = field(default=0.01, metadata=in_range(0, 10))
-
-    def __post_init__(self) -> None:
-        self.check()
-
-    def check(self) -> None:
-        """One-line UserError naming the first bad field (``fusion.d_thr must be ...``)."""
-        validate_fields(self, "fusion")
 
 
 @dataclass(frozen=True)

@@ -108,7 +108,7 @@ and from the crates pairs above:
 from __future__ import annotations
 
 import time
-from dataclasses import dataclass, field, replace
+from dataclasses import dataclass, replace
 
 import numpy as np
 from numba import njit
@@ -117,53 +117,8 @@ from scipy.linalg import solve_triangular
 from ...associators.dense.base import DenseAssociator, Pairs, checked_inputs, checked_pairs, flat_maps
 from ...errors import UserError
 from ...models.depth_frame import NO_GEOM, DepthFrame
-from ...validation import in_range, validate_fields
 from .fused_ops import ZERO21, fma, outer_fma, symmetric6
-
-
-@dataclass(frozen=True)
-class IcpConfig:
-    """Settings of ``icp`` (the ``icp:`` section of a run config).
-
-    max_iterations: iterations at most; no convergence by then is a failure.
-    converge_rot_deg / converge_trans: converged when one update rotates less than this (deg)
-        and moves less than this (m).
-    min_pairs: fewer pairs in any iteration is a failure (too little to constrain 6 dof).
-    min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure.
-    min_direction_share: the final pairs' share of the information of the visible source points
-        in the worst-kept motion (``direction_share``) below this is a failure: the pose slid to
-        where the surfaces that fix some motion find no partner (a wrong minimum of self-similar
-        geometry, e.g. bays' side walls lost after a sideways slide).
-    max_rms: final point-to-plane residual rms (m, each residual scaled by the gate's floor over
-        its gate: the module docstring's **Failure**) above this is a failure.
-    max_condition: κ(S) (the normal matrix in comparable units, ``stability_transform``) of the
-        last iteration above this is a failure: some motion is unconstrained (a single plane, a
-        corridor's axis).
-    max_step_m / max_step_deg: an estimate whose camera moved farther than this (m) or turned
-        more than this (deg) from the initial guess is a failure: beyond ICP's capture range a
-        converged pose is as likely a wrong minimum (one period of self-similar geometry off)
-        as the right one.
-
-    The thresholds' defaults and their evidence: see the module docstring.
-    """
-
-    max_iterations: int = field(default=100, metadata=in_range(1, 10_000))
-    converge_rot_deg: float = field(default=5e-3, metadata=in_range(0, 180, lo_open=True))
-    converge_trans: float = field(default=1e-4, metadata=in_range(0, None, lo_open=True))
-    min_pairs: int = field(default=200, metadata=in_range(6, None))
-    min_inlier_share: float = field(default=0.5, metadata=in_range(0, 1))
-    min_direction_share: float = field(default=0.25, metadata=in_range(0, 1))
-    max_rms: float = field(default=0.02, metadata=in_range(0, None, lo_open=True))
-    max_condition: float = field(default=1000.0, metadata=in_range(1, None))
-    max_step_m: float = field(default=0.15, metadata=in_range(0, None, lo_open=True))
-    max_step_deg: float = field(default=10.0, metadata=in_range(0, 180, lo_open=True))
-
-    def __post_init__(self) -> None:
-        self.check()
-
-    def check(self) -> None:
-        """One-line ``UserError`` naming ``icp.<field>`` for a bad value."""
-        validate_fields(self, "icp")
+from .settings import IcpConfig
 
 
 @dataclass
@@ -458,10 +413,12 @@ class _Linearised:
 
 
 def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: DenseAssociator,
-        R0: np.ndarray, t0: np.ndarray, cfg: IcpConfig = IcpConfig()) -> IcpResult:
+        R0: np.ndarray, t0: np.ndarray, cfg: IcpConfig | None = None) -> IcpResult:
     """Camera-to-world pose of ``frame`` registering the source ``points``/``normals`` (world)
     to it, from the guess ``(R0, t0)``; see the module docstring (**Iteration**). Bad shapes are a
-    ``UserError``; bad data (nothing valid, degenerate, diverging) is ``failed=True`` with a ``reason``."""
+    ``UserError``; bad data (nothing valid, degenerate, diverging) is ``failed=True`` with a ``reason``.
+    ``cfg``: the ``icp`` settings (their defaults when None)."""
+    cfg = cfg if cfg is not None else IcpConfig()
     points, normals, _, _ = checked_inputs(points, normals, frame, np.eye(3), np.zeros(3))
     R0, t0 = _check_pose(R0, t0)
     TR, Tt = R0.T.copy(), -R0.T @ t0

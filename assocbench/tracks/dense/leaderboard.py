@@ -12,8 +12,8 @@ import pandas as pd
 
 from ...atomic import write_group
 from ...scoring.aggregate import OK
+from .columns import DENSE_COLUMNS
 from .plots import failure_flags, map_figure
-from .summary import DENSE_COLUMNS
 
 
 def dense_table(summaries: pd.DataFrame) -> pd.DataFrame:

@@ -36,7 +36,7 @@ import numpy as np
 from ...models.depth_frame import DepthFrame
 from ...scoring.trajectory import pose_columns
 from ...sim.scene import load_scene
-from ..base import MethodCalls
+from ..capabilities import MethodCalls
 from .fusion import PointMap, compression_ratio, fuse
 from .icp import IcpConfig, icp
 from .metrics import relative_pose_error, score_associations
@@ -117,7 +117,7 @@ def dense_records(seq: DenseSequence, spec, calls: MethodCalls, build, first: in
                   artifacts: Path | None = None) -> Iterator[dict]:
     """Per-frame records of ``spec`` (a ``RunSpec`` of the dense track) from frame ``first`` on.
     ``build()`` makes the run's associator (through ``calls``: its failure fails every frame)."""
-    cfg, fusion, dense = spec.setting("icp"), spec.setting("fusion"), spec.setting("dense")
+    cfg, fusion, dense = spec.settings.icp, spec.settings.fusion, spec.settings.dense
     frame = seq.frame(0)
     error = unmeasurable(seq, frame)
     if error:
@@ -200,7 +200,7 @@ def run_end(seq: DenseSequence, spec, pmap: PointMap, artifacts: Path | None) ->
     compression, a subsample for the picture; the whole map to ``artifacts/map.npz`` when asked.
     The subsample and the file list the points in the order they were added (``born``), so the
     rows' spatial order (``map_order``) changes neither."""
-    error = surface_distance(pmap.positions, load_scene(spec.sequence.scene)) if len(pmap) else np.zeros(0)
+    error = surface_distance(pmap.positions, load_scene(spec.source.spec.scene)) if len(pmap) else np.zeros(0)
     birth = np.argsort(pmap.born)   # after the distance, which runs faster over spatially sorted rows
     positions, error_mm = pmap.positions[birth], 1000 * error[birth]
     if artifacts is not None:

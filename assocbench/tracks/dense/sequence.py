@@ -38,12 +38,14 @@ from ...models.depth_frame import DepthFrame
 from ...sim.cache import Unusable, cached_sequence
 from ...sim.camera_path import CameraPath
 from ...sim.render import FrameRenderer
-from ...sim.scene import Scene, load_scene
+from ...sim.scene import Scene, load_scene, scene_digest
+from ...sources.base import SimulatedSource, short_name
 from ...validation import check_number
 from .depth_sensor import DepthConfig, downsample_intrinsics, sensed_frame
 
 FORMAT_VERSION = 3   # 2: no full_size (compression counts the downsampled pixels); 3: stored, mapped, CRC-32
 PATH_FRAMES = 200   # the length of the path a run's frames are taken from
+DEFAULT_FRAMES = 40   # a run's frames when it names none
 # the dense track's path per shipped scene when the run names none, over PATH_FRAMES frames: slow
 # enough that neighbouring frames overlap as a hand-held depth camera's do (bays 2.2 cm a frame,
 # crates 2 mm and 0.13 deg, plus the trajectory's seeded jitter, 1 cm and 0.5 deg); the camera
@@ -99,9 +101,11 @@ class DenseSequenceSpec:
         cam = self.camera_path()
         check_trajectory_params(cam.resolved_trajectory(), cam.trajectory_params)
 
-    def key(self, scene: Scene) -> str:
+    def key(self) -> str:
+        """Cache key: the camera path, the frames and downsampling, the scene's files, the format,
+        the sources in ``CODE`` and MuJoCo's version (the noise is drawn at read time: not in it)."""
         payload = {"spec": asdict(self.camera_path()), "frames": self.frames, "downsample": self.depth.downsample,
-                   "scene": scene.digest, "format": FORMAT_VERSION, "code": sources_digest(*CODE),
+                   "scene": scene_digest(self.scene), "format": FORMAT_VERSION, "code": sources_digest(*CODE),
                    "mujoco": mujoco.__version__}
         return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
@@ -211,6 +215,12 @@ def load_dense_sequence(spec: DenseSequenceSpec, cache_dir: Path | None = None,
     """The sequence of ``spec``: from the shared sequence cache (``sim.cache``) when present and
     sound, else rendered and stored. A damaged entry (truncated, another key, wrong shapes) is
     discarded with one line on stderr."""
-    scene = load_scene(spec.scene)
-    return cached_sequence(CACHE_FOLDER, spec.key(scene), lambda: render_dense(spec, scene), _save,
+    return cached_sequence(CACHE_FOLDER, spec.key(), lambda: render_dense(spec, load_scene(spec.scene)), _save,
                            lambda path, key: _load(path, key, spec), cache_dir, use_cache, what="depth sequence")
+
+
+def dense_source(spec: DenseSequenceSpec) -> SimulatedSource:
+    """The depth sequence of ``spec`` as a frame source: frame ``k`` is the sensor's noisy
+    ``DepthFrame`` at the true pose (``DenseSequence.frame``)."""
+    return SimulatedSource("dense", spec, short_name(spec.scene), spec.frames, DenseSequenceSpec.key,
+                           load_dense_sequence, DenseSequence.frame, CACHE_FOLDER)

@@ -20,10 +20,6 @@ import pandas as pd
 from ...scoring.aggregate import OK
 from ...scoring.trajectory import ate_rmse, rotation_rmse_deg
 
-DENSE_COLUMNS = ("frames", "status", "failures", "precision", "recall", "precision_start", "recall_start", "icp_failures",
-                 "wrong_steps", "ate_mm", "ate_deg", "final_drift_mm", "step_error_mm", "step_error_deg", "map_points",
-                 "compression_pct", "map_median_mm", "map_p95_mm", "icp_ms", "fusion_ms", "fps")
-
 
 def poses(frames: pd.DataFrame, prefix: str) -> tuple[np.ndarray, np.ndarray]:
     """Rotations (N, 3, 3) and positions (N, 3) of the ``<prefix>x, y, z, qx, qy, qz, qw`` columns."""

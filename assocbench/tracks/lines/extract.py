@@ -38,55 +38,20 @@ of a few hundred normal deviates plus the chord's own noise), ``inlier_distance`
 
 from __future__ import annotations
 
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 
 import numpy as np
 from numba import njit
 
 from ...errors import UserError
 from ...models.range_bearing import wrap
-from ...sim.lidar import Scan
-from ...validation import check_number, in_range, one_of, validate_fields
+from ...sim.scan import Scan
+from ...validation import check_number
 from .polar_fit import group_fits, line_from_sums, point_terms
+from .settings import LineExtractorConfig
 
-METHODS = ("polar", "split_merge", "ransac")
 TRIM_SIGMAS = 3.0        # an end point farther than this from its segment's fit is trimmed
 TRIM_ROUNDS = 4          # ends trimmed per segment at most (a corner costs one or two)
-
-
-@dataclass(frozen=True)
-class LineExtractorConfig:
-    """Line extractor settings (section ``lines``); null thresholds scale with the range noise σ.
-
-    method: polar | split_merge | ransac. min_points: fewest beams of a line (>= 3: two points
-    always fit exactly; 16 by default: a short line that took in one or two beams of a
-    neighbouring face (a door jamb, a pillar) is biased well beyond its Σ, and with 8 such lines
-    made the extraction NEES 3.4–3.6 in the office and hallway against 2; with 16 it is 2.1–2.5,
-    and 2.0 on lines whose beams all hit one face). min_length: shortest segment kept (m). breakpoint_distance (m, null 10σ)
-    and breakpoint_angle_deg (λ): the adaptive breakpoint. split_distance: split-and-merge's
-    chord distance (m, null 6σ). max_rms: largest RMS orthogonal residual of a kept fit (m, null
-    2σ). merge_chi2: χ² bound (2 dof) of a collinear merge (13.8: 99.9 %). merge_gap: largest gap
-    between merged segments (m). ransac_iterations: hypotheses per extracted line.
-    inlier_distance: RANSAC inlier band (m, null 3σ). max_lines: most lines per scan.
-    min_share: share of a line's beams on one map line for it to be labelled with it.
-    """
-
-    method: str = field(default="split_merge", metadata=one_of(*METHODS))
-    min_points: int = field(default=16, metadata=in_range(3, 100000))
-    min_length: float = field(default=0.3, metadata=in_range(0, 1000))
-    breakpoint_distance: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
-    breakpoint_angle_deg: float = field(default=10.0, metadata=in_range(0, 90, lo_open=True, hi_open=True))
-    split_distance: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
-    max_rms: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
-    merge_chi2: float = field(default=13.8, metadata=in_range(0, 1e6))
-    merge_gap: float = field(default=2.0, metadata=in_range(0, 1000))
-    ransac_iterations: int = field(default=100, metadata=in_range(1, 100000))
-    inlier_distance: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
-    max_lines: int = field(default=30, metadata=in_range(1, 10000))
-    min_share: float = field(default=0.8, metadata=in_range(0.5, 1, lo_open=True))
-
-    def __post_init__(self) -> None:
-        validate_fields(self, "lines")
 
 
 @dataclass(frozen=True)

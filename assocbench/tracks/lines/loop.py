@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..plane import PlanarSensor
+from ..plane_sensor import PlanarSensor
 from .belief import clutter_lines
 from .plots import segment_status, snapshot_json
 

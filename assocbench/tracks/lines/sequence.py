@@ -14,10 +14,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...sim.lidar import LidarConfig, Scan, scan
+from ...sim.lidar import scan
 from ...sim.line_scene import LineScene, beam_lines, check_scan_plane, load_line_scene, visible_lines
 from ...sim.planar_trajectory import planar_trajectory
 from ...sim.robot_path import PosesInPlane, ScenePath
+from ...sim.scan import Scan
+from ...sim.settings import LidarConfig
 from .extract import LineExtractorConfig, extract_lines, label_lines
 
 

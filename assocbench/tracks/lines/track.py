@@ -1,27 +1,35 @@
-"""The lines track: walls extracted from lidar scans as lines (α, r) with covariance."""
+"""The lines track: walls extracted from lidar scans as lines (α, r) with covariance.
+
+This module stays light (the registry imports it to list the track): the simulation, the
+extraction kernels and the estimator are imported inside the hooks that use them."""
 
 from __future__ import annotations
 
+from typing import Any
+
 import numpy as np
 
+from ...belief.config import BeliefConfig
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
-from ...sim.lidar import LidarConfig
-from ...sim.line_scene import load_line_scene
-from ...sim.scenegen.lines import LINE_SCENES
-from ...validation import free_mapping, typed_section
-from ..base import EnvSlots, SceneMarks, first_line, register_track
+from ...settings import Schema, Section, Settings
+from ...sim.settings import LidarConfig, PathKeys
+from ...sources.base import FrameSource
+from ..base import LOOP_FRAME_COLUMNS, Columns, SuiteFile, first_line
+from ..capabilities import EnvSlots, SceneMarks
 from ..plane import LidarTrack
-from .belief import make_line_problem
-from .estimator import make_line_estimator
-from .extract import LineExtractorConfig
-from .loop import LinesSensor
-from .plots import line_map_figure, snapshots
-from .sequence import LineSequence, LineSequenceSpec, make_line_sequence, warm_extraction
+from .settings import LineExtractorConfig
 
 # the sources a cached sequence depends on: shared simulation and belief, measurement models, this track
 CODE = ("sim", "models", "belief", "tracks/lines")
 CLUTTER_PIECE_M = 1.0   # how long the top view draws a clutter line, which has no extent
+DEFAULT_FRAMES = 40
+SUITES = {"lines": False, "lines_ci": True}
+BELIEF = Section(BeliefConfig, exclude=("sigma_pixel", "max_view_angle"))
+# localisation on a known map: none of the settings that make, confirm or drop landmarks apply
+ESTIMATOR = Section(EstimatorConfig, exclude=("init", "depth_sigma", "depth_sigma_quadratic", "pixel_noise",
+                                              "target_paired", "max_new_per_frame", "max_landmarks",
+                                              "drop_after", "new_landmark_gate"))
 
 
 class LinesTrack(LidarTrack):
@@ -29,67 +37,96 @@ class LinesTrack(LidarTrack):
 
     name = "lines"
     summary = "walls from 2-D lidar scans as lines (α, r) with Σ; EKF localisation on the known map"
-    ci_suites = ("lines_ci",)
-    suites = ("lines", "lines_ci")
-    spec_type = LineSequenceSpec
-    gym_modes = ("open", "loop")
+    estimator_words = "EKF localisation on the known map of walls, the suffix is the line extraction method"
     code = CODE
+    maker = "assocbench.tracks.lines.sequence:make_line_sequence"
 
+    # --- core ----------------------------------------------------------------------------
+    def settings(self) -> Schema:
+        return Schema((PathKeys,), {"lidar": Section(LidarConfig), "lines": Section(LineExtractorConfig),
+                                    "belief": BELIEF, "estimator": ESTIMATOR})
+
+    def source(self, settings: Settings) -> FrameSource:
+        """Lidar scans along the scene's path and the wall lines extracted from them (``lidar``,
+        ``lines``); its estimator is the EKF localisation on the known map."""
+        from .sequence import LineSequenceSpec
+
+        est = settings.estimator
+        if est.name != "ekf" or est.mode != "localisation":
+            raise UserError(f"the lines track's estimator is the EKF localisation on the known map: set "
+                            f"estimator.name: ekf and estimator.mode: localisation (got {est.name}, {est.mode})")
+        if settings.lidar.mode != "lidar":
+            raise UserError(f"lidar.mode {settings.lidar.mode} serves the planar track's posts; lines are extracted "
+                            "from ray-cast scans: set lidar.mode: lidar")
+        spec = LineSequenceSpec(scene=settings.scene or next(iter(self.scenes())), trajectory=settings.trajectory,
+                                trajectory_params=dict(settings.trajectory_params),
+                                frames=settings.frames or DEFAULT_FRAMES, seed=settings.seed,
+                                lidar=settings.lidar, lines=settings.lines)
+        spec.check()
+        return self.lidar_source(spec)
+
+    def problem(self, source: FrameSource, k: int, run: Any):
+        from .belief import make_line_problem
+
+        return make_line_problem(source.sequence, k, run.belief, run.seed)
+
+    def columns(self, loop: bool) -> Columns:
+        """The shared columns; a closed loop's leaderboard also keeps the last frame's scan (its map view)."""
+        cols = super().columns(loop)
+        return Columns(cols.summary, cols.primary, LOOP_FRAME_COLUMNS + ("final_scan",)) if loop else cols
+
+    def suites(self) -> dict[str, SuiteFile]:
+        from ...configs import shipped_config
+
+        return {name: SuiteFile(shipped_config(f"{name}.yaml"), ci) for name, ci in SUITES.items()}
+
+    def scenes(self) -> dict[str, str]:
+        from ...sim.scenegen.lines import LINE_SCENES
+
+        return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}
+
+    # --- capabilities ----------------------------------------------------------------------
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.wall_geoms > 0
 
-    def section_types(self) -> dict[str, type]:
-        return {"lidar": LidarConfig, "lines": LineExtractorConfig}
+    def estimator(self, source: FrameSource, run: Any):
+        from .estimator import make_line_estimator
 
-    def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> LineSequenceSpec:
-        """Lidar scans along the scene's path and the wall lines extracted from them (``lidar``,
-        ``lines``); its estimator is the EKF localisation on the known map."""
-        if estimator.name != "ekf" or estimator.mode != "localisation":
-            raise UserError(f"scene {cfg['scene']!r} is a lines scene, whose estimator is the EKF localisation on "
-                            f"the known map: set estimator.name: ekf and estimator.mode: localisation (got "
-                            f"{estimator.name}, {estimator.mode})")
-        seq = LineSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
-                               trajectory_params=free_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
-                               seed=cfg["seed"], lidar=typed_section(LidarConfig, cfg["lidar"], "lidar"),
-                               lines=typed_section(LineExtractorConfig, cfg["lines"], "lines"))
-        if seq.lidar.mode != "lidar":
-            raise UserError(f"lidar.mode {seq.lidar.mode} serves the planar track's posts; lines are extracted "
-                            "from ray-cast scans: set lidar.mode: lidar")
-        seq.check()
-        return seq
+        return make_line_estimator(source.sequence, run.estimator, run.belief, run.seed)
 
-    def make_sequence(self, spec):
-        return make_line_sequence(spec)
+    def loop_sensor(self, source: FrameSource, run: Any):
+        from .loop import LinesSensor
 
-    def problems(self, seq: LineSequence, belief, seed: int) -> list:
-        return [make_line_problem(seq, k, belief, seed) for k in range(len(seq))]
-
-    def make_estimator(self, seq: LineSequence, cfg: EstimatorConfig, belief, seed: int):
-        return make_line_estimator(seq, cfg, belief, seed)
-
-    def loop_sensor(self, seq: LineSequence, belief, est: EstimatorConfig, seed: int) -> LinesSensor:
-        return LinesSensor(seq, belief, est, seed)
+        return LinesSensor(source.sequence, run.belief, run.estimator, run.seed)
 
     def warm_up(self) -> None:
+        from .sequence import warm_extraction
+
         warm_extraction()
 
-    def env_slots(self, spec) -> EnvSlots:
+    def env_slots(self, run: Any) -> EnvSlots:
         """N: every line of the scene's map; M: the most lines a scan can yield (one per
         ``lines.min_points`` beams, each beam in one line; RANSAC stops at ``lines.max_lines``)
         plus ``belief.clutter``."""
-        seq = spec.sequence
-        lines = seq.lidar.beams // seq.lines.min_points
-        if seq.lines.method == "ransac":
-            lines = min(lines, seq.lines.max_lines)
-        return EnvSlots(len(load_line_scene(seq.scene).lines), lines + spec.belief.clutter)
+        from ...sim.line_scene import load_line_scene
 
-    def shipped_scenes(self) -> dict[str, str]:
-        return {name: first_line(build.__doc__) for name, build in LINE_SCENES.items()}
+        spec = run.source.spec
+        lines = spec.lidar.beams // spec.lines.min_points
+        if spec.lines.method == "ransac":
+            lines = min(lines, spec.lines.max_lines)
+        return EnvSlots(len(load_line_scene(spec.scene).lines), lines + run.belief.clutter)
 
-    def picture_map(self, seq: LineSequence) -> dict[str, np.ndarray]:
+    def map_figure(self, frames: Any, scene: str, title: str):
+        """Walls, not points: the map's faces and each method's last scan."""
+        from ...sim.line_scene import load_line_scene
+        from .plots import line_map_figure, snapshots
+
+        return line_map_figure(frames, load_line_scene(scene).segments, snapshots(frames), title=title)
+
+    def picture_map(self, seq: Any) -> dict[str, np.ndarray]:
         return {"walls": seq.segments}
 
-    def feature_shapes(self, seq: LineSequence, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
+    def feature_shapes(self, seq: Any, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
         """The extracted lines' segments; a clutter line ``(α, r)`` has none, so a piece of
         ``CLUTTER_PIECE_M`` centred on its foot point ``r (cos α, sin α)``."""
         ends = np.asarray(seq.endpoints[k], float).reshape(-1, 2, 2)
@@ -98,15 +135,8 @@ class LinesTrack(LidarTrack):
         along = CLUTTER_PIECE_M / 2 * np.column_stack([-np.sin(clutter[:, 0]), np.cos(clutter[:, 0])])
         return {"segments": np.concatenate([ends, np.stack([foot - along, foot + along], axis=1)])}
 
-    def unseen(self, seq: LineSequence, landmarks: np.ndarray) -> dict[str, np.ndarray]:
+    def unseen(self, seq: Any, landmarks: np.ndarray) -> dict[str, np.ndarray]:
         return {"unseen_walls": seq.segments[np.isin(seq.segment_line, landmarks)]}
 
     def picture_note(self) -> str:
         return f"a clutter line (alpha, r) is drawn as a {CLUTTER_PIECE_M:g} m piece at its foot point"
-
-    def map_figure(self, frames, scene: str, title: str):
-        """Walls, not points: the map's faces and each method's last scan."""
-        return line_map_figure(frames, load_line_scene(scene).segments, snapshots(frames), title=title)
-
-
-register_track(LinesTrack)

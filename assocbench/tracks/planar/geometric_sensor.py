@@ -14,8 +14,9 @@ from __future__ import annotations
 import numpy as np
 
 from ...models.range_bearing import predict, wrap
-from ...sim.lidar import LidarConfig, cast
+from ...sim.lidar import cast
 from ...sim.planar_scene import PlanarScene
+from ...sim.settings import LidarConfig
 from .post_detect import Detections
 
 

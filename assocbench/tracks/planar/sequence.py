@@ -12,10 +12,12 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ...sim.lidar import LidarConfig, Scan, scan
+from ...sim.lidar import scan
 from ...sim.planar_scene import PlanarScene, load_planar_scene
 from ...sim.planar_trajectory import planar_trajectory
 from ...sim.robot_path import PosesInPlane, ScenePath
+from ...sim.scan import Scan
+from ...sim.settings import LidarConfig
 from .geometric_sensor import geometric_detections
 from .post_detect import PostDetectorConfig, detect_posts, label_detections
 

@@ -1,26 +1,35 @@
-"""The planar track: a robot among identical posts, a 2-D lidar, circle fits, range-bearing."""
+"""The planar track: a robot among identical posts, a 2-D lidar, circle fits, range-bearing.
+
+This module stays light (the registry imports it to list the track): the simulation, the
+estimators and the pictures are imported inside the hooks that use them."""
 
 from __future__ import annotations
 
 import importlib.util
+from typing import Any
 
 import numpy as np
 
+from ...belief.config import BeliefConfig
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
-from ...sim.lidar import LidarConfig
-from ...sim.planar_scene import load_planar_scene
-from ...sim.scenegen.planar import PLANAR_SCENES
-from ...validation import free_mapping, typed_section
-from ..base import SMOOTHED_ATE_GUARD, EnvSlots, GuardedMetric, SceneMarks, first_line, register_track
-from ..plane import LidarTrack, PlanarSensor
-from .belief import make_planar_problem
-from .estimator import make_planar_estimator
-from .post_detect import PostDetectorConfig
-from .sequence import PlanarSequence, PlanarSequenceSpec, make_planar_sequence
+from ...settings import Schema, Section, Settings
+from ...sim.settings import LidarConfig, PathKeys
+from ...sources.base import FrameSource
+from ..base import SMOOTHED_ATE_GUARD, GuardedMetric, SuiteFile, first_line
+from ..capabilities import EnvSlots, SceneMarks
+from ..plane import LidarTrack
+from .settings import PostDetectorConfig
 
 # the sources a cached sequence depends on: shared simulation and belief, measurement models, this track
 CODE = ("sim", "models", "belief", "tracks/planar")
+DEFAULT_FRAMES = 40
+SUITES = {"planar": False, "planar_ci": True, "planar_isam2_ci": True}
+GTSAM = "gtsam is not installed (pip install 'assocbench[gtsam]'; from a clone: pip install '.[gtsam]')"
+# the open-loop belief of a robot in the plane has no pixels and no viewing angle; the estimator
+# section's camera parts (RGB-D depth, pixel noise, the landmark initialiser) do not apply
+BELIEF = Section(BeliefConfig, exclude=("sigma_pixel", "max_view_angle"))
+ESTIMATOR = Section(EstimatorConfig, exclude=("init", "depth_sigma", "depth_sigma_quadratic", "pixel_noise"))
 
 
 class PlanarTrack(LidarTrack):
@@ -28,81 +37,92 @@ class PlanarTrack(LidarTrack):
 
     name = "planar"
     summary = "a 2-D lidar among identical posts, circle fits, range-bearing; EKF-SLAM or GTSAM iSAM2"
-    ci_suites = ("planar_ci", "planar_isam2_ci")
-    suites = ("planar", "planar_ci", "planar_isam2_ci")
-    spec_type = PlanarSequenceSpec
-    gym_modes = ("open", "loop")
+    estimator_words = "planar EKF-SLAM or iSAM2, the difficulty's suffix"
     code = CODE
+    maker = "assocbench.tracks.planar.sequence:make_planar_sequence"
 
+    # --- core ----------------------------------------------------------------------------
+    def settings(self) -> Schema:
+        return Schema((PathKeys,), {"lidar": Section(LidarConfig), "posts": Section(PostDetectorConfig),
+                                    "belief": BELIEF, "estimator": ESTIMATOR})
+
+    def source(self, settings: Settings) -> FrameSource:
+        """Lidar scans along the scene's path and the posts detected in them (``lidar``, ``posts``).
+        The iSAM2 back end's package is looked for here, before anything compiles or runs."""
+        from .sequence import PlanarSequenceSpec
+
+        if settings.estimator.name == "isam2" and settings.loop and importlib.util.find_spec("gtsam") is None:
+            raise UserError(f"estimator.name: isam2 needs the gtsam package: {GTSAM}")
+        spec = PlanarSequenceSpec(scene=settings.scene or next(iter(self.scenes())), trajectory=settings.trajectory,
+                                  trajectory_params=dict(settings.trajectory_params),
+                                  frames=settings.frames or DEFAULT_FRAMES, seed=settings.seed,
+                                  lidar=settings.lidar, posts=settings.posts)
+        spec.check()
+        return self.lidar_source(spec)
+
+    def problem(self, source: FrameSource, k: int, run: Any):
+        from .belief import make_planar_problem
+
+        return make_planar_problem(source.sequence, k, run.belief, run.seed)
+
+    def guards(self, loop: bool) -> tuple[GuardedMetric, ...]:
+        """Accuracy, and in the closed loop the filtered and (where the baseline has it) the
+        smoothed ATE: the iSAM2 back end is a smoother."""
+        return super().guards(loop) + ((SMOOTHED_ATE_GUARD,) if loop else ())
+
+    def suites(self) -> dict[str, SuiteFile]:
+        from ...configs import shipped_config
+
+        return {name: SuiteFile(shipped_config(f"{name}.yaml"), ci) for name, ci in SUITES.items()}
+
+    def scenes(self) -> dict[str, str]:
+        from ...sim.scenegen.planar import PLANAR_SCENES
+
+        return {name: first_line(build.__doc__) for name, build in PLANAR_SCENES.items()}
+
+    # --- capabilities ----------------------------------------------------------------------
     def claims_scene(self, marks: SceneMarks) -> bool:
         return marks.landmark_geoms > 0
 
-    def check_metrics(self, loop: bool) -> tuple[GuardedMetric, ...]:
-        """Accuracy, and in the closed loop the filtered and (where the baseline has it) the
-        smoothed ATE: the iSAM2 back end is a smoother."""
-        return super().check_metrics(loop) + ((SMOOTHED_ATE_GUARD,) if loop else ())
+    def estimator(self, source: FrameSource, run: Any):
+        from .estimator import make_planar_estimator
 
-    def ci_suite_skipped(self, name: str) -> str | None:
-        if name == "planar_isam2_ci" and importlib.util.find_spec("gtsam") is None:
-            return "gtsam is not installed (pip install 'assocbench[gtsam]')"
-        return None
+        return make_planar_estimator(source.sequence, run.estimator, run.belief, run.seed)
 
-    def section_types(self) -> dict[str, type]:
-        return {"lidar": LidarConfig, "posts": PostDetectorConfig}
+    def loop_sensor(self, source: FrameSource, run: Any):
+        from ..plane_sensor import PlanarSensor
 
-    def sequence_spec(self, cfg: dict, estimator: EstimatorConfig) -> PlanarSequenceSpec:
-        """Lidar scans along the scene's path and the posts detected in them (``lidar``, ``posts``).
-        The iSAM2 back end's package is looked for here, before anything compiles or runs."""
-        if estimator.name == "isam2" and cfg["loop"] and importlib.util.find_spec("gtsam") is None:
-            raise UserError("estimator.name: isam2 needs the gtsam package: pip install 'assocbench[gtsam]' "
-                            "(from a clone: pip install '.[gtsam]')")
-        seq = PlanarSequenceSpec(scene=cfg["scene"], trajectory=cfg["trajectory"],
-                                 trajectory_params=free_mapping(cfg, "trajectory_params"), frames=cfg["frames"],
-                                 seed=cfg["seed"], lidar=typed_section(LidarConfig, cfg["lidar"], "lidar"),
-                                 posts=typed_section(PostDetectorConfig, cfg["posts"], "posts"))
-        seq.check()
-        return seq
+        return PlanarSensor(source.sequence, run.belief, run.estimator, run.seed)
 
-    def make_sequence(self, spec):
-        return make_planar_sequence(spec)
-
-    def problems(self, seq: PlanarSequence, belief, seed: int) -> list:
-        return [make_planar_problem(seq, k, belief, seed) for k in range(len(seq))]
-
-    def make_estimator(self, seq: PlanarSequence, cfg: EstimatorConfig, belief, seed: int):
-        return make_planar_estimator(seq, cfg, belief, seed)
-
-    def loop_sensor(self, seq: PlanarSequence, belief, est: EstimatorConfig, seed: int) -> PlanarSensor:
-        return PlanarSensor(seq, belief, est, seed)
-
-    def env_slots(self, spec) -> EnvSlots:
+    def env_slots(self, run: Any) -> EnvSlots:
         """N: every post of the scene; M: the most posts a scan can yield (geometric mode: one per
         post; lidar: one per ``posts.min_points`` beams, each beam in one fit) plus ``belief.clutter``."""
-        seq, posts = spec.sequence, len(load_planar_scene(spec.sequence.scene).posts)
-        detections = posts if seq.lidar.mode == "geometric" else seq.lidar.beams // seq.posts.min_points
-        return EnvSlots(posts, detections + spec.belief.clutter)
+        from ...sim.planar_scene import load_planar_scene
 
-    def shipped_scenes(self) -> dict[str, str]:
-        return {name: first_line(build.__doc__) for name, build in PLANAR_SCENES.items()}
+        spec = run.source.spec
+        posts = len(load_planar_scene(spec.scene).posts)
+        detections = posts if spec.lidar.mode == "geometric" else spec.lidar.beams // spec.posts.min_points
+        return EnvSlots(posts, detections + run.belief.clutter)
 
-    def landmarks(self, scene: str) -> np.ndarray:
-        return load_planar_scene(scene).posts
+    def map_figure(self, frames: Any, scene: str, title: str):
+        """The shared top view: true path, odometry, estimates and final maps over the posts."""
+        from ...sim.planar_scene import load_planar_scene
+        from ...viz.loop_plots import landmark_map_figure
 
-    def picture_map(self, seq: PlanarSequence) -> dict[str, np.ndarray]:
+        return landmark_map_figure(frames, load_planar_scene(scene).posts, title)
+
+    def picture_map(self, seq: Any) -> dict[str, np.ndarray]:
         return {"posts": seq.posts}
 
-    def feature_shapes(self, seq: PlanarSequence, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
+    def feature_shapes(self, seq: Any, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
         """Each detection ``(r, φ)`` at ``r (cos φ, sin φ)``."""
         z = np.asarray(z, float).reshape(-1, 2)
         return {"points": z[:, :1] * np.column_stack([np.cos(z[:, 1]), np.sin(z[:, 1])])}
 
-    def unseen(self, seq: PlanarSequence, landmarks: np.ndarray) -> dict[str, np.ndarray]:
+    def unseen(self, seq: Any, landmarks: np.ndarray) -> dict[str, np.ndarray]:
         return {"unseen_posts": seq.posts[landmarks]}
 
-    def estimated_map(self, estimator) -> tuple[np.ndarray, np.ndarray]:
+    def estimated_map(self, estimator: Any) -> tuple[np.ndarray, np.ndarray]:
         """The filter's posts and which are confirmed."""
         xy = np.asarray(estimator.landmarks, float).reshape(-1, 2)
         return xy, np.asarray(estimator.book.confirmed, bool).reshape(len(xy))
-
-
-register_track(PlanarTrack)

@@ -9,9 +9,10 @@ from assocbench.models.camera import look_at
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene, shipped_scenes
 from assocbench.tracks.base import scene_track
-from assocbench.tracks.camera.detect import DetectorConfig, detect
+from assocbench.tracks.camera.detect import detect
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, render_sequence
-from assocbench.tracks.camera.truth import TruthConfig, label_features, occluded_by_depth, visibility
+from assocbench.tracks.camera.settings import DetectorConfig, TruthConfig
+from assocbench.tracks.camera.truth import label_features, occluded_by_depth, visibility
 
 
 def label_errors(seq) -> np.ndarray:

@@ -8,6 +8,7 @@ from __future__ import annotations
 import numpy as np
 import pandas as pd
 import pytest
+from runs import run_on
 from scipy.spatial.transform import Rotation
 from scipy.stats import chi2
 
@@ -197,7 +198,7 @@ def test_oracle_slam_with_two_view_initialisation_builds_a_consistent_map(room30
     association: no failed frame, landmarks made and confirmed, none false, the filter near
     consistent (measured: ANEES 6.2, map RMSE 0.17 m for 9 confirmed landmarks; RGB-D depth on
     the same frames: 7.3, 0.05 m for 19)."""
-    df = pd.DataFrame(list(loop_records(room30, BeliefConfig(), CFG, 0, "oracle", {})))
+    df = pd.DataFrame(list(loop_records(*run_on(room30, belief=BeliefConfig(), estimator=CFG))))
     s = summarize(df)
     assert s["status"] == "ok" and (df["error"] == "").all()
     assert df["new_landmarks"].sum() > 0 and s["map_size"] >= 5 and s["false_landmarks"] == 0

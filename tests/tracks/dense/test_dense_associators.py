@@ -186,7 +186,7 @@ def test_the_gates_default_noise_is_the_depth_sensors():
     """The associators' gate takes the depth sensor's default noise (models cannot import the
     track's sensor, so the numbers are written twice: this keeps them equal)."""
     from assocbench.associators.dense.base import SENSOR_SIGMA_BASE, SENSOR_SIGMA_QUAD
-    from assocbench.tracks.dense.depth_sensor import DepthConfig
+    from assocbench.tracks.dense.settings import DepthConfig
 
     assert (SENSOR_SIGMA_BASE, SENSOR_SIGMA_QUAD) == (DepthConfig().sigma_base, DepthConfig().sigma_quad)
 

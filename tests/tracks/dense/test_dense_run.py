@@ -222,8 +222,9 @@ def test_the_run_end_picture_and_map_file_do_not_depend_on_the_rows_spatial_orde
 
     import dense_world as dw
 
-    from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse
+    from assocbench.tracks.dense.fusion import PointMap, fuse
     from assocbench.tracks.dense.run import PICTURE_POINTS, run_end
+    from assocbench.tracks.dense.settings import FusionConfig
 
     scene = tmp_path / "world.xml"
     scene.write_text(dw.WORLD_XML.replace("</worldbody>", '<site name="lm0" pos="2.6 0 1.5"/></worldbody>'))

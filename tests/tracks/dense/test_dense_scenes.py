@@ -12,7 +12,8 @@ from assocbench.sim.scene import load_scene, shipped_scenes
 from assocbench.sim.scenegen.dense import BAY_PERIOD, DENSE_SCENES, generate
 from assocbench.sim.trajectory import CLEARANCE
 from assocbench.tracks.camera.sequence import SequenceSpec, trajectory_poses
-from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame
+from assocbench.tracks.dense.depth_sensor import depth_frame
+from assocbench.tracks.dense.settings import DepthConfig
 
 ANALYTIC = {mujoco.mjtGeom.mjGEOM_BOX, mujoco.mjtGeom.mjGEOM_PLANE, mujoco.mjtGeom.mjGEOM_CYLINDER}
 

@@ -14,7 +14,8 @@ from assocbench.models.camera import look_at
 from assocbench.models.depth_frame import NO_GEOM
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
-from assocbench.tracks.dense.depth_sensor import DepthConfig, depth_frame, downsample_intrinsics
+from assocbench.tracks.dense.depth_sensor import depth_frame, downsample_intrinsics
+from assocbench.tracks.dense.settings import DepthConfig
 
 W, H = 640, 480
 EXACT = DepthConfig(downsample=1, sigma_base=0.0, sigma_quad=0.0)   # full resolution, noise-free

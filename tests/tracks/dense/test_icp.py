@@ -370,8 +370,8 @@ def crates_sequence():
 
 def sequence_pair(seq, a: int, b: int, noise: bool):
     """Frame a's measured points at its true pose, and frame b; noise-free unless ``noise``."""
-    from assocbench.tracks.dense.depth_sensor import DepthConfig
     from assocbench.tracks.dense.run import frame_source
+    from assocbench.tracks.dense.settings import DepthConfig
     seq = seq if noise else dataclasses.replace(seq, depth_cfg=DepthConfig(sigma_base=0.0, sigma_quad=0.0))
     A, B = seq.frame(a), seq.frame(b)
     src = frame_source(A, A.R, A.t)

@@ -2,8 +2,8 @@
 
 import pandas as pd
 
+from assocbench.tracks.dense.columns import DENSE_COLUMNS
 from assocbench.tracks.dense.leaderboard import dense_markdown, dense_table
-from assocbench.tracks.dense.summary import DENSE_COLUMNS
 
 
 def summaries(icp_failures: list[int]) -> pd.DataFrame:

@@ -8,8 +8,9 @@ import dense_world as dw
 import numpy as np
 import pytest
 
-from assocbench.tracks.dense.fusion import BLOCK, FusionConfig, PointMap, frustum_blocks, fuse, warm_fusion
+from assocbench.tracks.dense.fusion import BLOCK, PointMap, frustum_blocks, fuse, warm_fusion
 from assocbench.tracks.dense.prediction import Splatter
+from assocbench.tracks.dense.settings import FusionConfig
 
 FIELDS = ("positions", "normals", "weights", "last_seen", "true_points", "geom")
 

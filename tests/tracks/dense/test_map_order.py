@@ -7,9 +7,10 @@ import dense_world as dw
 import numpy as np
 import pytest
 
-from assocbench.tracks.dense.fusion import BLOCK, FusionConfig, PointMap, fuse, warm_fusion
+from assocbench.tracks.dense.fusion import BLOCK, PointMap, fuse, warm_fusion
 from assocbench.tracks.dense.map_order import CELL, morton_keys
 from assocbench.tracks.dense.prediction import Splatter
+from assocbench.tracks.dense.settings import FusionConfig
 from assocbench.tracks.dense.voxel_table import table_find
 
 FIELDS = ("positions", "normals", "weights", "last_seen", "true_points", "geom", "born")

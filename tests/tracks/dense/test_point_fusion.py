@@ -10,7 +10,8 @@ from fusion_reference import NumpyMap, fuse_numpy
 from assocbench.errors import UserError
 from assocbench.models.camera import Intrinsics
 from assocbench.models.depth_frame import NO_GEOM, DepthFrame, normal_map, vertex_map
-from assocbench.tracks.dense.fusion import MIXED_GEOM, FusionConfig, PointMap, compression_ratio, fuse, warm_fusion
+from assocbench.tracks.dense.fusion import MIXED_GEOM, PointMap, compression_ratio, fuse, warm_fusion
+from assocbench.tracks.dense.settings import FusionConfig
 from assocbench.tracks.dense.surface import surface_distance
 
 PLANES = ("floor", "back", "left", "new")

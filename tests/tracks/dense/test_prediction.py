@@ -10,10 +10,11 @@ from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, sourc
 
 from assocbench.associators.dense import ProjectiveAssociator
 from assocbench.models.camera import Intrinsics
-from assocbench.tracks.dense.fusion import FusionConfig, PointMap, fuse
+from assocbench.tracks.dense.fusion import PointMap, fuse
 from assocbench.tracks.dense.icp import icp
 from assocbench.tracks.dense.prediction import Splatter, predict
 from assocbench.tracks.dense.run import view_source
+from assocbench.tracks.dense.settings import FusionConfig
 
 
 def camera_point(p, R, t) -> tuple[float, float, float]:

@@ -95,7 +95,7 @@ def test_a_factor_that_does_not_divide_the_image_keeps_the_intrinsics_size(tmp_p
     """``depth.downsample 3`` on 64x48 keeps 21x16 pixels, as its intrinsics (W//s, H//s) say: the
     stride alone kept 22 columns, every run failed in its worker with a shape error, and the entry
     stored was discarded as damaged by the next run."""
-    from assocbench.tracks.dense.depth_sensor import DepthConfig
+    from assocbench.tracks.dense.settings import DepthConfig
 
     spec = DenseSequenceSpec(scene="crates", frames=2, width=64, height=48, seed=0, depth=DepthConfig(downsample=3))
     seq = load_dense_sequence(spec, tmp_path)

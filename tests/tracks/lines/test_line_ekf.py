@@ -12,6 +12,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 from line_synth_seq import line_seq
+from runs import run_on
 
 from assocbench.belief.config import BeliefConfig, true_association
 from assocbench.errors import UserError
@@ -20,10 +21,10 @@ from assocbench.estimators.config import EstimatorConfig
 from assocbench.models.polar_line import jacobians, predict
 from assocbench.models.range_bearing import pose_error, wrap
 from assocbench.scoring.trajectory import anees_band, ate_rmse
-from assocbench.tracks.base import get_track
 from assocbench.tracks.lines.belief import candidate_lines
 from assocbench.tracks.lines.ekf import LineEKF
 from assocbench.tracks.planar.ekf import PlanarEKF
+from assocbench.tracks.registry import get_track
 
 STEPS, SEEDS = 200, 10
 P0 = np.diag([0.05 ** 2, 0.05 ** 2, np.deg2rad(1.0) ** 2])
@@ -167,10 +168,10 @@ def test_problem_is_the_joint_prediction_of_the_candidates():
 def test_slam_or_isam2_on_the_lines_track_is_a_user_error():
     seq = line_seq(5, seed=0)
     with pytest.raises(UserError, match="estimator.mode: localisation"):
-        get_track(seq.track).make_estimator(seq, EstimatorConfig(mode="slam"), BeliefConfig(), 0)
+        get_track(seq.track).estimator(*run_on(seq, estimator=EstimatorConfig(mode="slam")))
     with pytest.raises(UserError, match="lines track's estimator is ekf"):
-        get_track(seq.track).make_estimator(seq, EstimatorConfig(name="isam2"), BeliefConfig(), 0)
-    ekf = get_track(seq.track).make_estimator(seq, EstimatorConfig(), BeliefConfig(map_fraction=0.5), 0)
+        get_track(seq.track).estimator(*run_on(seq, estimator=EstimatorConfig(name="isam2")))
+    ekf = get_track(seq.track).estimator(*run_on(seq, estimator=EstimatorConfig(), belief=BeliefConfig(map_fraction=0.5)))
     assert isinstance(ekf, LineEKF) and len(ekf.book) == 4
 
 
@@ -206,13 +207,14 @@ def test_closed_loop_on_the_lines_track():
     from assocbench.tracks.lines.loop import LinesSensor
 
     seq = line_seq(STEPS, seed=0)
-    sensor = get_track(seq.track).loop_sensor(seq, BeliefConfig(clutter=3), EstimatorConfig(), 0)
+    source, run = run_on(seq, "mnn", belief=BeliefConfig(clutter=3), estimator=EstimatorConfig())
+    sensor = get_track(seq.track).loop_sensor(source, run)
     assert isinstance(sensor, LinesSensor) and sensor.nees_dof == 3
     data, labels = sensor.frame(4, None)
     m = len(seq.z[4])
     assert data.z.shape == (m + 3, 2) and labels[:m].tolist() == seq.labels[4].tolist() and np.all(labels[m:] == -1)
     assert np.all((data.z[m:, 0] >= -np.pi) & (data.z[m:, 0] < np.pi)) and np.all(data.z[m:, 1] <= seq.max_range)
-    records = list(loop_records(seq, BeliefConfig(clutter=3), EstimatorConfig(), 0, "mnn", {}))
+    records = list(loop_records(source, run))
     nees = np.array([r["nees"] for r in records])
     err = np.array([r["pos_err"] for r in records])
     assert all(r["error"] == "" for r in records) and records[0]["nees_dof"] == 3

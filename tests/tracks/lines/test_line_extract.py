@@ -10,9 +10,10 @@ from scipy.optimize import minimize
 
 from assocbench.errors import UserError
 from assocbench.models.range_bearing import wrap
-from assocbench.sim.lidar import Scan
-from assocbench.tracks.lines.extract import LineDetections, LineExtractorConfig, extract_lines, label_lines
+from assocbench.sim.scan import Scan
+from assocbench.tracks.lines.extract import LineDetections, extract_lines, label_lines
 from assocbench.tracks.lines.polar_fit import fit_polar_line
+from assocbench.tracks.lines.settings import LineExtractorConfig
 
 # Lecture 24's numeric example: 17 beams at 0°, 5°, ..., 80°.
 LECTURE_RHO = np.array([0.5197, 0.4404, 0.4850, 0.4222, 0.4132, 0.4371, 0.3912, 0.3949, 0.3919, 0.4276,

@@ -10,10 +10,11 @@ import pytest
 
 from assocbench.errors import UserError
 from assocbench.models.range_bearing import wrap
-from assocbench.sim.lidar import LidarConfig, cast, scan
+from assocbench.sim.lidar import cast, scan
 from assocbench.sim.line_scene import beam_lines, load_line_scene, visible_lines
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory
 from assocbench.sim.scene import shipped_scenes
+from assocbench.sim.settings import LidarConfig
 from assocbench.tracks.base import scene_track
 
 LINES = ("office", "hallway", "furnished")

@@ -12,16 +12,10 @@ import pytest
 from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records
-from assocbench.tracks.base import track_of_spec
-from assocbench.tracks.lines.extract import LineExtractorConfig
 from assocbench.tracks.lines.metrics import extraction_scores
 from assocbench.tracks.lines.plots import segment_status
 from assocbench.tracks.lines.sequence import LineSequenceSpec, make_line_sequence
-
-
-def load_sequence(spec):
-    """The sequence of a spec of any track (the registry knows whose it is)."""
-    return track_of_spec(spec).load_sequence(spec)
+from assocbench.tracks.lines.settings import LineExtractorConfig
 
 
 def _summary(tmp_path, *args) -> pd.Series:
@@ -41,7 +35,7 @@ def test_closed_loop_oracle_localises_to_centimetres_and_records_the_last_scan(t
     """EKF localisation with the true association on the hallway: the pose stays within 2 cm
     (measured, 150 frames: ATE 1.3 mm) and the last frame's snapshot is recorded for the top view."""
     spec = run_spec(load_run_config(None, [], method="oracle", scene="hallway", frames=150, loop=True))
-    frames = pd.DataFrame(list(loop_records(load_sequence(spec.sequence), spec.belief, spec.estimator, 0, "oracle", {})))
+    frames = pd.DataFrame(list(loop_records(spec.source, spec.with_method("oracle", {}))))
     assert np.sqrt(np.mean(frames["pos_err"] ** 2)) < 0.02
     assert (frames["nees_dof"] == 3).all() and (frames["fp"] == 0).all()
     snap = json.loads(frames["final_scan"].dropna().iloc[-1])

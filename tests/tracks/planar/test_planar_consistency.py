@@ -19,13 +19,6 @@ from scipy.stats import chi2
 
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records
-from assocbench.tracks.base import track_of_spec
-
-
-def load_sequence(spec):
-    """The sequence of a spec of any track (the registry knows whose it is)."""
-    return track_of_spec(spec).load_sequence(spec)
-
 
 pytest.importorskip("gtsam")
 
@@ -37,8 +30,7 @@ SLAM = ["estimator.mode=slam", "estimator.target_paired=1000", "estimator.max_ne
 def _oracle(backend: str, seed: int) -> pd.DataFrame:
     spec = run_spec(load_run_config(None, SLAM + [f"estimator.name={backend}"], method="oracle", scene="park",
                                     frames=500, loop=True, seed=seed))
-    return pd.DataFrame(list(loop_records(load_sequence(spec.sequence), spec.belief, spec.estimator, seed,
-                                          "oracle", {})))
+    return pd.DataFrame(list(loop_records(spec.source, spec.with_method("oracle", {}))))
 
 
 @pytest.fixture(scope="module")

@@ -269,13 +269,12 @@ def loop_positions(monkeypatch, frames: int, nudge: bool) -> np.ndarray:
     differences another CPU's libm or BLAS kernels make."""
     from assocbench.harness.config import load_run_config, run_spec
     from assocbench.harness.loop import loop_records
-    from assocbench.tracks.base import track_of_spec
     spec = run_spec(load_run_config(None, HARD_SLAM, method="lsa", scene="post_grid", frames=500, seed=1, loop=True))
     if nudge:
         predict = PlanarISAM2.predict
         monkeypatch.setattr(PlanarISAM2, "predict", lambda self, m: predict(
             self, Motion(np.nextafter(m.increment, np.inf), m.covariance)))
-    records = loop_records(track_of_spec(spec.sequence).load_sequence(spec.sequence), spec.belief, spec.estimator, spec.seed, "lsa", {})
+    records = loop_records(spec.source, spec.with_method("lsa", {}))
     return np.array([[r["est_x"], r["est_y"]] for _, r in zip(range(frames), records)])
 
 

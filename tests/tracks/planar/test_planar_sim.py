@@ -12,14 +12,16 @@ from assocbench.errors import UserError
 from assocbench.estimators.config import EstimatorConfig
 from assocbench.models.range_bearing import wrap
 from assocbench.models.se2 import between as true_planar_increment
-from assocbench.sim.lidar import LidarConfig, scan
+from assocbench.sim.lidar import scan
 from assocbench.sim.odometry import planar_odometry
 from assocbench.sim.planar_scene import load_planar_scene
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory
+from assocbench.sim.settings import LidarConfig
 from assocbench.tracks.base import scene_track
 from assocbench.tracks.planar.geometric_sensor import geometric_detections
-from assocbench.tracks.planar.post_detect import PostDetectorConfig, detect_posts, label_detections
+from assocbench.tracks.planar.post_detect import detect_posts, label_detections
 from assocbench.tracks.planar.sequence import PlanarSequenceSpec, make_planar_sequence
+from assocbench.tracks.planar.settings import PostDetectorConfig
 
 SHIPPED = ("park", "post_grid", "colonnade")
 

@@ -14,13 +14,6 @@ from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.loop import loop_records, new_landmark_features
 from assocbench.harness.suite import load_suite, resolve_suite
-from assocbench.tracks.base import track_of_spec
-
-
-def load_sequence(spec):
-    """The sequence of a spec of any track (the registry knows whose it is)."""
-    return track_of_spec(spec).load_sequence(spec)
-
 
 SLAM = ["estimator.mode=slam", "estimator.target_paired=1000", "estimator.max_new_per_frame=20",
         "estimator.max_landmarks=500", "estimator.new_landmark_gate=4"]
@@ -29,7 +22,7 @@ SLAM = ["estimator.mode=slam", "estimator.target_paired=1000", "estimator.max_ne
 def _loop(method: str, frames: int, seed: int = 0, extra=()) -> pd.DataFrame:
     spec = run_spec(load_run_config(None, SLAM + list(extra), method=method, scene="park", frames=frames, loop=True,
                                     seed=seed))
-    return pd.DataFrame(list(loop_records(load_sequence(spec.sequence), spec.belief, spec.estimator, seed, method, {})))
+    return pd.DataFrame(list(loop_records(spec.source, spec.with_method(method, {}))))
 
 
 def test_run_on_a_planar_scene_needs_no_other_setting(tmp_path, capsys):

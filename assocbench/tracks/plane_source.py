@@ -1,0 +1,39 @@
+"""A lidar track's sequence (the planar and lines tracks': scans along a robot's path and what was
+extracted from them) as a frame source, made once and kept in the shared sequence cache."""
+
+from __future__ import annotations
+
+from functools import partial
+from importlib import import_module
+from pathlib import Path
+from typing import Any
+
+from ..sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
+from ..sources.base import SimulatedSource, short_name
+
+
+def maker_of(entry: str):
+    """The function a ``module:function`` string names."""
+    module, _, name = entry.partition(":")
+    return getattr(import_module(module), name)
+
+
+def lidar_frame(seq: Any, k: int) -> dict:
+    """Frame ``k`` of a lidar track's sequence: the robot's pose, the features extracted from its
+    scan (``z``, ``R``), their labels, and which map landmarks were truly detectable."""
+    return {"pose": seq.poses[k], "z": seq.z[k], "R": seq.R[k], "labels": seq.labels[k], "visible": seq.visible[k]}
+
+
+def load_lidar_sequence(folder: str, code: tuple[str, ...], maker: str, spec: Any,
+                        cache_dir: Path | None = None, use_cache: bool = True) -> Any:
+    """The sequence of ``spec`` from the shared sequence cache (``sim.cache``) under ``folder``,
+    keyed by ``spec_key(spec, code)``, else made by ``maker`` (``module:function``), stored."""
+    return cached_sequence(folder, spec_key(spec, code), lambda: maker_of(maker)(spec), save_pickled, load_pickled, cache_dir,
+                           use_cache, suffix=".pkl")
+
+
+def lidar_source(track: str, spec: Any, code: tuple[str, ...], maker: str) -> SimulatedSource:
+    """A lidar track's sequence as a frame source (``sources.base.SimulatedSource``), cached under the
+    track's name and keyed by its settings, its scene's files and the package folders in ``code``."""
+    return SimulatedSource(track, spec, short_name(spec.scene), spec.frames, partial(spec_key, code=code),
+                           partial(load_lidar_sequence, track, code, maker), lidar_frame, cache_folder=track)
