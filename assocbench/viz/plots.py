@@ -15,6 +15,7 @@ import pandas as pd
 from ..atomic import atomic_path
 
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*")
+DPI = 110
 MIN_SPAN = 0.05   # a zoomed precision or recall axis spans at least this much
 
 
@@ -125,7 +126,16 @@ def runtime_figure(frames: pd.DataFrame):
     return fig
 
 
+def figure_bytes(fig) -> bytes:
+    """``fig`` as PNG bytes, as ``save_figure`` writes it."""
+    import io
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=DPI, format="png")
+    return buffer.getvalue()
+
+
 def save_figure(fig, path: Path) -> None:
     """Write ``fig`` as a PNG, atomically."""
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=DPI, format="png")

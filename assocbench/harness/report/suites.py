@@ -20,9 +20,11 @@ from ..leaderboard import scenario_key
 from .columns import BY_KEY, COUNT_COLUMNS, Column
 
 CSV_NAME = "leaderboard.csv"
+RUNS_NAME = "runs.csv"   # every run's summary (scenario x method x seed), beside a feature track's means
 LABEL_COLUMNS = ("scenario", "method", "status", "error", "scene", "difficulty")
 # the metric a suite's methods are ranked by, first match: a dense suite's, a closed loop's, an open loop's
 PRIMARY = (("ate_mm", "dense"), ("ate_rmse", "loop"), ("f1", "open"))
+_PRIMARY_KEY = {kind: key for key, kind in PRIMARY}
 # the pictures `leaderboard` writes, in the order a reader wants them; others follow by name
 PICTURE_ORDER = ("leaderboard_pr.png", "leaderboard_ate.png", "leaderboard_nees.png", "leaderboard_runtime.png",
                  "leaderboard_map.png")
@@ -34,7 +36,8 @@ CAPTIONS = {"pr": "precision against recall, a panel per scene and difficulty",
 @dataclass
 class Suite:
     """One leaderboard: ``table`` has a row per scenario x method and the columns ``scene``,
-    ``difficulty``, ``backend`` split from the scenario (``scene/difficulty-backend``)."""
+    ``difficulty``, ``backend`` split from the scenario (``scene/difficulty-backend``); ``runs`` a
+    row per scenario x method x seed where the folder has them (None: only means over seeds)."""
 
     source: str
     digest: str
@@ -42,13 +45,14 @@ class Suite:
     kind: str                       # open | loop | dense
     track: str                      # camera, planar, lines, dense, ... ("" when no track claims its scenes)
     pictures: list[tuple[str, bytes]] = field(default_factory=list)
+    runs: pd.DataFrame | None = None
     title: str = ""
     slug: str = ""
 
     @property
     def primary(self) -> Column:
         """The column its methods are ranked by: F1 (open loop), ATE (closed loop, dense)."""
-        return BY_KEY[next(key for key, kind in PRIMARY if kind == self.kind)]
+        return BY_KEY[_PRIMARY_KEY[self.kind]]
 
     @property
     def loop_words(self) -> str:
@@ -68,11 +72,28 @@ def read_suite(path: Path, source: str) -> Suite:
     table = _parse(data, source if csv == path else f"{source}/{CSV_NAME}")
     kind = next(kind for key, kind in PRIMARY if key in table)
     track = _track_name(table)
+    runs = None
     if "seed" in table:   # the dense track writes every run; the report shows the mean over seeds
-        table = _per_scenario(table)
+        runs, table = table, _per_scenario(table)
+    elif (csv.parent / RUNS_NAME).is_file():
+        runs = _runs(csv.parent / RUNS_NAME, f"{source}/{RUNS_NAME}", table, _PRIMARY_KEY[kind])
     table = _with_parts(table)
     pictures = [(p.name, p.read_bytes()) for p in _pictures(csv.parent)] if csv.parent.is_dir() else []
-    return Suite(source, hashlib.sha256(data).hexdigest(), table, kind, track, pictures)
+    return Suite(source, hashlib.sha256(data).hexdigest(), table, kind, track, pictures, runs)
+
+
+def _runs(path: Path, name: str, table: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """The per-seed rows beside a table of means, checked to hold the same scenarios and methods
+    and the ``metric`` they are ranked by."""
+    runs = _parse(path.read_bytes(), name)
+    if "seed" not in runs or metric not in runs:
+        raise UserError(f"{name} has no {'seed' if 'seed' not in runs else metric} column; regenerate it with "
+                        "`assocbench leaderboard`")
+    pairs = [set(zip(t["scenario"], t["method"])) for t in (runs, table)]
+    if pairs[0] != pairs[1]:
+        raise UserError(f"{name} does not hold the runs of the {CSV_NAME} beside it (other scenarios or methods); "
+                        "regenerate both with `assocbench leaderboard`")
+    return runs
 
 
 def _parse(data: bytes, name: str) -> pd.DataFrame:
