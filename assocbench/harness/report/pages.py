@@ -135,8 +135,11 @@ def _compared(ranked: list[Ranking]) -> str:
     items = []
     for r in ranked:
         out = [f"<b>{escape(r.title)}</b>: {escape(_what(r))}."]
-        out += [f"Left out: {escape(m)} ({escape(why)})." for m, why in r.left_out.items()]
-        out += [f"Scenario left out: {escape(s)}, {escape(why)}." for s, why in r.scenarios_out.items()]
+        if r.left_out:
+            out.append("Left out: " + "; ".join(f"{escape(m)} ({escape(why)})" for m, why in r.left_out.items()) + ".")
+        if r.scenarios_out:
+            out.append("Scenarios left out: " + "; ".join(f"{escape(sc)}, {escape(why)}"
+                                                           for sc, why in r.scenarios_out.items()) + ".")
         items.append("<li>" + " ".join(out) + "</li>")
     return '<ul class="compared">' + "".join(items) + "</ul>"
 
@@ -222,12 +225,14 @@ def _table(suite: Suite, columns: list[Column]) -> str:
         head.append('<th title="two-sided 95 % chi-square band of one run\'s ANEES">ANEES band'
                     '<span class="unit">95 %, NEES</span></th>')
     counts = [k for k in COUNT_COLUMNS if k in t]
-    head += [f'<th class="sortable" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
+    # the counts behind "more columns": a count above 0 is a badge beside the method's name
+    head += [f'<th class="sortable more" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
              f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
     head.append('<th class="text sortable" data-type="text">status<span class="unit"></span></th>')
     rows = [_row(r, labels, columns, counts, suite.kind) for _, r in t.iterrows()]
-    return (f'<div class="scroll"><table class="filterable"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
-            + "\n".join(rows) + "\n</tbody></table></div>")
+    stacked = " stacked" if suite.kind != "open" else ""   # many columns: each std under its mean, to fit 1400 px
+    return (f'<div class="scroll"><table class="filterable{stacked}"><thead><tr>{"".join(head)}</tr></thead>\n'
+            '<tbody>\n' + "\n".join(rows) + "\n</tbody></table></div>")
 
 
 def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str) -> str:
@@ -237,7 +242,7 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
     look = ' class="oracle"' if oracle else ' class="notok"' if r["status"] != "ok" else ""
     cells = [f'<td class="text" data-v="{escape(str(r[k]))}">{escape(str(r[k]))}</td>' for k, _ in labels]
     # the badges beside the name, not the status: the status is the last column, off-screen on the wide loop pages
-    cells.append(f'<td class="text" data-v="{escape(name)}">{escape(name)}{_badges(r, counts)}</td>')
+    cells.append(f'<td class="text name" data-v="{escape(name)}">{escape(name)}{_badges(r, counts)}</td>')
     for c in columns:
         std = r.get(c.key + "_std")
         spread = f' <span class="std">&plusmn; {_cell_num(std, c)}</span>' if std is not None and pd.notna(
@@ -248,7 +253,7 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
         cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]</td>')
     for k in counts:
         of = r["seeds"] if k == "diverged" else r.get("frames", float("nan"))
-        hit = ' class="counted"' if pd.notna(r[k]) and r[k] > 0 else ""
+        hit = ' class="more counted"' if pd.notna(r[k]) and r[k] > 0 else ' class="more"'
         cells.append(f'<td{hit} data-v="{_v(r[k])}">{_num(r[k], 0)} / {_num(of, 0)}</td>')
     cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}</td>')
     return f"<tr{look}{attrs}>" + "".join(cells) + "</tr>"
@@ -267,7 +272,8 @@ def _legend(suite: Suite, columns: list[Column]) -> str:
              else ("scene / difficulty", "the scenario, split from its name scene/difficulty")]
     items += [(c.header, escape(c.meaning) + (f"; {BETTER[c.better]}" if c.better else "")
                + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
-    items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", meaning)
+    items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", f"{meaning} (behind &ldquo;more columns&rdquo;; "
+               "a count above 0 is a badge beside the method's name)")
               for k, (label, meaning) in COUNT_COLUMNS.items() if k in suite.table]
     items.append(("status", "ok, or why the harness could not trust the row's numbers"))
     return '<dl class="legend">' + "".join(f"<dt>{escape(h)}</dt><dd>{m}</dd>" for h, m in items) + "</dl>"

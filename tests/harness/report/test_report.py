@@ -106,7 +106,7 @@ def test_a_method_that_spent_its_budget_gets_a_badge_beside_its_name_and_stays_o
     page = build_report([tiny_leaderboard(tmp_path / "camera", rows)])
     html = next(v for n, v in page.items() if n.endswith(".html") and n != "index.html").decode()
     jcbb, mnn = (html[html.index(f'data-method="{m}"'):].split("</tr>")[0] for m in ("jcbb", "mnn"))
-    assert '<span class="badge"' in jcbb and "54 timed out</span>" in jcbb and 'class="counted"' in jcbb
+    assert '<span class="badge"' in jcbb and "54 timed out</span>" in jcbb and 'class="more counted"' in jcbb
     name_cell = jcbb[jcbb.index('data-v="jcbb">'):].split("</td>")[0]
     assert "54 timed out" in name_cell   # beside the name: the status column is off-screen on wide pages
     assert 'data-v="ok"' in jcbb   # still ok: the harness measured it, the method failed at its job
