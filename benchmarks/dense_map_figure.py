@@ -36,6 +36,7 @@ from assocbench.sim.ply import read_ply
 from assocbench.tracks.dense import plots
 
 MAX_DRAWN = 20_000   # the scatter's cap before issue 27
+OLD_SCALE_MM = 30.0  # the scatter's fixed colour scale
 
 
 def scatter_panel(ax, positions, error_mm, p_true, p_est, title):
@@ -45,7 +46,7 @@ def scatter_panel(ax, positions, error_mm, p_true, p_est, title):
     pos, err = positions[::step], error_mm[::step]
     order = np.argsort(err)
     sc = ax.scatter(pos[order, 0], pos[order, 1], c=err[order], s=0.5, cmap="viridis", vmin=0,
-                    vmax=plots.ERROR_SCALE_MM, linewidths=0, rasterized=True)
+                    vmax=OLD_SCALE_MM, linewidths=0, rasterized=True)
     ax.plot(p_true[:, 0], p_true[:, 1], color="black", lw=2.0, label="true path")
     ax.plot(p_est[:, 0], p_est[:, 1], color="#1f77b4", lw=1.0, label="estimate")
     ax.plot(*p_true[0, :2], "o", color="black", ms=4)
@@ -73,7 +74,7 @@ def scatter_figure(panels, path, columns=3):
         ax.axis("off")
     if sc is not None:
         bar = fig.colorbar(sc, ax=axes, shrink=0.6, fraction=0.03, pad=0.02)
-        bar.set_label(f"distance to true surface, mm (clipped at {plots.ERROR_SCALE_MM:g})", fontsize=7)
+        bar.set_label(f"distance to true surface, mm (clipped at {OLD_SCALE_MM:g})", fontsize=7)
         bar.ax.tick_params(labelsize=6)
         axes.flat[0].legend(fontsize=6, loc="upper right", markerscale=4)
     fig.savefig(path, dpi=110)
@@ -133,7 +134,8 @@ def breakdown(panels, runs: int, out: Path) -> list[list[object]]:
     t = interleaved({
         "canvas": lambda: plots.map_canvas(panels, 1),
         "raster": lambda: plots.error_colours(plots.worst_error_grid(p["positions"][:, :2], p["error_mm"], extent,
-                                                                     int(box.width), int(box.height))),
+                                                                     int(box.width), int(box.height)),
+                                              plots.colour_range(panels)),
         "save1": lambda: fig.savefig(out / "b1.png", dpi=plots.DPI, pil_kwargs={"compress_level": 1}),
         "save6": lambda: fig.savefig(out / "b6.png", dpi=plots.DPI, pil_kwargs={"compress_level": 6})}, runs)
     return [["map_canvas: figure, axes, text, colour bar, raster", t["canvas"]],

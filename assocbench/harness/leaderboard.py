@@ -168,7 +168,8 @@ def plot_runtime(frames: pd.DataFrame, path: Path) -> None:
 
 def write_leaderboard(summaries: pd.DataFrame, frames: pd.DataFrame, out: Path, track: Track,
                       scenes: Mapping[str, str] | None = None) -> dict[str, Path]:
-    """Write ``leaderboard.csv``, ``leaderboard.md``, ``leaderboard_pr.png`` and
+    """Write ``leaderboard.csv`` (means over seeds), ``runs.csv`` (every run, which the report's
+    significance test needs), ``leaderboard.md``, ``leaderboard_pr.png`` and
     ``leaderboard_runtime.png`` into ``out`` (a closed-loop suite's table and Markdown have its
     trajectory columns, and its figures are added: ``write_loop_plots``); return their paths.
     ``scenes`` maps a scenario's scene name to the scene it was made from (a user MJCF's path)."""
@@ -176,8 +177,10 @@ def write_leaderboard(summaries: pd.DataFrame, frames: pd.DataFrame, out: Path, 
     table = order_scenarios(leaderboard_table(summaries), difficulties)
     paths = {k: out / f"leaderboard{s}" for k, s in
              (("csv", ".csv"), ("md", ".md"), ("pr", "_pr.png"), ("runtime", "_runtime.png"))}
-    with atomic_path(paths["csv"]) as tmp:
-        table.to_csv(tmp, index=False, float_format="%.6g")
+    paths["runs"] = out / "runs.csv"
+    for path, rows in ((paths["csv"], table), (paths["runs"], run_rows(summaries, difficulties))):
+        with atomic_path(path) as tmp:
+            rows.to_csv(tmp, index=False, float_format="%.6g")
     loop = "ate_rmse" in table
     words = getattr(track, "estimator_words", "the track's")
     write_text(paths["md"], loop_markdown(table, difficulties, words) if loop else to_markdown(table, difficulties))
@@ -186,6 +189,16 @@ def write_leaderboard(summaries: pd.DataFrame, frames: pd.DataFrame, out: Path, 
     if loop:
         paths |= write_loop_plots(table, frames, out, difficulties, track, scenes or {})
     return paths
+
+
+def run_rows(summaries: pd.DataFrame, difficulties: Sequence[str] = ()) -> pd.DataFrame:
+    """Every run's summary, a row per scenario x method x seed in leaderboard order, with
+    ``diverged`` (1 where a closed-loop run's NEES left its bound, else 0) beside ``diverged_at``."""
+    rows = summaries.sort_values("seed", kind="stable")   # within a seed, the suite's order of methods
+    if "diverged_at" in rows:
+        rows = rows.assign(diverged=(rows["diverged_at"] >= 0).astype(int))
+    first = ["scenario", "method", "seed"]
+    return order_scenarios(rows[first + [c for c in rows if c not in first]], difficulties)
 
 
 def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, difficulties: Sequence[str],

@@ -25,21 +25,23 @@ ORACLE_LABEL = "oracle (truth)"
 POSE_DOF = 6                    # NEES of a 6-DoF pose error
 BAND = (0.025, 0.975)           # two-sided 95 % per frame
 BOUND = 0.999                   # harness divergence test's level
-LOG_RATIO = 20.0                # a panel whose ATEs span more than this ratio gets a log axis
+LOG_RATIO = 20.0                # a panel whose ATEs span more than this ratio puts every panel on a log axis
 
 
 def readable_log_axis(ax) -> None:
     """A log y axis labelled in plain numbers (not 3×10¹), called once the data are drawn: ticked at
     1, 2, 5 × 10ᵏ over up to three decades, at every decade (or every other) beyond, so every
     panel keeps labelled ticks (matplotlib's default drops the labels of a 1-2-5 locator over
-    eight decades); the grid follows the labelled ticks only."""
-    from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+    eight decades), and at evenly spaced round values where a panel spans so little that 1-2-5
+    would label one tick or none; the grid follows the labelled ticks only."""
+    from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
     ax.set_yscale("log")
     low, high = ax.get_ylim()
     decades = np.log10(high / low) if low > 0 and high > low else 1.0
     subs = (1.0, 2.0, 5.0) if decades <= 3 else (1.0,)
-    ax.yaxis.set_major_locator(LogLocator(subs=subs, numticks=12))
+    in_view = [t for t in LogLocator(subs=subs).tick_values(low, high) if low <= t <= high] if low > 0 else []
+    ax.yaxis.set_major_locator(LogLocator(subs=subs, numticks=12) if len(in_view) >= 2 else MaxNLocator(4))
     ax.yaxis.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     ax.yaxis.set_minor_formatter(NullFormatter())
 
@@ -89,7 +91,19 @@ def _bar_style(method: str, styles: dict) -> dict:
     return {"facecolor": styles[method]["color"], "edgecolor": "none", "alpha": 0.85}
 
 
-def _ate_panel(ax, sub: pd.DataFrame, order: list[str], styles: dict, title: str) -> None:
+def wants_log(table: pd.DataFrame) -> bool:
+    """Whether the ATE panels get a log axis: when any one scenario's positive ATEs span more than
+    ``LOG_RATIO`` (a diverged method would flatten the others' bars to nothing). One answer for
+    every panel, so that neighbouring panels of one quantity share a scale."""
+    for _, sub in table.groupby("scenario"):
+        values = sub["ate_rmse"].to_numpy(float)
+        positive = values[np.isfinite(values) & (values > 0)]
+        if len(positive) > 1 and positive.max() > LOG_RATIO * positive.min():
+            return True
+    return False
+
+
+def _ate_panel(ax, sub: pd.DataFrame, order: list[str], styles: dict, title: str, log: bool) -> None:
     """One scenario: a bar per method (in ``order``) at its mean ATE, ± std over seeds."""
     rows = sub.set_index("method")
     for x, method in enumerate(order):
@@ -97,14 +111,13 @@ def _ate_panel(ax, sub: pd.DataFrame, order: list[str], styles: dict, title: str
             continue
         mean, std = float(rows.at[method, "ate_rmse"]), float(rows.at[method, "ate_rmse_std"])
         if not np.isfinite(mean):
-            ax.text(x, 0, "n/a", ha="center", va="bottom", fontsize=7, color="0.4")
+            ax.text(x, 0.02, "n/a", ha="center", va="bottom", fontsize=7, color="0.4",
+                    transform=ax.get_xaxis_transform())   # at the panel's foot, on a linear or a log axis
             continue
         ax.bar(x, mean, 0.75, yerr=std if np.isfinite(std) else None, capsize=3,
                error_kw={"elinewidth": 0.9, "ecolor": "0.2"}, **_bar_style(method, styles))
-    values = sub["ate_rmse"].to_numpy(float)
-    positive = values[np.isfinite(values) & (values > 0)]
-    if len(positive) > 1 and positive.max() > LOG_RATIO * positive.min():
-        readable_log_axis(ax)   # a diverged method would flatten the others' bars to nothing
+    if log:
+        readable_log_axis(ax)
     ax.set_xticks(range(len(order)), [label(m) for m in order], rotation=40, ha="right", fontsize=8)
     ax.set(title=title, ylabel="ATE (m)")
     ax.grid(axis="y", alpha=0.3, which="both")
@@ -120,12 +133,14 @@ def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficu
     order = method_order(table["method"])
     styles = method_styles(table["method"])
     fig, axes = _panels(table["scenario"], scenes, difficulties, max(3.2, 0.45 * len(order) + 1.2), 3.4)
+    log = wants_log(table)
     for scenario, ax in axes.items():
-        _ate_panel(ax, table[table["scenario"] == scenario], order, styles, scenario)
+        _ate_panel(ax, table[table["scenario"] == scenario], order, styles, scenario, log)
     handles = [Patch(label=label(m), **_bar_style(m, styles)) for m in order]
     fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 6), frameon=False, fontsize=8)
+    scale = (f"log axes: a panel spans more than {LOG_RATIO:g}x" if log else "linear axes")
     fig.text(0.5, 0.005, "absolute trajectory error (RMSE of the position, no alignment)\nbars: mean over "
-             f"seeds, whiskers: ± std; a panel spanning more than {LOG_RATIO:g}x is drawn on a log axis",
+             f"seeds, whiskers: ± std; every panel on {scale}",
              ha="center", va="bottom", fontsize=7)
     fig.tight_layout(rect=(0, 0.3 / fig.get_figheight(), 1, 1 - 0.5 / fig.get_figheight()))
     return fig

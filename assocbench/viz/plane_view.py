@@ -170,10 +170,17 @@ def plane_view(f: PlaneFrame) -> np.ndarray:
     """The top view (module docstring) as an RGB image (H, W, 3) uint8; its size depends on
     ``f.bounds`` only, so every frame of a video has the same."""
     from matplotlib.backends.backend_agg import FigureCanvasAgg
+
+    canvas = FigureCanvasAgg(plane_figure(f))
+    canvas.draw()
+    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+
+
+def plane_figure(f: PlaneFrame):
+    """The matplotlib ``Figure`` that ``plane_view`` draws."""
     from matplotlib.figure import Figure
 
     fig = Figure(figsize=figure_size(f.bounds), dpi=DPI)
-    canvas = FigureCanvasAgg(fig)
     ax = fig.add_axes((AXES_LEFT, 0.1, AXES_RIGHT - AXES_LEFT, 0.78))
     x0, x1, y0, y1 = f.bounds
     arrow = 0.04 * max(x1 - x0, y1 - y0)
@@ -189,5 +196,4 @@ def plane_view(f: PlaneFrame) -> np.ndarray:
     ax.tick_params(labelsize=8)
     fig.suptitle(f.title, fontsize=10, x=0.02, ha="left", y=0.985, va="top")
     _key(fig, ax, f)
-    canvas.draw()
-    return np.asarray(canvas.buffer_rgba())[..., :3].copy()
+    return fig

@@ -6,6 +6,7 @@ its rank by name, so that methods on the very same spot show as concentric open 
 
 from __future__ import annotations
 
+import textwrap
 from collections.abc import Sequence
 from pathlib import Path
 
@@ -15,6 +16,7 @@ import pandas as pd
 from ..atomic import atomic_path
 
 MARKERS = ("o", "s", "^", "D", "v", "P", "X", "<", ">", "p", "h", "*")
+DPI = 110
 MIN_SPAN = 0.05   # a zoomed precision or recall axis spans at least this much
 
 
@@ -39,16 +41,55 @@ def zoom(values: np.ndarray, errors: np.ndarray) -> tuple[float, float]:
     return lo, hi
 
 
-def _name_ties(ax, sub: pd.DataFrame) -> None:
-    """Write ``a = b = c`` next to methods whose precision and recall agree to 3 decimals: the
-    concentric marks show them, the words say they are one point."""
+TIE_CHARS = 34      # a tie's words wrap at this many characters, so the list stays inside its panel
+TIE_LINE_PT = 10.5  # points a line of a tie's words takes (7 pt text, its line spacing and descent)
+
+
+def _ties(sub: pd.DataFrame) -> list[tuple[tuple[float, float], str]]:
+    """Each point where methods' precision and recall agree to 3 decimals, and ``a = b = c``."""
     sub = sub[np.isfinite(sub["recall"]) & np.isfinite(sub["precision"])]
     key = list(zip(sub["recall"].round(3), sub["precision"].round(3)))
-    for point in sorted(set(key)):
-        tied = sorted(m for m, k in zip(sub["method"], key) if k == point)
-        if len(tied) > 1:
-            ax.annotate(" = ".join(tied), point, xytext=(10, 8), textcoords="offset points", fontsize=7,
-                        color="0.25")
+    groups = [(point, sorted(m for m, k in zip(sub["method"], key) if k == point)) for point in sorted(set(key))]
+    return [(point, " = ".join(tied)) for point, tied in groups if len(tied) > 1]
+
+
+def _emptiest_corner(ax, sub: pd.DataFrame, lines: int, near: tuple[float, float]) -> tuple[float, float]:
+    """The corner of the panel (axes fraction) whose box for ``lines`` lines of words, 60 % of the
+    width, holds the fewest of the panel's points; of those, the one nearest ``near`` (data), so
+    the leaders stay short."""
+    (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
+    fx = (sub["recall"].to_numpy(float) - x0) / (x1 - x0)
+    fy = (sub["precision"].to_numpy(float) - y0) / (y1 - y0)
+    tall = min(0.9, 0.06 * lines + 0.08)
+
+    def count(corner):
+        cx, cy = corner
+        in_x = fx <= 0.6 if cx == 0 else fx >= 0.4
+        in_y = fy >= 1 - tall if cy == 1 else fy <= tall
+        return int(np.sum(in_x & in_y))
+
+    nx, ny = (near[0] - x0) / (x1 - x0), (near[1] - y0) / (y1 - y0)
+    return min([(0, 1), (1, 0), (1, 1), (0, 0)], key=lambda c: (count(c), np.hypot(c[0] - nx, c[1] - ny)))
+
+
+def _name_ties(ax, sub: pd.DataFrame) -> None:
+    """List ``a = b = c`` for methods whose precision and recall agree to 3 decimals, in the
+    panel's emptiest corner, each with a thin leader to its point: the concentric marks show a
+    tie, the words say who; next to the point the words ran off the panel and over each other."""
+    from matplotlib.transforms import offset_copy
+
+    ties = [(point, textwrap.fill(words, TIE_CHARS, break_on_hyphens=False)) for point, words in _ties(sub)]
+    if not ties:
+        return
+    lines = sum(words.count("\n") + 1 for _, words in ties)
+    cx, cy = _emptiest_corner(ax, sub, lines, tuple(np.mean([point for point, _ in ties], axis=0)))
+    down = 0.0
+    for point, words in ties:
+        where = offset_copy(ax.transAxes, fig=ax.figure, x=4 - 8 * cx, y=(-4 - down) if cy else (4 + down), units="points")
+        ax.annotate(words, point, xytext=(cx, cy), textcoords=where, fontsize=7, color="0.25",
+                    ha="right" if cx else "left", va="top" if cy else "bottom", annotation_clip=False,
+                    arrowprops={"arrowstyle": "-", "color": "0.55", "lw": 0.6, "shrinkA": 1, "shrinkB": 3})
+        down += TIE_LINE_PT * (words.count("\n") + 1) + 2
 
 
 def _pr_panel(ax, sub: pd.DataFrame, styles: dict, title: str) -> None:
@@ -58,10 +99,10 @@ def _pr_panel(ax, sub: pd.DataFrame, styles: dict, title: str) -> None:
         ax.errorbar(r["recall"], r["precision"], xerr=r["recall_std"], yerr=r["precision_std"],
                     fmt=st["marker"], ms=st["ms"], color=st["color"], mfc="none", mew=1.5,
                     elinewidth=0.8, alpha=0.9, clip_on=False, label=method)
-    _name_ties(ax, sub)
     ax.set(title=title, xlabel="recall", ylabel="precision",
            xlim=zoom(sub["recall"].to_numpy(float), sub["recall_std"].to_numpy(float)),
            ylim=zoom(sub["precision"].to_numpy(float), sub["precision_std"].to_numpy(float)))
+    _name_ties(ax, sub)   # after the limits: it picks the panel's emptiest corner
     ax.grid(alpha=0.3)
 
 
@@ -85,7 +126,7 @@ def pr_figure(table: pd.DataFrame, scenes: Sequence[str], difficulties: Sequence
                       mew=1.5, label=m) for m, st in styles.items()]
     fig.legend(handles=handles, loc="upper center", ncol=len(handles), frameon=False, fontsize=9)
     fig.text(0.5, 0.005, "mean ± std over seeds; each panel's axes are zoomed to its points (read the ticks); "
-             "methods on the same spot show as concentric marks and are named a = b", ha="center", va="bottom",
+             "methods on the same spot show as concentric marks, named a = b in a corner", ha="center", va="bottom",
              fontsize=8)
     fig.tight_layout(rect=(0, 0.02, 1, 1 - 0.35 / (3.5 * len(scenes))))
     return fig
@@ -109,7 +150,7 @@ def runtime_figure(frames: pd.DataFrame):
     per frame): every frame as a faint dot, and per method the median in bins of n."""
     from matplotlib.figure import Figure
 
-    fig = Figure(figsize=(6.4, 4.2))
+    fig = Figure(figsize=(7.4, 4.2))
     ax = fig.subplots()
     for method, st in method_styles(frames["method"]).items():
         rows = frames[frames["method"] == method]
@@ -120,12 +161,21 @@ def runtime_figure(frames: pd.DataFrame):
     ax.set(xlabel="candidate landmarks n", ylabel="runtime per frame (ms)", yscale="log")
     ax.set_title("dots: frames; lines: median per bin of n (bins of 5 frames or more)", fontsize=9)
     ax.grid(alpha=0.3, which="both")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0), borderaxespad=0)   # beside: frames fill the axes
     fig.tight_layout()
     return fig
+
+
+def figure_bytes(fig) -> bytes:
+    """``fig`` as PNG bytes, as ``save_figure`` writes it."""
+    import io
+
+    buffer = io.BytesIO()
+    fig.savefig(buffer, dpi=DPI, format="png")
+    return buffer.getvalue()
 
 
 def save_figure(fig, path: Path) -> None:
     """Write ``fig`` as a PNG, atomically."""
     with atomic_path(path) as tmp:
-        fig.savefig(tmp, dpi=110, format="png")
+        fig.savefig(tmp, dpi=DPI, format="png")

@@ -19,6 +19,7 @@ from assocbench.association.problem import Problem
 from assocbench.cli.main import main
 from assocbench.harness.leaderboard import write_leaderboard
 from assocbench.tracks.camera.truth_frame import TruthFrame, draw_truth_frame
+from assocbench.tracks.registry import get_track
 from assocbench.viz import draw
 from assocbench.viz.overlay import draw_association
 
@@ -267,7 +268,7 @@ def frames_for_runtime() -> pd.DataFrame:
 
 def test_leaderboard_orders_difficulties_easy_medium_hard_then_the_suites(tmp_path):
     paths = write_leaderboard(summaries(("warmup", "hard", "easy", "extreme", "medium")), frames_for_runtime(),
-                              tmp_path)
+                              tmp_path, get_track("camera"))
     headings = [line[3:] for line in paths["md"].read_text().splitlines() if line.startswith("## ")]
     order = ["easy", "medium", "hard", "warmup", "extreme"]
     assert headings == [f"{s}/{d}" for s in ("checkerboard", "room") for d in order]

@@ -169,7 +169,8 @@ def test_ate_figure_writes_a_png_with_the_oracle_hatched(tmp_path):
     assert len(hatched) == 1 and hatched[0].get_height() == pytest.approx(0.02)
     panels = {a.get_title(): a for a in fig.axes if a.axison}
     assert sorted(panels) == ["corridor/hard", "room/easy", "room/hard"]   # corridor/easy: no panel
-    assert panels["room/hard"].get_yscale() == "log" and panels["room/easy"].get_yscale() == "linear"
+    # room/hard spans 100x: every panel on a log axis, so neighbours of one quantity share a scale
+    assert {ax.get_yscale() for ax in panels.values()} == {"log"}
     save_figure(fig, tmp_path / "ate.png")
     assert (tmp_path / "ate.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 

@@ -2,7 +2,8 @@
 folders of any set of suites (``assocbench leaderboard --out``).
 
 ``build_report`` turns the folders into the report's files (``{relative path: bytes}``: the
-overview ``index.html``, a page per suite, its pictures under ``img/``); ``write_report`` puts them
+overview ``index.html`` with its critical-difference diagrams under ``img/ranks/``, a page per
+suite, its pictures under ``img/``); ``write_report`` puts them
 in a folder all at once; the docs site's hook hands the same files to mkdocs."""
 
 from __future__ import annotations
@@ -34,7 +35,9 @@ def build_report(folders: Sequence[Path | str], names: Sequence[str] | None = No
         pictures = [f"img/{s.slug}/{name}" for name, _ in s.pictures]
         files |= {path: data for path, (_, data) in zip(pictures, s.pictures)}
         files[f"{s.slug}.html"] = document(s.title, s.slug, suites, suite_body(s, pictures)).encode()
-    files["index.html"] = document("assocbench leaderboard", "index", suites, overview_body(suites)).encode()
+    body, diagrams = overview_body(suites)
+    files |= diagrams
+    files["index.html"] = document("assocbench leaderboard", "index", suites, body).encode()
     return dict(sorted(files.items()))
 
 

@@ -11,10 +11,11 @@ from importlib import resources
 
 import pandas as pd
 
+from ...viz.cd_diagram import cd_figure
+from ...viz.plots import figure_bytes
 from ..leaderboard import ORACLE_LABEL
 from .columns import BY_KEY, COUNT_COLUMNS, NOT_METRICS, Column, column
-from .ranking import REFERENCE_METHODS, overview
-from .ranking import __doc__ as RANK_RULE
+from .ranking import REFERENCE_METHODS, RULE, Ranking, rankings
 from .suites import Suite, caption
 
 FILTERS = (("scene", "scene"), ("difficulty", "difficulty"), ("backend", "back end"), ("method", "method"))
@@ -57,46 +58,100 @@ def _v(value: float) -> str:
 
 
 # --- overview -------------------------------------------------------------------------------
-def overview_body(suites: list[Suite]) -> str:
+def overview_body(suites: list[Suite]) -> tuple[str, dict[str, bytes]]:
     """The ranking rule, one ranking table per kind of method (feature associators; each track's
-    own methods), and the list of suites."""
-    rule = " ".join(RANK_RULE.split("\n\n", 1)[1].split())
+    own methods) with what each ranking compared and its critical-difference diagrams, and the
+    list of suites; returns the HTML and the diagrams (``{relative path: PNG bytes}``)."""
     out = ["<h1>Leaderboard across tracks</h1>",
-           '<p class="lead">Every method of every leaderboard in this report, ranked in each scenario '
-           "(a scene at a difficulty, with its back end) by its track's primary metric. Each track's page has the "
-           "full table (every metric, mean &plusmn; std over seeds), its plots and top views.</p>",
-           f'<div class="rule"><b>Rank rule.</b> {escape(rule)}</div>']
+           '<p class="lead">Every method of every leaderboard in this report, ranked by its track\'s primary metric '
+           "in each scenario (a scene at a difficulty, with its back end) and seed, and placed by a significance test: "
+           "methods that share a place could not be told apart. Each track's page has the full table (every metric, "
+           "mean &plusmn; std over seeds), its plots and top views.</p>",
+           f'<div class="rule"><b>Rank rule.</b> {escape(RULE)}</div>']
+    pictures: dict[str, bytes] = {}
     for family in dict.fromkeys(s.family for s in suites):
         members = [s for s in suites if s.family == family]
-        tracks = ", ".join(dict.fromkeys(s.track for s in members))
-        heading = f"Feature associators ({tracks})" if family == "feature" else f"The {family} track's methods"
-        out += [f"<h2>{escape(heading)}</h2>", _ranking_table(members)]
+        what = ", ".join(dict.fromkeys(s.track for s in members))
+        heading = "Feature associators" if family == "feature" else f"The {family} track's methods"
+        if members:
+            ranked = rankings(members, heading)
+            diagrams = {f"img/ranks/{r.slug}.png": _diagram(r) for r in ranked}
+            pictures |= diagrams
+            out += [f"<h2>{heading} ({what})</h2>", _ranking_table(ranked), _compared(ranked),
+                    '<div class="gallery cd">' + "".join(
+                        f'<figure><a href="{path}"><img src="{path}" alt="critical-difference diagram, {escape(r.title)}">'
+                        f"</a><figcaption>critical-difference diagram, {escape(r.title)}</figcaption></figure>"
+                        for path, r in zip(diagrams, ranked)) + "</div>"]
     out += ["<h2>Leaderboards in this report</h2>", _suite_list(suites)]
-    return "\n".join(out) + "\n"
+    return "\n".join(out) + "\n", pictures
 
 
-def _ranking_table(suites: list[Suite]) -> str:
-    table = overview(suites)
+def _ranking_table(ranked: list[Ranking]) -> str:
+    """A row per method, a column per ranking: its place (methods not told apart share one) and mean rank."""
+    overall = ranked[-1]
+    order = list(overall.table["method"]) + sorted({m for r in ranked for m in r.table["method"]}
+                                                   - set(overall.table["method"]))
+    order += sorted({m for r in ranked for m in r.left_out} - set(order))
     head = ['<th class="text sortable" data-type="text">method<span class="unit"></span></th>']
-    for s in suites:
-        m = s.primary
-        head.append(f'<th class="sortable" data-type="num" title="mean rank over the scenarios of {escape(s.title)}">'
-                    f'<a href="{s.slug}.html">{escape(s.title)}</a><span class="unit">mean rank by {escape(m.header)}'
-                    f'</span></th>')
-    head += ['<th class="sortable" data-type="num" title="mean of (rank - 1) / (n - 1) over every scenario">'
-             'overall<span class="unit">normalised rank, 0 best, 1 last</span></th>',
-             '<th class="sortable" data-type="num">scenarios<span class="unit">ranked in</span></th>',
-             '<th class="sortable" data-type="num" title="scenarios where its row is not ok (ranked last)">'
-             'not ok<span class="unit">scenarios</span></th>']
+    head += [f'<th class="sortable" data-type="num" title="{escape(_what(r))}">{escape(r.title)}'
+             f'<span class="unit">place (mean rank)</span></th>' for r in ranked]
+    head.append('<th class="sortable" data-type="num" title="blocks where its run diverged, was not ok or had no '
+                'value (ranked last there)">ranked last<span class="unit">blocks, diverged or not ok</span></th>')
     rows = []
-    for _, r in table.iterrows():
-        cells = [f'<td class="text" data-v="{escape(r["method"])}">{escape(r["method"])}</td>']
-        cells += [f'<td data-v="{_v(r[s.slug])}">{_num(r[s.slug], 2, "&ndash;")}</td>' for s in suites]
-        cells += [f'<td data-v="{_v(r["overall"])}"><b>{_num(r["overall"], 3)}</b></td>',
-                  f'<td data-v="{r["scenarios"]}">{r["scenarios"]}</td>', f'<td data-v="{r["not_ok"]}">{r["not_ok"]}</td>']
+    for method in order:
+        cells = [f'<td class="text" data-v="{escape(method)}">{escape(method)}</td>']
+        last = 0
+        for r in ranked:
+            row = r.table[r.table["method"] == method]
+            if len(row):
+                place, mean = int(row["place"].iloc[0]), float(row["mean_rank"].iloc[0])
+                last += int(row["last"].iloc[0]) if r is not overall or len(ranked) == 1 else 0
+                cells.append(f'<td data-v="{_v(mean)}"><b>{place}</b> <span class="std">({mean:.2f})</span></td>')
+            elif method in r.left_out:
+                cells.append(f'<td class="out" data-v="" title="{escape(r.left_out[method])}">left out</td>')
+            else:
+                cells.append('<td data-v="">&ndash;</td>')
+        cells.append(f'<td{" class=counted" if last else ""} data-v="{last}">{last}</td>')
         rows.append("<tr>" + "".join(cells) + "</tr>")
     return (f'<div class="scroll"><table class="ranking"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
             + "\n".join(rows) + "\n</tbody></table></div>")
+
+
+def _what(r: Ranking) -> str:
+    """What a ranking compared, and its test's result, in one sentence."""
+    t = r.test
+    k = len(t.methods)
+    blocks = (f"{r.scenarios} scenarios \u00d7 their seeds" if r.per_seed else
+              f"its {r.scenarios} scenarios, means over seeds: no runs.csv, so the seeds cannot be blocks")
+    words = f"{k} method{'s' * (k != 1)} over {t.blocks} blocks ({blocks})"
+    if math.isnan(t.p):
+        return words + "; nothing to test (fewer than 2 methods or blocks): placed by mean rank alone"
+    verdict = (f"Nemenyi CD = {t.cd:.2f}" if t.rejects else "not rejected: every method shares 1st place")
+    return (f"{words}; Friedman (Iman-Davenport) F({k - 1}, {(k - 1) * (t.blocks - 1)}) = {t.f:.2f}, "
+            f"p = {t.p:.2g}; {verdict}")
+
+
+def _compared(ranked: list[Ranking]) -> str:
+    """Per ranking: what it compared, its test, and what it left out and why."""
+    items = []
+    for r in ranked:
+        out = [f"<b>{escape(r.title)}</b>: {escape(_what(r))}."]
+        if r.left_out:
+            out.append("Left out: " + "; ".join(f"{escape(m)} ({escape(why)})" for m, why in r.left_out.items()) + ".")
+        if r.scenarios_out:
+            out.append("Scenarios left out: " + "; ".join(f"{escape(sc)}, {escape(why)}"
+                                                           for sc, why in r.scenarios_out.items()) + ".")
+        items.append("<li>" + " ".join(out) + "</li>")
+    return '<ul class="compared">' + "".join(items) + "</ul>"
+
+
+def _diagram(r: Ranking) -> bytes:
+    """The ranking's critical-difference diagram as PNG bytes."""
+    t = r.test
+    names = list(t.methods)
+    note = ("no test: fewer than 2 methods or blocks" if math.isnan(t.p) else
+            f"Friedman p = {t.p:.2g}, {t.blocks} blocks" + ("" if t.rejects else f": no difference at \u03b1 = {t.alpha}"))
+    return figure_bytes(cd_figure(names, t.mean_rank, t.cd if t.rejects else math.nan, t.cliques(), r.title, note))
 
 
 def _suite_list(suites: list[Suite]) -> str:
@@ -171,12 +226,14 @@ def _table(suite: Suite, columns: list[Column]) -> str:
         head.append('<th title="two-sided 95 % chi-square band of one run\'s ANEES">ANEES band'
                     '<span class="unit">95 %, NEES</span></th>')
     counts = [k for k in COUNT_COLUMNS if k in t]
-    head += [f'<th class="sortable" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
+    # the counts behind "more columns": a count above 0 is a badge beside the method's name
+    head += [f'<th class="sortable more" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
              f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
     head.append('<th class="text sortable" data-type="text">status<span class="unit"></span></th>')
     rows = [_row(r, labels, columns, counts, suite.kind) for _, r in t.iterrows()]
-    return (f'<div class="scroll"><table class="filterable"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
-            + "\n".join(rows) + "\n</tbody></table></div>")
+    stacked = " stacked" if suite.kind == "loop" or suite.family != "feature" else ""   # many columns: each std under its mean, to fit 1400 px
+    return (f'<div class="scroll"><table class="filterable{stacked}"><thead><tr>{"".join(head)}</tr></thead>\n'
+            '<tbody>\n' + "\n".join(rows) + "\n</tbody></table></div>")
 
 
 def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str) -> str:
@@ -186,7 +243,7 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
     look = ' class="oracle"' if oracle else ' class="notok"' if r["status"] != "ok" else ""
     cells = [f'<td class="text" data-v="{escape(str(r[k]))}">{escape(str(r[k]))}</td>' for k, _ in labels]
     # the badges beside the name, not the status: the status is the last column, off-screen on the wide loop pages
-    cells.append(f'<td class="text" data-v="{escape(name)}">{escape(name)}{_badges(r, counts)}</td>')
+    cells.append(f'<td class="text name" data-v="{escape(name)}">{escape(name)}{_badges(r, counts)}</td>')
     for c in columns:
         std = r.get(c.key + "_std")
         spread = f' <span class="std">&plusmn; {_cell_num(std, c)}</span>' if std is not None and pd.notna(
@@ -197,7 +254,7 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
         cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]</td>')
     for k in counts:
         of = r["seeds"] if k == "diverged" else r.get("frames", float("nan"))
-        hit = ' class="counted"' if pd.notna(r[k]) and r[k] > 0 else ""
+        hit = ' class="more counted"' if pd.notna(r[k]) and r[k] > 0 else ' class="more"'
         cells.append(f'<td{hit} data-v="{_v(r[k])}">{_num(r[k], 0)} / {_num(of, 0)}</td>')
     cells.append(f'<td class="text" data-v="{escape(str(r["status"]))}">{escape(str(r["status"]))}</td>')
     return f"<tr{look}{attrs}>" + "".join(cells) + "</tr>"
@@ -216,7 +273,8 @@ def _legend(suite: Suite, columns: list[Column]) -> str:
              else ("scene / difficulty", "the scenario, split from its name scene/difficulty")]
     items += [(c.header, escape(c.meaning) + (f"; {BETTER[c.better]}" if c.better else "")
                + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
-    items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", meaning)
+    items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", f"{meaning} (behind &ldquo;more columns&rdquo;; "
+               "a count above 0 is a badge beside the method's name)")
               for k, (label, meaning) in COUNT_COLUMNS.items() if k in suite.table]
     items.append(("status", "ok, or why the harness could not trust the row's numbers"))
     return '<dl class="legend">' + "".join(f"<dt>{escape(h)}</dt><dd>{m}</dd>" for h, m in items) + "</dl>"

@@ -27,6 +27,7 @@ from .columns import BY_KEY, COUNT_COLUMNS, Column
 
 CSV_NAME = "leaderboard.csv"
 CARD_NAME = "leaderboard.json"
+RUNS_NAME = "runs.csv"   # every run's summary (scenario x method x seed), beside a feature track's means
 LABEL_COLUMNS = ("scenario", "method", "status", "error", "scene", "difficulty")
 # the pictures `leaderboard` writes, in the order a reader wants them; others follow by name
 PICTURE_ORDER = ("leaderboard_pr.png", "leaderboard_ate.png", "leaderboard_nees.png", "leaderboard_runtime.png",
@@ -39,13 +40,15 @@ CAPTIONS = {"pr": "precision against recall, a panel per scene and difficulty",
 @dataclass
 class Suite:
     """One leaderboard: ``table`` has a row per scenario x method and the columns ``scene``,
-    ``difficulty``, ``backend`` split from the scenario (``scene/difficulty-backend``)."""
+    ``difficulty``, ``backend`` split from the scenario (``scene/difficulty-backend``); ``runs`` a
+    row per scenario x method x seed where the folder has them (None: only means over seeds)."""
 
     source: str
     digest: str
     table: pd.DataFrame
     card: dict                      # the folder's leaderboard.json (``harness.leaderboard.card``)
     pictures: list[tuple[str, bytes]] = field(default_factory=list)
+    runs: pd.DataFrame | None = None
     title: str = ""
     slug: str = ""
 
@@ -88,14 +91,32 @@ def read_suite(path: Path, source: str) -> Suite:
     data = csv.read_bytes()
     table = _parse(data, source if csv == path else f"{source}/{CSV_NAME}")
     card = read_card(csv.parent / CARD_NAME, table, source)
-    if card["primary"]["name"] not in table:
-        raise UserError(f"{source}/{CSV_NAME} has no column {card['primary']['name']}, the metric its track ranks "
-                        "by; regenerate it with `assocbench leaderboard`")
+    metric = card["primary"]["name"]
+    if metric not in table:
+        raise UserError(f"{source}/{CSV_NAME} has no column {metric}, the metric its track ranks by; regenerate it "
+                        "with `assocbench leaderboard`")
+    runs = None
     if "seed" in table:   # a track's own leaderboard may list every run; the report shows the mean over seeds
-        table = _per_scenario(table)
+        runs, table = table, _per_scenario(table)
+    elif (csv.parent / RUNS_NAME).is_file():
+        runs = _runs(csv.parent / RUNS_NAME, f"{source}/{RUNS_NAME}", table, metric)
     table = _with_parts(table)
     pictures = [(p.name, p.read_bytes()) for p in _pictures(csv.parent)] if csv.parent.is_dir() else []
-    return Suite(source, hashlib.sha256(data).hexdigest(), table, card, pictures)
+    return Suite(source, hashlib.sha256(data).hexdigest(), table, card, pictures, runs)
+
+
+def _runs(path: Path, name: str, table: pd.DataFrame, metric: str) -> pd.DataFrame:
+    """The per-seed rows beside a table of means, checked to hold the same scenarios and methods
+    and the ``metric`` they are ranked by."""
+    runs = _parse(path.read_bytes(), name)
+    if "seed" not in runs or metric not in runs:
+        raise UserError(f"{name} has no {'seed' if 'seed' not in runs else metric} column; regenerate it with "
+                        "`assocbench leaderboard`")
+    pairs = [set(zip(t["scenario"], t["method"])) for t in (runs, table)]
+    if pairs[0] != pairs[1]:
+        raise UserError(f"{name} does not hold the runs of the {CSV_NAME} beside it (other scenarios or methods); "
+                        "regenerate both with `assocbench leaderboard`")
+    return runs
 
 
 def _parse(data: bytes, name: str) -> pd.DataFrame:

@@ -6,8 +6,10 @@ of the method's code, not of ICP).
 
 Every map point counts: the points are rasterised into the panel's own pixel grid (one cell per
 screen pixel at ``DPI``), each pixel showing the worst error of the points that fall in it, so the
-worst stay visible as the old scatter's sort kept them. The colour scale is fixed (0 to
-``ERROR_SCALE_MM``) so panels compare at a glance.
+worst stay visible as the old scatter's sort kept them. The colours span the 2nd to 98th percentile
+of the figure's map errors (``colour_range``, one range for every panel, so they compare): a map
+whose errors are mostly a millimetre or two uses the whole colour scale instead of its darkest
+tenth, and the colour bar's label says the range and that errors beyond it take the end colours.
 """
 
 from __future__ import annotations
@@ -22,7 +24,7 @@ import numpy as np
 
 from .summary import METHOD_FAILED
 
-ERROR_SCALE_MM = 30.0
+PERCENTILES = (2.0, 98.0)   # the colour scale's ends, of the drawn points' errors
 COLORMAP = "viridis"
 DPI = 110
 MARGIN = 0.03   # share of each span left around the map and paths, so no point sits on the frame
@@ -31,7 +33,7 @@ AXES_WIDTH = 3.0     # inches of it a panel's axes get, beside the y label and t
 MIN_AXES, MAX_AXES = 1.2, 3.0   # inches: a row's axes height, whatever the scene's aspect
 LABEL_ROOM = 0.8     # inches a row needs besides its axes: the title above, the x label below
 LEGEND_ROOM = 0.25   # inches at the top for the one legend
-BAR_ROOM = 0.66      # inches at the bottom for the colour bar, across, and its label
+BAR_ROOM = 0.78      # inches at the bottom for the colour bar, across, and its label (two lines)
 EMPTY_HEIGHT = 3.8   # inches of the figure that says no run produced a map
 # short: all four entries fit in one row above a single 4.2 in panel; "pose held" is in the x label's note
 FAILED_LABEL = "ICP failed"
@@ -65,15 +67,26 @@ def worst_error_grid(xy: np.ndarray, error_mm: np.ndarray, extent: Sequence[floa
     return grid.reshape(height, width)
 
 
-def error_colours(grid: np.ndarray) -> np.ndarray:
-    """RGBA bytes ``(h, w, 4)`` of a worst-error grid: entry ``min(⌊e / ERROR_SCALE_MM · 256⌋, 255)``
-    of the 256-colour ``COLORMAP`` for an error ``e ≥ 0`` mm (clipped, as the colour bar says; the
+def colour_range(panels: Sequence[dict]) -> tuple[float, float]:
+    """(lo, hi) mm: the ``PERCENTILES`` of every drawable point's error over ``panels``; (0, the
+    largest error, at least 1 mm) where they coincide (one point, or errors all alike)."""
+    errors = np.concatenate([p["error_mm"][_finite(p["positions"], p["error_mm"])] for p in panels] or [np.zeros(0)])
+    if not len(errors):
+        return 0.0, 1.0
+    lo, hi = (float(v) for v in np.percentile(errors, PERCENTILES))
+    return (lo, hi) if hi - lo > 1e-3 else (0.0, max(float(errors.max()), 1.0))
+
+
+def error_colours(grid: np.ndarray, span: tuple[float, float]) -> np.ndarray:
+    """RGBA bytes ``(h, w, 4)`` of a worst-error grid: entry ``⌊(e − lo) / (hi − lo) · 256⌋`` of the
+    256-colour ``COLORMAP``, clipped to 0..255, for an error ``e`` mm and ``span = (lo, hi)`` (the
     entry matplotlib picks for the same value), transparent where no point fell."""
     from matplotlib import colormaps
 
+    lo, hi = span
     lut = colormaps[COLORMAP].resampled(256)(np.arange(256), bytes=True)
     filled = np.isfinite(grid)
-    level = np.clip(np.where(filled, grid, 0.0) * (256 / ERROR_SCALE_MM), 0, 255).astype(np.intp)
+    level = np.clip((np.where(filled, grid, lo) - lo) * (256 / (hi - lo)), 0, 255).astype(np.intp)
     rgba = lut[level]
     rgba[~filled] = 0
     return rgba
@@ -130,7 +143,7 @@ def _lost_note(positions: np.ndarray, error_mm: np.ndarray) -> str:
     return f"; {lost:,} of {len(positions):,} map points not drawn (no finite x, y or error)" if lost else ""
 
 
-def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) -> None:
+def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float], span: tuple[float, float]) -> None:
     """The map points as an image in the axes' final pixel grid (at most one cell per pixel, so
     none is dropped when drawn), beneath the paths."""
     ax.apply_aspect()
@@ -138,7 +151,7 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float]) ->
     width, height = max(1, int(box.width)), max(1, int(box.height))
     keep = _finite(panel["positions"], panel["error_mm"])
     grid = worst_error_grid(panel["positions"][keep, :2], panel["error_mm"][keep], extent, width, height)
-    ax.imshow(error_colours(grid), extent=extent, origin="lower", interpolation="nearest", aspect="equal",
+    ax.imshow(error_colours(grid, span), extent=extent, origin="lower", interpolation="nearest", aspect="equal",
               zorder=0)
 
 
@@ -217,14 +230,16 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         ax.axis("off")
     if not panels:   # every run failed before its map: say so rather than fail the leaderboard
         fig.text(0.5, 0.5, "no run produced a map", ha="center", va="center", fontsize=9)
-    else:
-        colours = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap=COLORMAP)
+    span = colour_range(panels)
+    if panels:
+        colours = ScalarMappable(norm=Normalize(*span), cmap=COLORMAP)
         # below the panels, across: a wide scene's single panel is barely an inch tall, too short
         # for a vertical bar's label, and a horizontal bar takes no panel's width
         bar_width = min(0.6, 3.0 / width)
-        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.36 / height, bar_width, 0.08 / height]),
+        bar = fig.colorbar(colours, cax=fig.add_axes([0.5 - bar_width / 2, 0.48 / height, bar_width, 0.08 / height]),
                            orientation="horizontal")
-        bar.set_label(f"distance to true surface, mm (clipped at {ERROR_SCALE_MM:g})", fontsize=7, labelpad=2)
+        bar.set_label(f"distance to true surface (mm)\ncolours span its p{PERCENTILES[0]:g}\u2013p{PERCENTILES[1]:g}, "
+                      f"{span[0]:.2g}\u2013{span[1]:.2g} mm (beyond: end colours)", fontsize=7, labelpad=2)
         bar.ax.tick_params(labelsize=6)
         # above the panels, not on one, where it would hide map points; every panel's entries (a
         # failure marker may be on any panel), each label once, in one row
@@ -232,7 +247,7 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
         fig.legend(list(entries.values()), list(entries), loc="upper center", ncol=len(entries), fontsize=7,
                    frameon=False, bbox_to_anchor=(0.5, 1.0))
     for ax, panel, extent in zip(axes.flat, panels, extents):   # after the colour bar took its room
-        _raster_panel(ax, panel, extent)
+        _raster_panel(ax, panel, extent, span)
     return fig
 
 

@@ -39,3 +39,15 @@ def tiny_leaderboard(folder: Path, rows: list[dict]) -> Path:
     folder.mkdir(parents=True, exist_ok=True)
     pd.DataFrame(rows).to_csv(folder / "leaderboard.csv", index=False)
     return folder
+
+
+def runs_leaderboard(folder: Path, runs: pd.DataFrame) -> Path:
+    """A leaderboard folder as ``assocbench leaderboard`` writes it for a feature track: ``runs``
+    (a row per scenario x method x seed) as runs.csv, and their means over seeds as leaderboard.csv."""
+    folder.mkdir(parents=True, exist_ok=True)
+    runs.to_csv(folder / "runs.csv", index=False)
+    grouped = runs.groupby(["scenario", "method"], sort=False)
+    means = grouped.mean(numeric_only=True).drop(columns="seed")
+    means["status"] = grouped["status"].agg(lambda s: "ok" if (s == "ok").all() else s[s != "ok"].iloc[0])
+    means.assign(seeds=grouped.size()).reset_index().to_csv(folder / "leaderboard.csv", index=False)
+    return folder

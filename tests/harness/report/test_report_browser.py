@@ -23,8 +23,9 @@ def report(tmp_path_factory):
     tmp = tmp_path_factory.mktemp("report")
     planar = with_plugin(copy_leaderboard(RESULTS / "planar", tmp / "planar"))
     out = tmp / "site"
-    write_report(build_report([RESULTS, RESULTS / "loop", planar, RESULTS / "lines"],
-                              names=["results", "results/loop", "planar (with a plugin)", "results/lines"]), out)
+    write_report(build_report([RESULTS, RESULTS / "loop", planar, RESULTS / "lines", RESULTS / "dense"],
+                              names=["results", "results/loop", "planar (with a plugin)", "results/lines",
+                                     "results/dense"]), out)
     return out
 
 
@@ -36,7 +37,7 @@ def _column(driver, index: int) -> list[str]:
 
 def test_every_page_loads_its_pictures_and_links(browser, report, tmp_path):
     pages = sorted(p.name for p in report.glob("*.html"))
-    assert len(pages) == 5
+    assert len(pages) == 6
     for name in pages:
         browser.get((report / name).as_uri())
         assert browser.find_elements("css selector", "main h1"), name
@@ -71,3 +72,23 @@ def test_sorting_and_filtering_a_track_page(browser, report, tmp_path):
     browser.execute_script("var s = document.querySelector('select[data-filter=scene]'); s.value = '';"
                            "s.dispatchEvent(new Event('change'));")
     full_screenshot(browser, screenshot_dir(tmp_path) / "report_planar.png")
+
+
+def test_no_table_is_cut_off_at_1400_px(browser, report):
+    """Every table of every page fits a 1400 px wide window: its last column (the status on a track
+    page) is in view without scrolling; the camera page's status column was cut off."""
+    browser.set_window_size(1400, 1000)
+    for page in sorted(p.name for p in report.glob("*.html")):
+        browser.get((report / page).as_uri())
+        cut = browser.execute_script("""
+            const width = document.documentElement.clientWidth, out = [];
+            for (const table of document.querySelectorAll('main table')) {
+              const box = table.closest('.scroll') || table;
+              const heads = Array.from(table.querySelectorAll('tr:first-child > th')).filter(h => h.offsetParent);
+              const last = heads[heads.length - 1];
+              if (box.scrollWidth > box.clientWidth + 1 || (last && last.getBoundingClientRect().right > width + 1))
+                out.push(table.className + ': ' + (last ? last.textContent : '') + ' ends at ' +
+                         Math.round(last ? last.getBoundingClientRect().right : table.scrollWidth) + ' px');
+            }
+            return out;""")
+        assert cut == [], (page, cut)

@@ -15,11 +15,11 @@ from PIL import Image
 
 from assocbench.tracks.dense.plots import (
     DPI,
-    ERROR_SCALE_MM,
     FAILED_LABEL,
     MAX_AXES,
     MIN_AXES,
     RAISED_LABEL,
+    colour_range,
     error_colours,
     failure_flags,
     figure_size,
@@ -64,12 +64,33 @@ def test_every_point_counts_a_hundred_thousand_in_distinct_pixels():
 
 
 def test_colours_are_the_ones_the_colour_bar_gives_and_empty_pixels_are_transparent():
-    values = np.array([0.0, 7.3, 14.99, 29.9, ERROR_SCALE_MM, 10 * ERROR_SCALE_MM])
-    rgba = error_colours(np.append(values, -np.inf).reshape(1, -1))
-    assert rgba.dtype == np.uint8 and rgba.shape == (1, 7, 4)
-    bar = ScalarMappable(norm=Normalize(0, ERROR_SCALE_MM), cmap="viridis")
-    assert (rgba[0, :6] == bar.to_rgba(values, bytes=True)).all()
-    assert (rgba[0, 6] == 0).all()
+    values = np.array([0.0, 0.5, 1.3, 7.3, 11.99, 12.0, 120.0])
+    rgba = error_colours(np.append(values, -np.inf).reshape(1, -1), (0.5, 12.0))
+    assert rgba.dtype == np.uint8 and rgba.shape == (1, 8, 4)
+    bar = ScalarMappable(norm=Normalize(0.5, 12.0), cmap="viridis")
+    assert (rgba[0, :7] == bar.to_rgba(values, bytes=True)).all()
+    assert (rgba[0, 7] == 0).all()
+
+
+def test_the_colour_scale_spans_the_maps_errors_not_a_fixed_30_mm():
+    """The committed dense picture was one colour: a crates map's errors are mostly under 2 mm, on a
+    0-30 mm scale. The scale spans the 2nd to 98th percentile of every panel's drawable errors, and
+    the colour bar says so."""
+    rng = np.random.default_rng(4)
+    errors = [rng.gamma(1.5, 0.6, 5000), rng.gamma(1.5, 0.9, 5000)]
+    pts = rng.uniform(0, 2, (5000, 3))
+    panels = [panel(pts, e) for e in errors]
+    panels[1]["error_mm"][:10] = np.nan   # not drawn: not counted
+    lo, hi = np.percentile(np.concatenate([errors[0], errors[1][10:]]), [2, 98])
+    assert colour_range(panels) == pytest.approx((lo, hi)) and hi < 10
+    fig = map_canvas(panels, columns=2)
+    bar = fig.axes[-1]
+    assert bar.get_xlim() == pytest.approx((lo, hi))
+    assert "p2\u2013p98" in bar.get_xlabel() and f"{hi:.2g} mm" in bar.get_xlabel()
+    drawn = np.asarray(fig.axes[0].get_images()[0].get_array())
+    levels = {tuple(c) for c in drawn[drawn[..., 3] > 0][:, :3]}
+    assert len(levels) > 50   # many colours, not one
+    assert colour_range([panel([[0.5, 0.3, 0.0]], [99.0])]) == (0.0, 99.0)   # one point: from 0 to it
 
 
 def test_limits_cover_map_and_paths_with_a_margin():
