@@ -96,6 +96,8 @@ def check_field(value: Any, annotation, metadata, key: str) -> Any:
         return float(value) if not integer else value
     if kinds == {bool} and not isinstance(value, bool):
         raise UserError(f"{key} must be true or false, got {value!r}")
+    if kinds == {dict} and not isinstance(value, dict):
+        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {value!r}")
     if kinds == {str}:
         choices = metadata.get("choices")
         if not isinstance(value, str) or (choices and value not in choices):

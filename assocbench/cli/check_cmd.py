@@ -10,7 +10,7 @@ import pandas as pd
 
 from ..errors import UserError
 from ..harness.check import baseline_columns, check_tolerance, compare, read_baseline, write_ok_table
-from ..harness.suite import Suite, load_suite, resolve_suite
+from ..harness.suite import Suite, load_suite, resolve_suite, suite_requirements
 from ..harness.sweep import run_suite
 from ..scoring.aggregate import leaderboard_table
 from ..tracks.base import GuardedMetric
@@ -38,18 +38,18 @@ def default_suites() -> list[str]:
     return [name for track in iter_tracks() for name, entry in track.suites().items() if entry.ci]
 
 
-def runnable(suites: list[Suite], named: bool) -> list[Suite]:
-    """The suites that can run here; one that cannot (a module it ``requires`` is missing) is
+def runnable(paths: list[Path], named: bool) -> list[Path]:
+    """The suite files that can run here; one that cannot (a module it ``requires`` is missing) is
     skipped with a line saying so, or refused when it was named (``--suite``)."""
     out = []
-    for suite in suites:
-        why = suite.missing()
+    for path in paths:
+        why = suite_requirements(path)
         if why and named:
-            raise UserError(f"suite {suite.name} cannot run here: {why}")
+            raise UserError(f"suite {path.stem} cannot run here: {why}")
         if why:
-            print(f"{suite.name} skipped: {why}")
+            print(f"{path.stem} skipped: {why}")
         else:
-            out.append(suite)
+            out.append(path)
     return out
 
 
@@ -63,7 +63,7 @@ def main(args: argparse.Namespace) -> int:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
         suites = ["ci"] if args.baseline is not None else default_suites()
-    loaded = runnable([load_suite(resolve_suite(s)) for s in suites], named=bool(args.suite))
+    loaded = [load_suite(path) for path in runnable([resolve_suite(s) for s in suites], named=bool(args.suite))]
     # every suite and baseline checked before any suite runs: a missing last baseline must not
     # be found only after the first suites ran for minutes
     baselines = [baseline_of(suite, args) for suite in loaded]

@@ -13,17 +13,17 @@ import pandas as pd
 
 from ..errors import UserError
 from ..scoring.units import unit_of  # noqa: F401  (run's table imports it from here)
-from ..sim.settings import MIN_SIDE  # a zero side made the camera rig divide by zero
+from ..sim.settings import MIN_SIDE  # a zero side made a rendering rig divide by zero
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
     """The flags that pick a sequence and a belief (see configs/default.yaml)."""
     p.add_argument("--track", help="the run's track (assocbench list tracks); default: the method's own track, else "
-                   "the scene's, else camera")
+                   "the scene's, else the default track")
     p.add_argument("--scene", help="a scene or dataset the track ships (assocbench list scenes), or a file of the "
                    "track's kind (an MJCF, a log)")
-    p.add_argument("--trajectory", help="camera: circle | line | figure-eight | loop | waypoints | mjcf-cameras; "
-                   "planar and lines: loop | ellipse | waypoints (assocbench list trajectories)")
+    p.add_argument("--trajectory", help="a simulated track's path through its scene, by name (assocbench list "
+                   "trajectories: each with its tracks)")
     p.add_argument("--frames", type=int, help="number of frames")
     p.add_argument("--seed", type=int, help="seed of trajectory jitter, belief errors and clutter")
     p.add_argument("--config", help="YAML run config, merged on the track's defaults (docs/reference/settings.md)")
@@ -91,7 +91,7 @@ def config_digest(cfg: dict) -> str:
 
 def check_cache(*sources) -> None:
     """``atomic.check_cache_folder`` with the sequence cache's subfolder of each source that has one:
-    a file where one belongs (``$ASSOCBENCH_CACHE/dense``) stops the command before it compiles or
+    a file where one belongs (``$ASSOCBENCH_CACHE/<track>``) stops the command before it compiles or
     renders."""
     from ..atomic import check_cache_folder
 

@@ -1,5 +1,6 @@
-"""``assocbench frame``: one frame as an image with its ground truth drawn: the camera image with
-true projections and detections, or a lidar track's top view with the scan and its features."""
+"""``assocbench frame``: one frame as an image with its ground truth drawn, as the run's track
+pictures it (``Pictures.frame_picture``): a rendered image with its true projections and
+detections, a top view with the scan and its features."""
 
 from __future__ import annotations
 
@@ -18,7 +19,7 @@ HELP = ("draw one frame with its ground truth, as the run's track pictures it (a
 def add_arguments(p: argparse.ArgumentParser) -> None:
     add_run_options(p)
     p.add_argument("--index", type=int, default=0, help="frame index along the trajectory")
-    p.add_argument("--resolution", help="WIDTHxHEIGHT of a camera frame, default 640x480")
+    p.add_argument("--resolution", help="WIDTHxHEIGHT of a rendered frame (a track with an image size), default 640x480")
     p.add_argument("-o", "--output", default="frame.png",
                    help=f"image file to write; its extension picks the format ({', '.join(IMAGE_FORMATS)})")
 

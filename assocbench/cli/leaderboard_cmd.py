@@ -8,7 +8,7 @@ from pathlib import Path
 
 from ..errors import UserError
 from ..harness.leaderboard import write_card, write_leaderboard
-from ..harness.suite import load_suite, resolve_suite
+from ..harness.suite import load_suite, resolve_suite, suite_requirements
 from ..harness.sweep import EXECUTORS, run_suite
 from ..scoring.aggregate import OK
 from ..tracks.capabilities import OwnLeaderboard, has
@@ -30,10 +30,11 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    suite = load_suite(resolve_suite(args.suite or "leaderboard"))
-    why = suite.missing()
+    path = resolve_suite(args.suite or "leaderboard")
+    why = suite_requirements(path)
     if why:
-        raise UserError(f"suite {suite.name} cannot run here: {why}")
+        raise UserError(f"suite {path.stem} cannot run here: {why}")
+    suite = load_suite(path)
     check_cache(suite.first_source())
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
     summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)

@@ -48,7 +48,7 @@ def _unavailable(track) -> str:
 
 def _trajectories(tracks: list) -> dict[str, str]:
     """Each trajectory once, tagged with every track that has it; where tracks describe it
-    differently (``loop``, ``waypoints``: a camera's path and a robot's), each description after
+    differently (``loop``, ``waypoints``: a flying sensor's path and a robot's), each description after
     the tracks it belongs to."""
     described: dict[str, dict[str, list[str]]] = {}
     for t in tracks:

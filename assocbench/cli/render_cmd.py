@@ -1,7 +1,7 @@
-"""``assocbench render``: a video of a run, one picture per frame drawn by the run's track: the
-camera's frames with the lab-8 association overlay (with ``--loop``, beside a top view of the
-trajectories and the map); a lidar track's top view with the scan and each feature coloured by
-the method's decision."""
+"""``assocbench render``: a video of a run, one picture per frame drawn by the run's track
+(``Pictures.run_pictures``): rendered frames with the lab-8 association overlay (with ``--loop``,
+beside a top view of the trajectories and the map), or a top view with the scan and each feature
+coloured by the method's decision."""
 
 from __future__ import annotations
 

@@ -16,7 +16,7 @@ HELP = ("build a static HTML leaderboard (an overview ranking every method acros
 def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("folders", nargs="+", metavar="FOLDER",
                    help="leaderboard folders (each holding the leaderboard.csv that `assocbench leaderboard --out` "
-                        "wrote), e.g. results results/loop results/planar results/lines")
+                        "wrote), e.g. results results/loop")
     p.add_argument("--out", default="results/runs/report",
                    help="folder for the report: new, empty or an earlier report (replaced whole); open its index.html")
 

@@ -83,7 +83,7 @@ def main(args: argparse.Namespace) -> int:
                 f"seed {row['seed']}"
         writers = {out / name: partial(df.to_csv, index=False, float_format="%.9g")   # all files or none
                    for name, df in (("frames.csv", frames), ("summary.csv", summary_df))}
-        if "est_x" in frames:   # an estimated trajectory (closed loop, dense tracking): TUM files for evo
+        if "est_x" in frames:   # an estimated trajectory (a closed loop, a track that tracks): TUM files for evo
             writers |= tum_writers(frames, out)
         if has(track, RunFiles):
             writers |= track.run_files(frames, Path(artifacts), out, title)

@@ -1,13 +1,13 @@
 """Gymnasium environment: one episode is one pass along a track's trajectory; each step is
 one frame's association problem. One class serves every track whose frames are ``Problem``s
-(camera, planar, lines): the scene picks the track, and the track says what differs
-(``Track.load_sequence``, ``Track.problems``, ``Track.env_slots``, ``Track.renders_frames``).
+and that offers envs (``GymEnvs``): the id names the track and its scene, and the track says what
+differs (``Track.source``, ``Track.problem``, ``GymEnvs.env_slots``, its ``Pictures``).
 
 Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works in both modes;
 d is the measurement's dimension, 2 on every built-in track):
 
-* ``features`` (M, d) the measurements in the track's units (camera: pixels; planar: range m,
-  bearing rad; lines: α rad, r m), ``feature_cov`` (M, d, d) their noise R, ``feature_mask`` (M,);
+* ``features`` (M, d) the measurements in the track's units (pixels; range m and bearing rad;
+  α rad and r m; each track's page says), ``feature_cov`` (M, d, d) their noise R, ``feature_mask`` (M,);
 * ``predictions`` (N, d), ``prediction_cov`` (N, d, d) the marginal blocks of P,
   ``landmark_mask`` (N,). The full joint covariance with cross terms, and which dimensions are
   angles that wrap (``angular``), are in ``info["problem"]``.
@@ -34,9 +34,11 @@ metrics ``step_metrics`` (``tp``, ``fp``, ``fn``, ...).
 
 After the step that returns ``terminated=True``, ``step()`` raises ``gymnasium.error.ResetNeeded``
 until ``reset()``: there is no frame left to score (vector envs reset on the next step
-themselves). ``render_mode="rgb_array"`` serves tracks whose frames are rendered images (``Track.renders_frames``: the camera) only. A
-process forked from one that had already rendered cannot render (the GL driver does not survive
-``fork``): ``reset`` of a camera env there raises a one-line ``UserError`` instead of hanging.
+themselves). ``render_mode="rgb_array"`` serves tracks with pictures (``Pictures``): the frame as
+``assocbench render`` draws it, with the last step's association. A process forked from one that
+had already rendered with MuJoCo's GL cannot render (the driver does not survive ``fork``):
+``reset`` of an env whose track renders its frames (``renders_frames``) there raises a one-line
+``UserError`` instead of hanging.
 """
 
 from __future__ import annotations

@@ -1,8 +1,8 @@
 """Closed-loop Gymnasium environments: ``assocbench/RoomLoop-v0`` and one id per shipped scene of
-every track with a closed loop (camera, planar, lines).
+every track with a closed loop (``ClosedLoop``) that offers envs.
 
-The belief of each frame is the track's estimator's posterior (camera and planar EKF, planar
-iSAM2, lines EKF localisation) after the agent's own earlier actions
+The belief of each frame is the track's estimator's posterior (an EKF, an iSAM2 factor graph:
+the track's ``ClosedLoop``) after the agent's own earlier actions
 (``harness.loop.ClosedLoop``): ``reset`` starts the filter at frame 0 and observes frame 0's
 problem; ``step(action)`` scores the action, updates the filter with it (in ``slam`` mode the
 features it left unpaired become landmarks), predicts to the next frame with odometry and
@@ -20,7 +20,7 @@ Observation, action, reward (TP − FP), ``info`` and the end of an episode are 
 
 After each step ``info`` also holds the filter's state at ``scored_frame`` after the update
 (the per-frame columns of ``assocbench run --loop``), all scalars: ``pos_err`` (m),
-``rot_err_deg``, ``nees`` (pose NEES: 6 dof on the camera track, 3 in the plane; NaN while the pose covariance is zero, as at
+``rot_err_deg``, ``nees`` (pose NEES: 6 dof in space, 3 in the plane; NaN while the pose covariance is zero, as at
 slam's first frame) and ``map_size`` (confirmed landmarks).
 """
 

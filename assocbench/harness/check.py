@@ -4,8 +4,8 @@
 row of the suite is in the baseline and in the fresh run, every run's ``status`` is ``ok`` (no
 failed frames, candidates present, something associated), and every accuracy value on both
 sides is finite and no worse than the baseline by more than its tolerance (finite, >= 0). Which
-columns are guarded is the track's (``Track.check_metrics``): accuracy for every feature track,
-a closed loop's ATE too, the dense track's correspondence precision, recall, ATE and map error.
+columns are guarded is the track's (``Track.guards``): accuracy for a track of association problems,
+a closed loop's ATE too; a track with a frame loop of its own guards its own columns.
 """
 
 from __future__ import annotations

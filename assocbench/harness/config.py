@@ -27,7 +27,7 @@ from ..tracks.base import Track
 from ..tracks.capabilities import ClosedLoop, OwnFrames, Pictures, Requirements, has, lacks
 from ..tracks.inference import infer_track, track_for_method
 from ..tracks.registry import DEFAULT_TRACK, get_track, iter_tracks
-from ..validation import in_range
+from ..validation import free_mapping, in_range
 from .yamlfile import parse_sets, read_yaml
 
 ORACLE = "oracle"   # the closed loop's reference method: the true association
@@ -39,7 +39,7 @@ class RunKeys:
     """The settings every run has, whatever its track.
 
     track: the run's track (`assocbench list tracks`); null: the method's own track, else the scene's,
-        else camera.
+        else the default track.
     scene: what the track reads: a scene or dataset it ships (`assocbench list scenes`), or a file of its
         kind (an MJCF, a log); null: the track's first.
     frames: how many frames a run takes; null: the track's default (40 on a simulated track).
@@ -58,6 +58,9 @@ class RunKeys:
     params: dict = field(default_factory=dict, metadata={"accepts": "a mapping (the method's parameters)"})
     loop: bool = False
     time_limit_s: float = field(default=30.0, metadata=in_range(0, 86400, lo_open=True) | {"unit": "s"})
+
+    def check(self) -> None:
+        free_mapping({"params": self.params}, "params")   # its numbers finite; the method checks the rest
 
 
 @dataclass(frozen=True)
@@ -93,7 +96,7 @@ def owners(key: str) -> list[str]:
     out = []
     for track in iter_tracks():
         schema = run_schema(track)
-        if (not leaf and section in schema.key_fields()) or \
+        if (not leaf and (section in schema.key_fields() or section in schema.sections)) or \
                 (leaf and section in schema.sections and leaf in {f.name for f in schema.sections[section].fields()}):
             out.append(track.name)
     return out
@@ -110,12 +113,16 @@ def _unknown(key: str, known: list[str], where: str, track: str, everywhere: lis
     (``limits.time_limit_s`` -> ``time_limit_s``) or the closest spelling."""
     others = [t for t in owners(key) if t != track]
     if others:
-        return UserError(f"{key} in {where} is not a setting of the {track} track (this run's), but of the "
-                         f"{', '.join(others)} track{'s' if len(others) > 1 else ''}: drop it, or name that track")
+        return UserError(f"{key} is a setting of the {' and '.join(others)} track{'s' if len(others) > 1 else ''}, "
+                         f"not of the {track} track this run is on ({where}): drop it, or name the run's track with "
+                         "--track (track: in a config or suite)")
     leaf = key.rpartition(".")[2]
     moved = [p for p in everywhere if p.rpartition(".")[2] == leaf]
     close = difflib.get_close_matches(key, moved, n=1, cutoff=0) or difflib.get_close_matches(key, known, n=1)
-    hint = f" (did you mean {close[0]!r}?)" if close else ""
+    elsewhere = [(p, t.name) for t in iter_tracks() if t.name != track
+                 for p in _paths(run_schema(t).defaults(), set(run_schema(t).sections)) if p.rpartition(".")[2] == leaf]
+    hint = f" (did you mean {close[0]!r}?)" if close else \
+        f" (did you mean {elsewhere[0][0]!r}? a setting of the {elsewhere[0][1]} track)" if elsewhere else ""
     return UserError(f"unknown key {key!r} in {where}{hint}; the {track} track's keys: {', '.join(known)}")
 
 
@@ -128,8 +135,9 @@ def merge(base: dict, override: dict, where: str, track: str | None = None) -> d
     everywhere = _paths(base, sections)
     out = copy.deepcopy(base)
     for key, value in override.items():
-        if key not in out:
-            raise _unknown(str(key), list(out), where, track, everywhere)
+        if key not in out:   # a section of another track is named by its first key (posts.min_points)
+            dotted = f"{key}.{next(iter(value))}" if isinstance(value, dict) and value else str(key)
+            raise _unknown(dotted, list(out), where, track, everywhere)
         if key not in sections:
             out[key] = value
             continue
@@ -222,7 +230,7 @@ class RunSpec:
         return self.settings.get(LOOP_ONLY)
 
     def setting(self, name: str) -> Any:
-        """The settings section ``name`` (e.g. the dense track's ``icp``)."""
+        """The settings section ``name`` (a track's own, e.g. ``icp``)."""
         return self.settings[name]
 
     def with_method(self, method: str, params: dict) -> RunSpec:

@@ -12,8 +12,8 @@ Each run of the suite (scene x difficulty x seed) gives its problems in one of t
   the problems are those its own errors lead to (a learned model driving its own loop gives
   on-policy data); the truth written is always the true association of each problem.
 
-The card says which drive made the data. The dense track's frames are depth images associated
-point to pixel, not ``Problem``s, so it has nothing to export."""
+The card says which drive made the data. A track with a frame loop of its own (``OwnFrames``)
+makes no ``Problem``s, so it has nothing to export."""
 
 from __future__ import annotations
 

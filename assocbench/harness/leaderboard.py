@@ -202,7 +202,7 @@ def run_rows(summaries: pd.DataFrame, difficulties: Sequence[str] = ()) -> pd.Da
 
 
 def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, difficulties: Sequence[str],
-                     track: Track, scenes: Mapping[str, str]) -> dict:
+                     track: Track, scene_paths: Mapping[str, str]) -> dict:
     """A closed-loop suite's figures: ATE per method per scenario, NEES over time against its
     χ² band, and (a track with a ``TopView``) the top view of one run per method per scene, at its
     last difficulty and lowest seed: ``leaderboard_ate.png``, ``leaderboard_nees.png``,
@@ -218,7 +218,7 @@ def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, diffi
     for k, scene in enumerate(scenes):   # a top view per scene, at its hardest difficulty, lowest seed
         key = f"map_{scene}" if k else "map"
         paths[key] = out / f"leaderboard_{key}.png"
-        save_figure(map_view(frames, scene, columns[-1], track, scenes.get(scene, scene)), paths[key])
+        save_figure(map_view(frames, scene, columns[-1], track, scene_paths.get(scene, scene)), paths[key])
     return paths
 
 

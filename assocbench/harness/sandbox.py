@@ -178,9 +178,8 @@ def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
 def _start_forkserver(methods: Iterable[str] = (), tracks: Iterable[str] = ()) -> None:
     """Start the forkserver on this process's ``sys.path``, warming the built-in associators among
     ``methods`` and the ``tracks`` (the first task's: a worker forked from it inherits their loaded
-    kernels, where warming its track itself cost each worker 0.5 s, 2.8 ms a frame of a 200-frame
-    dense run; warming every built-in associator cost a first dense run 93-109 s of compiling on a
-    cold machine, for kernels it never calls; a later task's other methods and track warm in its
+    kernels, where warming its track itself cost each worker 0.5 s; warming every built-in associator
+    cost a run 93-109 s of compiling on a cold machine, for kernels it never calls; a later task's other methods and track warm in its
     worker, the methods in their warm-up call). Python 3.11 starts it with ``python -c``
     and ignores the ``sys_path`` it is handed, so the working folder came first: run from a clone
     after ``pip install .``, the workers imported the clone's sources, not the installed package
@@ -235,7 +234,7 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
 
     names = sorted({m.lower() for m in methods} & set(BUILTINS) - _warm)
     # the scoring of associations against truth: every worker of a track whose frames are Problems
-    # uses it (no tracks named: assume one does); the dense track scores its pairs its own way
+    # uses it (no tracks named: assume one does); a track with its own frame loop scores its own way
     scores = not tracks or any(not has(get_track(name), OwnFrames) for name in tracks)
     scoring = [warm_scoring] if scores and "scoring" not in _warm else []
     warm([partial(warm_up, BUILTINS[name]()) for name in names] + scoring)
@@ -247,8 +246,7 @@ def warm_track(track) -> None:
     kernels; a forkserver's worker (the parent has a thread: numpy's BLAS pool, pyarrow's allocator
     under pandas 3) inherits the server's, which warmed the built-in associators and the tracks of
     the task that started it, so a worker of another track warms its track here, before its frames:
-    otherwise the dense track compiled inside its timed frames (a first run's fps 9.4 against 29.7
-    warm)."""
+    otherwise a track's kernels would compile inside its timed frames."""
     if f"track {track.name}" not in _warm:
         if has(track, WarmUp):
             track.warm_up()
@@ -471,7 +469,7 @@ def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = F
     """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
     records and the summary (the track's). ``associations=True`` keeps each frame's association
     (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
-    ``artifacts``: a folder for the run's end-of-run files (the dense track's map); ``progress``:
+    ``artifacts``: a folder for the run's end-of-run files (``RunFiles``); ``progress``:
     a bar over the frames on stderr (``RunProgress``)."""
     name = f"{spec.source.name} seed {spec.seed}"
     task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),

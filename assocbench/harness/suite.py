@@ -60,8 +60,9 @@ class Job:
         package and each method's package), so results stored by other code or from other inputs
         are never reused. Computed once per job: a source edited while a sweep runs must not make a
         job stored under one key be looked up under another."""
-        code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests()
-        code += [run_spec(cfg).source.key for _, cfg in self.runs]
+        specs = [run_spec({**cfg, "scene": self.scene, "seed": self.seed}) for _, cfg in self.runs]
+        code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests(specs)
+        code += [spec.source.key for spec in specs]
         code += self._param_file_digests()       # a file a method's parameter names (a learned model)
         payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
                              sort_keys=True, default=str)
@@ -74,10 +75,12 @@ class Job:
         paths = (Path(v) for m in self.methods for v in m.params.values() if isinstance(v, str) and v)
         return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
 
-    def _track_digests(self) -> list[str]:
+    def _track_digests(self, specs: list) -> list[str]:
         """Digests of the job's track when it lives outside this package (a user's track module):
         editing it must not reuse numbers its old code made. Built-ins are in ``package_digest``."""
-        cls = type(get_track(self.runs[0][1]["track"]))
+        if not specs:
+            return []
+        cls = type(specs[0].track_impl)
         return [] if cls.__module__.startswith("assocbench.") else [class_digest(cls)]
 
     @property
@@ -123,11 +126,6 @@ class Suite:
     def scene_paths(self) -> dict[str, str]:
         """Each job's scene by its short name (the scenario's) -> the scene it names (a user MJCF's path)."""
         return {job.name: job.scene for job in self.jobs}
-
-    def missing(self) -> str | None:
-        """Why this suite cannot run here (a module it ``requires`` is not installed), or None."""
-        absent = [m for m in self.requires if importlib.util.find_spec(m) is None]
-        return f"{', '.join(absent)} not installed (pip install 'assocbench[{absent[0]}]')" if absent else None
 
     def rows(self) -> list[tuple[str, str]]:
         """The (scenario, method label) rows a run of this suite must produce."""
@@ -218,6 +216,18 @@ def load_suite(path: str | Path) -> Suite:
     ate_tolerance = check_number(raw.get("ate_tolerance", 0.01), f"ate_tolerance in {path}", lo=0)
     return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance), track.name, loop,
                  _requires(raw, str(path)))
+
+
+def missing_modules(modules) -> str | None:
+    """Why modules a suite ``requires`` cannot be used here (not installed), or None."""
+    absent = [m for m in modules if importlib.util.find_spec(m) is None]
+    return f"{', '.join(absent)} is not installed (pip install 'assocbench[{absent[0]}]')" if absent else None
+
+
+def suite_requirements(path: Path) -> str | None:
+    """Why the suite file at ``path`` cannot run here (``missing_modules`` of its ``requires``),
+    read before the suite is loaded: loading it resolves its runs, which would refuse the same."""
+    return missing_modules(_requires(read_yaml(path), str(path)))
 
 
 def _requires(raw: dict, where: str) -> tuple[str, ...]:

@@ -1,2 +1,2 @@
 """Scoring: per-frame counts against the truth, their aggregation into a summary, and the
-accuracy and consistency of an estimated camera trajectory (``trajectory``)."""
+accuracy and consistency of an estimated trajectory (``trajectory``)."""

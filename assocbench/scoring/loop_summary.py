@@ -6,7 +6,7 @@ estimator had it then; ate_smoothed (m): the ATE of a smoother's final estimate 
 (iSAM2; a filter revises no past pose, so its ate_smoothed is its ate_rmse); anees: mean pose
 NEES over the frames with a pose covariance (slam's frame 0 has none), with the two-sided 95 %
 band ``[anees_lo, anees_hi] = χ²_{qN}(0.025, 0.975) / N``, q the pose's degrees of freedom (the
-frames' ``nees_dof``: 6 for the camera track, 3 for the planar one). The band assumes independent frames; the
+frames' ``nees_dof``: 6 for a pose in space, 3 for one in the plane). The band assumes independent frames; the
 frames of one run are correlated (the same map error steers them all), so one run's ANEES
 scatters more widely than the band says. diverged_at: the first frame whose NEES stays above
 χ²_q(0.999) for 5 frames, -1 for never. Map figures are the last frame's: confirmed landmarks,

@@ -6,7 +6,7 @@ With ``a`` the returned and ``t`` the true association (feature index per candid
   FN: ``t_j >= 0`` and not ``a_j ≡ t_j``. ``a_j ≡ t_j`` when they are the same feature, or
   when ``t_j >= 0`` and both features carry the same truth label: two features can image one
   landmark (two extracted pieces of one wall's line, split by an occluder), and pairing either
-  is right. The camera and post tracks label at most one feature per landmark, so for them
+  is right. Tracks of point landmarks label at most one feature per landmark, so for them
   ``≡`` is ``=``.
 * clutter_accepted: FPs whose feature images no mapped landmark (a distractor or clutter).
 * missed_true: candidates with a true feature that were left unassociated.

@@ -1,6 +1,6 @@
-"""Trajectory accuracy and filter consistency of an estimated camera path, and TUM files.
+"""Trajectory accuracy and filter consistency of an estimated path, and TUM files.
 
-A pose is a rotation ``R`` (camera-to-world, OpenCV camera axes) and a position ``p`` in the
+A pose is a rotation ``R`` (sensor-to-world; a rendering sensor's axes are OpenCV's) and a position ``p`` in the
 world; a trajectory is ``R`` (N, 3, 3) and ``p`` (N, 3). The filter's error convention is
 
     R_true = R_est · Exp(δθ)   (δθ a body-frame rotation vector),   δp = p_true − p_est (world),
@@ -33,7 +33,7 @@ from ..atomic import OUTPUT_FILE, Role, write_text
 from ..errors import UserError
 
 POSE_DOF = 6      # a 3-D pose error [δp, δθ]
-PLANAR_DOF = 3    # a planar one [δx, δy, δθ]
+PLANE_DOF = 3     # a pose in the plane [δx, δy, δθ]
 _ROTATION_TOL = 1e-6      # ‖RᵀR − I‖_max and |det R − 1| accepted as a rotation in a TUM file
 _SYMMETRY_TOL = 1e-6      # relative asymmetry of a covariance accepted as rounding
 
@@ -107,15 +107,15 @@ def pose_nees(error6: np.ndarray, cov6: np.ndarray) -> float:
 
         NEES = eᵀ P⁻¹ e = ‖L⁻¹ e‖²,
 
-    χ²_q-distributed for a consistent filter: q = 6 for a 3-D pose ``[δp, δθ]``, 3 for a planar
+    χ²_q-distributed for a consistent filter: q = 6 for a 3-D pose ``[δp, δθ]``, 3 for a pose in the plane
     one ``[δx, δy, δθ]`` (the error and covariance must agree). NaN when ``e`` or ``P`` holds a NaN or ``P`` is
     not positive definite, numerically: a Cholesky pivot ``L_ii ≤ sqrt(ε · max|P|)`` (a zero
     covariance, e.g. the first SLAM frame, or one singular to machine precision). Raises
     ``UserError`` for wrong shapes or a ``P`` that is not symmetric (beyond rounding)."""
     e = np.asarray(error6, dtype=np.float64)
     P = np.asarray(cov6, dtype=np.float64)
-    if e.shape not in ((POSE_DOF,), (PLANAR_DOF,)) or P.shape != (len(e), len(e)):
-        raise UserError(f"pose NEES needs an error of shape (6,) and a covariance of shape (6, 6) (planar: (3,) "
+    if e.shape not in ((POSE_DOF,), (PLANE_DOF,)) or P.shape != (len(e), len(e)):
+        raise UserError(f"pose NEES needs an error of shape (6,) and a covariance of shape (6, 6) (in the plane: (3,) "
                         f"and (3, 3)), got {e.shape} and {P.shape}")
     if not (np.isfinite(e).all() and np.isfinite(P).all()):
         return float("nan")
@@ -213,7 +213,7 @@ def tum_text(stamps: np.ndarray, R: np.ndarray, p: np.ndarray, path: Path | str 
 
         t tx ty tz qx qy qz qw
 
-    with ``(tx, ty, tz) = p`` and the unit quaternion of ``R`` (camera-to-world, scalar last),
+    with ``(tx, ty, tz) = p`` and the unit quaternion of ``R`` (sensor-to-world, scalar last),
     every number in shortest round-trip form (``repr``), so reading it back loses nothing but
     the quaternion's own rounding. Raises ``UserError`` (naming ``path``) for mismatched shapes,
     non-finite values, stamps that do not increase, or an ``R`` that is not a rotation."""
@@ -296,7 +296,7 @@ def _check_rotations(R: np.ndarray, path: Path | str) -> None:
     bad = (np.abs(gram).max(axis=(1, 2)) > _ROTATION_TOL) | (np.abs(np.linalg.det(R) - 1) > _ROTATION_TOL)
     if bad.any():
         raise UserError(f"TUM file {path}: R of pose {int(np.flatnonzero(bad)[0])} is not a rotation "
-                        "(RᵀR ≠ I or det R ≠ 1); pass camera-to-world rotation matrices")
+                        "(RᵀR ≠ I or det R ≠ 1); pass sensor-to-world rotation matrices")
 
 
 def pose_columns(prefix: str, R: np.ndarray, p: np.ndarray) -> dict[str, float]:

@@ -13,9 +13,9 @@ import numpy as np
 from ..belief.planar import open_loop_pose
 from ..errors import UserError
 from ..scoring.decisions import feature_decisions
-from ..viz.plane_view import PlaneFrame, plane_bounds, plane_view, to_world
 from .base import loop_words
 from .capabilities import RunFrame
+from .plane_view import PlaneFrame, plane_bounds, plane_view, to_world
 
 
 def scan_sequence(track, spec) -> Any:

@@ -163,13 +163,13 @@ def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, diffi
     """Pose NEES against frame (``scenario``, ``method``, ``seed``, ``frame``, ``nees`` per row): a
     panel per scenario, a line per method (median over seeds), log y; shaded: the per-frame
     two-sided 95 % band of χ²_q, q the frames' ``nees_dof`` (6: [1.24, 14.4], dashed χ²₆(0.999) = 22.5;
-    planar 3: [0.22, 9.35], dashed 16.3).
+    3, in the plane: [0.22, 9.35], dashed 16.3).
     A line above the band says the filter is overconfident (its covariance too small)."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
     dof = int(frames["nees_dof"].dropna().iloc[0]) if "nees_dof" in frames and frames["nees_dof"].notna().any() \
-        else POSE_DOF   # 3 for a planar pose, 6 for the camera's (frames written before nees_dof: 6)
+        else POSE_DOF   # 3 for a pose in the plane, 6 in space (frames written before nees_dof: 6)
     lo, hi, bound = nees_band(dof)
     floor = lo / 20   # lower drawn at the bottom edge: a first frame's NEES of 5e-4 (a tight prior) took three decades
     order = method_order(frames["method"])
@@ -222,7 +222,7 @@ def _map_panel(ax, run: pd.DataFrame, landmarks, means, color, limits) -> None:
     if means is not None and len(means):
         ax.plot(np.asarray(means)[:, 0], np.asarray(means)[:, 1], "+", color=color, ms=4, mew=0.8)
     ax.plot(run["true_x"], run["true_y"], "-", color="0.1", lw=2.2)
-    if "odo_x" in run and np.isfinite(run["odo_x"].to_numpy(dtype=float)).any():   # planar: odometry alone
+    if "odo_x" in run and np.isfinite(run["odo_x"].to_numpy(dtype=float)).any():   # odometry alone, where recorded
         ax.plot(run["odo_x"], run["odo_y"], "--", color="0.45", lw=0.9)
     ax.plot(run["est_x"], run["est_y"], "-", color=color, lw=1.0)
     ax.set(xlim=limits[0], ylim=limits[1], xlabel="x (m)", ylabel="y (m)")

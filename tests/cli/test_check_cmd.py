@@ -51,19 +51,20 @@ def test_the_verdict_gives_each_guarded_column_its_tolerance_in_its_unit():
     from assocbench.tracks.registry import get_track
 
     tolerances = {"tolerance": 0.02, "ate_tolerance": 0.002}
-    dense = check_cmd.tolerance_text(get_track("dense").check_metrics(False), tolerances)
+    dense = check_cmd.tolerance_text(get_track("dense").guards(False), tolerances)
     assert dense == "precision, recall may fall by 0.02; ate_mm, map_median_mm may rise by 2 mm"
     loop = check_cmd.tolerance_text((*ACCURACY_GUARDS, ATE_GUARD), {"tolerance": 0.02, "ate_tolerance": 0.01})
     assert loop == "precision, recall, f1, perfect may fall by 0.02; ate_rmse may rise by 0.01 m"
 
 
-def test_the_help_names_every_ci_suite_check_runs_by_default():
-    """``--suite``'s help lists the default suites by hand: it had left out planar_isam2_ci."""
-    import argparse
-
+def test_list_marks_every_suite_check_runs_by_default(capsys):
+    """The suites ``check`` runs by default are each track's ``ci`` ones, shown by ``assocbench list
+    suites`` (the help once listed them by hand and left out planar_isam2_ci)."""
     from assocbench.tracks.registry import iter_tracks
 
-    parser = argparse.ArgumentParser()
-    check_cmd.add_arguments(parser)
-    text = next(a.help for a in parser._actions if a.dest == "suite")
-    assert [name for track in iter_tracks() for name in track.ci_suites if name not in text] == []
+    assert main(["list", "suites"]) == 0
+    out = capsys.readouterr().out
+    marked = {line.split()[0] for line in out.splitlines()[1:] if line.endswith("(check)")}
+    assert marked == set(check_cmd.default_suites()) == {
+        name for track in iter_tracks() for name, entry in track.suites().items() if entry.ci}
+    assert "planar_isam2_ci" in marked

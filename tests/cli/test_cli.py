@@ -62,7 +62,7 @@ def test_argument_errors_point_at_the_right_help(capsys, args, needles):
     ("empty.xml", "<mujoco><worldbody><geom type='box' size='1 1 1'/></worldbody></mujoco>",
      ["frame", "--scene"], ["has no landmarks", "lm"]),
     ("bad.yaml", "frames: [1, 2\nscene: room\n", ["run", "--config"], ["malformed YAML", "line"]),
-    ("cfg.yaml", "scene: room\nbelif: {clutter: 2}\n", ["run", "--config"], ["unknown key 'belif'", "belief"]),
+    ("cfg.yaml", "scene: room\nbelif: {clutter: 2}\n", ["run", "--config"], ["unknown key 'belif.clutter'", "did you mean 'belief.clutter'"]),
 ])
 def test_bad_input_files(capsys, tmp_path, name, text, command, needles):
     """An MJCF without landmarks, malformed YAML, an unknown key in a YAML config."""

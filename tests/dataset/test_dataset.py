@@ -130,6 +130,7 @@ def test_export_refuses_a_non_empty_folder_an_unknown_suite_and_the_dense_track(
 def test_export_of_the_camera_ci_suite_is_reproducible_and_round_trips(tmp_path):
     """Written twice: the same bytes; read back: the very problems the harness scores."""
     from assocbench.harness.config import run_spec
+    from assocbench.harness.runner import Problems
     from assocbench.harness.suite import load_suite, resolve_suite
 
     assert main(["export", "--suite", "ci", "--out", str(tmp_path / "a"), "--quiet"]) == 0
@@ -141,8 +142,8 @@ def test_export_of_the_camera_ci_suite_is_reproducible_and_round_trips(tmp_path)
     for job in suite.jobs:
         for _, cfg in job.runs:
             spec = run_spec(cfg)
-            seq = spec.track_impl.load_sequence(spec.sequence)
-            expected += spec.track_impl.problems(seq, spec.belief, spec.seed)
+            problems = Problems(spec.track_impl, spec.source, spec)
+            expected += [problems[k] for k in range(len(problems))]
     got = [item for batch in read_problems(tmp_path / "a", batch_size=5) for item in batch]
     assert len(got) == len(expected) == read_card(tmp_path / "a")["sizes"]["frames"]
     for item, (problem, truth) in zip(got, expected):

@@ -96,9 +96,9 @@ def test_dense_benchmarks_drive_the_scene_own_path_at_its_default_speed(scene, t
     monkeypatch.setattr(os, "environ", os.environ.copy())
     import dense_flat
 
-    seq = dense_flat.loop_spec(scene, 500, []).sequence
+    seq = dense_flat.loop_spec(scene, 500, []).source.spec
     assert (seq.trajectory, seq.trajectory_params, seq.path_frames) == (trajectory, params, 500)
-    assert dense_flat.loop_spec(scene, 50, []).sequence.trajectory_params == {
+    assert dense_flat.loop_spec(scene, 50, []).source.spec.trajectory_params == {
         key: value * 200 / 500 for key, value in params.items()}
 
 

@@ -18,7 +18,7 @@ from assocbench.tracks.registry import get_track
 
 ROW = {"scenario": "park/hard", "method": "lsa", "precision": 0.96, "recall": 0.95, "f1": 0.955, "perfect": 0.66,
        "ate_rmse": 0.0029, "ate_smoothed": 0.0026, "status": "ok"}
-GUARDS = get_track("planar").check_metrics(loop=True)
+GUARDS = get_track("planar").guards(loop=True)
 
 
 def findings(**current) -> pd.DataFrame:

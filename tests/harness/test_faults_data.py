@@ -23,7 +23,6 @@ from assocbench.fingerprint import class_digest
 from assocbench.harness.jobstore import load_job, store_job
 from assocbench.harness.suite import Job, MethodEntry, load_suite
 from assocbench.harness.sweep import run_suite
-from assocbench.sim.scene import load_scene
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
 SMALL = SequenceSpec(scene="checkerboard", frames=2, width=320, height=240)
@@ -31,7 +30,7 @@ OTHER = SequenceSpec(scene="checkerboard", frames=3, width=320, height=240)
 
 
 def _entry(cache, spec):
-    return cache / "sequences" / f"{spec.key(load_scene(spec.scene))}.npz"
+    return cache / "sequences" / f"{spec.key()}.npz"
 
 
 @pytest.fixture(scope="module")
@@ -274,7 +273,7 @@ def test_a_cache_variable_naming_a_file_is_one_line_before_any_work(command, tmp
 
 
 @pytest.mark.parametrize("command, work", [
-    (["frame", "--scene", "crates", "-o", "{out}/f.png"], "assocbench.cli.frame_cmd.get_track"),
+    (["frame", "--scene", "crates", "-o", "{out}/f.png"], "assocbench.tracks.camera.track.CameraTrack.frame_picture"),
     (["render", "--method", "jcbb", "--scene", "crates", "--frames", "2", "-o", "{out}/r.mp4"],
      "assocbench.cli.render_cmd.execute"),
     (["export", "--suite", "ci", "--out", "{out}/e"], "assocbench.cli.export_cmd.export_suite"),
@@ -300,7 +299,7 @@ def test_every_command_that_renders_stops_on_a_cache_file_before_any_work(comman
      "assocbench.cli.run_cmd.execute"),
     ("sequences", ["run", "--method", "mnn", "--frames", "2", "--out", "{out}"], "assocbench.cli.run_cmd.execute"),
     ("planar", ["leaderboard", "--suite", "planar_ci", "--out", "{out}"], "assocbench.cli.leaderboard_cmd.run_suite"),
-    ("lines", ["frame", "--scene", "crates", "-o", "{out}/f.png"], "assocbench.cli.frame_cmd.get_track"),
+    ("lines", ["frame", "--scene", "office", "-o", "{out}/f.png"], "assocbench.tracks.plane.LidarTrack.frame_picture"),
 ])
 def test_a_file_where_the_cache_keeps_a_subfolder_is_one_line_before_any_work(sub, command, work, tmp_path,
                                                                                monkeypatch, capsys):

@@ -31,7 +31,7 @@ def test_an_unpaired_unreal_feature_is_clutter():
 
 
 def test_every_decision_has_a_colour_and_words_in_the_pictures_key():
-    from assocbench.viz.plane_view import FEATURE_KINDS, PlaneFrame
+    from assocbench.tracks.plane_view import FEATURE_KINDS, PlaneFrame
 
     assert set(DECISIONS) <= set(FEATURE_KINDS)
     assert PlaneFrame.__dataclass_fields__["kinds"].default == DECISIONS

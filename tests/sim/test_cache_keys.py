@@ -53,14 +53,15 @@ def test_the_lidar_tracks_sequences_are_cached_and_heal(tmp_path, capsys):
     from assocbench.harness.config import load_run_config, run_spec
 
     for scene in ("park", "office"):
-        spec = run_spec(load_run_config(None, [], method="jcbb", scene=scene, frames=5))
-        track = spec.track_impl
-        first = track.load_sequence(spec.sequence, tmp_path)
-        (entry,) = (tmp_path / track.name).glob("*.pkl")
-        again = track.load_sequence(spec.sequence, tmp_path)
+        def load():   # a fresh source each time: a source keeps what it loaded
+            return run_spec(load_run_config(None, [], method="jcbb", scene=scene, frames=5)).source.load(tmp_path)
+
+        first = load()
+        (entry,) = (tmp_path / run_spec(load_run_config(None, [], scene=scene)).track).glob("*.pkl")
+        again = load()
         assert all(np.array_equal(a, b) for a, b in zip(first.z, again.z)) and np.array_equal(first.poses, again.poses)
         entry.write_bytes(entry.read_bytes()[:100])      # truncated
-        healed = track.load_sequence(spec.sequence, tmp_path)
+        healed = load()
         assert np.array_equal(healed.poses, first.poses)
         err = capsys.readouterr().err
         assert "is unusable" in err and "rendering again" in err
@@ -85,16 +86,18 @@ def test_editing_a_waypoint_file_drives_the_path_again(tmp_path, track):
     from user_room import PATH, path_csv, room_mjcf
 
     from assocbench.harness.config import load_run_config, run_spec
-    from assocbench.sim.cache import spec_key
-
     file = path_csv(tmp_path)
     sets = ["trajectory=waypoints", f"trajectory_params.file={file}"]
-    spec = run_spec(load_run_config(None, sets, method="jcbb", scene=str(room_mjcf(tmp_path, track)), frames=4))
-    impl, cache = spec.track_impl, tmp_path / "cache"
-    before = spec_key(spec.sequence, impl.code)
-    first = impl.load_sequence(spec.sequence, cache)
-    assert spec_key(spec.sequence, impl.code) == before and first.poses[0, :2].tolist() == list(PATH[0])
+    scene = str(room_mjcf(tmp_path, track))
+
+    def source():   # a fresh source each time: its key is taken once, what it loads is kept
+        return run_spec(load_run_config(None, sets, method="jcbb", scene=scene, frames=4)).source
+
+    cache = tmp_path / "cache"
+    before = source().key
+    first = source().load(cache)
+    assert source().key == before and first.poses[0, :2].tolist() == list(PATH[0])
     path_csv(tmp_path, [(7.5, 1.3)] + PATH[1:])                 # the first waypoint moved 10 cm
-    assert spec_key(spec.sequence, impl.code) != before
-    again = impl.load_sequence(spec.sequence, cache)
+    assert source().key != before
+    again = source().load(cache)
     assert again.poses[0, :2].tolist() == [7.5, 1.3] and len(list((cache / track).glob("*.pkl"))) == 2

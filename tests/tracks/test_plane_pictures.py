@@ -12,8 +12,8 @@ from assocbench.cli.main import main
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.tracks.capabilities import RunFrame
 from assocbench.tracks.plane_pictures import _caption, view_box
+from assocbench.tracks.plane_view import DPI, FEATURE_KINDS, WIDTH_IN, figure_size
 from assocbench.tracks.registry import get_track
-from assocbench.viz.plane_view import DPI, FEATURE_KINDS, WIDTH_IN, figure_size
 
 RIGHT_FEATURES_PX = 300   # the key's mark alone is about 60 pixels
 
@@ -43,7 +43,7 @@ def test_frame_draws_a_top_view_of_the_scan_and_its_truth(tmp_path, capsys, scen
     printed = capsys.readouterr().out
     assert f"what the {track} track's lidar saw" in printed and "features" in printed
     img = read_png(out)
-    seq = get_track(track).load_sequence(run_spec(load_run_config(None, [], scene=scene, frames=6)).sequence)
+    seq = run_spec(load_run_config(None, [], scene=scene, frames=6)).source.sequence
     the_map = get_track(track).picture_map(seq)
     w, h = figure_size(view_box(get_track(track), seq, the_map))
     assert img.shape == (round(h * DPI), round(w * DPI), 3)

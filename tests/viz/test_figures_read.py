@@ -16,9 +16,9 @@ from assocbench.harness.leaderboard import _grid, order_scenarios
 from assocbench.scoring.aggregate import leaderboard_table
 from assocbench.tracks.dense.plots import map_canvas
 from assocbench.tracks.lines.plots import line_map_figure
+from assocbench.tracks.plane_view import PlaneFrame, plane_figure
 from assocbench.viz.cd_diagram import cd_figure
 from assocbench.viz.loop_plots import ate_figure, map_figure, nees_figure
-from assocbench.viz.plane_view import PlaneFrame, plane_figure
 from assocbench.viz.plots import pr_figure, runtime_figure
 
 RESULTS = Path(__file__).resolve().parents[2] / "results"

@@ -11,10 +11,10 @@ import pytest
 from scipy.stats import chi2
 
 from assocbench.cli.main import main
-from assocbench.viz import topview
+from assocbench.tracks.camera import topview
+from assocbench.tracks.camera.topview import top_view
 from assocbench.viz.loop_plots import ORACLE_LABEL, ate_figure, map_figure, nees_band, nees_figure
 from assocbench.viz.plots import save_figure
-from assocbench.viz.topview import top_view
 
 BOUNDS = (-2.0, 2.0, -2.0, 2.0)
 NO_MAP = (np.zeros((0, 3)), np.zeros((0, 3, 3)), np.zeros(0, bool))

@@ -26,7 +26,7 @@ def build_report(folders: Sequence[Path | str], names: Sequence[str] | None = No
     source (default: the folder as given), so a report built elsewhere reads the same."""
     if not folders:
         raise UserError("no leaderboard given: name one or more folders written by `assocbench leaderboard`, "
-                        "e.g. results results/planar")
+                        "e.g. results results/loop")
     names = [str(f) for f in folders] if names is None else list(names)
     suites = [read_suite(Path(f), name) for f, name in zip(folders, names, strict=True)]
     _name(suites)

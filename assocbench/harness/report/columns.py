@@ -16,7 +16,7 @@ from ..loop_truth import REVISIT_GAP
 class Column:
     """One metric column. better: ``"high"``, ``"low"`` or ``""`` (a count that describes, not
     ranks); main: shown by default (the others behind the page's "more columns" switch), except in
-    the kinds of suite named in ``minor_in`` (``open``, ``loop``, ``dense``); count: a run's value
+    the kinds of suite named in ``minor_in`` (``open``, ``loop``); count: a run's value
     is a whole number (frames), so a whole mean over seeds prints without decimals."""
 
     key: str
@@ -55,10 +55,10 @@ CATALOGUE = (
            "low", 2, minor_in=("loop",)),
     Column("ate_rmse", "ATE", "RMSE of the position error of each frame's pose as the estimator had it then, no "
            "alignment (as evo_ape)", "low", 4),
-    Column("ate_mm", "ATE", "RMSE of the camera positions tracked by ICP against the truth, no alignment", "low", 1),
+    Column("ate_mm", "ATE", "RMSE of the positions tracked by ICP against the truth, no alignment", "low", 1),
     Column("rot_rmse_deg", "rotation RMSE", "RMSE of the heading / rotation error of each frame's pose", "low", 3),
     Column("anees", "ANEES", "mean over frames of the pose NEES (not divided by the dof); a consistent filter's is "
-           "near the pose's degrees of freedom (6 camera, 3 planar and lines), inside the band", "", 2),
+           "near the pose's degrees of freedom (6 in space, 3 in the plane), inside the band", "", 2),
     Column("ate_smoothed", "ATE smoothed", "ATE of a smoother's final estimate of every pose (iSAM2; equal to ATE "
            "for a filter)", "low", 4, main=False),
     Column("runtime_median_ms", "runtime median", "median wall time of one call of the method's associate()", "low", 2),

@@ -84,10 +84,10 @@ def read_suite(path: Path, source: str) -> Suite:
     csv = path / CSV_NAME if path.is_dir() else path
     if not path.exists():
         raise UserError(f"{source} does not exist: give folders written by `assocbench leaderboard --out DIR` "
-                        f"(e.g. results/planar)")
+                        f"(e.g. results/loop)")
     if not csv.is_file():
         raise UserError(f"{source} holds no {CSV_NAME}: give folders written by `assocbench leaderboard --out DIR` "
-                        f"(e.g. results/planar)")
+                        f"(e.g. results/loop)")
     data = csv.read_bytes()
     table = _parse(data, source if csv == path else f"{source}/{CSV_NAME}")
     card = read_card(csv.parent / CARD_NAME, table, source)
@@ -207,7 +207,7 @@ def _pictures(folder: Path) -> list[Path]:
 
 def caption(name: str, suite: Suite) -> str:
     """Words for a leaderboard picture's file name (``leaderboard_map_park.png``: top view, park;
-    ``leaderboard_map.png`` is the first scene's, or the dense track's fused maps)."""
+    ``leaderboard_map.png`` is the first scene's, or a track's own top view)."""
     stem = name.removesuffix(".png").removeprefix("leaderboard_")
     kind, _, scene = stem.partition("_")
     if stem == "map":

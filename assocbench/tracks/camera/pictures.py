@@ -11,9 +11,9 @@ import numpy as np
 from ...sim.render import FrameRenderer
 from ...sim.scene import load_scene
 from ...viz.overlay import draw_association
-from ...viz.topview import top_view, view_bounds
 from ..capabilities import RunFrame
 from .sequence import Sequence
+from .topview import top_view, view_bounds
 from .truth_frame import draw_truth_frame, render_truth_frame
 
 TRUTH_KEY = ("green +: true projection, yellow ring: labelled feature, dark red dot: unlabelled feature, "

@@ -6,5 +6,5 @@ DENSE_COLUMNS = ("frames", "status", "failures", "precision", "recall", "precisi
                  "step_error_deg", "map_points", "compression_pct", "map_median_mm", "map_p95_mm", "icp_ms",
                  "fusion_ms", "fps")
 # the per-frame columns its leaderboard keeps (the map picture's): poses, timings, ICP's outcome
-FRAME_COLUMNS = ("est_x", "est_y", "est_z", "true_x", "true_y", "true_z", "icp_s", "fusion_s", "icp_failed",
+FRAME_COLUMNS = ("est_x", "est_y", "est_z", "true_x", "true_y", "true_z", "final_map", "icp_s", "fusion_s", "icp_failed",
                  "icp_reason", "step_error_mm", "map_points")

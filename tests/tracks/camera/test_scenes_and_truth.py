@@ -8,11 +8,11 @@ import pytest
 from assocbench.models.camera import look_at
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene, shipped_scenes
-from assocbench.tracks.base import scene_track
 from assocbench.tracks.camera.detect import detect
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, render_sequence
 from assocbench.tracks.camera.settings import DetectorConfig, TruthConfig
 from assocbench.tracks.camera.truth import label_features, occluded_by_depth, visibility
+from assocbench.tracks.inference import track_for_scene
 
 
 def label_errors(seq) -> np.ndarray:
@@ -22,7 +22,7 @@ def label_errors(seq) -> np.ndarray:
 
 
 def test_shipped_scenes_have_enough_landmarks():
-    counts = {name: len(load_scene(name).landmarks) for name in shipped_scenes() if scene_track(name) == "camera"}
+    counts = {name: len(load_scene(name).landmarks) for name in shipped_scenes() if track_for_scene(name).name == "camera"}
     assert set(counts) == {"room", "checkerboard", "corridor", "bays", "crates"}
     assert counts["room"] >= 60 and min(counts.values()) >= 60
 

@@ -9,8 +9,8 @@ from assocbench.errors import UserError
 from assocbench.sim.scene import load_scene, shipped_scenes
 from assocbench.sim.scenegen.camera import HALL_VERTICES, SceneBuilder, polygon_hall, write_scene
 from assocbench.sim.trajectory import rig_for
-from assocbench.tracks.base import scene_track
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence, trajectory_poses
+from assocbench.tracks.inference import track_for_scene
 
 
 def angles_deg(a: np.ndarray, b: np.ndarray) -> np.ndarray:
@@ -169,7 +169,7 @@ def test_implausible_normals_are_warned_in_one_line(tmp_path, capfd, case):
 
 def test_shipped_scenes_load_without_warnings(capfd):
     for name in shipped_scenes():
-        if scene_track(name) == "camera":   # the planar scenes' posts are geoms, not sites
+        if track_for_scene(name).name == "camera":   # the planar scenes' posts are geoms, not sites
             assert not load_scene(name).inferred.any()
     assert capfd.readouterr().err == ""
 
@@ -268,11 +268,10 @@ def test_waypoint_file_content_enters_the_cache_key(hall, tmp_path):
     walk = tmp_path / "walk.csv"
     walk.write_text(WALK_CSV)
     spec = SequenceSpec(scene=str(path), trajectory="waypoints", trajectory_params={"file": str(walk)})
-    scene = load_scene(path)
-    before = spec.key(scene)
-    assert spec.key(scene) == before
+    before = spec.key()
+    assert spec.key() == before
     walk.write_text(WALK_CSV.replace("1, 0, 1.4, -3", "1.5, 0, 1.4, -3"))
-    assert spec.key(scene) != before
+    assert spec.key() != before
 
 
 BAD_FILES = {

@@ -67,7 +67,7 @@ def test_the_view_and_the_whole_map_track_alike(tmp_path):
     (["--set", "dense.truth_tol=0"], ["dense.truth_tol"]),
     (["--set", "dense.path_frames=1000000000"], ["dense.path_frames", "limits.frames"]),
     (["--loop"], ["drop --loop"]),
-    (["--scene", "park"], ["dense track", "camera scene"]),
+    (["--scene", "park"], ["dense track", "scene 'park' has none"]),
 ])
 def test_bad_dense_settings_are_one_line_errors(tmp_path, capsys, args, needles):
     code = main(["run", "--method", "projective", "--scene", "crates", "--frames", "3", "--set", "resolution=[320,240]",
@@ -183,7 +183,7 @@ def test_frame_to_frame_after_a_lost_frame_registers_to_the_last_tracked_frame()
     cfg = load_run_config(None, ["resolution=[320,240]", "depth.downsample=1", "dense.tracking=frame"],
                           method="projective", scene="crates", frames=5)
     spec = run_spec(cfg)
-    seq = load_dense_sequence(spec.sequence)
+    seq = load_dense_sequence(spec.source.spec)
     calls = GuardedCalls(spec.time_limit_s, {2: ("lost on purpose", 0.0)}, lambda k, limit: None)
     recs = list(dense_records(seq, spec, calls, lambda: make_dense_associator("projective")))
     valid = [int(seq.frame(k).valid.sum()) for k in range(3)]
@@ -205,7 +205,7 @@ def test_fusion_columns_are_empty_exactly_on_the_frames_not_fused():
     cfg = load_run_config(None, ["resolution=[320,240]", "depth.downsample=1"], method="projective",
                           scene="crates", frames=4)
     spec = run_spec(cfg)
-    seq = load_dense_sequence(spec.sequence)
+    seq = load_dense_sequence(spec.source.spec)
     calls = GuardedCalls(spec.time_limit_s, {2: ("failed on purpose", 0.0)}, lambda k, limit: None)
     recs = pd.DataFrame(list(dense_records(seq, spec, calls, lambda: make_dense_associator("projective"))))
     fused = ~recs["icp_failed"].astype(bool)
@@ -230,7 +230,7 @@ def test_the_run_end_picture_and_map_file_do_not_depend_on_the_rows_spatial_orde
     scene.write_text(dw.WORLD_XML.replace("</worldbody>", '<site name="lm0" pos="2.6 0 1.5"/></worldbody>'))
     _, _, frames = dw.sequence(6, yaw_per_frame=6.0)
     seq = type("Seq", (), {"K": dw.K320, "__len__": lambda self: len(frames)})()   # what run_end reads of one
-    spec = SimpleNamespace(sequence=SimpleNamespace(scene=str(scene)))
+    spec = SimpleNamespace(source=SimpleNamespace(spec=SimpleNamespace(scene=str(scene))))
     ends = []
     for share in (None, 0.0):
         pmap, cfg = PointMap(), FusionConfig(dormant_frames=2)

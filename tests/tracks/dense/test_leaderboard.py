@@ -48,6 +48,7 @@ def test_the_leaderboard_keeps_what_tells_a_raising_method_from_icp_failing():
     from assocbench.harness.sweep import kept_frames
     from assocbench.tracks.dense.leaderboard import pictures
     from assocbench.tracks.dense.summary import METHOD_FAILED
+    from assocbench.tracks.registry import get_track
 
     reasons = ["first frame (given pose)", "no convergence", METHOD_FAILED, "converged"]
     per_frame = pd.DataFrame([{"frame": k, "icp_failed": k in (1, 2), "icp_reason": reasons[k], "error": "",
@@ -55,6 +56,6 @@ def test_the_leaderboard_keeps_what_tells_a_raising_method_from_icp_failing():
                               | {f"{p}{c}": 0.1 * k for p in ("true_", "est_") for c in "xyz"} for k in range(4)])
     per_frame.loc[2, "error"] = "RuntimeError: boom"
     label = {"scenario": "crates/default", "scene": "crates", "difficulty": "default", "method": "flaky", "seed": 0}
-    (panel,) = pictures(kept_frames(per_frame, label))
+    (panel,) = pictures(kept_frames(per_frame, label, get_track("dense").columns(False).frames))
     assert panel["raised"].tolist() == [False, False, True, False]
     assert (panel["failed"] & ~panel["raised"]).tolist() == [False, True, False, False]

@@ -42,7 +42,7 @@ def test_a_run_after_warm_up_compiles_nothing(sets):
     cfg = load_run_config(None, ["resolution=[320,240]", "depth.downsample=1", *sets], method="projective",
                           scene="crates", frames=4)
     spec = run_spec(cfg)
-    seq = load_dense_sequence(spec.sequence)
+    seq = load_dense_sequence(spec.source.spec)
     before = versions()
     records = list(dense_records(seq, spec, GuardedCalls(spec.time_limit_s, {}, lambda k, limit: None),
                                  lambda: make_dense_associator("projective"), 0, None))

@@ -15,7 +15,7 @@ from assocbench.sim.line_scene import beam_lines, load_line_scene, visible_lines
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory
 from assocbench.sim.scene import shipped_scenes
 from assocbench.sim.settings import LidarConfig
-from assocbench.tracks.base import scene_track
+from assocbench.tracks.inference import track_for_scene
 
 LINES = ("office", "hallway", "furnished")
 
@@ -114,7 +114,7 @@ def test_shipped_loops_are_collision_free_closed_and_at_scene_speed(name):
 
 
 def test_shipped_scenes_know_their_track():
-    tracks = {name: scene_track(name) for name in shipped_scenes()}
+    tracks = {name: track_for_scene(name).name for name in shipped_scenes()}
     assert {n for n, t in tracks.items() if t == "lines"} == set(LINES)
     assert {n for n, t in tracks.items() if t == "planar"} == {"park", "post_grid", "colonnade"}
     assert {tracks[n] for n in ("room", "checkerboard", "corridor")} == {"camera"}
@@ -159,7 +159,7 @@ def test_box_turned_onto_its_side_is_still_upright(tmp_path):
                                    '<geom name="lm0" type="cylinder" size="0.1 0.5"/>'])
 def test_walls_and_landmarks_in_one_scene_are_refused(tmp_path, extra):
     path = write_mjcf(tmp_path, box("lw0", 3, 0, 1, 0.1) + extra)
-    with pytest.raises(UserError, match="lines tracks .* belongs to one track") as err:
-        scene_track(path)
+    with pytest.raises(UserError, match="lines tracks: name the run.s track with --track") as err:
+        track_for_scene(path)
     assert "\n" not in str(err.value)
-    assert scene_track(write_mjcf(tmp_path, box("lw0", 3, 0, 1, 0.1), "only")) == "lines"
+    assert track_for_scene(write_mjcf(tmp_path, box("lw0", 3, 0, 1, 0.1), "only")).name == "lines"

@@ -17,7 +17,7 @@ from assocbench.sim.odometry import planar_odometry
 from assocbench.sim.planar_scene import load_planar_scene
 from assocbench.sim.planar_trajectory import CLEARANCE, planar_trajectory
 from assocbench.sim.settings import LidarConfig
-from assocbench.tracks.base import scene_track
+from assocbench.tracks.inference import track_for_scene
 from assocbench.tracks.planar.geometric_sensor import geometric_detections
 from assocbench.tracks.planar.post_detect import detect_posts, label_detections
 from assocbench.tracks.planar.sequence import PlanarSequenceSpec, make_planar_sequence
@@ -59,10 +59,10 @@ def centre_scans(scene, n: int, seed: int):
 def test_shipped_planar_scenes_load_and_know_their_track():
     for name in SHIPPED:
         s = load_planar_scene(name)
-        assert scene_track(name) == "planar" and s.post_radius == pytest.approx(0.1)
+        assert track_for_scene(name).name == "planar" and s.post_radius == pytest.approx(0.1)
         assert len(s.posts) >= 24 and len(s.post_geom_ids) == len(s.posts) and len(s.digest) == 16
     assert len(load_planar_scene("park").posts) >= 30
-    assert {scene_track(n) for n in ("room", "checkerboard", "corridor")} == {"camera"}
+    assert {track_for_scene(n).name for n in ("room", "checkerboard", "corridor")} == {"camera"}
 
 
 def test_circle_fit_centre_error_at_5m(lone_post):

@@ -18,8 +18,8 @@ from dataclasses import dataclass
 import cv2
 import numpy as np
 
-from ..errors import UserError
-from . import draw
+from ...errors import UserError
+from ...viz import draw
 
 TRUE_COLOR, EST_COLOR = (20, 20, 20), (220, 30, 30)
 LANDMARK_COLOR, GRID_COLOR, BACKGROUND = (150, 150, 150), (228, 228, 228), (255, 255, 255)
