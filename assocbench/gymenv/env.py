@@ -54,6 +54,7 @@ from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
+from ..harness.runner import checked_truth
 from ..scoring.metrics import score_frame
 from ..tracks.base import EnvSlots
 from .actions import action_mask
@@ -194,6 +195,7 @@ class AssociationEnv(gym.Env):
         """Make ``problem`` the current frame, refusing one larger than the padded spaces (a track
         whose ``env_slots`` is not a bound: its bug, said in one line, never a broadcasting error)."""
         problem.validate()          # the whole P, as the harness checks it, before the agent sees it
+        checked_truth(self._track.name, self._frame, problem, truth)   # and the truth it is scored against
         if problem.n > self.max_landmarks or problem.m > self.max_features or problem.d != self.dim:
             raise RuntimeError(f"frame {self._frame} has {problem.n} candidates and {problem.m} features of dimension "
                                f"{problem.d}, beyond the env's {self.max_landmarks} x {self.max_features} slots of "

@@ -59,12 +59,35 @@ def warm_up(associator) -> None:
 
 def frame_problems(seq, belief: BeliefConfig, seed: int) -> list[tuple[Problem, FrameTruth]]:
     """The problem and truth of every frame (open loop: the sampled belief of the scene's track);
-    built once and shared by every method of a sweep, each checked whole (``Problem.validate``)
+    built once and shared by every method of a sweep, each checked whole (``checked_frame``)
     before any method sees it."""
     problems = get_track(seq.track).problems(seq, belief, seed)
-    for problem, _ in problems:
-        problem.validate()
+    for k, (problem, truth) in enumerate(problems):
+        checked_frame(seq.track, k, problem, truth)
     return problems
+
+
+def checked_frame(track: str, k: int, problem: Problem, truth: FrameTruth) -> tuple[Problem, FrameTruth]:
+    """``(problem, truth)`` of frame ``k`` once ``Problem.validate`` passes and the truth is
+    ``checked_truth``; else a ``UserError`` naming the track and frame. A track's open-loop frame
+    is the benchmark's input, the same for every method: nothing can be measured against it, so
+    the command stops (exit 2) rather than score each method against pairs that cannot exist."""
+    try:
+        problem.validate()
+    except ValueError as exc:
+        raise UserError(f"the {track} track's frame {k} is invalid: {exc}") from None
+    return problem, checked_truth(track, k, problem, truth)
+
+
+def checked_truth(track: str, k: int, problem: Problem, truth: FrameTruth) -> FrameTruth:
+    """``truth`` once ``FrameTruth.validate(problem)`` passes; else a ``UserError`` naming the
+    track and frame (see ``checked_frame``)."""
+    try:
+        if not isinstance(truth, FrameTruth):
+            raise ValueError(f"its truth is a {type(truth).__name__}, not a FrameTruth")
+        return truth.validate(problem)
+    except ValueError as exc:
+        raise UserError(f"the {track} track's frame {k} is invalid: {exc}") from None
 
 
 def private_copy(problem: Problem) -> Problem:
