@@ -172,8 +172,20 @@ def load_run_config(config: str | Path | None = None, sets: list[str] | None = N
     """Defaults, then the YAML ``config`` (``configs/default.yaml`` if None), then ``--set``, then flags."""
     path = Path(config) if config else shipped_config("default.yaml")
     cfg = merge(defaults(), read_yaml(path), str(path))
-    cfg = merge(cfg, parse_sets(sets), "--set")
-    return merge(cfg, {k: v for k, v in flags.items() if v is not None}, "command-line flags")
+    given = parse_sets(sets)
+    flags = {k: v for k, v in flags.items() if v is not None}
+    _refuse_conflicts(flags, given, sets or [])
+    cfg = merge(cfg, given, "--set")
+    return merge(cfg, flags, "command-line flags")
+
+
+def _refuse_conflicts(flags: dict, given: dict, sets: list[str]) -> None:
+    """Refuse a key given both by its flag and by ``--set`` with another value: the flag would win
+    and the other value, right or wrong, would be dropped without a word."""
+    for key in [k for k in flags if k in given and given[k] != flags[k]]:
+        item = next(s for s in reversed(sets) if s.partition("=")[0].strip() == key)
+        flag = f"--{key}" if flags[key] is True else f"--{key} {flags[key]}"
+        raise UserError(f"{flag} and --set {item} disagree: give {key} once")
 
 
 @dataclass(frozen=True)

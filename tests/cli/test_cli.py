@@ -36,6 +36,9 @@ def assert_one_line_error(capsys, code: int, *needles: str) -> None:
     (["run", "--method", "jcbbb", "--frames", "2"], ["unknown method 'jcbbb'", "did you mean jcbb"]),
     (["run", "--set", "belief.sigma_rot=2", "--frames", "2"], ["unknown key 'belief.sigma_rot'", "sigma_rotation"]),
     (["run", "--set", "frames"], ["key=value"]),
+    # the flag won and the --set was dropped without a word, right or wrong
+    (["run", "--frames", "5", "--set", "frames=abc"], ["--frames 5 and --set frames=abc disagree: give frames once"]),
+    (["run", "--loop", "--set", "loop=false"], ["--loop and --set loop=false disagree"]),
     (["run", "--frames", "0"], ["frames must be an integer >= 1"]),
     (["run", "--set", "belief.map_fraction=2"], ["map_fraction"]),
     (["run", "--set", "msaa=-1"], ["msaa must be null", "0..16"]),

@@ -116,7 +116,7 @@ def test_frames_without_detections_are_scored_not_crashed(tmp_path):
     assert main(["run", "--method", "jcbb", "--scene", "park", "--frames", "5", "--set", "lidar.height=2",
                  "--out", str(tmp_path), "--format", "csv"]) == 1
     row, frames = pd.read_csv(tmp_path / "summary.csv").iloc[0], pd.read_csv(tmp_path / "frames.csv")
-    assert row["status"] == "nothing associated"
+    assert row["status"] == "no true pair in any frame; nothing associated"
     assert (frames["n"] > 0).all() and (frames["m"] == 0).all() and (frames["tp"] + frames["fp"] == 0).all()
 
 
