@@ -5,6 +5,7 @@ nothing half-written."""
 from __future__ import annotations
 
 import errno
+import os
 import re
 from pathlib import Path
 
@@ -148,9 +149,9 @@ def test_an_out_that_is_a_file_or_holds_other_things_is_refused(tmp_path, capsys
 def test_an_earlier_report_is_replaced_whole_or_kept(tmp_path, monkeypatch):
     out = tmp_path / "report"
     write_report(build_report([RESULTS / "lines"]), out)
-    (out / "stale.html").write_text("old page")
+    assert "lines-closed-loop.html" in _tree(out) and any(name.startswith("img/lines") for name in _tree(out))
     write_report(build_report([RESULTS]), out)
-    assert "stale.html" not in _tree(out) and "camera-open-loop.html" in _tree(out)
+    assert _tree(out) == build_report([RESULTS])   # the lines page and its pictures are gone
     before = _tree(out)
 
     def full_disk(self, data):
@@ -161,6 +162,41 @@ def test_an_earlier_report_is_replaced_whole_or_kept(tmp_path, monkeypatch):
         write_report(build_report([RESULTS / "planar"]), out)
     monkeypatch.undo()
     assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["report"]   # no temporary left
+
+
+USER_FILES = {".git/HEAD": b"ref: refs/heads/main\n", ".git/objects/ab/cdef": b"blob", "CNAME": b"bench.example.org\n",
+              "notes.md": b"my notes", "img/logo.png": b"my logo", "about.html": b"<html>my page</html>"}
+
+
+def test_a_report_over_an_earlier_one_keeps_the_users_files(tmp_path):
+    """Reproduction: `assocbench report results/lines --out site`, then the user adds `.git/`,
+    `CNAME`, notes (a published site), then `assocbench report results --out site`: the folder was
+    replaced whole and every file of the user's was deleted. Only the report's files change now."""
+    out = tmp_path / "site"
+    write_report(build_report([RESULTS / "lines"]), out)
+    for rel, data in USER_FILES.items():
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_bytes(data)
+    assert main(["report", str(RESULTS), "--out", str(out)]) == 0
+    assert _tree(out) == build_report([RESULTS]) | USER_FILES
+
+
+def test_a_report_into_an_empty_mount_point_is_written_into_it(tmp_path, monkeypatch):
+    """Reproduction: `assocbench report results --out /mnt/empty-volume` failed with `OSError [Errno
+    16] Device or resource busy`: the folder was renamed aside, and a mount point cannot be. The
+    report is written into the folder; renaming the folder itself fails here as on a mount point."""
+    out = tmp_path / "volume"
+    out.mkdir()
+    replace = os.replace
+
+    def busy(src, dst):
+        if Path(src) == out or Path(dst) == out:
+            raise OSError(errno.EBUSY, "Device or resource busy", str(src))
+        return replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", busy)
+    assert main(["report", str(RESULTS), "--out", str(out)]) == 0
+    assert _tree(out) == build_report([RESULTS]) and sorted(p.name for p in tmp_path.iterdir()) == ["volume"]
 
 
 def test_a_dense_count_of_frames_prints_whole_when_it_is(tmp_path):
