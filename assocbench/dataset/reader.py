@@ -12,6 +12,7 @@ import yaml
 from ..association.problem import Problem
 from ..association.truth import FrameTruth
 from ..errors import UserError
+from ..validation import BoundedLoader, brief
 from .schema import ARRAYS, CARD_FILE, LABELS, PROBLEMS_FILE, SCHEMA_VERSION, SIZES, pyarrow, row_problem
 
 
@@ -35,12 +36,12 @@ def read_card(folder: str | Path) -> dict:
         raise UserError(f"{folder} is not an assocbench export ({PROBLEMS_FILE} and {CARD_FILE} expected); "
                         "make one with `assocbench export --suite S --out DIR`")
     try:
-        card = yaml.safe_load(path.read_text())
+        card = yaml.load(path.read_text(), Loader=BoundedLoader)  # noqa: S506 - a SafeLoader, aliases bounded
     except yaml.YAMLError as exc:
         raise UserError(f"{path} is not a readable dataset card ({_first_line(exc)}): export the data again") from exc
     version = card.get("schema_version") if isinstance(card, dict) else None
     if version != SCHEMA_VERSION:
-        raise UserError(f"{path} has schema version {version!r}, this assocbench reads version {SCHEMA_VERSION}: "
+        raise UserError(f"{path} has schema version {brief(version)}, this assocbench reads version {SCHEMA_VERSION}: "
                         "export the data again with this version")
     return card
 

@@ -22,7 +22,7 @@ from ..errors import UserError
 from ..estimators.config import EstimatorConfig
 from ..sim.render import MAX_SIDE, MIN_SIDE, check_msaa
 from ..tracks.base import Track, get_track, iter_tracks, track_for_run
-from ..validation import check_number, free_mapping, typed_section
+from ..validation import BoundedLoader, brief, check_number, free_mapping, typed_section
 
 COMMON: dict = {
     "scene": "room",
@@ -64,9 +64,10 @@ def shipped_config(name: str) -> Path:
     return Path(str(resources.files("assocbench.configs"))) / name
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
+class _UniqueKeyLoader(BoundedLoader):
     """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
-    last silently, so a typo'd override would be lost without a word)."""
+    last silently, so a typo'd override would be lost without a word), and an alias bomb
+    (``BoundedLoader``)."""
 
     def construct_mapping(self, node, deep=False):
         seen = set()
@@ -142,7 +143,7 @@ def merge(base: dict, override: dict, where: str, prefix: str = "", everywhere: 
             raise _unknown(full, [f"{prefix}{k}" for k in out], where, everywhere)
         if isinstance(out[key], dict) and key not in FREE_FORM:
             if not isinstance(value, dict):
-                raise UserError(f"{full} in {where} must be a mapping, got {value!r}")
+                raise UserError(f"{full} in {where} must be a mapping, got {brief(value)}")
             out[key] = merge(out[key], value, where, f"{full}.", everywhere)
         else:
             out[key] = value

@@ -22,7 +22,7 @@ from ..fingerprint import class_digest, package_digest
 from ..sim.scene import scene_digest
 from ..sim.waypoints import waypoint_digest
 from ..tracks.base import GuardedMetric, Track, get_track, iter_tracks, track_for_run
-from ..validation import check_number
+from ..validation import brief, check_number
 from .config import check_method, defaults, merge, read_yaml, run_spec
 
 SUITE_KEYS = ("description", "base", "scenes", "difficulties", "backends", "methods", "seeds", "tolerance",
@@ -131,7 +131,7 @@ def _methods(raw, where: str) -> tuple[MethodEntry, ...]:
               and isinstance(item.get("params") or {}, dict)):
             out.append(MethodEntry(str(item.get("name", item["method"])), str(item["method"]), dict(item.get("params") or {})))
         else:
-            raise UserError(f"bad method entry {item!r} in {where}: use a name or {{name, method, params}}")
+            raise UserError(f"bad method entry {brief(item)} in {where}: use a name or {{name, method, params}}")
     _refuse_duplicates([m.label for m in out], "method labels", where, "give each entry its own name")
     return tuple(out)
 
@@ -146,7 +146,7 @@ def _refuse_duplicates(items: list, what: str, where: str, fix: str) -> None:
 def _list(raw, key: str, default, where: str) -> list:
     value = raw.get(key) if raw.get(key) is not None else default
     if not isinstance(value, list) or not value:
-        raise UserError(f"'{key}' in {where} must be a non-empty list, got {value!r}")
+        raise UserError(f"'{key}' in {where} must be a non-empty list, got {brief(value)}")
     return value
 
 
