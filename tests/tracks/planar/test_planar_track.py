@@ -82,7 +82,7 @@ def test_the_planar_suite_crosses_difficulties_with_back_ends():
 
 @pytest.mark.parametrize("args,needles", [
     (["--set", "lidar.beams=0"], ["lidar.beams must be an integer"]),
-    (["--set", "lidar.sigma_range=-0.01"], ["lidar.sigma_range must be a finite number in (0, 10]"]),
+    (["--set", "lidar.sigma_range=-0.01"], ["lidar.sigma_range must be a finite number in [1e-06, 10]"]),
     (["--loop", "--set", "estimator.name=fastslam"], ["estimator.name must be one of ekf, isam2"]),
     (["--set", "posts.max_rms=0"], ["posts.max_rms"]),
     (["--trajectory", "circle"], ["unknown planar trajectory 'circle'"]),
