@@ -16,6 +16,7 @@ from typing import TYPE_CHECKING
 import numpy as np
 
 from ..validation import in_range, one_of, validate_fields
+from .cache import storable
 from .planar_scene import PlanarScene
 
 if TYPE_CHECKING:
@@ -73,6 +74,7 @@ class LidarConfig:
         return np.where(a > np.pi, a - 2 * np.pi, a)
 
 
+@storable
 @dataclass
 class Scan:
     """One scan. ``geom`` and ``distance`` are the truth: the geom each beam's ray meets first

@@ -18,7 +18,7 @@ from ..estimators.config import EstimatorConfig
 from ..models.range_bearing import pose_error as planar_pose_error
 from ..models.se2 import compose
 from ..scoring.trajectory import nees_or_nan, pose_columns
-from ..sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
+from ..sim.cache import cached_sequence, load_fields, save_fields, spec_key
 from ..sim.odometry import planar_odometry
 from . import plane_pictures
 from .base import RunFrame, Track
@@ -46,8 +46,8 @@ class LidarTrack(Track):
 
     def load_sequence(self, spec: Any, cache_dir: Path | None = None, use_cache: bool = True) -> Any:
         """The sequence of ``spec`` from the shared sequence cache (``sim.cache``), else made and stored."""
-        return cached_sequence(self.cache_folder(), spec_key(spec, self.code), lambda: self.make_sequence(spec), save_pickled,
-                               load_pickled, cache_dir, use_cache, suffix=".pkl")
+        return cached_sequence(self.cache_folder(), spec_key(spec, self.code), lambda: self.make_sequence(spec), save_fields,
+                               load_fields, cache_dir, use_cache, suffix=".npz")
 
     def trajectories(self) -> list[tuple[str, str]]:
         return PLANE_TRAJECTORIES
