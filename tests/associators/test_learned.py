@@ -131,9 +131,13 @@ def small_export(folder: Path, rng, seeds: int = 3) -> None:
             p = random_problem(rng, n=6, m=8)
             nis = np.linalg.norm(p.z[:6, None] - p.zhat[None], axis=2)
             assoc = np.where(nis.min(axis=0) < 3, nis.argmin(axis=0), -1)   # a labelling the features can learn
-            assoc[np.r_[False, assoc[1:] == assoc[:-1]]] = -1
+            for j in range(len(assoc)):   # one-to-one: a feature already taken pairs nothing more
+                if assoc[j] in assoc[:j]:
+                    assoc[j] = -1
+            labels = np.full(p.m, -1)
+            labels[assoc[assoc >= 0]] = p.landmark_ids[assoc >= 0]   # a truth that fits its problem
             w.add({"track": "camera", "scene": "synthetic", "difficulty": "d", "seed": k % seeds, "frame": k}, p,
-                  FrameTruth(np.full(p.m, -1), assoc, assoc >= 0))
+                  FrameTruth(labels, assoc, assoc >= 0))
 
 
 def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
