@@ -86,8 +86,10 @@ def main(args: argparse.Namespace) -> int:
         print_table(summary_df, args.format)
     diverged = summary.get("diverged_at", -1)
     if isinstance(diverged, (int, float)) and diverged >= 0:   # a result of the method, said in words
-        print(f"note: the estimator diverged at frame {int(diverged)} (its NEES stayed above the 95 % band): a "
-              f"result of {spec.method}'s pairings, counted in diverged_at, not a failure of the run")
+        # on stderr: stdout is the summary alone, which --format json or csv must keep parseable
+        print(f"assocbench: note: the estimator diverged at frame {int(diverged)} (its NEES stayed above the 95 % "
+              f"band): a result of {spec.method}'s pairings, counted in diverged_at, not a failure of the run",
+              file=sys.stderr)
     if summary["status"] != OK:
         errors = sorted(set(frames["error"]) - {""}) if "error" in frames else []
         first = f" (first error: {errors[0]})" if errors else ""
