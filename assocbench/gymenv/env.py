@@ -34,15 +34,20 @@ metrics ``step_metrics`` (``tp``, ``fp``, ``fn``, ...).
 
 After the step that returns ``terminated=True``, ``step()`` raises ``gymnasium.error.ResetNeeded``
 until ``reset()``: there is no frame left to score (vector envs reset on the next step
-themselves). ``render_mode="rgb_array"`` serves tracks whose frames are rendered images (``Track.renders_frames``: the camera) only. A
-process forked from one that had already rendered cannot render (the GL driver does not survive
-``fork``): ``reset`` of a camera env there raises a one-line ``UserError`` instead of hanging.
+themselves). ``render_mode="rgb_array"`` draws the frame of the last step with its association:
+on a track whose frames are rendered images (``Track.renders_frames``: the camera) that image with
+the pairings drawn on it, on a track with pictures (``Track.pictures``: planar, lines) the top view
+``assocbench render`` draws (``Track.run_pictures``). A process forked from one that had already
+rendered with GL cannot render (the GL driver does not survive ``fork``): ``reset`` of a camera
+env there raises a one-line ``UserError`` instead of hanging.
 """
 
 from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
+from dataclasses import replace
 from typing import Any
 
 import gymnasium as gym
@@ -56,7 +61,7 @@ from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
 from ..harness.runner import checked_truth
 from ..scoring.metrics import score_frame
-from ..tracks.base import EnvSlots
+from ..tracks.base import EnvSlots, RunFrame
 from .actions import action_mask
 from .arguments import env_config, env_track
 
@@ -92,7 +97,7 @@ def _check_can_render() -> None:
 class AssociationEnv(gym.Env):
     """Data association on a MuJoCo scene as a Gymnasium environment (see module docstring)."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track whose frames are not rendered images
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track with no pictures
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
                  difficulty: str | dict = "medium", resolution: tuple[int, int] = (640, 480),
@@ -105,10 +110,11 @@ class AssociationEnv(gym.Env):
         self.invalid_action = invalid_action
         self._cfg, spec = env_config(scene, trajectory, frames, difficulty, resolution, config)
         self._track = env_track(spec)
-        if render_mode is not None and not self._track.renders_frames:
-            raise UserError(f"render_mode {render_mode!r} draws rendered frames, which the {self._track.name} track "
-                            f"(scene {spec.sequence.scene!r}) has not: pass render_mode=None")
-        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if self._track.renders_frames else []}
+        drawn = self._track.renders_frames or self._track.pictures
+        if render_mode is not None and not drawn:
+            raise UserError(f"render_mode {render_mode!r} draws a frame, which the {self._track.name} track "
+                            f"(scene {spec.sequence.scene!r}) has no picture of: pass render_mode=None")
+        self.metadata = {**self.metadata, "render_modes": ["rgb_array"] if drawn else []}
         n_max, m_max, d = self._slots(spec)
         self.max_landmarks, self.max_features, self.dim = n_max, m_max, d
         self.render_mode = render_mode
@@ -127,8 +133,10 @@ class AssociationEnv(gym.Env):
         self._seed = 0
         self._frame = 0
         self._problem = self._truth = None
-        self._last: tuple | None = None   # (frame, problem, association) of the last step
+        self._last: RunFrame | None = None   # the last step's frame, as its picture draws it
         self._renderer = None
+        self._pictures: Iterator[np.ndarray] | None = None   # the episode's top views (``_top_view``)
+        self._feed = _Feed()
 
     # -- episode -------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -146,7 +154,7 @@ class AssociationEnv(gym.Env):
         self._seq = self._track.load_sequence(spec.sequence)
         self._seed, self._spec, self._belief = seed, spec, spec.belief
         self._frame = 0
-        self._last = None
+        self._last = self._pictures = None
         self._load_frame()
         return self._observation(), self._info()
 
@@ -169,7 +177,7 @@ class AssociationEnv(gym.Env):
         else:
             metrics = score_frame(self._problem, self._truth, association)
             reward, info = float(metrics["tp"] - metrics["fp"]), self._apply(association, "")
-        self._last = (self._frame, self._problem, association)
+        self._last = self._run_frame(association, metrics | info, info.get("invalid_action", ""))
         info.update(step_metrics=metrics, scored_frame=self._frame)
         self._frame += 1
         if not self._over:
@@ -249,16 +257,33 @@ class AssociationEnv(gym.Env):
         return {"problem": p, "truth": truth, "action_mask": mask, "frame": self._frame}
 
     # -- pictures ------------------------------------------------------------------------
+    def _run_frame(self, association: np.ndarray, record: dict, error: str = "") -> RunFrame | None:
+        """The current frame as its picture draws it (None when nothing is drawn): the problem,
+        truth, answer, the step's ``record`` and, in the closed loop, the estimator after it."""
+        if self.render_mode != "rgb_array":
+            return None
+        estimator = None if self._track.renders_frames else self._picture_estimator()   # a camera frame draws none
+        return RunFrame(self._frame, self._problem, self._truth, association, error, record, estimator)
+
+    def _picture_estimator(self):
+        """The estimator a picture draws (none in the open loop), as it is now."""
+        return None
+
     def render(self) -> np.ndarray | None:
-        """The frame of the last step with that step's association drawn (lab-8 colours);
-        right after ``reset``, the first frame with its predictions and no association."""
+        """The frame of the last step with that step's association drawn: a camera frame with the
+        pairings in lab-8 colours, or a lidar track's top view with each feature coloured by the
+        decision; right after ``reset``, the first frame with no association."""
         if self.render_mode != "rgb_array" or self._problem is None:
             return None
+        rf = self._last or self._run_frame(np.full(self._problem.n, NO_MATCH),
+                                           score_frame(self._problem, self._truth, np.full(self._problem.n, NO_MATCH)))
+        if not self._track.renders_frames:
+            return self._top_view(rf)
         from ..sim.render import FrameRenderer
         from ..sim.scene import load_scene
         from ..viz.overlay import draw_association
 
-        k, problem, association = self._last or (self._frame, self._problem, np.full(self._problem.n, NO_MATCH))
+        k, problem, association = rf.k, rf.problem, rf.association
         if self._renderer is None:
             _check_can_render()
             s = self._spec.sequence
@@ -266,10 +291,33 @@ class AssociationEnv(gym.Env):
         rgb = self._renderer.render(self._seq.rotations[k], self._seq.positions[k])["rgb"]
         return draw_association(rgb, problem, association)
 
+    def _top_view(self, rf: RunFrame) -> np.ndarray:
+        """``rf`` drawn as ``assocbench render`` draws a run of the track (``Track.run_pictures``),
+        the agent in the method's place; one drawing per episode, fed frame by frame, so the map,
+        the view's box and the path so far are made once."""
+        if self._pictures is None:
+            spec = replace(self._spec, method="agent")
+            self._pictures = self._track.run_pictures(spec, self._seq, self._feed)
+        self._feed.item = rf
+        return next(self._pictures)
+
     def close(self) -> None:
         if self._renderer is not None:
             self._renderer.close()
             self._renderer = None
+
+
+class _Feed:
+    """An endless iterator of the frame to draw next (``item``): what a track's ``run_pictures``
+    reads its frames from, so that one drawing serves a whole episode."""
+
+    item: RunFrame | None = None
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> RunFrame:
+        return self.item
 
 
 def classical_action(info: dict, size: int, method: str = "jcbb", **params) -> np.ndarray:

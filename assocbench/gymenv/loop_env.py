@@ -26,7 +26,9 @@ slam's first frame) and ``map_size`` (confirmed landmarks).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -101,6 +103,22 @@ class LoopAssociationEnv(AssociationEnv):
 
             self._loop = ClosedLoop(self._seq, self._belief, self._spec.estimator, self._seed)
         self._take(*self._loop.begin(self._frame))
+
+    def _picture_estimator(self):
+        """A copy of the filter as it is now (after this frame's update): the next frame's
+        prediction moves the filter on before ``render`` draws this one. The live filter where it
+        cannot be copied (a back end's native objects)."""
+        try:
+            return copy.deepcopy(self._loop.filter)
+        except Exception:  # noqa: BLE001 - any back end's copy failure: draw the live one
+            return self._loop.filter
+
+    def _run_frame(self, association: np.ndarray, record: dict, error: str = ""):
+        """The open env's, with the filter's pose error in the record (the picture's caption)."""
+        rf = super()._run_frame(association, record, error)
+        if rf is None or rf.estimator is None:
+            return rf
+        return replace(rf, record={**self._loop.sensor.state_columns(rf.estimator, self._frame), **rf.record})
 
     def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
         """Update the filter with the action (None: a failed frame, no update) and report its state."""
