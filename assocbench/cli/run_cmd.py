@@ -16,6 +16,7 @@ from ..atomic import write_group
 from ..harness.config import load_run_config, run_spec
 from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
+from ..scoring.loop_summary import BAND_MARKS, band_side
 from ..scoring.trajectory import tum_text
 from .common import add_run_options, check_cache, check_output_folder, config_digest, print_table, unit_of
 
@@ -54,6 +55,15 @@ def tum_writers(frames: pd.DataFrame, out: Path) -> dict:
     return {out / "truth.txt": writer("true_"), out / "estimate.txt": writer("est_")}
 
 
+def band_note(summary: dict, metric: str) -> str:
+    """For the ``anees`` row of the table: where it lies against its band, when outside."""
+    if metric != "anees":
+        return ""
+    side = band_side(summary["anees"], summary.get("anees_lo", np.nan), summary.get("anees_hi", np.nan))
+    what = {"above": "overconfident", "below": "pessimistic"}.get(side)
+    return f"; {BAND_MARKS[side]} {side} its 95 % band: {what}" if side else ""
+
+
 def main(args: argparse.Namespace) -> int:
     cfg = load_run_config(args.config, args.sets, method=args.method, scene=args.scene,
                           trajectory=args.trajectory, frames=args.frames, seed=args.seed, loop=args.loop)
@@ -80,7 +90,7 @@ def main(args: argparse.Namespace) -> int:
     if args.format == "table":
         print(title)
         print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values()),
-                                  "unit": [unit_of(m) for m in summary]}), "table")
+                                  "unit": [unit_of(m) + band_note(summary, m) for m in summary]}), "table")
         print("wrote " + ", ".join(str(p) for p in writers))
     else:
         print_table(summary_df, args.format)

@@ -11,6 +11,7 @@ import pandas as pd
 
 from ..atomic import atomic_path, write_text
 from ..scoring.aggregate import leaderboard_table
+from ..scoring.loop_summary import BAND_LEGEND, band_mark
 from ..tracks.base import track_for_scene
 from ..viz.plots import pr_figure, runtime_figure, save_figure
 from .loop_truth import REVISIT_GAP
@@ -53,7 +54,7 @@ def loop_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
              "*ATE*: RMSE of the position error of each frame's pose as the estimator had it then (no alignment, as",
              "`evo_ape tum truth.txt estimate.txt`); *ATE smoothed*: of a smoother's final estimate of every pose;",
              "*ANEES*: mean pose NEES (6 dof camera, 3 dof planar and lines), with the two-sided 95 % χ² band for one run in",
-             "brackets (it assumes independent frames, which one run's are not);",
+             "brackets (it assumes independent frames, which one run's are not); " + BAND_LEGEND + ";",
              "*diverged*: seeds whose NEES stayed above χ²(0.999) for 5 frames; *precision / recall*: of the pairings",
              "in the loop; *duplicates / false landmarks / map RMSE*: the final map's (slam mode; 0 on a known map); *loop closures*:",
              f"revisits (a landmark measured again after {REVISIT_GAP} frames unseen) paired with its old map entry / "
@@ -65,7 +66,8 @@ def loop_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
 
     def cells(r: pd.Series) -> list[str]:
         out = [_cell(r, col) for col, _ in LOOP_MD_COLUMNS[1:]]
-        out[2] += f" [{r['anees_lo']:.2f}, {r['anees_hi']:.2f}]" if pd.notna(r["anees"]) else ""
+        mark = band_mark(r["anees"], r["anees_lo"], r["anees_hi"])
+        out[2] += f" [{r['anees_lo']:.2f}, {r['anees_hi']:.2f}]{' ' + mark if mark else ''}" if pd.notna(r["anees"]) else ""
         out += [f"{r['loop_closures']:.1f} / {r['revisits']:.1f}"] if closures else []
         out += [_cell(r, "ate_smoothed")] if smoothed else []
         return out + [f"{int(r['diverged'])}/{int(r['seeds'])}", f"{int(r['failures'])}/{int(r['frames'])}"]
