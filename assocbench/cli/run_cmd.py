@@ -98,7 +98,8 @@ def main(args: argparse.Namespace) -> int:
     if isinstance(diverged, (int, float)) and diverged >= 0:   # a result of the method, said in words
         # on stderr: stdout is the summary alone, which --format json or csv must keep parseable
         print(f"assocbench: note: the estimator diverged at frame {int(diverged)} (its NEES stayed above the 95 % "
-              f"band): a result of {spec.method}'s pairings, counted in diverged_at, not a failure of the run",
+              f"band): a result of {spec.method}'s pairings, counted in diverged_at, not a failure of the run; a "
+              f"diverged run is chaotic: its digits may differ on another machine",
               file=sys.stderr)
     if summary["status"] != OK:
         errors = sorted(set(frames["error"]) - {""}) if "error" in frames else []

@@ -11,7 +11,7 @@ import pandas as pd
 
 from ..atomic import atomic_path, write_text
 from ..scoring.aggregate import leaderboard_table
-from ..scoring.loop_summary import BAND_LEGEND, band_mark
+from ..scoring.loop_summary import BAND_LEGEND, CHAOTIC_LEGEND, CHAOTIC_MARK, band_mark, chaotic
 from ..tracks.base import track_for_scene
 from ..viz.plots import pr_figure, runtime_figure, save_figure
 from .loop_truth import REVISIT_GAP
@@ -60,7 +60,7 @@ def loop_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
              f"revisits (a landmark measured again after {REVISIT_GAP} frames unseen) paired with its old map entry / "
              "revisits.",
              f"**{ORACLE_LABEL}** is the true association, available only to the harness: the best the estimator",
-             "can do, not a method.", ""]
+             "can do, not a method.", CHAOTIC_LEGEND + ".", ""]
     closures = "revisits" in table and table["revisits"].fillna(0).gt(0).any()
     smoothed = "ate_smoothed" in table and not np.allclose(table["ate_smoothed"], table["ate_rmse"], equal_nan=True)
 
@@ -74,20 +74,22 @@ def loop_markdown(table: pd.DataFrame, difficulties: Sequence[str] = ()) -> str:
 
     headers = ([h for _, h in LOOP_MD_COLUMNS] + (["loop closures"] if closures else [])
                + (["ATE smoothed m"] if smoothed else []) + ["diverged", "failed"])
-    return "\n".join(lines + scenario_tables(table, difficulties, headers, cells))
+    flag = lambda r: f" {CHAOTIC_MARK}" if chaotic(r["diverged"]) else ""  # noqa: E731
+    return "\n".join(lines + scenario_tables(table, difficulties, headers, cells, flag))
 
 
-def scenario_tables(table: pd.DataFrame, difficulties: Sequence[str], headers: list[str], cells) -> list[str]:
+def scenario_tables(table: pd.DataFrame, difficulties: Sequence[str], headers: list[str], cells,
+                    flag=lambda r: "") -> list[str]:
     """Markdown lines of one table per scenario (scene, then difficulty order), rows in ``table``'s
-    order: the method's name (``oracle`` marked as the truth, **not ok** where its status is not)
-    and ``cells(row)``; the reasons a row is not ok follow its table."""
+    order: the method's name (``oracle`` marked as the truth, ``flag(row)`` after it, **not ok**
+    where its status is not) and ``cells(row)``; the reasons a row is not ok follow its table."""
     lines = []
     table = order_scenarios(table, difficulties)
     for scenario in table["scenario"].unique():
         lines += [f"## {scenario}", "", "| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
         notes = []
         for _, r in table[table["scenario"] == scenario].iterrows():
-            name = f"**{ORACLE_LABEL}**" if r["method"] == "oracle" else str(r["method"])
+            name = (f"**{ORACLE_LABEL}**" if r["method"] == "oracle" else str(r["method"])) + flag(r)
             if r.get("status", "ok") != "ok":
                 name += " **not ok**"
                 notes.append(f"- {r['method']}: {r['status']}")

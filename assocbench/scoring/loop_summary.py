@@ -57,6 +57,17 @@ BAND_LEGEND = ("▲ / ▼ beside an ANEES: it lies above / below its 95 % band, 
                "covariance smaller than its errors) / pessimistic (larger)")
 
 
+CHAOTIC_MARK = "†"
+CHAOTIC_LEGEND = ("† chaotic: a seed's filter diverged (NEES above χ²(0.999) for good); its pairings then hinge on "
+                  "the last bits of the arithmetic (the CPU's maths library and BLAS kernels), so the row's digits "
+                  "may differ on another machine; rows without † reproduce to every digit")
+
+
+def chaotic(diverged_seeds: float) -> bool:
+    """Whether a leaderboard row is chaotic: at least one of its seeds' runs diverged."""
+    return bool(np.isfinite(diverged_seeds) and diverged_seeds > 0)
+
+
 def band_side(anees_value: float, lo: float, hi: float) -> str:
     """``"above"`` or ``"below"`` where an ANEES lies outside its band ``[lo, hi]``, else ``""``
     (inside, or any of them NaN)."""

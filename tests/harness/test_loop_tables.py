@@ -1,5 +1,6 @@
 """The closed-loop tables say what their numbers mean: an ANEES outside its 95 % band is marked
-(``run``'s table, the leaderboard's Markdown, the report)."""
+(``run``'s table, the leaderboard's Markdown, the report), and so is a chaotic row (a seed diverged:
+its digits may differ on another machine)."""
 
 from __future__ import annotations
 
@@ -8,7 +9,7 @@ import pandas as pd
 
 from assocbench.harness.leaderboard import loop_markdown
 from assocbench.scoring.aggregate import leaderboard_table
-from assocbench.scoring.loop_summary import BAND_LEGEND, LOOP_COLUMNS, band_mark
+from assocbench.scoring.loop_summary import BAND_LEGEND, CHAOTIC_LEGEND, LOOP_COLUMNS, band_mark
 
 
 def summaries(anees_by_method: dict[str, list[float]], diverged: dict[str, list[int]] | None = None) -> pd.DataFrame:
@@ -66,3 +67,30 @@ def test_the_report_marks_an_anees_outside_its_band(tmp_path):
     page = next(v.decode() for k, v in build_report([folder]).items() if k != "index.html" and k.endswith(".html"))
     assert "[2.29, 3.81] ▲</td>" in page and "[2.29, 3.81]</td>" in page
     assert "▲ / ▼ beside an ANEES" in page
+
+
+def method_cell(markdown: str, method: str) -> str:
+    return next(x for x in markdown.splitlines() if x.startswith(f"| {method} ")).split(" | ")[0]
+
+
+def test_a_row_with_a_diverged_seed_is_marked_chaotic():
+    """Reproduction: on a second machine 81 of 84 planar leaderboard rows agreed to every digit; the
+    3 that did not (naive16, hard, iSAM2) were runs swamped by wrong pairings, and nothing in the
+    leaderboard said which rows may not reproduce. A row with a diverged seed is marked †, with the
+    rule in the legend."""
+    runs = summaries({"steady": [3.0, 3.1], "swamped": [3.0, 900.0]}, diverged={"swamped": [-1, 12]})
+    md = loop_markdown(leaderboard_table(runs))
+    assert method_cell(md, "swamped") == "| swamped †" and method_cell(md, "steady") == "| steady"
+    assert CHAOTIC_LEGEND in md and "may differ on another machine" in CHAOTIC_LEGEND
+
+
+def test_the_report_says_a_diverged_row_is_chaotic(tmp_path):
+    from assocbench.harness.report import build_report
+
+    folder = tmp_path / "loop"
+    folder.mkdir()
+    runs = summaries({"steady": [3.0], "swamped": [900.0]}, diverged={"swamped": [12]})
+    leaderboard_table(runs).to_csv(folder / "leaderboard.csv", index=False)
+    page = next(v.decode() for k, v in build_report([folder]).items() if k != "index.html" and k.endswith(".html"))
+    badge = page[page.index('data-v="swamped"'):].split("</td>")[0]
+    assert "1 diverged" in badge and "chaotic: its pairings then hinge" in badge

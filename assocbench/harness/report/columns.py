@@ -113,7 +113,9 @@ COUNT_COLUMNS = {"timed_out": ("timed out", "frames where the method spent its s
                                "hypothesis so far"),
                  "failures": ("failed", "frames where the method raised, returned an invalid association, overran its time limit "
                               "or its worker died"),
-                 "diverged": ("diverged", "seeds whose NEES stayed above the chi-square 0.999 bound for 5 frames")}
+                 "diverged": ("diverged", "seeds whose NEES stayed above the chi-square 0.999 bound for 5 frames; a "
+                              "row with one is chaotic: its pairings then hinge on the last bits of the arithmetic, "
+                              "so its digits may differ on another machine")}
 NOT_METRICS = {"scenario", "method", "status", "seeds", "frames", "seed", "scene", "difficulty", "error", "anees_lo",
                "anees_hi", "diverged_at", "jc_share", "clutter_accepted", "runtime_p95_ms", *COUNT_COLUMNS}
 
