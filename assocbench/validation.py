@@ -17,13 +17,60 @@ from __future__ import annotations
 
 import dataclasses
 import math
+import reprlib
 import types
 import typing
 from typing import Any
 
+import yaml
+
 from .errors import UserError
 
 Number = int | float
+MAX_YAML_VALUES = 100_000   # values a settings file may expand to through its aliases
+_BRIEF = reprlib.Repr()
+_BRIEF.maxlevel, _BRIEF.maxlist, _BRIEF.maxdict, _BRIEF.maxstring, _BRIEF.maxother = 3, 6, 6, 60, 60
+
+
+def brief(value: Any) -> str:
+    """``repr(value)`` for a message, at most 80 characters, made without walking all of
+    ``value`` (``reprlib``): a value a message quotes may be huge (a YAML alias bomb expands to
+    10⁹ items)."""
+    text = _BRIEF.repr(value)
+    return text if len(text) <= 80 else text[:77] + "..."
+
+
+class BoundedLoader(yaml.SafeLoader):
+    """PyYAML's safe loader, refusing a document that expands, through its aliases (``&a`` ...
+    ``*a``), to more than ``MAX_YAML_VALUES`` values, or that refers to itself: ten lines of
+    nested aliases make 10⁹ values, which every later step (a check, a digest, a message) expands."""
+
+    def compose_document(self):
+        node = super().compose_document()
+        if node is not None and _expanded_size(node, {}, set()) > MAX_YAML_VALUES:
+            raise yaml.constructor.ConstructorError(
+                None, None, f"its aliases expand to more than {MAX_YAML_VALUES} values; write the values out")
+        return node
+
+
+def _expanded_size(node: yaml.Node, memo: dict, open_nodes: set) -> int:
+    """How many values ``node`` stands for once every alias is written out (each shared node is
+    counted where it is used, computed once); ``MAX_YAML_VALUES + 1`` for a node that contains itself."""
+    if id(node) in memo:
+        return memo[id(node)]
+    if id(node) in open_nodes:
+        return MAX_YAML_VALUES + 1
+    open_nodes.add(id(node))
+    children = [] if isinstance(node, yaml.ScalarNode) else (
+        [n for pair in node.value for n in pair] if isinstance(node, yaml.MappingNode) else node.value)
+    size = 1
+    for child in children:
+        size += _expanded_size(child, memo, open_nodes)
+        if size > MAX_YAML_VALUES:
+            break
+    open_nodes.discard(id(node))
+    memo[id(node)] = size
+    return size
 
 
 def in_range(lo: Number | None = None, hi: Number | None = None, *, lo_open: bool = False,
@@ -59,17 +106,17 @@ def check_number(value: Any, key: str, *, integer: bool = False, lo=None, hi=Non
     where = describe_range(lo, hi, lo_open, hi_open)
     expect = f"{key} must be {what}" + ("" if where == "finite" else f" {where}")
     if isinstance(value, bool) or not isinstance(value, (int, float)):
-        raise UserError(f"{expect}, got {value!r}")
+        raise UserError(f"{expect}, got {brief(value)}")
     if integer and not isinstance(value, int):
-        raise UserError(f"{expect}, got {value!r}")
+        raise UserError(f"{expect}, got {brief(value)}")
     if integer and abs(value) > INT_LIMIT:   # compiled kernels take 64-bit integers
-        raise UserError(f"{expect} of at most {INT_LIMIT:.0e} in size, got {value!r}")
+        raise UserError(f"{expect} of at most {INT_LIMIT:.0e} in size, got {brief(value)}")
     if not math.isfinite(value):
-        raise UserError(f"{expect}, got {value!r}")
+        raise UserError(f"{expect}, got {brief(value)}")
     below = lo is not None and (value <= lo if lo_open else value < lo)
     above = hi is not None and (value >= hi if hi_open else value > hi)
     if below or above:
-        raise UserError(f"{expect}, got {value!r}")
+        raise UserError(f"{expect}, got {brief(value)}")
     return value
 
 
@@ -95,14 +142,14 @@ def check_field(value: Any, annotation, metadata, key: str) -> Any:
         check_number(value, key, integer=integer, lo=rng[0], hi=rng[1], lo_open=rng[2], hi_open=rng[3])
         return float(value) if not integer else value
     if kinds == {bool} and not isinstance(value, bool):
-        raise UserError(f"{key} must be true or false, got {value!r}")
+        raise UserError(f"{key} must be true or false, got {brief(value)}")
     if kinds == {dict} and not isinstance(value, dict):
-        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {value!r}")
+        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {brief(value)}")
     if kinds == {str}:
         choices = metadata.get("choices")
         if not isinstance(value, str) or (choices and value not in choices):
             hint = f"one of {', '.join(choices)}" if choices else "a string"
-            raise UserError(f"{key} must be {hint}, got {value!r}")
+            raise UserError(f"{key} must be {hint}, got {brief(value)}")
     return value
 
 
@@ -121,14 +168,14 @@ def validate_fields(obj: Any, section: str) -> None:
             value = check_field(value, hints[f.name], f.metadata, key)
             object.__setattr__(obj, f.name, value)
         elif isinstance(value, float) and not math.isfinite(value):
-            raise UserError(f"{key} must be a finite number, got {value!r}")
+            raise UserError(f"{key} must be a finite number, got {brief(value)}")
 
 
 def typed_section(cls, values: dict, section: str):
     """``cls(**values)``: a settings section built from its mapping, every field checked; a
     one-line ``UserError`` naming ``section`` for a non-mapping or a bad value."""
     if not isinstance(values, dict):
-        raise UserError(f"{section} must be a mapping of settings, got {values!r}")
+        raise UserError(f"{section} must be a mapping of settings, got {brief(values)}")
     try:
         return cls(**values)
     except (TypeError, ValueError) as exc:
@@ -141,7 +188,7 @@ def free_mapping(cfg: dict, key: str) -> dict:
     """A free-form section (``params``, ``trajectory_params``): a mapping whose numbers are finite."""
     value = cfg[key] if cfg[key] is not None else {}
     if not isinstance(value, dict):
-        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {value!r}")
+        raise UserError(f"{key} must be a mapping such as {{name: value}}, got {brief(value)}")
     for name, item in value.items():
         if isinstance(item, float):
             check_number(item, f"{key}.{name}")

@@ -13,7 +13,7 @@ from dataclasses import fields, is_dataclass
 from importlib.metadata import entry_points
 
 from ..errors import UserError
-from ..validation import validate_fields
+from ..validation import brief, validate_fields
 from .base import Associator
 from .ccda import CCDA
 from .dense import DENSE_METHODS, DenseAssociator
@@ -104,7 +104,7 @@ def make_associator(method: str, **params) -> Associator:
     except KeyboardInterrupt:
         raise
     except BaseException as exc:  # noqa: BLE001 - a plugin's constructor is user code
-        raise UserError(f"cannot build method {method!r} with parameters {params}: {type(exc).__name__}: {exc}") from None
+        raise UserError(f"cannot build method {method!r} with parameters {brief(params)}: {type(exc).__name__}: {exc}") from None
     if allowed is not None and not isinstance(associator, Associator):
         validate_fields(associator, "params")   # Associator subclasses check themselves
     return associator

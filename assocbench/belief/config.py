@@ -14,6 +14,10 @@ import numpy as np
 from ..association.problem import NO_MATCH
 from ..validation import in_range, validate_fields
 
+MAX_SIGMA_M = 1000.0
+MIN_SIGMA_PIXEL, MAX_SIGMA_PIXEL = 1e-6, 1e4
+MAX_MISCALIBRATION = 1000.0
+
 
 @dataclass(frozen=True)
 class BeliefConfig:
@@ -29,12 +33,15 @@ class BeliefConfig:
     max_view_angle: candidates must face the estimated camera within this angle (deg).
     """
 
-    sigma_position: float = field(default=0.03, metadata=in_range(0))
+    # at most MAX_SIGMA_M, and k at most MAX_MISCALIBRATION: a std of 1e300 squared overflows (an
+    # OverflowError in the worker), and an estimate a kilometre off sees no landmark of any scene
+    sigma_position: float = field(default=0.03, metadata=in_range(0, MAX_SIGMA_M))
     sigma_rotation: float = field(default=0.5, metadata=in_range(0, 90))
-    sigma_landmark: float = field(default=0.02, metadata=in_range(0))
-    sigma_common: float = field(default=0.0, metadata=in_range(0))
-    sigma_pixel: float = field(default=1.0, metadata=in_range(0, lo_open=True))
-    miscalibration: float = field(default=1.0, metadata=in_range(0, lo_open=True))
+    sigma_landmark: float = field(default=0.02, metadata=in_range(0, MAX_SIGMA_M))
+    sigma_common: float = field(default=0.0, metadata=in_range(0, MAX_SIGMA_M))
+    # at least MIN_SIGMA_PIXEL: 1e-300 squares to 0, a singular R; at most MAX_SIGMA_PIXEL, many images wide
+    sigma_pixel: float = field(default=1.0, metadata=in_range(MIN_SIGMA_PIXEL, MAX_SIGMA_PIXEL))
+    miscalibration: float = field(default=1.0, metadata=in_range(0, MAX_MISCALIBRATION, lo_open=True))
     map_fraction: float = field(default=1.0, metadata=in_range(0, 1))
     clutter: int = field(default=0, metadata=in_range(0))
     max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))

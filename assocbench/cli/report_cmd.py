@@ -18,7 +18,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
                    help="leaderboard folders (each holding the leaderboard.csv that `assocbench leaderboard --out` "
                         "wrote), e.g. results results/loop")
     p.add_argument("--out", default="results/runs/report",
-                   help="folder for the report: new, empty or an earlier report (replaced whole); open its index.html")
+                   help="folder for the report: new, empty or an earlier report (its files replaced, other files "
+                        "there kept); open its index.html")
 
 
 def main(args: argparse.Namespace) -> int:

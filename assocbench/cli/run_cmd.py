@@ -17,6 +17,7 @@ from ..harness.config import load_run_config, run_spec
 from ..harness.runner import describe_run
 from ..harness.sandbox import execute
 from ..scoring.aggregate import OK
+from ..scoring.loop_summary import BAND_MARKS, band_side
 from ..scoring.trajectory import tum_text
 from ..tracks.capabilities import RunFiles, has
 from .common import add_run_options, check_cache, check_output_folder, config_digest, print_table, unit_of
@@ -60,6 +61,13 @@ def source_labels(source) -> dict:
     """What a simulated source's path was (``trajectory``: the resolved name), for the summary."""
     resolve = getattr(getattr(source, "spec", None), "resolved_trajectory", None)
     return {"trajectory": resolve()} if callable(resolve) else {}
+def band_note(summary: dict, metric: str) -> str:
+    """For the ``anees`` row of the table: where it lies against its band, when outside."""
+    if metric != "anees":
+        return ""
+    side = band_side(summary["anees"], summary.get("anees_lo", np.nan), summary.get("anees_hi", np.nan))
+    what = {"above": "overconfident", "below": "pessimistic"}.get(side)
+    return f"; {BAND_MARKS[side]} {side} its 95 % band: {what}" if side else ""
 
 
 def main(args: argparse.Namespace) -> int:
@@ -92,14 +100,18 @@ def main(args: argparse.Namespace) -> int:
         print(title)
         units = track.columns(spec.loop).units
         print_table(pd.DataFrame({"metric": list(summary), "value": list(summary.values()),
-                                  "unit": [units.get(m) or unit_of(m) for m in summary]}), "table")
+                                  "unit": [(units.get(m) or unit_of(m)) + band_note(summary, m) for m in summary]}),
+                    "table")
         print("wrote " + ", ".join(str(p) for p in writers))
     else:
         print_table(summary_df, args.format)
     diverged = summary.get("diverged_at", -1)
     if isinstance(diverged, (int, float)) and diverged >= 0:   # a result of the method, said in words
-        print(f"note: the estimator diverged at frame {int(diverged)} (its NEES stayed above the 95 % band): a "
-              f"result of {spec.method}'s pairings, counted in diverged_at, not a failure of the run")
+        # on stderr: stdout is the summary alone, which --format json or csv must keep parseable
+        print(f"assocbench: note: the estimator diverged at frame {int(diverged)} (its NEES stayed above the 95 % "
+              f"band): a result of {spec.method}'s pairings, counted in diverged_at, not a failure of the run; a "
+              f"diverged run is chaotic: its digits may differ on another machine",
+              file=sys.stderr)
     if summary["status"] != OK:
         errors = sorted(set(frames["error"]) - {""}) if "error" in frames else []
         first = f" (first error: {errors[0]})" if errors else ""

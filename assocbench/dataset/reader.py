@@ -3,6 +3,7 @@ a dataset larger than memory streams (only one batch's arrays are ever held)."""
 
 from __future__ import annotations
 
+import hashlib
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -12,6 +13,7 @@ import yaml
 from ..association.problem import Problem
 from ..association.truth import FrameTruth
 from ..errors import UserError
+from ..validation import BoundedLoader, brief
 from .schema import ARRAYS, CARD_FILE, LABELS, PROBLEMS_FILE, SCHEMA_VERSION, SIZES, pyarrow, row_problem
 
 
@@ -35,12 +37,12 @@ def read_card(folder: str | Path) -> dict:
         raise UserError(f"{folder} is not an assocbench export ({PROBLEMS_FILE} and {CARD_FILE} expected); "
                         "make one with `assocbench export --suite S --out DIR`")
     try:
-        card = yaml.safe_load(path.read_text())
+        card = yaml.load(path.read_text(), Loader=BoundedLoader)  # noqa: S506 - a SafeLoader, aliases bounded
     except yaml.YAMLError as exc:
         raise UserError(f"{path} is not a readable dataset card ({_first_line(exc)}): export the data again") from exc
     version = card.get("schema_version") if isinstance(card, dict) else None
     if version != SCHEMA_VERSION:
-        raise UserError(f"{path} has schema version {version!r}, this assocbench reads version {SCHEMA_VERSION}: "
+        raise UserError(f"{path} has schema version {brief(version)}, this assocbench reads version {SCHEMA_VERSION}: "
                         "export the data again with this version")
     return card
 
@@ -64,6 +66,11 @@ def _batch_problems(batch) -> Iterator[LabelledProblem]:
         for name, (values, offsets) in lists.items():
             row[name] = values[offsets[k]:offsets[k + 1]]
         problem, truth = row_problem(row)
+        try:
+            truth.validate(problem)
+        except ValueError as exc:
+            raise UserError(f"frame {row['frame']} of {row['scene']} seed {row['seed']} in the export is invalid: {exc}; "
+                            "export the data again") from None
         yield LabelledProblem(problem, truth, row["track"], row["scene"], row["difficulty"], int(row["seed"]),
                               int(row["frame"]))
 
@@ -74,9 +81,10 @@ def count_frames(folder: str | Path) -> int:
 
 
 def _open_table(folder: str | Path):
-    """The export's Parquet table, opened after its card is checked; a damaged or foreign table is
-    a one-line error (pyarrow's own would be a traceback)."""
-    read_card(folder)
+    """The export's Parquet table, opened after its card is checked; a damaged or foreign table, or
+    one whose bytes are not those the card's SHA-256 records, is a one-line error (pyarrow's own
+    would be a traceback)."""
+    card = read_card(folder)
     path = Path(folder) / PROBLEMS_FILE
     pa = pyarrow()
     try:
@@ -86,7 +94,21 @@ def _open_table(folder: str | Path):
     missing = [name for name, _ in LABELS + SIZES + ARRAYS if name not in parquet.schema_arrow.names]
     if missing:
         raise UserError(f"{path} lacks the columns {', '.join(missing)} of an assocbench export: export the data again")
+    _check_digest(path, card)
     return parquet
+
+
+def _check_digest(path: Path, card: dict) -> None:
+    """Refuse a table whose SHA-256 is not the one the card records: a table changed after export
+    (truth labels edited, rows swapped) would train and score silently."""
+    recorded = ((card.get("files") or {}).get(PROBLEMS_FILE) or {}).get("sha256")
+    if not isinstance(recorded, str):
+        raise UserError(f"{path.parent / CARD_FILE} records no sha256 of {PROBLEMS_FILE}: export the data again")
+    with path.open("rb") as f:
+        digest = hashlib.file_digest(f, "sha256").hexdigest()
+    if digest != recorded:
+        raise UserError(f"{path} is not the table its card records (sha256 {digest[:16]}, the card's {recorded[:16]}): "
+                        "it was changed after export; export the data again")
 
 
 def _first_line(exc: Exception) -> str:

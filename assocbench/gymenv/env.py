@@ -45,6 +45,7 @@ from __future__ import annotations
 
 import os
 import sys
+from collections.abc import Iterator
 from typing import Any
 
 import gymnasium as gym
@@ -56,7 +57,7 @@ from ..association.compatibility import marginal_blocks
 from ..association.problem import NO_MATCH, Problem, validate_association
 from ..errors import UserError
 from ..harness.config import RunSpec, merge, run_spec
-from ..harness.runner import Problems, load_source
+from ..harness.runner import Problems, checked_truth, load_source
 from ..scoring.metrics import score_frame
 from ..tracks.capabilities import EnvSlots, Pictures, RunFrame, has
 from .actions import action_mask
@@ -94,7 +95,7 @@ def _check_can_render() -> None:
 class AssociationEnv(gym.Env):
     """Data association on a MuJoCo scene as a Gymnasium environment (see module docstring)."""
 
-    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track whose frames are not rendered images
+    metadata = {"render_modes": ["rgb_array"], "render_fps": 10}   # per instance: none on a track with no pictures
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
                  difficulty: str | dict | None = None, resolution: tuple[int, int] = (640, 480),
@@ -131,9 +132,9 @@ class AssociationEnv(gym.Env):
         self._seed = 0
         self._frame = 0
         self._problem = self._truth = None
-        self._last: tuple | None = None   # (frame, problem, association) of the last step
-        self._pictures = None        # the track's picture generator, fed one frame at a time
-        self._shown = None           # the frame ``render`` draws next
+        self._last: RunFrame | None = None   # the last step's frame, as its picture draws it
+        self._pictures: Iterator[np.ndarray] | None = None   # the episode's top views (``_top_view``)
+        self._feed = _Feed()
 
     # -- episode -------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
@@ -153,7 +154,7 @@ class AssociationEnv(gym.Env):
         self._seed, self._spec, self._belief = seed, spec, spec.belief
         self.close()   # the last episode's pictures
         self._frame = 0
-        self._last = None
+        self._last = self._pictures = None
         self._load_frame()
         return self._observation(), self._info()
 
@@ -176,7 +177,7 @@ class AssociationEnv(gym.Env):
         else:
             metrics = score_frame(self._problem, self._truth, association)
             reward, info = float(metrics["tp"] - metrics["fp"]), self._apply(association, "")
-        self._last, self._last_truth = (self._frame, self._problem, association), self._truth
+        self._last = self._run_frame(association, metrics | info, info.get("invalid_action", ""))
         info.update(step_metrics=metrics, scored_frame=self._frame)
         self._frame += 1
         if not self._over:
@@ -202,6 +203,7 @@ class AssociationEnv(gym.Env):
         """Make ``problem`` the current frame, refusing one larger than the padded spaces (a track
         whose ``env_slots`` is not a bound: its bug, said in one line, never a broadcasting error)."""
         problem.validate()          # the whole P, as the harness checks it, before the agent sees it
+        checked_truth(self._track.name, self._frame, problem, truth)   # and the truth it is scored against
         if problem.n > self.max_landmarks or problem.m > self.max_features or problem.d != self.dim:
             raise RuntimeError(f"frame {self._frame} has {problem.n} candidates and {problem.m} features of dimension "
                                f"{problem.d}, beyond the env's {self.max_landmarks} x {self.max_features} slots of "
@@ -255,33 +257,49 @@ class AssociationEnv(gym.Env):
         return {"problem": p, "truth": truth, "action_mask": mask, "frame": self._frame}
 
     # -- pictures ------------------------------------------------------------------------
+    def _run_frame(self, association: np.ndarray, record: dict, error: str = "") -> RunFrame | None:
+        """The current frame as its picture draws it (None when nothing is drawn): the problem,
+        truth, answer, the step's ``record`` and, in the closed loop, the estimator after it."""
+        if self.render_mode != "rgb_array":
+            return None
+        return RunFrame(self._frame, self._problem, self._truth, association, error, record, self._picture_estimator())
+
+    def _picture_estimator(self):
+        """The estimator a picture draws (none in the open loop), as it is now."""
+        return None
+
     def render(self) -> np.ndarray | None:
-        """The frame of the last step with that step's association drawn, as the track pictures a
-        run (``Pictures.run_pictures``); right after ``reset``, the first frame with no association."""
+        """The frame of the last step with that step's association drawn, as ``assocbench render``
+        draws a run of the track (``Pictures.run_pictures``, the agent in the method's place); right
+        after ``reset``, the first frame with no association. One drawing per episode, fed frame by
+        frame, so what it makes once (a renderer, the map, the view's box, the path) is made once."""
         if self.render_mode != "rgb_array" or self._problem is None:
             return None
-        k, problem, association = self._last or (self._frame, self._problem, np.full(self._problem.n, NO_MATCH))
-        truth = self._truth if self._last is None else self._last_truth
-        self._shown = self._run_frame(k, problem, truth, association)
+        empty = np.full(self._problem.n, NO_MATCH)
+        self._feed.item = self._last or self._run_frame(empty, score_frame(self._problem, self._truth, empty))
         if self._pictures is None:
             if self._gl:
                 _check_can_render()
-            self._pictures = self._track.run_pictures(self._spec, self._seq, self._feed())
+            self._pictures = self._track.run_pictures(self._spec.with_method("agent", {}), self._seq, self._feed)
         return next(self._pictures)
-
-    def _feed(self):
-        """The frames ``render`` asks the track's picture generator for, one per call."""
-        while True:
-            yield self._shown
-
-    def _run_frame(self, k: int, problem: Problem, truth, association: np.ndarray) -> RunFrame:
-        """Frame ``k`` as a recorded run's frame (open loop: no estimator)."""
-        return RunFrame(k, problem, truth, association, "", score_frame(problem, truth, association))
 
     def close(self) -> None:
         if self._pictures is not None:
-            self._pictures.close()   # the generator's own cleanup (a renderer's GL context) runs now
+            self._pictures.close()   # the drawing's own cleanup (a renderer's GL context) runs now
             self._pictures = None
+
+
+class _Feed:
+    """An endless iterator of the frame to draw next (``item``): what a track's ``run_pictures``
+    reads its frames from, so that one drawing serves a whole episode."""
+
+    item: RunFrame | None = None
+
+    def __iter__(self):
+        return self
+
+    def __next__(self) -> RunFrame:
+        return self.item
 
 
 def classical_action(info: dict, size: int, method: str = "jcbb", **params) -> np.ndarray:

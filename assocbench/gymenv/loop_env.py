@@ -26,7 +26,9 @@ slam's first frame) and ``map_size`` (confirmed landmarks).
 
 from __future__ import annotations
 
+import copy
 from collections.abc import Mapping
+from dataclasses import replace
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -34,8 +36,7 @@ import numpy as np
 from ..errors import UserError
 from ..estimators.config import MODES
 from ..harness.config import RunSpec
-from ..scoring.metrics import score_frame
-from ..tracks.capabilities import EnvSlots, RunFrame
+from ..tracks.capabilities import EnvSlots
 from .env import AssociationEnv
 
 if TYPE_CHECKING:   # imported when an episode starts: `import assocbench` stays free of the harness
@@ -79,7 +80,6 @@ class LoopAssociationEnv(AssociationEnv):
                  invalid_action: str = "penalize", mode: str | None = None,
                  estimator: dict | None = None, track: str | None = None) -> None:
         self._loop: ClosedLoop | None = None
-        self._record: dict = {}
         super().__init__(scene, trajectory, frames, difficulty, resolution, render_mode,
                          loop_config(config, mode, estimator), invalid_action, track)
 
@@ -104,16 +104,25 @@ class LoopAssociationEnv(AssociationEnv):
             self._loop = ClosedLoop(self._seq, self._spec)
         self._take(*self._loop.begin(self._frame))
 
-    def _run_frame(self, k: int, problem, truth, association: np.ndarray) -> RunFrame:
-        """Frame ``k`` with the filter after its update (before the first step: the filter at frame 0)."""
-        state = self._record if self._last is not None else {"pos_err": float("nan"), "rot_err_deg": float("nan"),
-                                                             "nees": float("nan"), "map_size": 0}
-        return RunFrame(k, problem, truth, association, "", {**state, **score_frame(problem, truth, association)},
-                        self._loop.filter)
+    def _picture_estimator(self):
+        """A copy of the filter as it is now (after this frame's update): the next frame's
+        prediction moves the filter on before ``render`` draws this one. The live filter where it
+        cannot be copied (a back end's native objects)."""
+        try:
+            return copy.deepcopy(self._loop.filter)
+        except Exception:  # noqa: BLE001 - any back end's copy failure: draw the live one
+            return self._loop.filter
+
+    def _run_frame(self, association: np.ndarray, record: dict, error: str = ""):
+        """The open env's, with the filter's pose error in the record (the picture's caption)."""
+        rf = super()._run_frame(association, record, error)
+        if rf is None or rf.estimator is None:
+            return rf
+        return replace(rf, record={**self._loop.sensor.state_columns(rf.estimator, self._frame), **rf.record})
 
     def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
         """Update the filter with the action (None: a failed frame, no update) and report its state."""
-        record = self._record = self._loop.finish(association, error=error)
+        record = self._loop.finish(association, error=error)
         info = {key: record[key] for key in LOOP_INFO}
         if record["error"] and association is not None:   # the update itself failed (not positive definite)
             info["filter_error"] = record["error"]

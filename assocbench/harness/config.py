@@ -27,7 +27,7 @@ from ..tracks.base import Track
 from ..tracks.capabilities import ClosedLoop, OwnFrames, Pictures, Requirements, has, lacks
 from ..tracks.inference import infer_track, track_for_method
 from ..tracks.registry import DEFAULT_TRACK, get_track, iter_tracks
-from ..validation import free_mapping, in_range
+from ..validation import brief, free_mapping, in_range
 from .yamlfile import parse_sets, read_yaml
 
 ORACLE = "oracle"   # the closed loop's reference method: the true association
@@ -142,18 +142,12 @@ def merge(base: dict, override: dict, where: str, track: str | None = None) -> d
             out[key] = value
             continue
         if not isinstance(value, dict):
-            raise UserError(f"{key} in {where} must be a mapping, got {_short(value)}")
+            raise UserError(f"{key} in {where} must be a mapping, got {brief(value)}")
         for sub, item in value.items():
             if sub not in out[key]:
                 raise _unknown(f"{key}.{sub}", [f"{key}.{k}" for k in out[key]], where, track, everywhere)
             out[key][sub] = item
     return out
-
-
-def _short(value: Any, most: int = 80) -> str:
-    """``repr(value)`` cut to ``most`` characters, for a message."""
-    text = repr(value)
-    return text if len(text) <= most else text[:most] + "..."
 
 
 def _named(layers: list[tuple[dict, str]], key: str) -> Any:
@@ -171,21 +165,27 @@ def run_track(layers: list[tuple[dict, str]]) -> Track:
 
 def load_run_config(config: str | Path | None = None, sets: list[str] | None = None, **flags) -> dict:
     """The run config: the defaults of the run's track, then the YAML ``config``, then ``--set``,
-    then the command-line ``flags`` (None: not given). A key both ``--set`` and a flag give is
-    refused: one of the two values would be dropped without a word."""
+    then the command-line ``flags`` (None: not given). A key a flag and ``--set`` give different
+    values is refused (``_refuse_conflicts``)."""
     given = {k: v for k, v in flags.items() if v is not None}
-    sets = parse_sets(sets)
-    both = sorted(set(sets) & set(given))
-    if both:
-        raise UserError(f"{both[0]} is given twice, by --set and by its own flag (--{both[0].replace('_', '-')}): "
-                        "give it once")
-    layers = ([(read_yaml(config), str(config))] if config else []) + [(sets, "--set"), (given, "command-line flags")]
+    parsed = parse_sets(sets)
+    _refuse_conflicts(given, parsed, sets or [])
+    layers = ([(read_yaml(config), str(config))] if config else []) + [(parsed, "--set"), (given, "command-line flags")]
     track = run_track(layers)
     cfg = defaults(track)
     for layer, where in layers:
         cfg = merge(cfg, layer, where, track.name)
     cfg["track"] = track.name
     return cfg
+
+
+def _refuse_conflicts(flags: dict, given: dict, sets: list[str]) -> None:
+    """Refuse a key given both by its flag and by ``--set`` with another value: the flag would win
+    and the other value, right or wrong, would be dropped without a word."""
+    for key in [k for k in flags if k in given and given[k] != flags[k]]:
+        item = next(s for s in reversed(sets) if s.partition("=")[0].strip() == key)
+        flag = f"--{key}" if flags[key] is True else f"--{key} {flags[key]}"
+        raise UserError(f"{flag} and --set {item} disagree: give {key} once")
 
 
 @dataclass(frozen=True)

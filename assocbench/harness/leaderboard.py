@@ -11,6 +11,7 @@ import pandas as pd
 
 from ..atomic import atomic_path, write_text
 from ..scoring.aggregate import leaderboard_table
+from ..scoring.loop_summary import BAND_LEGEND, CHAOTIC_LEGEND, CHAOTIC_MARK, band_mark, chaotic
 from ..tracks.base import Track
 from ..tracks.capabilities import OwnFrames, TopView, has
 from ..viz.plots import pr_figure, runtime_figure, save_figure
@@ -76,39 +77,42 @@ def loop_markdown(table: pd.DataFrame, difficulties: Sequence[str] = (), estimat
              "*ATE*: RMSE of the position error of each frame's pose as the estimator had it then (no alignment, as",
              "`evo_ape tum truth.txt estimate.txt`); *ATE smoothed*: of a smoother's final estimate of every pose;",
              "*ANEES*: mean pose NEES (its degrees of freedom are the pose's: 6 in space, 3 in the plane), with the two-sided 95 % χ² band for one run in",
-             "brackets (it assumes independent frames, which one run's are not);",
+             "brackets (it assumes independent frames, which one run's are not); " + BAND_LEGEND + ";",
              "*diverged*: seeds whose NEES stayed above χ²(0.999) for 5 frames; *precision / recall*: of the pairings",
              "in the loop; *duplicates / false landmarks / map RMSE*: the final map's (slam mode; 0 on a known map); *loop closures*:",
              f"revisits (a landmark measured again after {REVISIT_GAP} frames unseen) paired with its old map entry / "
              "revisits.",
              f"**{ORACLE_LABEL}** is the true association, available only to the harness: the best the estimator",
-             "can do, not a method.", ""]
+             "can do, not a method.", CHAOTIC_LEGEND + ".", ""]
     closures = "revisits" in table and table["revisits"].fillna(0).gt(0).any()
     smoothed = "ate_smoothed" in table and not np.allclose(table["ate_smoothed"], table["ate_rmse"], equal_nan=True)
 
     def cells(r: pd.Series) -> list[str]:
         out = [_cell(r, col) for col, _ in LOOP_MD_COLUMNS[1:]]
-        out[2] += f" [{r['anees_lo']:.2f}, {r['anees_hi']:.2f}]" if pd.notna(r["anees"]) else ""
+        mark = band_mark(r["anees"], r["anees_lo"], r["anees_hi"])
+        out[2] += f" [{r['anees_lo']:.2f}, {r['anees_hi']:.2f}]{' ' + mark if mark else ''}" if pd.notna(r["anees"]) else ""
         out += [f"{r['loop_closures']:.1f} / {r['revisits']:.1f}"] if closures else []
         out += [_cell(r, "ate_smoothed")] if smoothed else []
         return out + [f"{int(r['diverged'])}/{int(r['seeds'])}", f"{int(r['failures'])}/{int(r['frames'])}"]
 
     headers = ([h for _, h in LOOP_MD_COLUMNS] + (["loop closures"] if closures else [])
                + (["ATE smoothed m"] if smoothed else []) + ["diverged", "failed"])
-    return "\n".join(lines + scenario_tables(table, difficulties, headers, cells))
+    flag = lambda r: f" {CHAOTIC_MARK}" if chaotic(r["diverged"]) else ""  # noqa: E731
+    return "\n".join(lines + scenario_tables(table, difficulties, headers, cells, flag))
 
 
-def scenario_tables(table: pd.DataFrame, difficulties: Sequence[str], headers: list[str], cells) -> list[str]:
+def scenario_tables(table: pd.DataFrame, difficulties: Sequence[str], headers: list[str], cells,
+                    flag=lambda r: "") -> list[str]:
     """Markdown lines of one table per scenario (scene, then difficulty order), rows in ``table``'s
-    order: the method's name (``oracle`` marked as the truth, **not ok** where its status is not)
-    and ``cells(row)``; the reasons a row is not ok follow its table."""
+    order: the method's name (``oracle`` marked as the truth, ``flag(row)`` after it, **not ok**
+    where its status is not) and ``cells(row)``; the reasons a row is not ok follow its table."""
     lines = []
     table = order_scenarios(table, difficulties)
     for scenario in table["scenario"].unique():
         lines += [f"## {scenario}", "", "| " + " | ".join(headers) + " |", "|" + "---|" * len(headers)]
         notes = []
         for _, r in table[table["scenario"] == scenario].iterrows():
-            name = f"**{ORACLE_LABEL}**" if r["method"] == "oracle" else str(r["method"])
+            name = (f"**{ORACLE_LABEL}**" if r["method"] == "oracle" else str(r["method"])) + flag(r)
             if r.get("status", "ok") != "ok":
                 name += " **not ok**"
                 notes.append(f"- {r['method']}: {r['status']}")

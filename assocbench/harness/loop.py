@@ -32,7 +32,7 @@ from ..scoring.metrics import score_frame, true_mass
 from ..tracks.registry import get_track
 from .config import ORACLE
 from .loop_truth import MapTruth, RevisitCounter, loop_truth, map_quality
-from .runner import WARM_UP, _build, call_method, describe, failed_record, warm_up
+from .runner import WARM_UP, _build, call_method, checked_truth, describe, failed_record, warm_up
 
 
 class EstimatorFailed(RuntimeError):
@@ -100,7 +100,7 @@ class ClosedLoop:
         problem = self._est.problem(data).validate()   # the whole P, before any method sees it
         ids = problem.landmark_ids
         visible = np.array([self.truth.label[i] >= 0 and self.seq.visible[k][self.truth.label[i]] for i in ids], bool)
-        truth = loop_truth(ids, self.truth, labels, visible)
+        truth = checked_truth(self.seq.track, k, problem, loop_truth(ids, self.truth, labels, visible))
         self._pending = (k, problem, truth, data, labels)
         self._labels[k] = labels
         return problem, truth

@@ -64,7 +64,13 @@ class RecordSpool:
         return len(set(self._frames))
 
     def close(self) -> None:
-        self._file.close()
+        """Release the file. Its records are thrown away, so a flush of what ``add`` buffered that
+        fails (the folder is full: the error ``add`` already raised) is ignored: raised from a
+        ``finally``, it replaced that one-line error with a traceback."""
+        try:
+            self._file.close()
+        except OSError:
+            pass
 
 
 def _spool_error(exc: OSError) -> UserError:

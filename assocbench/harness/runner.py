@@ -69,8 +69,9 @@ def load_source(source, cache_dir: Path | None) -> None:
 
 class Problems:
     """The open loop's problem and truth of each frame of a run, built when first asked for
-    (``track.problem``), checked whole before any method sees it (``Problem.validate``), and kept
-    for the run's other methods: a worker builds each frame once, whatever the methods."""
+    (``track.problem``), checked whole before any method sees it (``checked_frame``: the problem and
+    the truth against it), and kept for the run's other methods: a worker builds each frame once,
+    whatever the methods."""
 
     def __init__(self, track, source, run) -> None:
         self.track, self.source, self.run = track, source, run
@@ -81,10 +82,31 @@ class Problems:
 
     def __getitem__(self, k: int) -> tuple[Problem, FrameTruth]:
         if k not in self._built:
-            problem, truth = self.track.problem(self.source, k, self.run)
-            problem.validate()
-            self._built[k] = (problem, truth)
+            self._built[k] = checked_frame(self.track.name, k, *self.track.problem(self.source, k, self.run))
         return self._built[k]
+
+
+def checked_frame(track: str, k: int, problem: Problem, truth: FrameTruth) -> tuple[Problem, FrameTruth]:
+    """``(problem, truth)`` of frame ``k`` once ``Problem.validate`` passes and the truth is
+    ``checked_truth``; else a ``UserError`` naming the track and frame. A track's open-loop frame
+    is the benchmark's input, the same for every method: nothing can be measured against it, so
+    the command stops (exit 2) rather than score each method against pairs that cannot exist."""
+    try:
+        problem.validate()
+    except ValueError as exc:
+        raise UserError(f"the {track} track's frame {k} is invalid: {exc}") from None
+    return problem, checked_truth(track, k, problem, truth)
+
+
+def checked_truth(track: str, k: int, problem: Problem, truth: FrameTruth) -> FrameTruth:
+    """``truth`` once ``FrameTruth.validate(problem)`` passes; else a ``UserError`` naming the
+    track and frame (see ``checked_frame``)."""
+    try:
+        if not isinstance(truth, FrameTruth):
+            raise ValueError(f"its truth is a {type(truth).__name__}, not a FrameTruth")
+        return truth.validate(problem)
+    except ValueError as exc:
+        raise UserError(f"the {track} track's frame {k} is invalid: {exc}") from None
 
 
 def private_copy(problem: Problem) -> Problem:

@@ -12,7 +12,9 @@ the next frame in a fresh worker, which rebuilds the problems from the cached se
 seed, same problems). A method whose construction or warm-up dies or hangs fails every frame.
 
 Workers ignore SIGINT and SIGTERM (the parent decides, and kills them) and exit when the parent
-is gone (a watchdog thread on the parent's sentinel), so a killed sweep leaves no orphans.
+is gone (a watchdog thread on the parent's sentinel), so a killed sweep leaves no orphans. Each
+worker leads a session of its own, and is killed with its whole process group, so the processes a
+method started (an external solver) die with it.
 """
 
 from __future__ import annotations
@@ -110,7 +112,13 @@ def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, enviro
 
 
 def _become_worker(environ: dict) -> None:
-    """Interrupts are the parent's to handle; the parent's current environment; exit with it."""
+    """A session of its own (so that killing the worker kills every process its method started:
+    ``_kill_session``); interrupts are the parent's to handle; the parent's current environment;
+    exit with it."""
+    try:
+        os.setsid()
+    except OSError:   # already a session's leader
+        pass
     signal.signal(signal.SIGINT, signal.SIG_IGN)
     signal.signal(signal.SIGTERM, signal.SIG_IGN)
     os.environ.clear()
@@ -124,7 +132,19 @@ def _become_worker(environ: dict) -> None:
 
 def _exit_with(sentinel) -> None:
     wait([sentinel])
+    if os.getpgid(0) == os.getpid():   # its own session's leader: take the method's processes along
+        os.killpg(0, signal.SIGKILL)
     os._exit(1)
+
+
+def _kill_session(pid: int) -> None:
+    """SIGKILL the process group of worker ``pid`` (the session it made: ``_become_worker``), so
+    that processes its method started (an external solver) end with it instead of living on,
+    reparented to init; nothing when that group is gone or was never made."""
+    try:
+        os.killpg(pid, signal.SIGKILL)
+    except (ProcessLookupError, PermissionError):
+        pass
 
 
 def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: dict,
@@ -441,9 +461,12 @@ def _close_spools(progress: _Progress) -> None:
 
 
 def _stop(w: _Running, grace: float = 0.0) -> None:
-    """End ``w``'s process (killed unless it exits within ``grace`` s) and release its handles."""
+    """End ``w``'s process (killed unless it exits within ``grace`` s) and every process its
+    method started, and release its handles. The group is killed before ``join`` reaps the worker:
+    while a forked worker is unreaped, its id cannot be another process's."""
     if grace:
-        w.process.join(grace)
+        wait([w.process.sentinel], grace)
+    _kill_session(w.process.pid)
     if w.process.is_alive():
         w.process.kill()
     w.process.join()

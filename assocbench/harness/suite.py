@@ -27,7 +27,7 @@ from ..sources.base import short_name
 from ..tracks.base import GuardedMetric, Track
 from ..tracks.inference import infer_track
 from ..tracks.registry import get_track, iter_tracks
-from ..validation import check_number
+from ..validation import brief, check_number
 from .config import check_method, defaults, merge, run_spec
 from .yamlfile import read_yaml
 
@@ -148,7 +148,7 @@ def _methods(raw, where: str) -> tuple[MethodEntry, ...]:
               and isinstance(item.get("params") or {}, dict)):
             out.append(MethodEntry(str(item.get("name", item["method"])), str(item["method"]), dict(item.get("params") or {})))
         else:
-            raise UserError(f"bad method entry {item!r} in {where}: use a name or {{name, method, params}}")
+            raise UserError(f"bad method entry {brief(item)} in {where}: use a name or {{name, method, params}}")
     _refuse_duplicates([m.label for m in out], "method labels", where, "give each entry its own name")
     return tuple(out)
 
@@ -163,7 +163,7 @@ def _refuse_duplicates(items: list, what: str, where: str, fix: str) -> None:
 def _list(raw, key: str, default, where: str) -> list:
     value = raw.get(key) if raw.get(key) is not None else default
     if not isinstance(value, list) or not value:
-        raise UserError(f"'{key}' in {where} must be a non-empty list, got {value!r}")
+        raise UserError(f"'{key}' in {where} must be a non-empty list, got {brief(value)}")
     return value
 
 

@@ -9,11 +9,13 @@ from pathlib import Path
 import yaml
 
 from ..errors import UserError
+from ..validation import BoundedLoader
 
 
-class _UniqueKeyLoader(yaml.SafeLoader):
+class _UniqueKeyLoader(BoundedLoader):
     """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
-    last silently, so a typo'd override would be lost without a word)."""
+    last silently, so a typo'd override would be lost without a word), and an alias bomb
+    (``BoundedLoader``)."""
 
     def construct_mapping(self, node, deep=False):
         seen = set()

@@ -12,9 +12,10 @@ true outcome of each candidate (``metrics.true_mass``; NaN for hard associators)
 A ratio with nothing to count is NaN, never 1: precision when no pairing was returned, recall
 when the truth has no pair; perfect when the run had nothing to associate at all (no true pair
 and no pairing returned: every empty answer is then trivially "exact"); jc_share and
-surprisal_gap when no pairing was returned in any frame (an empty answer is always compatible). ``status`` says in words whether the numbers can be trusted:
-``ok``, or every reason they cannot (frames that failed, no candidates, nothing associated), so
-a broken run can never read as a perfect one; ``check`` fails every row that is not ``ok``.
+surprisal_gap when no pairing was returned in any frame (an empty answer is always compatible).
+``status`` says in words whether the numbers can be trusted: ``ok``, or every reason they cannot
+(frames that failed, no candidates, no true pair in any frame, nothing associated), so a broken
+run can never read as a perfect one; ``check`` fails every row that is not ``ok``.
 """
 
 from __future__ import annotations
@@ -46,8 +47,11 @@ def run_status(frames: pd.DataFrame) -> str:
         reasons.append(f"{failures}/{len(frames)} frames failed")
     if len(frames) and frames["n"].sum() == 0:
         reasons.append("no candidates in any frame")
-    elif len(frames) and (frames["tp"] + frames["fp"]).sum() == 0:
-        reasons.append("nothing associated")
+    else:
+        if len(frames) and "n_true" in frames and frames["n_true"].sum() == 0:
+            reasons.append("no true pair in any frame")   # recall has nothing to count, every pairing is false
+        if len(frames) and (frames["tp"] + frames["fp"]).sum() == 0:
+            reasons.append("nothing associated")
     if "nees" in frames:   # a closed-loop run
         reasons += loop_status(frames)
     return "; ".join(reasons) or OK

@@ -52,6 +52,35 @@ def loop_summary(frames: pd.DataFrame) -> dict:
     }
 
 
+BAND_MARKS = {"above": "▲", "below": "▼"}
+BAND_LEGEND = ("▲ / ▼ beside an ANEES: it lies above / below its 95 % band, the filter overconfident (its "
+               "covariance smaller than its errors) / pessimistic (larger)")
+
+
+CHAOTIC_MARK = "†"
+CHAOTIC_LEGEND = ("† chaotic: a seed's filter diverged (NEES above χ²(0.999) for good); its pairings then hinge on "
+                  "the last bits of the arithmetic (the CPU's maths library and BLAS kernels), so the row's digits "
+                  "may differ on another machine; rows without † reproduce to every digit")
+
+
+def chaotic(diverged_seeds: float) -> bool:
+    """Whether a leaderboard row is chaotic: at least one of its seeds' runs diverged."""
+    return bool(np.isfinite(diverged_seeds) and diverged_seeds > 0)
+
+
+def band_side(anees_value: float, lo: float, hi: float) -> str:
+    """``"above"`` or ``"below"`` where an ANEES lies outside its band ``[lo, hi]``, else ``""``
+    (inside, or any of them NaN)."""
+    if not all(np.isfinite(v) for v in (anees_value, lo, hi)):
+        return ""
+    return "above" if anees_value > hi else "below" if anees_value < lo else ""
+
+
+def band_mark(anees_value: float, lo: float, hi: float) -> str:
+    """``BAND_MARKS``' mark of where an ANEES lies against its band (``band_side``), "" inside."""
+    return BAND_MARKS.get(band_side(anees_value, lo, hi), "")
+
+
 def _last_estimated(frames: pd.DataFrame) -> pd.Series:
     """The last frame the estimator finished (its map columns); all NaN when it finished none
     (a run whose estimator failed at its start)."""

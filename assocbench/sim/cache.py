@@ -11,16 +11,17 @@ naming ``ASSOCBENCH_CACHE``.
 
 Tracks store their sequence their own way (``save`` and ``load``): the camera track as a compressed
 NumPy archive of its arrays, the dense track as an uncompressed one whose frames are memory-mapped
-and checked by their CRC-32 (``tracks/dense/sequence.py``), the lidar tracks (planar, lines: lists of small arrays
-per frame) with ``save_pickled`` / ``load_pickled``, which is safe here because the cache is the
-user's own folder and an entry is only read back under the key this code computed.
+and checked by their CRC-32 (``tracks/dense/sequence.py``), the lidar tracks (planar, lines: lists
+of small arrays per frame) with ``save_fields`` / ``load_fields``, a NumPy archive too. No entry is
+a pickle: reading a file planted in the cache runs no code (a pickle ran it before its key was
+checked).
 """
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
-import pickle
 import struct
 import sys
 import zipfile
@@ -31,6 +32,7 @@ from pathlib import Path
 from typing import TypeVar
 
 import mujoco
+import numpy as np
 
 from .._runtime import cache_root
 from ..atomic import CACHE, atomic_path
@@ -47,10 +49,10 @@ class Unusable(Exception):
 
 # what reading a damaged entry can raise: a truncated or flipped zip (BadZipFile, EOFError,
 # zlib.error, OSError), a damaged array header (ValueError, SyntaxError, MemoryError for an absurd
-# shape), a missing member (KeyError), a damaged pickle (UnpicklingError, AttributeError, ...)
+# shape), a missing member (KeyError), a pickled member refused (ValueError), a damaged layout
 DAMAGED = (Unusable, OSError, EOFError, ValueError, KeyError, IndexError, TypeError, SyntaxError, MemoryError,
            NotImplementedError, RuntimeError, AttributeError, ImportError, zipfile.BadZipFile, zlib.error,
-           struct.error, pickle.UnpicklingError)
+           struct.error)
 
 
 def cached_sequence(kind: str, key: str, make: Callable[[], T], save: Callable[[T, Path, str], None],
@@ -110,16 +112,85 @@ def spec_key(spec: object, code: tuple[str, ...], fmt: int = 1) -> str:
     return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
 
 
-def save_pickled(seq: object, path: Path, key: str) -> None:
-    """Write ``seq`` with its ``key`` (a lidar track's sequence: lists of small per-frame arrays)."""
+STORABLE: dict[str, type] = {}   # the dataclasses an entry may hold, by name (``storable``)
+ENTRY = "__entry__"              # the member holding the entry's key and layout (JSON)
+
+
+def storable(cls: type[T]) -> type[T]:
+    """Mark dataclass ``cls`` as one ``save_fields`` may store and ``load_fields`` may rebuild:
+    an entry names the classes it holds, and only marked ones are ever built from it."""
+    STORABLE[f"{cls.__module__}.{cls.__qualname__}"] = cls
+    return cls
+
+
+def save_fields(seq: object, path: Path, key: str) -> None:
+    """Write ``seq`` (a ``storable`` dataclass of arrays, lists of arrays, numbers, strings and
+    other storable dataclasses: a lidar track's sequence) with its ``key`` as a NumPy archive:
+    each array a member of its own (its dtype and shape kept), the rest as JSON. Nothing in the
+    file can run code when it is read (no pickle: ``load_fields``)."""
+    arrays: dict[str, np.ndarray] = {}
+    layout = _encode(seq, "", arrays)
+    arrays[ENTRY] = np.frombuffer(json.dumps({"key": key, "layout": layout}).encode(), np.uint8)
     with open(path, "wb") as fh:
-        pickle.dump({"key": key, "sequence": seq}, fh, protocol=pickle.HIGHEST_PROTOCOL)
+        np.savez(fh, **arrays)
 
 
-def load_pickled(path: Path, key: str) -> object:
-    """The sequence ``save_pickled`` wrote under ``key``; ``Unusable`` for another key."""
-    with open(path, "rb") as fh:
-        entry = pickle.load(fh)   # noqa: S301 - the user's own cache, read only under the key we computed
-    if not isinstance(entry, dict) or entry.get("key") != key:
-        raise Unusable("it was stored under another key")
-    return entry["sequence"]
+def load_fields(path: Path, key: str) -> object:
+    """The sequence ``save_fields`` wrote under ``key``; ``Unusable`` for another key. Arrays are
+    read with ``allow_pickle=False`` and only ``storable`` classes are built, so a planted file
+    is refused as damaged, never run."""
+    with np.load(path, allow_pickle=False) as z:
+        entry = json.loads(z[ENTRY].tobytes())
+        if not isinstance(entry, dict) or entry.get("key") != key:
+            raise Unusable("it was stored under another key")
+        return _decode(entry["layout"], z)
+
+
+def _encode(value, name: str, arrays: dict) -> dict:
+    """``value``'s layout (JSON), its arrays put in ``arrays`` under names below ``name``."""
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        cls = f"{type(value).__module__}.{type(value).__qualname__}"
+        if STORABLE.get(cls) is not type(value):
+            raise TypeError(f"{cls} is not marked storable")
+        return {"dataclass": cls, "fields": {f.name: _encode(getattr(value, f.name), f"{name}/{f.name}", arrays)
+                                             for f in dataclasses.fields(value)}}
+    if isinstance(value, (np.ndarray, np.generic)):
+        if np.asarray(value).dtype.hasobject:
+            raise TypeError(f"{name} holds Python objects")
+        arrays[name] = value
+        return {"array" if isinstance(value, np.ndarray) else "scalar": name}
+    if _ragged(value):   # one array a frame: stored as one, with each frame's length
+        arrays[name] = np.concatenate(value)
+        return {"ragged": name, "lengths": [len(v) for v in value]}
+    if isinstance(value, (list, tuple)):
+        return {type(value).__name__: [_encode(v, f"{name}/{i}", arrays) for i, v in enumerate(value)]}
+    if value is None or isinstance(value, (bool, int, float, str)):
+        return {"value": value}
+    raise TypeError(f"{name}: cannot store a {type(value).__name__}")
+
+
+def _ragged(value) -> bool:
+    """Whether ``value`` is a non-empty list of arrays that differ only in their first dimension."""
+    return (isinstance(value, list) and bool(value) and all(isinstance(v, np.ndarray) and v.ndim for v in value)
+            and len({(v.dtype.str, v.shape[1:]) for v in value}) == 1 and not value[0].dtype.hasobject)
+
+
+def _decode(layout: dict, z) -> object:
+    """The value ``_encode`` laid out, its arrays read from archive ``z``; a layout that names a
+    class not marked ``storable`` is ``Unusable``."""
+    if "dataclass" in layout:
+        cls = STORABLE.get(layout["dataclass"])
+        if cls is None:
+            raise Unusable(f"it holds a {layout['dataclass']}, which no entry may hold")
+        return cls(**{k: _decode(v, z) for k, v in layout["fields"].items()})
+    if "ragged" in layout:
+        return np.split(z[layout["ragged"]], np.cumsum(layout["lengths"])[:-1])
+    (kind, body), = layout.items()
+    if kind in ("array", "scalar"):
+        return z[body] if kind == "array" else z[body][()]
+    if kind in ("list", "tuple"):
+        items = [_decode(v, z) for v in body]
+        return items if kind == "list" else tuple(items)
+    if kind == "value":
+        return body
+    raise Unusable(f"unknown entry layout {kind!r}")

@@ -22,15 +22,18 @@ def obstacles(scene) -> list[int]:
 
 def nearest_obstacle(scene, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
     """Distance (n,) from points (n, 2) to the nearest obstacle's footprint (the horizontal
-    section of every box, cylinder, sphere or capsule that rises above the floor; 0 inside) and
-    that obstacle's geom id (n,). ``scene`` is anything with a compiled ``model`` and its
-    ``data`` after ``mj_forward``."""
+    section of every box, cylinder, sphere or capsule that rises above the floor, the outline of
+    a mesh's vertices seen from above; 0 inside) and that obstacle's geom id (n,). ``scene`` is
+    anything with a compiled ``model`` and its ``data`` after ``mj_forward``."""
     xy = np.atleast_2d(np.asarray(xy, float))
     best, which = np.full(len(xy), np.inf), np.full(len(xy), -1)
     m, d = scene.model, scene.data
     for g in obstacles(scene):
-        dist = footprint_distance(m.geom_type[g], m.geom_size[g], d.geom_xpos[g, :2],
-                                  d.geom_xmat[g].reshape(3, 3)[:2, :2], xy)
+        if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            dist = polygon_distance(mesh_outline(m, d, g), xy)
+        else:
+            dist = footprint_distance(m.geom_type[g], m.geom_size[g], d.geom_xpos[g, :2],
+                                      d.geom_xmat[g].reshape(3, 3)[:2, :2], xy)
         closer = dist < best
         best[closer], which[closer] = dist[closer], g
     return best, which
@@ -43,7 +46,7 @@ def clearance(scene, xy: np.ndarray) -> np.ndarray:
 
 def extent(scene) -> tuple[np.ndarray, np.ndarray]:
     """The corners ``(lo, hi)`` (2,) of the axis-aligned rectangle around every obstacle's
-    footprint: a box's four corners ``c ± R_xy (±s_x, ±s_y)``, a round geom's ``c ± r``."""
+    footprint: a box's four corners ``c ± R_xy (±s_x, ±s_y)``, a mesh's outline, a round geom's ``c ± r``."""
     m, d = scene.model, scene.data
     points = []
     for g in obstacles(scene):
@@ -51,6 +54,8 @@ def extent(scene) -> tuple[np.ndarray, np.ndarray]:
         if m.geom_type[g] == mujoco.mjtGeom.mjGEOM_BOX:
             corners = np.array([[sx, sy] for sx in (-1, 1) for sy in (-1, 1)]) * size[:2]
             points.append(centre + corners @ d.geom_xmat[g].reshape(3, 3)[:2, :2].T)
+        elif m.geom_type[g] == mujoco.mjtGeom.mjGEOM_MESH:
+            points.append(mesh_outline(m, d, g))
         else:
             points.append(centre + np.array([[-1, -1], [1, 1]]) * size[0])
     stacked = np.vstack(points)
@@ -65,3 +70,47 @@ def footprint_distance(kind: int, size: np.ndarray, centre: np.ndarray, rot: np.
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
         return np.linalg.norm(np.maximum(np.abs(q) - size[:2], 0.0), axis=1)
     return np.maximum(np.linalg.norm(q, axis=1) - size[0], 0.0)
+
+
+def mesh_outline(m, d, g: int) -> np.ndarray:
+    """The footprint of mesh geom ``g``: the convex hull (k, 2), counter-clockwise, of its vertices
+    in the world ``c + R v`` seen from above. Its ``geom_size`` is no footprint: MuJoCo turns a
+    mesh into its inertia frame, so the size is an inertia box about axes that need not be
+    upright (a 0.8 x 0.8 m rock's disc became an infinite strip across the floor)."""
+    start, count = m.mesh_vertadr[m.geom_dataid[g]], m.mesh_vertnum[m.geom_dataid[g]]
+    world = d.geom_xpos[g] + m.mesh_vert[start:start + count].astype(float) @ d.geom_xmat[g].reshape(3, 3).T
+    return convex_hull(world[:, :2])
+
+
+def convex_hull(points: np.ndarray) -> np.ndarray:
+    """The convex hull (k, 2) of points (n, 2), counter-clockwise (Andrew's monotone chain); two
+    points for points on a line, one for a single point."""
+    pts = np.unique(np.asarray(points, float), axis=0)   # sorted by x, then y
+    if len(pts) <= 2:
+        return pts
+
+    def half(seq) -> list:
+        out: list = []
+        for p in seq:
+            while len(out) >= 2 and _turn(out[-2], out[-1], p) <= 0:
+                out.pop()
+            out.append(p)
+        return out[:-1]
+    return np.array(half(pts) + half(pts[::-1]))
+
+
+def _turn(o: np.ndarray, a: np.ndarray, b: np.ndarray) -> float:
+    """``(a − o) × (b − o)``: positive when o, a, b turn counter-clockwise."""
+    return float((a[0] - o[0]) * (b[1] - o[1]) - (a[1] - o[1]) * (b[0] - o[0]))
+
+
+def polygon_distance(polygon: np.ndarray, xy: np.ndarray) -> np.ndarray:
+    """Distance (n,) from points (n, 2) to a convex polygon (k, 2), counter-clockwise (0 inside);
+    a segment or a point when k is 2 or 1."""
+    a, b = polygon, np.roll(polygon, -1, axis=0)
+    e = b - a                                                      # (k, 2) edges
+    w = xy[:, None, :] - a[None]                                   # (n, k, 2)
+    t = np.clip(np.einsum("nkj,kj->nk", w, e) / np.maximum(np.einsum("kj,kj->k", e, e), 1e-300), 0.0, 1.0)
+    dist = np.linalg.norm(w - t[..., None] * e[None], axis=2).min(axis=1)
+    inside = np.all(e[None, :, 0] * w[..., 1] - e[None, :, 1] * w[..., 0] >= 0, axis=1) if len(polygon) >= 3 else False
+    return np.where(inside, 0.0, dist)

@@ -35,6 +35,7 @@ import numpy as np
 
 from ..errors import UserError
 from ..models.range_bearing import wrap
+from ..validation import brief
 from .footprint import CLEARANCE, extent, nearest_obstacle
 from .waypoints import csv_table, number, read_text, vector, waypoint_path, yaml_list
 
@@ -111,7 +112,7 @@ def _yaml_rows(path: Path, text: str) -> list[Row]:
         where = f"waypoint {k + 1}"
         if not isinstance(item, dict) or "position" not in item or not set(item) <= {"position", "heading", "t"}:
             raise UserError(f"waypoint file {path} {where}: expected a mapping with position: [x, y] (heading: deg "
-                            f"and t optional), got {item!r}")
+                            f"and t optional), got {brief(item)}")
         x, y = vector(path, where, "position", item["position"], "x, y")
         values = {"x": x, "y": y} | {key: number(path, where, key, item[key]) for key in ("heading", "t") if key in item}
         rows.append((where, values))

@@ -6,7 +6,10 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .cache import storable
 
+
+@storable
 @dataclass
 class Scan:
     """One scan. ``geom`` and ``distance`` are the truth: the geom each beam's ray meets first

@@ -76,7 +76,8 @@ class LidarConfig:
     beams: int = field(default=720, metadata=in_range(1, 100000))
     fov_deg: float = field(default=360.0, metadata=in_range(0, 360, lo_open=True))
     max_range: float = field(default=10.0, metadata=in_range(0, 1000, lo_open=True))
-    sigma_range: float = field(default=0.01, metadata=in_range(0, 10, lo_open=True))        # 0: a singular R
+    # at least 1e-6 m: a range σ of 1e-300 squares to 0, a singular R (the worker crashed)
+    sigma_range: float = field(default=0.01, metadata=in_range(1e-6, 10))
     # at least 1e-6 deg: a bearing σ below it squares to a covariance under numpy's tolerance
     sigma_bearing_deg: float = field(default=0.5, metadata=in_range(1e-6, 180))
     dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True))

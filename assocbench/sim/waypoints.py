@@ -34,6 +34,7 @@ import yaml
 
 from ..errors import UserError
 from ..models.camera import CV_TO_MUJOCO, look_at
+from ..validation import BoundedLoader, brief
 from .normals import warn_once
 from .scene import Scene, resolve_scene_path
 from .trajectory import Keyframes
@@ -105,7 +106,7 @@ def number(path: Path, where: str, name: str, value) -> float:
             raise TypeError
         x = float(value)
     except (TypeError, ValueError):
-        raise UserError(f"waypoint file {path} {where}: {name} = {value!r} is not a number") from None
+        raise UserError(f"waypoint file {path} {where}: {name} = {brief(value)} is not a number") from None
     if not math.isfinite(x):
         raise UserError(f"waypoint file {path} {where}: {name} is {x}; every value must be finite")
     return x
@@ -155,7 +156,7 @@ def yaml_list(path: Path, text: str, each: str) -> list:
     """A waypoint YAML's list (or the list under ``waypoints:``); one-line ``UserError`` for
     malformed YAML or anything else (``each`` says what one waypoint looks like)."""
     try:
-        data = yaml.safe_load(text)
+        data = yaml.load(text, Loader=BoundedLoader)  # noqa: S506 - a SafeLoader, aliases bounded
     except yaml.YAMLError as exc:
         mark = getattr(exc, "problem_mark", None)
         at = f" at line {mark.line + 1}" if mark else ""
@@ -175,7 +176,7 @@ def _yaml_rows(path: Path, text: str) -> list[Row]:
         known = {"position", "look_at", "yaw", "pitch", "t"}
         if not isinstance(item, dict) or "position" not in item or not set(item) <= known:
             raise UserError(f"waypoint file {path} {where}: expected a mapping with position and look_at or yaw "
-                            f"(pitch, t optional), got {item!r}")
+                            f"(pitch, t optional), got {brief(item)}")
         pos = vector(path, where, "position", item["position"])
         look = vector(path, where, "look_at", item["look_at"]) if "look_at" in item else None
         heading = None
@@ -189,7 +190,7 @@ def _yaml_rows(path: Path, text: str) -> list[Row]:
 def vector(path: Path, where: str, name: str, value, axes: str = "x, y, z") -> np.ndarray:
     """``value`` as a list of finite numbers, one per name in ``axes``; else a one-line ``UserError``."""
     if not isinstance(value, (list, tuple)) or len(value) != len(axes.split(",")):
-        raise UserError(f"waypoint file {path} {where}: {name} must be [{axes}], got {value!r}")
+        raise UserError(f"waypoint file {path} {where}: {name} must be [{axes}], got {brief(value)}")
     return np.array([number(path, where, f"{name}[{i}]", c) for i, c in enumerate(value)])
 
 

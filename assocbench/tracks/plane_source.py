@@ -8,7 +8,7 @@ from importlib import import_module
 from pathlib import Path
 from typing import Any
 
-from ..sim.cache import cached_sequence, load_pickled, save_pickled, spec_key
+from ..sim.cache import cached_sequence, load_fields, save_fields, spec_key
 from ..sources.base import SimulatedSource, short_name
 
 
@@ -28,8 +28,8 @@ def load_lidar_sequence(folder: str, code: tuple[str, ...], maker: str, spec: An
                         cache_dir: Path | None = None, use_cache: bool = True) -> Any:
     """The sequence of ``spec`` from the shared sequence cache (``sim.cache``) under ``folder``,
     keyed by ``spec_key(spec, code)``, else made by ``maker`` (``module:function``), stored."""
-    return cached_sequence(folder, spec_key(spec, code), lambda: maker_of(maker)(spec), save_pickled, load_pickled, cache_dir,
-                           use_cache, suffix=".pkl")
+    return cached_sequence(folder, spec_key(spec, code), lambda: maker_of(maker)(spec), save_fields, load_fields, cache_dir,
+                           use_cache, suffix=".npz")
 
 
 def lidar_source(track: str, spec: Any, code: tuple[str, ...], maker: str) -> SimulatedSource:

@@ -133,9 +133,13 @@ def small_export(folder: Path, rng, seeds: int = 3) -> None:
             p = random_problem(rng, n=6, m=8)
             nis = np.linalg.norm(p.z[:6, None] - p.zhat[None], axis=2)
             assoc = np.where(nis.min(axis=0) < 3, nis.argmin(axis=0), -1)   # a labelling the features can learn
-            assoc[np.r_[False, assoc[1:] == assoc[:-1]]] = -1
+            for j in range(len(assoc)):   # one-to-one: a feature already taken pairs nothing more
+                if assoc[j] in assoc[:j]:
+                    assoc[j] = -1
+            labels = np.full(p.m, -1)
+            labels[assoc[assoc >= 0]] = p.landmark_ids[assoc >= 0]   # a truth that fits its problem
             w.add({"track": "camera", "scene": "synthetic", "difficulty": "d", "seed": k % seeds, "frame": k}, p,
-                  FrameTruth(np.full(p.m, -1), assoc, assoc >= 0))
+                  FrameTruth(labels, assoc, assoc >= 0))
 
 
 def test_training_is_reproducible_bit_for_bit_and_the_model_runs(tmp_path, rng):
@@ -253,3 +257,39 @@ def test_every_tracks_committed_leaderboard_has_a_learned_row_in_every_scenario(
     learned = table[table["method"] == "learned"]
     assert set(learned["scenario"]) == set(table["scenario"]) and len(learned) == table["scenario"].nunique()
     assert (learned["status"] == "ok").all()
+
+
+def _tampered(tmp_path: Path, edit) -> Path:
+    """The shipped camera model with ``edit(tree 0)`` applied, written to ``tmp_path``."""
+    doc = json.loads(json.dumps(SHIPPED))
+    edit(doc["trees"][0])
+    path = tmp_path / "tampered.json"
+    path.write_text(json.dumps(doc))
+    return path
+
+
+def _split(tree: dict) -> int:
+    """The first node of ``tree`` that is a split (its root)."""
+    return next(i for i, left in enumerate(tree["left"]) if left >= 0)
+
+
+@pytest.mark.parametrize("edit,message", [
+    (lambda t: t["feature"].__setitem__(_split(t), len(FEATURES)), "node 0: feature 12 is outside 0..11"),
+    (lambda t: t["feature"].__setitem__(_split(t), -5), "node 0: feature -5 is outside 0..11"),
+    (lambda t: t["right"].pop(), "has node lists of lengths"),
+    (lambda t: t["left"].__setitem__(_split(t), 1_000_000), "node 0: children 1000000, "),
+    (lambda t: t["left"].__setitem__(2, 0), "node 2: children 0, "),
+    (lambda t: t["value"].__setitem__(3, None), "node 3: value must be a finite number, got None"),
+])
+def test_a_model_the_walk_cannot_follow_is_refused_when_loaded(tmp_path, capsys, edit, message):
+    """Reproduction: the shipped camera model with tree 0's root splitting on feature 12 (of 12) or
+    -5, or its right list one shorter than its left, ran with status ok (numba read past the
+    features: recall 0.7557 / 1.0); a child 1e6 segfaulted the worker. Refused in one line naming
+    the file, tree and node, before any frame."""
+    path = _tampered(tmp_path, edit)
+    with pytest.raises(UserError, match=f"^model {path}: tree 0 {message}"):
+        load_forest(path)
+    args = ["run", "--scene", "room", "--frames", "2", "--method", "learned", "--out", str(tmp_path / "r"),
+            "--set", f"params.model={path}"]
+    assert_one_line_error(capsys, main(args), str(path), "tree 0")
+    assert not (tmp_path / "r").exists()

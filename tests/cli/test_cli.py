@@ -36,6 +36,9 @@ def assert_one_line_error(capsys, code: int, *needles: str) -> None:
     (["run", "--method", "jcbbb", "--frames", "2"], ["unknown method 'jcbbb'", "did you mean jcbb"]),
     (["run", "--set", "belief.sigma_rot=2", "--frames", "2"], ["unknown key 'belief.sigma_rot'", "sigma_rotation"]),
     (["run", "--set", "frames"], ["key=value"]),
+    # the flag won and the --set was dropped without a word, right or wrong
+    (["run", "--frames", "5", "--set", "frames=abc"], ["--frames 5 and --set frames=abc disagree: give frames once"]),
+    (["run", "--loop", "--set", "loop=false"], ["--loop and --set loop=false disagree"]),
     (["run", "--frames", "0"], ["frames must be an integer >= 1"]),
     (["run", "--set", "belief.map_fraction=2"], ["map_fraction"]),
     (["run", "--set", "msaa=-1"], ["msaa must be null", "0..16"]),
@@ -143,6 +146,51 @@ def test_render_writes_a_video_of_the_run(tmp_path, suffix):
         cap = cv2.VideoCapture(str(out))
         assert int(cap.get(cv2.CAP_PROP_FRAME_COUNT)) == 3
         cap.release()
+
+
+def video_codec(path) -> str:
+    """The sample entry of an MP4's first track (``avc1``: H.264; ``mp4v``: MPEG-4 Part 2), read
+    from its boxes: moov > trak > mdia > minf > stbl > stsd."""
+    import struct
+
+    data = path.read_bytes()
+
+    def boxes(start: int, end: int):
+        while start + 8 <= end:
+            size, kind = struct.unpack(">I4s", data[start:start + 8])
+            yield kind.decode("latin-1"), start + 8, start + size
+            start += size
+
+    def find(start: int, end: int, path_: list[str]) -> str:
+        for kind, body, stop in boxes(start, end):
+            if kind == path_[0]:
+                if len(path_) == 1:   # stsd: version and flags, entry count, then the first entry
+                    return data[body + 12:body + 16].decode("latin-1")
+                return find(body, stop, path_[1:])
+        return ""
+    return find(0, len(data), ["moov", "trak", "mdia", "minf", "stbl", "stsd"])
+
+
+def test_an_mp4_is_h264_which_browsers_play(tmp_path):
+    """Reproduction: `assocbench render -o run.mp4` wrote MPEG-4 Part 2 (OpenCV's mp4v), which
+    Chromium and most browsers cannot play. It writes H.264 now (imageio-ffmpeg's encoder)."""
+    import subprocess
+
+    ffmpeg = pytest.importorskip("imageio_ffmpeg")
+    for scene, out in (("room", tmp_path / "run.mp4"), ("park", tmp_path / "park.mp4")):
+        assert main(["render", "--method", "mnn", "--scene", scene, "--frames", "3", "-o", str(out), "--quiet"]) == 0
+        assert video_codec(out) == "avc1", video_codec(out)
+        probe = subprocess.run([ffmpeg.get_ffmpeg_exe(), "-hide_banner", "-i", str(out)], capture_output=True, text=True)
+        assert "Video: h264" in probe.stderr and "yuv420p" in probe.stderr, probe.stderr
+
+
+def test_without_the_video_extra_an_mp4_is_refused_in_one_line_and_a_gif_works(capsys, tmp_path, monkeypatch):
+    monkeypatch.setitem(sys.modules, "imageio_ffmpeg", None)   # import imageio_ffmpeg now raises ImportError
+    out = tmp_path / "run.mp4"
+    assert_one_line_error(capsys, main(["render", "--frames", "2", "-o", str(out), "--quiet"]),
+                          "pip install 'assocbench[video]'", "or write a .gif")
+    assert not out.exists()
+    assert main(["render", "--frames", "2", "-o", str(tmp_path / "run.gif"), "--quiet"]) == 0
 
 
 def test_render_rejects_an_unknown_video_format(capsys, tmp_path):

@@ -149,3 +149,41 @@ def test_export_of_the_camera_ci_suite_is_reproducible_and_round_trips(tmp_path)
     for item, (problem, truth) in zip(got, expected):
         assert item.problem == problem and np.array_equal(item.truth.association, truth.association)
         assert np.array_equal(item.truth.feature_labels, truth.feature_labels)
+
+
+def test_a_table_changed_after_export_is_refused_by_the_reader_and_by_train(tmp_path, rng, capsys):
+    """Reproduction: an export whose problems.parquet was replaced by one with other truth labels
+    (every true pair undone) read and trained silently: the card's recorded SHA-256 was never
+    checked. Refused in one line now; so is a card that records no digest."""
+    import yaml
+
+    from assocbench.errors import UserError
+
+    rows = labelled(rng, 5)
+    write(tmp_path / "ok", rows)
+    undone = [(labels, p, FrameTruth(np.full(p.m, -1), np.full(p.n, -1), t.visible)) for labels, p, t in rows]
+    write(tmp_path / "other", undone)
+    (tmp_path / "ok" / "problems.parquet").write_bytes((tmp_path / "other" / "problems.parquet").read_bytes())
+    with pytest.raises(UserError, match="is not the table its card records .* changed after export"):
+        next(read_problems(tmp_path / "ok"))
+    model = tmp_path / "m.json"
+    assert_one_line_error(capsys, main(["train", "--data", str(tmp_path / "ok"), "--out", str(model)]),
+                          "is not the table its card records")
+    assert not model.exists()
+    card = yaml.safe_load((tmp_path / "other" / "card.yaml").read_text())
+    del card["files"]
+    (tmp_path / "other" / "card.yaml").write_text(yaml.safe_dump(card))
+    with pytest.raises(UserError, match="records no sha256 of problems.parquet"):
+        next(read_problems(tmp_path / "other"))
+
+
+def test_a_truth_that_does_not_fit_its_problem_is_refused_on_read(tmp_path, rng):
+    """The reader checks each frame's truth against its problem (``FrameTruth.validate``), as the
+    harness does: every candidate's true feature 0 is no truth an export can hold."""
+    from assocbench.errors import UserError
+
+    rows = [(labels, p, FrameTruth(np.zeros(p.m, np.int64), np.zeros(p.n, np.int64), t.visible))
+            for labels, p, t in labelled(rng, 8) if p.n >= 2 and p.m >= 1]
+    write(tmp_path / "d", rows)
+    with pytest.raises(UserError, match="in the export is invalid: FrameTruth.association pairs feature 0"):
+        next(read_problems(tmp_path / "d"))

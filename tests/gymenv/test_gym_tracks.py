@@ -141,18 +141,37 @@ def test_an_unknown_scene_is_a_one_line_error(env_id):
     assert "\n" not in str(exc.value)
 
 
-@pytest.mark.parametrize("env_id", ["assocbench/Park-v0", "assocbench/HallwayLoop-v0"])
-def test_a_lidar_track_renders_its_top_view(env_id):
-    """The planar and lines envs draw what ``assocbench render`` draws for their runs: the top view
-    with the scan and each feature coloured by the action (Gymnasium's RecordVideo needs it)."""
+LIDAR_IDS = [env_id for env_id, (track, _) in IDS.items() if track in ("planar", "lines")]
+
+
+@pytest.mark.parametrize("env_id", LIDAR_IDS)
+def test_a_lidar_env_renders_the_top_view_of_each_step(env_id):
+    """Reproduction: ``gymnasium.make("assocbench/Park-v0", render_mode="rgb_array")`` was refused
+    (the planar and lines envs, 12 of 18 ids), although ``assocbench frame`` and ``render`` draw
+    those tracks from above. ``render()`` gives that top view, (H, W, 3) uint8, after reset and
+    after each step (the step's decisions coloured)."""
     env = gym.make(env_id, render_mode="rgb_array", **SHORT)
     assert env.unwrapped.metadata["render_modes"] == ["rgb_array"]
-    _, info = env.reset(seed=0)
+    _, info = env.reset(seed=1)
     first = env.render()
+    assert first.ndim == 3 and first.shape[2] == 3 and first.dtype == np.uint8
     env.step(info["truth"])
-    after = env.render()
-    assert first.dtype == np.uint8 and first.ndim == 3 and first.shape == after.shape and first.shape[2] == 3
-    assert not np.array_equal(first, after)   # the next frame, with the step's decisions drawn
+    second = env.render()
+    assert second.shape == first.shape and second.dtype == np.uint8 and not np.array_equal(first, second)
+    env.close()
+
+
+def test_a_lidar_env_records_with_gymnasiums_render_wrappers():
+    """``RenderCollection`` (what ``RecordVideo`` builds on) gathers one picture per reset and step."""
+    from gymnasium.wrappers import RenderCollection
+
+    env = RenderCollection(gym.make("assocbench/ParkLoop-v0", render_mode="rgb_array", **SHORT))
+    _, info = env.reset(seed=0)
+    done = False
+    while not done:
+        _, _, done, _, info = env.step(info["truth"])
+    frames = env.render()
+    assert len(frames) == 3 and all(f.dtype == np.uint8 and f.ndim == 3 for f in frames)
     env.close()
 
 

@@ -68,6 +68,18 @@ class HangsWarmingUp(Associator):
             time.sleep(60)
         return self.empty(problem)
 
+class SpawnsAndHangs(Associator):
+    """Starts three child processes (an external solver), logs their ids, then hangs."""
+    def associate(self, problem):
+        if not warming(problem):
+            import subprocess
+            for _ in range(3):
+                child = subprocess.Popen(["sleep", "300"])
+                with open(os.environ["CHILD_LOG"], "a") as log:
+                    log.write(f"{child.pid}\\n")
+            time.sleep(60)
+        return self.empty(problem)
+
 class Mutates(Associator):
     """Edits the problem it is given in place, and swaps an array of the frozen dataclass."""
     def associate(self, problem):
@@ -199,6 +211,30 @@ def test_a_hanging_method_fails_each_call_at_the_time_limit(tmp_path, plugins):
     assert "associate() exceeded the time limit of 0.3 s" in rows.loc["hangs", "error"]
     assert rows.loc["hangswarmingup", "failures"] == 2
     assert "warming up the method exceeded the time limit of 3 s" in rows.loc["hangswarmingup", "error"]
+
+
+def _running(pid: int) -> bool:
+    """Whether process ``pid`` exists and is not a zombie."""
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] != "Z"
+    except OSError:
+        return False
+
+
+@pytest.mark.skipif(not Path("/proc/self/stat").exists(), reason="reads /proc")
+def test_the_children_of_a_method_killed_at_its_time_limit_die_with_it(tmp_path, plugins, monkeypatch):
+    """Reproduction: a method that starts child processes (an external solver: here 3 `sleep 300`
+    a call) and hangs: at the time limit its worker was killed, but its children lived on,
+    reparented to PID 1 (6 `sleep` processes left after 2 frames). The worker's whole session is
+    killed now."""
+    log = tmp_path / "children.txt"
+    monkeypatch.setenv("CHILD_LOG", str(log))
+    suite = load_suite(write_suite(tmp_path, f"[{entries(plugins, 'SpawnsAndHangs')}]", extra=", time_limit_s: 1"))
+    summaries, _ = run_suite(suite, tmp_path / "runs", progress=False)
+    assert summaries.loc[0, "failures"] == 2
+    children = [int(pid) for pid in log.read_text().split()]
+    assert len(children) == 6
+    assert _wait_for(lambda: not any(map(_running, children)), 5), [p for p in children if _running(p)]
 
 
 def test_a_method_that_edits_its_problem_changes_nobody_elses_numbers(tmp_path, plugins):

@@ -116,6 +116,8 @@ def _frames(**cols) -> pd.DataFrame:
     ({"n": [0, 0], "tp": [0, 0]}, "no candidates in any frame"),
     ({"tp": [0, 0], "fn": [2, 2], "perfect": [False, False]}, "nothing associated"),
     ({"error": ["", "RuntimeError: boom"]}, "1/2 frames failed"),
+    ({"n_true": [0, 0], "tp": [0, 0], "fp": [2, 2]}, "no true pair in any frame"),
+    ({"n_true": [0, 0], "tp": [0, 0]}, "no true pair in any frame; nothing associated"),
 ])
 def test_a_broken_run_never_reads_as_a_perfect_one(cols, status):
     s = summarize(_frames(**cols))
@@ -131,6 +133,16 @@ def test_run_with_no_candidates_warns_and_exits_1(tmp_path, capsys):
     err = capsys.readouterr().err
     assert code == 1 and "cannot be trusted" in err and "no candidates" in err
     assert pd.read_csv(tmp_path / "summary.csv").loc[0, "status"] == "no candidates in any frame"
+
+
+def test_a_run_whose_truth_has_no_true_pair_is_not_ok(tmp_path, capsys):
+    """Reproduction: ``assocbench run --set truth.gate_px=1e-300`` labels no feature with a landmark,
+    so the truth has no true pair: recall had nothing to count, every pairing was false, yet the
+    status was ok and the run exited 0."""
+    code = main(["run", "--frames", "2", "--set", "truth.gate_px=1e-300", "--out", str(tmp_path)])
+    err = capsys.readouterr().err
+    assert code == 1 and "cannot be trusted: no true pair in any frame" in err
+    assert pd.read_csv(tmp_path / "summary.csv").loc[0, "status"] == "no true pair in any frame"
 
 
 def test_default_run_folder_names_the_settings(tmp_path, monkeypatch, capsys):

@@ -4,6 +4,8 @@ the records; the table read back is the one ``pd.DataFrame(records)`` would have
 
 from __future__ import annotations
 
+import errno
+import io
 import tracemalloc
 from collections import deque
 
@@ -93,3 +95,36 @@ def test_a_full_temporary_folder_is_one_line_naming_it(monkeypatch):
         spool.add(0, {"frame": 0})
     assert len(spool) == 0   # nothing half-recorded
     spool.close()
+
+
+class _FullDisk(io.RawIOBase):
+    """A file on a full disk: writes fail with ENOSPC (reads and seeks work)."""
+
+    def readable(self) -> bool:
+        return True
+
+    def writable(self) -> bool:
+        return True
+
+    def seekable(self) -> bool:
+        return True
+
+    def seek(self, offset: int, whence: int = 0) -> int:
+        return 0
+
+    def write(self, data) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device")
+
+
+def test_a_temporary_folder_that_fills_during_a_run_is_one_line(monkeypatch, tmp_path, capsys):
+    """Reproduction: TMPDIR full during `assocbench run --scene park --frames 300`: the spool's add
+    raised the one-line UserError, then closing the spool in the supervisor's `finally` flushed its
+    buffer, raised ENOSPC again and replaced the error with a traceback."""
+    from cli_errors import assert_one_line_error
+
+    from assocbench.cli.main import main
+
+    monkeypatch.setattr(records.tempfile, "TemporaryFile", lambda **kw: io.BufferedRandom(_FullDisk()))
+    code = main(["run", "--scene", "park", "--frames", "60", "--method", "mnn", "--out", str(tmp_path / "run")])
+    assert_one_line_error(capsys, code, "cannot write the run's per-frame records", "No space left on device", "TMPDIR")
+    assert not (tmp_path / "run").exists()

@@ -72,3 +72,48 @@ def test_a_killed_writers_temporary_files_are_removed_by_the_next_write(tmp_path
     write_text(tmp_path / "summary.csv", "done")
     assert (tmp_path / "summary.csv").read_text() == "done"
     assert not orphan.exists() and live.exists()
+
+
+EXTREMES = [   # settings in their old ranges whose computation crashed the worker (exit 1, a traceback)
+    ("belief.sigma_pixel=1e-300", ("room",), "belief.sigma_pixel must be a finite number in [1e-06, 10000.0]"),
+    ("lidar.sigma_range=1e-300", ("park", "office"), "lidar.sigma_range must be a finite number in [1e-06, 10]"),
+    ("belief.sigma_position=1e300", ("room", "park", "office"), "belief.sigma_position must be a finite number in [0, 1000.0]"),
+    ("belief.sigma_landmark=1e300", ("room", "park"), "belief.sigma_landmark must be a finite number in [0, 1000.0]"),
+    ("belief.sigma_common=1e300", ("room", "park"), "belief.sigma_common must be a finite number in [0, 1000.0]"),
+    ("belief.miscalibration=1e300", ("room",), "belief.miscalibration must be a finite number in (0, 1000.0]"),
+    ("belief.sigma_pixel=1e300", ("room",), "belief.sigma_pixel must be a finite number in [1e-06, 10000.0]"),
+]
+
+
+@pytest.mark.parametrize("setting, scene, needle", [(s, scene, n) for s, scenes, n in EXTREMES for scene in scenes])
+def test_a_setting_whose_computation_cannot_hold_is_refused(setting, scene, needle):
+    """Reproduction: `assocbench run --scene room --set belief.sigma_pixel=1e-300` (R = σ²I is 0,
+    not positive definite), `--scene park|office --set lidar.sigma_range=1e-300` (the same),
+    `--set belief.sigma_position=1e300` on every track (σ² overflows: OverflowError) crashed the
+    worker with a traceback; so did sigma_landmark, sigma_common and miscalibration at 1e300
+    (room: math domain error) and sigma_pixel at 1e300. The ranges now exclude them."""
+    with pytest.raises(UserError) as err:
+        spec(setting, scene=scene)
+    assert needle in str(err.value) and "\n" not in str(err.value)
+
+
+BOUNDS = ["belief.sigma_pixel=1e-6", "belief.sigma_pixel=1e4", "belief.sigma_position=1000",
+          "belief.sigma_landmark=1000", "belief.sigma_common=1000", "belief.miscalibration=1000"]
+
+
+@pytest.mark.parametrize("scene, setting, loop", [
+    *[(scene, s, False) for scene in ("room", "park", "office") for s in BOUNDS],
+    *[(scene, "lidar.sigma_range=1e-6", loop) for scene in ("park", "office") for loop in (False, True)],
+    *[(scene, s, True) for scene in ("room", "park", "office") for s in ("belief.sigma_pixel=1e-6",
+                                                                         "belief.sigma_position=1000")],
+])
+def test_every_track_computes_at_the_ends_of_the_ranges(tmp_path, capsys, scene, setting, loop):
+    """At the new bounds each run is measured: ok, or not ok with its reason (no candidates when the
+    estimate is a kilometre off), never a crash."""
+    from assocbench.cli.main import main
+
+    code = main(["run", "--scene", scene, "--frames", "2", "--method", "mnn", "--set", setting,
+                 "--out", str(tmp_path), "--format", "csv", *(["--loop"] if loop else [])])
+    err = capsys.readouterr().err
+    assert code in (0, 1) and "Traceback" not in err and "error:" not in err, err
+    assert (tmp_path / "summary.csv").is_file()

@@ -6,7 +6,8 @@ closed loop. Load it with ``ASSOCBENCH_TRACKS=toy_track`` and this folder on ``P
 For the tests of interrupt and resume, two environment variables (not settings: they must not
 change a job's key): ``TOY_LOG`` names a file that gets a line ``seed`` each time a run's first
 problem is built, ``TOY_DELAY_S`` makes building it take ``seed ×`` that many seconds; and
-``TOY_WARM_LOG`` a file that gets the process id of each process that warms the track up."""
+``TOY_WARM_LOG`` a file that gets the process id of each process that warms the track up;
+``TOY_BAD_TRUTH=1`` makes the truth impossible (every landmark's true feature is feature 0)."""
 
 from __future__ import annotations
 
@@ -91,6 +92,8 @@ class ToyTrack(FeatureTrack):
         belief = run.belief
         problem, truth = lattice_problem(rng, n=source.landmarks, cols=source.landmarks,
                                          sigma_common=100 * belief.sigma_position, n_clutter=belief.clutter)
+        if os.environ.get("TOY_BAD_TRUTH"):
+            truth = np.zeros_like(truth)
         return problem, frame_truth(truth, problem.m)
 
     def suites(self) -> dict:

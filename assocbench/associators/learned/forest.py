@@ -77,21 +77,75 @@ def parse_forest(doc: dict, where: str) -> Forest:
     if doc.get("feature_version") != FEATURE_VERSION or doc.get("features") != list(FEATURES):
         raise UserError(f"model {where} was made for feature version {doc.get('feature_version')!r}, this "
                         f"assocbench computes version {FEATURE_VERSION}: retrain it with `assocbench train`")
-    trees = doc["trees"]
-    width = max(len(t["left"]) for t in trees)
+    trees = checked_trees(doc, where)
+    try:
+        sig = doc["signature"]
+        return Forest(_padded(trees, "left", np.int64, -1), _padded(trees, "right", np.int64, -1),
+                      _padded(trees, "feature", np.int64, 0), _padded(trees, "threshold", np.float64, 0.0),
+                      _padded(trees, "value", np.float64, 0.0), int(doc["depth"]), float(doc["base"]),
+                      float(doc["no_match"]), str(doc["track"]), (int(sig["d"]), tuple(int(a) for a in sig["angular"])),
+                      float(doc["gate_confidence"]), dict(doc.get("meta") or {}))
+    except (KeyError, TypeError, ValueError) as exc:   # a field missing or of another type
+        raise UserError(f"model {where} lacks or mangles the field {exc}: make one with `assocbench train`") from None
 
-    def padded(key: str, kind, fill) -> np.ndarray:
-        out = np.full((len(trees), width), fill, dtype=kind)
-        for k, t in enumerate(trees):
-            out[k, :len(t[key])] = t[key]
-        return out
 
-    sig = doc["signature"]
-    return Forest(padded("left", np.int64, -1), padded("right", np.int64, -1), padded("feature", np.int64, 0),
-                  padded("threshold", np.float64, 0.0), padded("value", np.float64, 0.0), int(doc["depth"]),
-                  float(doc["base"]), float(doc["no_match"]), str(doc["track"]),
-                  (int(sig["d"]), tuple(int(a) for a in sig["angular"])), float(doc["gate_confidence"]),
-                  dict(doc.get("meta") or {}))
+def _padded(trees: list[dict], key: str, kind, fill) -> np.ndarray:
+    """The trees' ``key`` lists as one (trees, longest tree) array, padded with ``fill``."""
+    out = np.full((len(trees), max(len(t[key]) for t in trees)), fill, dtype=kind)
+    for k, t in enumerate(trees):
+        out[k, :len(t[key])] = t[key]
+    return out
+
+
+TREE_KEYS = ("left", "right", "feature", "threshold", "value")
+
+
+def checked_trees(doc: dict, where: str) -> list[dict]:
+    """The document's trees, each checked node by node (``_check_tree``); a model that is not a
+    forest the walk can follow is refused in one line naming the file, tree and node. The
+    compiled walk reads ``x[feature]`` and the child indices unchecked: an index out of range read
+    other memory (a feature 12 of 12 ran with status ok, a child 1e6 segfaulted the worker)."""
+    trees = doc.get("trees")
+    if not isinstance(trees, list) or not trees:
+        raise UserError(f"model {where} has no trees: make one with `assocbench train --data DIR --out MODEL`")
+    for k, tree in enumerate(trees):
+        _check_tree(tree, f"model {where}: tree {k}")
+    for key in ("base", "no_match", "gate_confidence"):
+        if not isinstance(doc.get(key), (int, float)) or not np.isfinite(doc[key]):
+            raise UserError(f"model {where}: {key} must be a finite number, got {_short(doc.get(key))}")
+    return trees
+
+
+def _check_tree(tree, where: str) -> None:
+    """A tree's node lists: equal lengths; at each node both children -1 (a leaf) or both later
+    nodes of the tree (so every walk ends at a leaf); a split's feature one of ``FEATURES``;
+    thresholds and values finite numbers."""
+    if not isinstance(tree, dict) or not all(isinstance(tree.get(key), list) for key in TREE_KEYS):
+        raise UserError(f"{where} is not a tree: it needs the lists {', '.join(TREE_KEYS)}")
+    sizes = {key: len(tree[key]) for key in TREE_KEYS}
+    if len(set(sizes.values())) != 1 or not sizes["left"]:
+        raise UserError(f"{where} has node lists of lengths {sizes}: they must be one non-empty length")
+    size = sizes["left"]
+    for node in range(size):
+        left, right, feature = (tree[key][node] for key in ("left", "right", "feature"))
+        if not all(type(v) is int for v in (left, right, feature)):
+            raise UserError(f"{where} node {node}: left, right and feature must be integers")
+        leaf = left == -1 and right == -1
+        if not leaf and not (node < left < size and node < right < size):
+            raise UserError(f"{where} node {node}: children {left}, {right} must both be -1 (a leaf) or later "
+                            f"nodes of the tree (below {size})")
+        if not leaf and not 0 <= feature < len(FEATURES):
+            raise UserError(f"{where} node {node}: feature {feature} is outside 0..{len(FEATURES) - 1}")
+        for key in ("threshold", "value"):
+            v = tree[key][node]
+            if type(v) not in (int, float) or not np.isfinite(v):
+                raise UserError(f"{where} node {node}: {key} must be a finite number, got {_short(v)}")
+
+
+def _short(value) -> str:
+    """``repr(value)`` cut to 40 characters, for a message."""
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
 
 
 def load_forest(path: str | Path) -> Forest:

@@ -6,6 +6,7 @@ its CSV name with the unit ``unit_of`` gives it, so nothing in a leaderboard is 
 
 from __future__ import annotations
 
+import math
 from dataclasses import dataclass
 
 from ...scoring.units import unit_of
@@ -17,7 +18,9 @@ class Column:
     """One metric column. better: ``"high"``, ``"low"`` or ``""`` (a count that describes, not
     ranks); main: shown by default (the others behind the page's "more columns" switch), except in
     the kinds of suite named in ``minor_in`` (``open``, ``loop``); count: a run's value
-    is a whole number (frames), so a whole mean over seeds prints without decimals."""
+    is a whole number (frames), so a whole mean over seeds prints without decimals; ``lo``, ``hi``:
+    the values a run can have (a share is in [0, 1]), against which a leaderboard CSV is checked
+    when it is read."""
 
     key: str
     label: str
@@ -27,6 +30,8 @@ class Column:
     main: bool = True
     minor_in: tuple[str, ...] = ()
     count: bool = False
+    lo: float = 0.0
+    hi: float = math.inf
 
     def shown(self, kind: str) -> bool:
         """Whether the column is shown by default on a page of a ``kind`` suite."""
@@ -45,14 +50,14 @@ class Column:
 
 CATALOGUE = (
     Column("f1", "F1", "harmonic mean of precision and recall over all pairings (micro average)", "high",
-           minor_in=("loop",)),
-    Column("precision", "precision", "returned pairings that are true / all returned pairings", "high"),
-    Column("recall", "recall", "true pairings returned / all true pairings", "high"),
+           minor_in=("loop",), hi=1.0),
+    Column("precision", "precision", "returned pairings that are true / all returned pairings", "high", hi=1.0),
+    Column("recall", "recall", "true pairings returned / all true pairings", "high", hi=1.0),
     Column("perfect", "perfect frames", "share of frames associated exactly as the truth (one bad pairing can "
-           "wreck a filter)", "high", minor_in=("loop",)),
+           "wreck a filter)", "high", minor_in=("loop",), hi=1.0),
     Column("surprisal_gap", "surprisal gap", "mean over frames of the total surprisal of the returned association "
            "minus that of the true one; negative: the method found a likelier explanation than the truth",
-           "low", 2, minor_in=("loop",)),
+           "low", 2, minor_in=("loop",), lo=-math.inf),
     Column("ate_rmse", "ATE", "RMSE of the position error of each frame's pose as the estimator had it then, no "
            "alignment (as evo_ape)", "low", 4),
     Column("ate_mm", "ATE", "RMSE of the positions tracked by ICP against the truth, no alignment", "low", 1),
@@ -63,9 +68,9 @@ CATALOGUE = (
            "for a filter)", "low", 4, main=False),
     Column("runtime_median_ms", "runtime median", "median wall time of one call of the method's associate()", "low", 2),
     Column("proven_optimal", "proven optimal", "share of frames whose answer the method proved optimal (JCBB, "
-           "CCDA; n/a for methods that make no such claim)", "high", main=False),
+           "CCDA; n/a for methods that make no such claim)", "high", main=False, hi=1.0),
     Column("true_mass", "true mass", "mean probability a soft method (JPDA) puts on each candidate's true "
-           "outcome; n/a for hard methods", "high", main=False),
+           "outcome; n/a for hard methods", "high", main=False, hi=1.0),
     Column("duplicates", "duplicates", "landmarks mapped twice in the final map (SLAM mode)", "low", 2),
     Column("false_landmarks", "false landmarks", "map entries with no true landmark behind them", "low", 2),
     Column("map_rmse", "map RMSE", "RMSE of the final map's landmark positions", "low", 4),
@@ -77,8 +82,8 @@ CATALOGUE = (
     Column("loop_closures", "loop closures", "revisits paired with the landmark's old map entry (closing the loop)", "high", 1,
            main=False),
     Column("precision_start", "precision at start", "precision of ICP's first iteration, from the previous pose",
-           "high"),
-    Column("recall_start", "recall at start", "recall of ICP's first iteration", "high", main=False),
+           "high", hi=1.0),
+    Column("recall_start", "recall at start", "recall of ICP's first iteration", "high", main=False, hi=1.0),
     Column("icp_failures", "ICP failures", "frames whose ICP reported failure (pose held, frame not fused; a method "
            "that raised or hung is a failed frame instead)", "low", 1,
            count=True),
@@ -108,9 +113,28 @@ COUNT_COLUMNS = {"timed_out": ("timed out", "frames where the method spent its s
                                "hypothesis so far"),
                  "failures": ("failed", "frames where the method raised, returned an invalid association, overran its time limit "
                               "or its worker died"),
-                 "diverged": ("diverged", "seeds whose NEES stayed above the chi-square 0.999 bound for 5 frames")}
+                 "diverged": ("diverged", "seeds whose NEES stayed above the chi-square 0.999 bound for 5 frames; a "
+                              "row with one is chaotic: its pairings then hinge on the last bits of the arithmetic, "
+                              "so its digits may differ on another machine")}
 NOT_METRICS = {"scenario", "method", "status", "seeds", "frames", "seed", "scene", "difficulty", "error", "anees_lo",
                "anees_hi", "diverged_at", "jc_share", "clutter_accepted", "runtime_p95_ms", *COUNT_COLUMNS}
+
+
+# the ranges of the columns that are not metrics (``Column.lo``, ``hi``): counts, and the ANEES band
+RANGES = {"seeds": (1, math.inf), "frames": (1, math.inf), "seed": (0, math.inf), "diverged_at": (-1, math.inf),
+          "jc_share": (0, 1), **{k: (0, math.inf) for k in ("anees_lo", "anees_hi", "clutter_accepted",
+                                                           "runtime_p95_ms", *COUNT_COLUMNS)}}
+WHOLE = ("seeds", "frames", "seed")   # columns whose every value is a whole number
+
+
+def value_range(key: str) -> tuple[float, float]:
+    """The values column ``key`` of a leaderboard CSV can hold (NaN aside: no value): a metric's
+    ``lo``..``hi``, a spread (``_std``) at least 0, an unknown column any finite number."""
+    if key in BY_KEY:
+        return BY_KEY[key].lo, BY_KEY[key].hi
+    if key.endswith("_std"):
+        return 0.0, math.inf
+    return RANGES.get(key, (-math.inf, math.inf))
 
 
 def column(key: str) -> Column:

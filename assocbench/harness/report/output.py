@@ -1,24 +1,48 @@
-"""Write a report's files into ``--out`` whole or not at all: into a temporary folder beside it,
-then renamed in place. ``--out`` may be new, empty, or an earlier report (replaced); anything
-else (a file, a folder of other things) is refused before anything is written."""
+"""Write a report's files into ``--out``, never touching a file the report did not write.
+
+``--out`` may be new, empty (a mount point too), or an earlier report, which may hold the user's
+own files beside it (a published site's ``.git/``, ``CNAME``, notes): the files are staged in a
+hidden folder inside ``--out`` (the same file system, so each lands by a rename), then each is
+renamed in place, and the earlier report's files that the new one no longer has are removed.
+An earlier report's files are its pages (``.html`` carrying the generator mark) and the pictures
+they show (``img/...``); everything else in the folder is the user's and stays. A write that fails
+leaves the earlier report as it was. Anything else as ``--out`` (a file, a folder of other things)
+is refused before anything is written."""
 
 from __future__ import annotations
 
 import os
+import re
 import shutil
 import tempfile
+from html import unescape
 from pathlib import Path
 
 from ...atomic import OUTPUT, ensure_dir, place_error
 from ...errors import UserError
 
 MARK = b'<meta name="generator" content="assocbench report">'
+PICTURE = re.compile(r'<img src="(img/[^"/]+/[^"/]+\.png)"')   # how pages.suite_body shows a picture
+
+
+def _is_page(path: Path) -> bool:
+    """Whether ``path`` is a page this command wrote (it carries the mark)."""
+    if not path.is_file() or path.suffix != ".html":
+        return False
+    with path.open("rb") as f:
+        return MARK in f.read(4096)
 
 
 def is_report(folder: Path) -> bool:
     """Whether ``folder`` holds a report this command wrote (its index.html carries the mark)."""
-    index = folder / "index.html"
-    return index.is_file() and MARK in index.read_bytes()[:4096]
+    return _is_page(folder / "index.html")
+
+
+def report_files(folder: Path) -> set[str]:
+    """The files of the report in ``folder`` (relative paths): its pages and their pictures."""
+    pages = [p for p in folder.glob("*.html") if _is_page(p)]
+    pictures = {unescape(src) for p in pages for src in PICTURE.findall(p.read_text(errors="replace"))}
+    return {p.name for p in pages} | {src for src in pictures if ".." not in src.split("/")}
 
 
 def check_out(out: Path) -> None:
@@ -31,38 +55,42 @@ def check_out(out: Path) -> None:
 
 
 def write_report(files: dict[str, bytes], out: Path) -> None:
-    """Put ``files`` (relative path -> bytes) in ``out``, replacing an earlier report there."""
+    """Put ``files`` (relative path -> bytes) in ``out``, replacing an earlier report's files there
+    and keeping every other file (module docstring)."""
     out = Path(out)
     check_out(out)
-    ensure_dir(out.parent, OUTPUT)
-    staging = old = None
+    created = not out.exists()
+    ensure_dir(out, OUTPUT)
+    staging = None
     try:
-        staging = Path(tempfile.mkdtemp(prefix=f".{out.name}.new.", dir=out.parent))
+        staging = Path(tempfile.mkdtemp(prefix=".report.new.", dir=out))
         for rel, data in files.items():
             path = staging / rel
             path.parent.mkdir(parents=True, exist_ok=True)
             path.write_bytes(data)
-        _publishable(staging)
-        if out.exists():   # an earlier report, or an empty folder: moved aside, removed once the new one is in
-            old = Path(tempfile.mkdtemp(prefix=f".{out.name}.old.", dir=out.parent))
-            os.replace(out, old / "report")
-        os.replace(staging, out)
-        staging = None
+        stale = report_files(out) - set(files)
+        for rel in files:
+            (out / rel).parent.mkdir(parents=True, exist_ok=True)
+            os.replace(staging / rel, out / rel)
+        _remove(out, stale)
     except OSError as exc:
-        if old is not None and not out.exists():   # put the earlier report back
-            os.replace(old / "report", out)
         error = place_error(exc, out, OUTPUT)
         if error is None:
             raise
         raise error from None
     finally:
-        for leftover in (staging, old):
-            if leftover is not None:
-                shutil.rmtree(leftover, ignore_errors=True)
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+        if created and out.is_dir() and not any(out.iterdir()):   # nothing landed: leave no empty folder
+            out.rmdir()
 
 
-def _publishable(folder: Path) -> None:
-    """mkdtemp makes its folder 0700; a report is an ordinary folder that others may read."""
-    mask = os.umask(0)
-    os.umask(mask)
-    os.chmod(folder, 0o777 & ~mask)
+def _remove(out: Path, stale: set[str]) -> None:
+    """Remove an earlier report's files the new one does not have, and the picture folders that
+    leaves empty; nothing else."""
+    for rel in sorted(stale):
+        (out / rel).unlink(missing_ok=True)
+    for folder in sorted({(out / rel).parent for rel in stale}, reverse=True):
+        while folder != out and folder.is_dir() and not any(folder.iterdir()):
+            folder.rmdir()
+            folder = folder.parent

@@ -11,6 +11,7 @@ from importlib import resources
 
 import pandas as pd
 
+from ...scoring.loop_summary import BAND_LEGEND, band_mark
 from ...viz.cd_diagram import cd_figure
 from ...viz.plots import figure_bytes
 from ..leaderboard import ORACLE_LABEL
@@ -251,7 +252,9 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
         cells.append(f'<td{"" if c.shown(kind) else " class=more"} data-v="{_v(r[c.key])}">{_cell_num(r[c.key], c)}'
                      f"{spread}</td>")
     if "anees_lo" in r:
-        cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]</td>')
+        mark = band_mark(r.get("anees", float("nan")), r["anees_lo"], r["anees_hi"])
+        cells.append(f'<td data-v="{_v(r["anees_lo"])}">[{_num(r["anees_lo"], 2)}, {_num(r["anees_hi"], 2)}]'
+                     f'{" " + mark if mark else ""}</td>')
     for k in counts:
         of = r["seeds"] if k == "diverged" else r.get("frames", float("nan"))
         hit = ' class="more counted"' if pd.notna(r[k]) and r[k] > 0 else ' class="more"'
@@ -276,5 +279,8 @@ def _legend(suite: Suite, columns: list[Column]) -> str:
     items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", f"{meaning} (behind &ldquo;more columns&rdquo;; "
                "a count above 0 is a badge beside the method's name)")
               for k, (label, meaning) in COUNT_COLUMNS.items() if k in suite.table]
+    if "anees_lo" in suite.table:
+        items.append(("ANEES band [95 %, NEES]", "two-sided 95 % chi-square band of one run's ANEES; "
+                      + escape(BAND_LEGEND)))
     items.append(("status", "ok, or why the harness could not trust the row's numbers"))
     return '<dl class="legend">' + "".join(f"<dt>{escape(h)}</dt><dd>{m}</dd>" for h, m in items) + "</dl>"

@@ -10,6 +10,7 @@ file and what to do."""
 
 from __future__ import annotations
 
+import csv
 import hashlib
 import io
 import json
@@ -23,7 +24,7 @@ from ...errors import UserError
 from ...scoring.aggregate import OK
 from ...tracks.inference import infer_track
 from ..leaderboard import CARD_KEYS, scenario_key
-from .columns import BY_KEY, COUNT_COLUMNS, Column
+from .columns import BY_KEY, COUNT_COLUMNS, WHOLE, Column, value_range
 
 CSV_NAME = "leaderboard.csv"
 CARD_NAME = "leaderboard.json"
@@ -141,10 +142,47 @@ def _parse(data: bytes, name: str) -> pd.DataFrame:
     if bad:
         raise UserError(f"{name}: column {bad[0]} holds text where numbers belong; {fix}")
     table = table.drop(columns=text)   # labels a newer harness may add; the report ranks and sorts numbers
-    if "status" not in table:
+    _check_rows(data, table, name)
+    _check_values(table, name)
+    if "status" not in table:   # a leaderboard older than the status column: every row was measured
         table["status"] = OK
-    table["status"] = table["status"].fillna(OK)
     return table
+
+
+def _where(table: pd.DataFrame, i: int, name: str) -> str:
+    """``name`` and row ``i`` by its line in the file and its scenario and method."""
+    return f"{name} line {i + 2} ({table['scenario'].iloc[i]}, {table['method'].iloc[i]})"
+
+
+def _check_rows(data: bytes, table: pd.DataFrame, name: str) -> None:
+    """Refuse a row with fewer fields than the header (a file cut mid-row: pandas fills them with
+    NaN, and a missing status read as ok) and a row with an empty status, seeds or frames."""
+    lines = [row for row in csv.reader(io.StringIO(data.decode("utf-8", "replace"))) if row]
+    short = [i for i, row in enumerate(lines[1:]) if len(row) != len(lines[0])]
+    if short:
+        i = short[0]
+        raise UserError(f"{_where(table, i, name)} has {len(lines[i + 1])} fields, the header {len(lines[0])}: the file "
+                        f"is cut or damaged; regenerate it with `assocbench leaderboard`")
+    for key in ("status", "seeds", "frames"):
+        if key in table and table[key].isna().any():
+            raise UserError(f"{_where(table, int(np.flatnonzero(table[key].isna())[0]), name)} has no {key}; "
+                            f"regenerate it with `assocbench leaderboard`")
+
+
+def _check_values(table: pd.DataFrame, name: str) -> None:
+    """Refuse a number outside its column's range (``columns.value_range``), an infinite one and a
+    count that is not whole, naming the line and column: the report would rank ``f1=inf`` first."""
+    for key in [c for c in table if c not in LABEL_COLUMNS]:
+        lo, hi = value_range(key)
+        values = table[key].to_numpy(dtype=float)
+        bad = ~np.isnan(values) & ~((values >= lo) & (values <= hi) & np.isfinite(values))
+        if key in WHOLE:
+            bad |= ~np.isnan(values) & (values != np.round(values))
+        if bad.any():
+            i = int(np.flatnonzero(bad)[0])
+            expect = f"a whole number in [{lo:g}, {hi:g}]" if key in WHOLE else f"a finite number in [{lo:g}, {hi:g}]"
+            raise UserError(f"{_where(table, i, name)}, column {key}: {values[i]:.6g} is not {expect}; "
+                            f"regenerate it with `assocbench leaderboard`")
 
 
 def read_card(path: Path, table: pd.DataFrame, source: str) -> dict:

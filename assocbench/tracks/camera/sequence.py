@@ -189,7 +189,7 @@ def _save(seq: Sequence, path: Path, key: str) -> None:
 
 def _load(path: Path, key: str, spec: SequenceSpec) -> Sequence:
     """Read a cache entry and check it is the sequence of ``key``; raise one of ``cache.DAMAGED``."""
-    with np.load(path) as z:
+    with np.load(path, allow_pickle=False) as z:
         if "key" not in z.files or str(z["key"]) != key:
             raise Unusable("it was stored under another key")
         w, h, f, cx, cy = z["K"]

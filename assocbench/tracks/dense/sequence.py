@@ -193,7 +193,7 @@ def _mapped(path: Path, archive: zipfile.ZipFile, name: str) -> np.ndarray:
 
 
 def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
-    with np.load(path) as z:
+    with np.load(path, allow_pickle=False) as z:
         if str(z["key"]) != key:
             raise Unusable("it was stored under another key")
         w, h, f, cx, cy = z["K"]

@@ -14,6 +14,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...sim.cache import storable
 from ...sim.lidar import scan
 from ...sim.line_scene import LineScene, beam_lines, check_scan_plane, load_line_scene, visible_lines
 from ...sim.planar_trajectory import planar_trajectory
@@ -44,6 +45,7 @@ class LineSequenceSpec(ScenePath):
         planar_trajectory(scene, self.trajectory, min(self.frames, 2), self.seed, **self.trajectory_params)
 
 
+@storable
 @dataclass
 class LineSequence(PosesInPlane):
     """Per-frame extracted lines and truth; line indices refer to ``lines``."""

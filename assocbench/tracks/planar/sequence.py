@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
+from ...sim.cache import storable
 from ...sim.lidar import scan
 from ...sim.planar_scene import PlanarScene, load_planar_scene
 from ...sim.planar_trajectory import planar_trajectory
@@ -42,6 +43,7 @@ class PlanarSequenceSpec(ScenePath):
                           **self.trajectory_params)
 
 
+@storable
 @dataclass
 class PlanarSequence(PosesInPlane):
     """Per-frame detections and truth; post indices refer to ``post_names``."""

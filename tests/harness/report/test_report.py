@@ -5,6 +5,7 @@ nothing half-written."""
 from __future__ import annotations
 
 import errno
+import os
 import re
 from pathlib import Path
 
@@ -152,9 +153,9 @@ def test_an_out_that_is_a_file_or_holds_other_things_is_refused(tmp_path, capsys
 def test_an_earlier_report_is_replaced_whole_or_kept(tmp_path, monkeypatch):
     out = tmp_path / "report"
     write_report(build_report([RESULTS / "lines"]), out)
-    (out / "stale.html").write_text("old page")
+    assert "lines-closed-loop.html" in _tree(out) and any(name.startswith("img/lines") for name in _tree(out))
     write_report(build_report([RESULTS]), out)
-    assert "stale.html" not in _tree(out) and "camera-open-loop.html" in _tree(out)
+    assert _tree(out) == build_report([RESULTS])   # the lines page and its pictures are gone
     before = _tree(out)
 
     def full_disk(self, data):
@@ -165,6 +166,41 @@ def test_an_earlier_report_is_replaced_whole_or_kept(tmp_path, monkeypatch):
         write_report(build_report([RESULTS / "planar"]), out)
     monkeypatch.undo()
     assert _tree(out) == before and sorted(p.name for p in tmp_path.iterdir()) == ["report"]   # no temporary left
+
+
+USER_FILES = {".git/HEAD": b"ref: refs/heads/main\n", ".git/objects/ab/cdef": b"blob", "CNAME": b"bench.example.org\n",
+              "notes.md": b"my notes", "img/logo.png": b"my logo", "about.html": b"<html>my page</html>"}
+
+
+def test_a_report_over_an_earlier_one_keeps_the_users_files(tmp_path):
+    """Reproduction: `assocbench report results/lines --out site`, then the user adds `.git/`,
+    `CNAME`, notes (a published site), then `assocbench report results --out site`: the folder was
+    replaced whole and every file of the user's was deleted. Only the report's files change now."""
+    out = tmp_path / "site"
+    write_report(build_report([RESULTS / "lines"]), out)
+    for rel, data in USER_FILES.items():
+        (out / rel).parent.mkdir(parents=True, exist_ok=True)
+        (out / rel).write_bytes(data)
+    assert main(["report", str(RESULTS), "--out", str(out)]) == 0
+    assert _tree(out) == build_report([RESULTS]) | USER_FILES
+
+
+def test_a_report_into_an_empty_mount_point_is_written_into_it(tmp_path, monkeypatch):
+    """Reproduction: `assocbench report results --out /mnt/empty-volume` failed with `OSError [Errno
+    16] Device or resource busy`: the folder was renamed aside, and a mount point cannot be. The
+    report is written into the folder; renaming the folder itself fails here as on a mount point."""
+    out = tmp_path / "volume"
+    out.mkdir()
+    replace = os.replace
+
+    def busy(src, dst):
+        if Path(src) == out or Path(dst) == out:
+            raise OSError(errno.EBUSY, "Device or resource busy", str(src))
+        return replace(src, dst)
+
+    monkeypatch.setattr(os, "replace", busy)
+    assert main(["report", str(RESULTS), "--out", str(out)]) == 0
+    assert _tree(out) == build_report([RESULTS]) and sorted(p.name for p in tmp_path.iterdir()) == ["volume"]
 
 
 def test_a_dense_count_of_frames_prints_whole_when_it_is(tmp_path):
@@ -185,3 +221,49 @@ def test_failed_frames_of_dense_runs_are_summed_over_seeds_as_their_frames_are(t
     page = build_report([tiny_leaderboard(tmp_path / "dense", rows)])
     html = next(v for n, v in page.items() if n.endswith(".html") and n != "index.html").decode()
     assert 'data-v="3">3 / 20</td>' in html
+
+
+def _edited(folder: Path, key: str, value) -> Path:
+    """``folder``'s leaderboard with column ``key`` of its second row (line 3) set to ``value``."""
+    table = pd.read_csv(folder / "leaderboard.csv")
+    table[key] = table[key].astype(object)
+    table.loc[1, key] = value
+    table.to_csv(folder / "leaderboard.csv", index=False)
+    return folder
+
+
+@pytest.mark.parametrize("suite,key,value,needle", [
+    ("planar", "f1", float("inf"), "column f1: inf is not a finite number in [0, 1]"),
+    ("planar", "f1", -5, "column f1: -5 is not a finite number in [0, 1]"),
+    ("planar", "recall", 1e308, "column recall: 1e+308 is not a finite number in [0, 1]"),
+    ("planar", "ate_rmse", -0.1, "column ate_rmse: -0.1 is not a finite number in [0, inf]"),
+    ("planar", "seeds", 2.5, "column seeds: 2.5 is not a whole number in [1, inf]"),
+    ("planar", "f1_std", -1, "column f1_std: -1 is not a finite number in [0, inf]"),
+    ("planar", "status", "", "has no status"),
+    ("dense", "ate_mm", float("-inf"), "column ate_mm: -inf is not a finite number in [0, inf]"),
+])
+def test_a_value_outside_its_column_is_refused_naming_file_line_and_column(tmp_path, capsys, suite, key, value, needle):
+    """Reproduction: `assocbench report` of results/planar with one row's f1 set to inf ranked it
+    first; f1=-5 and recall=1e308 were ranked too (1e308 printed with 309 digits)."""
+    folder = _edited(copy_leaderboard(RESULTS / suite, tmp_path / suite), key, value)
+    row = pd.read_csv(RESULTS / suite / "leaderboard.csv").iloc[1]
+    out = tmp_path / "out"
+    _one_line_error(capsys, main(["report", str(folder), "--out", str(out)]),
+                    f"{folder}/leaderboard.csv line 3 ({row['scenario']}, {row['method']})", needle)
+    assert not out.exists()
+
+
+def test_a_leaderboard_cut_mid_row_is_refused_in_one_line(tmp_path, capsys):
+    """Reproduction: results/planar/leaderboard.csv without its last 40 bytes (the last row lost its
+    status, seeds and frames) was shown as ok and ranked; results/lines cut inside its seeds column
+    failed with `ValueError: cannot convert float NaN to integer` (pages.py)."""
+    out = tmp_path / "out"
+    for suite in ("planar", "lines"):
+        folder = copy_leaderboard(RESULTS / suite, tmp_path / suite)
+        data = (folder / "leaderboard.csv").read_bytes()
+        end = len(data) - 40 if suite == "planar" else data.rindex(b",ok,") + len(b",ok,")   # lines: before seeds
+        (folder / "leaderboard.csv").write_bytes(data[:end])
+        lines = data.count(b"\n")
+        _one_line_error(capsys, main(["report", str(folder), "--out", str(out)]), f"line {lines} (",
+                        "the file is cut or damaged")
+    assert not out.exists()

@@ -138,5 +138,5 @@ def test_a_run_with_nothing_to_associate_never_reads_as_perfect(tmp_path):
     args = ["run", "--method", "jcbb", "--scene", "office", "--frames", "10", "--set", "lidar.dropout=0.95"]
     assert main(args + ["--out", str(tmp_path), "--format", "csv"]) == 1
     row = pd.read_csv(tmp_path / "summary.csv").iloc[0]
-    assert row["status"] == "nothing associated"
+    assert row["status"] == "no true pair in any frame; nothing associated"
     assert np.isnan(row["perfect"]) and np.isnan(row["jc_share"]) and np.isnan(row["surprisal_gap"])

@@ -75,7 +75,7 @@ def test_the_planar_suite_crosses_difficulties_with_back_ends():
 
 @pytest.mark.parametrize("args,needles", [
     (["--set", "lidar.beams=0"], ["lidar.beams must be an integer"]),
-    (["--set", "lidar.sigma_range=-0.01"], ["lidar.sigma_range must be a finite number in (0, 10]"]),
+    (["--set", "lidar.sigma_range=-0.01"], ["lidar.sigma_range must be a finite number in [1e-06, 10]"]),
     (["--loop", "--set", "estimator.name=fastslam"], ["estimator.name must be one of ekf, isam2"]),
     (["--set", "posts.max_rms=0"], ["posts.max_rms"]),
     (["--trajectory", "circle"], ["unknown planar trajectory 'circle'"]),
@@ -109,7 +109,7 @@ def test_frames_without_detections_are_scored_not_crashed(tmp_path):
     assert main(["run", "--method", "jcbb", "--scene", "park", "--frames", "5", "--set", "lidar.height=2",
                  "--out", str(tmp_path), "--format", "csv"]) == 1
     row, frames = pd.read_csv(tmp_path / "summary.csv").iloc[0], pd.read_csv(tmp_path / "frames.csv")
-    assert row["status"] == "nothing associated"
+    assert row["status"] == "no true pair in any frame; nothing associated"
     assert (frames["n"] > 0).all() and (frames["m"] == 0).all() and (frames["tp"] + frames["fp"] == 0).all()
 
 
