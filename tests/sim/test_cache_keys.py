@@ -117,7 +117,6 @@ def test_a_stored_sequence_reads_back_as_made_scans_and_all(tmp_path, scene):
 
     from assocbench.harness.config import load_run_config, run_spec
     from assocbench.sim.cache import load_fields, save_fields
-
     from assocbench.tracks.plane_source import maker_of
 
     spec = run_spec(load_run_config(None, [], method="jcbb", scene=scene, frames=3))
