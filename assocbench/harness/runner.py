@@ -28,6 +28,7 @@ from ..tracks.base import loop_words
 from ..tracks.capabilities import OwnFrames, has
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
+METHOD, TRACK = "method", "track"   # whose code a call runs: the method's, or the track's (a frame's problem)
 WARM_UP_FACTOR = 10   # warm-up may compile (numba, a plugin's JIT): it gets 10x the per-call limit
 _ARRAYS = ("z", "R", "zhat", "P", "landmark_ids")
 
@@ -210,13 +211,15 @@ def _build(method: str, params: dict):
 
 def frame_records(problems: Problems, method: str, params: dict,
                   time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
-                  on_call: Callable[[int, float], None] = lambda k, limit: None) -> Iterator[dict]:
+                  on_call: Callable[..., None] = lambda k, limit, whose=METHOD: None) -> Iterator[dict]:
     """Per-frame records of ``method`` on ``problems[first:]``, one at a time. A method that raises,
     exits or returns an invalid association is recorded as failed on that frame (``error``).
 
-    ``on_call(k, limit_s)`` is told before each call (``k = WARM_UP`` for building the associator
-    and warming it up, with ``WARM_UP_FACTOR`` times the limit), so that a supervising process can
-    kill a call past its limit. ``faults`` maps frame indices to (error, runtime_s) already known
+    ``on_call(k, limit_s, whose)`` is told before each call (``k = WARM_UP`` for building the
+    associator and warming it up, with ``WARM_UP_FACTOR`` times the limit), so that a supervising
+    process can kill a call past its limit; ``whose`` is ``TRACK`` before the track builds frame
+    ``k``'s problem (``WARM_UP_FACTOR`` times the limit too): a track that hangs there is the run's
+    failure, not the method's. ``faults`` maps frame indices to (error, runtime_s) already known
     (``WARM_UP``: every frame): those frames are recorded failed without calling the method.
     """
     faults = faults or {}
@@ -229,6 +232,7 @@ def frame_records(problems: Problems, method: str, params: dict,
     if associator is not None:
         warm_up(associator)
     for k in range(first, len(problems)):
+        on_call(k, WARM_UP_FACTOR * time_limit_s, TRACK)
         problem, truth = problems[k]
         if k in faults or associator is None:
             yield failed_record(k, problem, truth, *(faults.get(k) or (error, 0.0)))

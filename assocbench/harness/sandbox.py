@@ -34,6 +34,7 @@ from dataclasses import dataclass, field
 from functools import partial
 from multiprocessing.connection import wait
 from pathlib import Path
+from typing import NamedTuple
 
 import pandas as pd
 from tqdm import tqdm
@@ -45,7 +46,18 @@ from .config import RunSpec
 from .loop import loop_records
 from .progress import RunProgress
 from .records import RecordSpool, frame_table
-from .runner import WARM_UP, GuardedCalls, Problems, describe, frame_records, load_source, summarize_run
+from .runner import (
+    METHOD,
+    TRACK,
+    WARM_UP,
+    WARM_UP_FACTOR,
+    GuardedCalls,
+    Problems,
+    describe,
+    frame_records,
+    load_source,
+    summarize_run,
+)
 
 # modules the forkserver imports once; '__main__' (multiprocessing's default) spares each worker
 # from re-running the main script, and the preload module loads the built-ins' kernels
@@ -162,7 +174,7 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
             _, method, params = task.methods[mi]
             run = spec.with_method(method, params)
             first = resume[2] if (r, mi) == resume[:2] else 0
-            announce = lambda k, limit, r=r, mi=mi: send(("call", r, mi, k, limit))  # noqa: E731
+            announce = lambda k, limit, whose=METHOD, r=r, mi=mi: send(("call", r, mi, k, limit, whose))  # noqa: E731
             if problems is not None:
                 records = frame_records(problems, method, params, spec.time_limit_s, first,
                                         faults.get((r, mi)), announce)
@@ -273,13 +285,25 @@ def warm_track(track) -> None:
         _warm.add(f"track {track.name}")
 
 
+class _Call(NamedTuple):
+    """The call a worker announced and is in: run and method indices, frame, limit (s), whose code
+    (``METHOD`` or ``TRACK``) and when it started (monotonic clock)."""
+
+    run: int
+    method: int
+    frame: int
+    limit: float
+    whose: str
+    started: float
+
+
 @dataclass
 class _Running:
     task: Task
     progress: _Progress
     process: mp.Process
     conn: object
-    call: tuple | None = None   # (run, method, frame, limit_s, started) of the call in flight
+    call: _Call | None = None   # the call in flight
     heard: bool = False          # any message yet (a worker that dies silently never started)
 
 
@@ -392,7 +416,7 @@ class Supervisor:
                 break
             w.heard = True
             if msg[0] == "call":
-                w.call = (*msg[1:], time.monotonic())
+                w.call = _Call(*msg[1:], time.monotonic())
                 self.watch("call", msg[3])
             elif msg[0] == "frame":
                 r, mi, k, record = msg[1:]
@@ -419,13 +443,19 @@ class Supervisor:
             return self._fault(w, f"WorkerDied: the process running the method {_why(w.process.exitcode)}")
         deadline = _deadline(w)
         if deadline is not None and time.monotonic() > deadline:
-            what = "associate()" if w.call[2] != WARM_UP else "building and warming up the method"
-            return self._fault(w, f"TimeLimit: {what} exceeded the time limit of {w.call[3]:g} s")
+            if w.call.whose == TRACK:   # the track's own code hung: nothing of the run can be measured
+                _stop(w)
+                track = w.task.runs[w.call.run][1].track
+                return (f"the {track} track's code building frame {w.call.frame}'s problem of {w.task.runs[w.call.run][0]} "
+                        f"ran past {w.call.limit:g} s ({WARM_UP_FACTOR} x time_limit_s): the track hangs, so its run "
+                        "cannot be measured")
+            what = "associate()" if w.call.frame != WARM_UP else "building and warming up the method"
+            return self._fault(w, f"TimeLimit: {what} exceeded the time limit of {w.call.limit:g} s")
         return None
 
     def _fault(self, w: _Running, error: str) -> str:
         """Record the call in flight as failed, kill the worker, and say where to resume."""
-        r, mi, k, _, started = w.call
+        r, mi, k, started = w.call.run, w.call.method, w.call.frame, w.call.started
         _stop(w)
         elapsed = time.monotonic() - started
         resume_at = w.progress.resume
@@ -441,9 +471,9 @@ class Supervisor:
 
 def _deadline(w: _Running) -> float | None:
     """When the call in flight overruns (monotonic clock); None when none is, or no limit."""
-    if w.call is None or not math.isfinite(w.call[3]):
+    if w.call is None or not math.isfinite(w.call.limit):
         return None
-    return w.call[4] + w.call[3]
+    return w.call.started + w.call.limit
 
 
 def _timeout(live: list[_Running], tick: float | None = None) -> float | None:

@@ -318,3 +318,53 @@ def test_a_stopped_sweep_returns_at_once_keeps_finished_jobs_and_leaves_no_proce
     finally:
         for pid in _survivors(marker):
             os.kill(pid, signal.SIGKILL)
+
+
+def _toy_cli(tmp_path, *args, **env):
+    """``assocbench`` with the toy plugin track registered (``ASSOCBENCH_TRACKS``) and ``env`` set."""
+    from tests.tracks.test_toy_track import cli
+
+    return cli(*args, "--out", str(tmp_path / "out"), **env)
+
+
+@pytest.mark.parametrize("claims", ["raise", "all"])
+def test_a_plugin_track_that_claims_wrongly_takes_no_shipped_scene(tmp_path, claims):
+    """Reproduction: a plugin track whose ``claims_scene()`` raised broke every run, built-in scenes
+    included (``assocbench run --scene park`` printed the plugin's traceback); one that claimed every
+    scene made ``park`` refused with advice to rename its posts. A shipped scene belongs to the track
+    that ships it, asked before any plugin's convention."""
+    done = _toy_cli(tmp_path, "run", "--method", "mnn", "--scene", "park", "--frames", "3", TOY_CLAIMS=claims)
+    assert done.returncode == 0, done.stderr
+    assert "on park (planar track)" in done.stdout
+
+
+def test_a_plugin_track_that_raises_when_asked_is_named_in_one_line(tmp_path):
+    """For a user MJCF the conventions are asked: the plugin that raises is named, with the way out."""
+    from tests.tracks.test_toy_track import SCENE
+
+    scene = tmp_path / "mine.xml"
+    scene.write_text(SCENE)
+    done = _toy_cli(tmp_path, "run", "--method", "mnn", "--scene", str(scene), TOY_CLAIMS="raise")
+    assert done.returncode == 2 and "Traceback" not in done.stderr
+    last = done.stderr.strip().splitlines()[-1]
+    assert last.startswith("assocbench: error: track plugin 'toy'") and "raised in claims_scene" in last
+    assert "--track" in last
+    named = _toy_cli(tmp_path, "run", "--track", "toy", "--method", "mnn", "--scene", str(scene), "--frames", "2",
+                     TOY_CLAIMS="raise")
+    assert named.returncode == 0, named.stderr     # a run that names its track asks no convention
+
+
+def test_a_track_whose_problem_hangs_fails_the_run_in_one_line(tmp_path):
+    """Reproduction: a plugin track whose ``problems()`` hung hung ``assocbench run`` silently: the
+    time limit covered only ``associate()``. Building a frame's problem is the track's call, limited
+    to 10 x ``time_limit_s``; past it the run cannot be measured: exit 1, one line naming the track."""
+    from tests.tracks.test_toy_track import SCENE
+
+    scene = tmp_path / "toy.xml"
+    scene.write_text(SCENE)
+    start = time.monotonic()
+    done = _toy_cli(tmp_path, "run", "--method", "mnn", "--scene", str(scene), "--frames", "3",
+                    "--set", "time_limit_s=0.3", TOY_HANG="1")
+    assert time.monotonic() - start < 60
+    assert done.returncode == 1 and "Traceback" not in done.stderr
+    assert "the toy track's code building frame 1's problem" in done.stderr and "ran past 3 s" in done.stderr

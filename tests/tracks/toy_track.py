@@ -7,7 +7,9 @@ For the tests of interrupt and resume, two environment variables (not settings: 
 change a job's key): ``TOY_LOG`` names a file that gets a line ``seed`` each time a run's first
 problem is built, ``TOY_DELAY_S`` makes building it take ``seed ×`` that many seconds; and
 ``TOY_WARM_LOG`` a file that gets the process id of each process that warms the track up;
-``TOY_BAD_TRUTH=1`` makes the truth impossible (every landmark's true feature is feature 0)."""
+``TOY_BAD_TRUTH=1`` makes the truth impossible (every landmark's true feature is feature 0);
+``TOY_CLAIMS`` makes the track claim every MJCF (``all``) or raise when asked (``raise``), and
+``TOY_HANG=1`` makes building frame 1's problem hang: the faults of a plugin track."""
 
 from __future__ import annotations
 
@@ -88,6 +90,8 @@ class ToyTrack(FeatureTrack):
                 log.write(f"{run.seed}\n")
         if k == 0:
             time.sleep(run.seed * float(os.environ.get("TOY_DELAY_S", "0")))
+        if k == 1 and os.environ.get("TOY_HANG"):
+            time.sleep(3600)
         rng = np.random.default_rng([run.seed, k])
         belief = run.belief
         problem, truth = lattice_problem(rng, n=source.landmarks, cols=source.landmarks,
@@ -103,6 +107,11 @@ class ToyTrack(FeatureTrack):
         return {}
 
     def claims_scene(self, marks: SceneMarks) -> bool:
+        claims = os.environ.get("TOY_CLAIMS")
+        if claims == "raise":
+            raise RuntimeError("the toy track's claim broke")
+        if claims == "all":
+            return True
         spec = mujoco.MjSpec.from_file(str(marks.path))
         return any(site.name.startswith("toy") for site in spec.sites)
 
