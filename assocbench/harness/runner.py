@@ -26,6 +26,7 @@ from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..tracks.base import loop_words
 from ..tracks.capabilities import OwnFrames, has
+from .imports import for_every_method
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
 WARM_UP_FACTOR = 10   # warm-up may compile (numba, a plugin's JIT): it gets 10x the per-call limit
@@ -81,7 +82,8 @@ class Problems:
 
     def __getitem__(self, k: int) -> tuple[Problem, FrameTruth]:
         if k not in self._built:
-            problem, truth = self.track.problem(self.source, k, self.run)
+            with for_every_method():   # built once for all the run's methods: each depends on it
+                problem, truth = self.track.problem(self.source, k, self.run)
             problem.validate()
             self._built[k] = (problem, truth)
         return self._built[k]
