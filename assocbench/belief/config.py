@@ -29,15 +29,15 @@ class BeliefConfig:
     max_view_angle: candidates must face the estimated camera within this angle (deg).
     """
 
-    sigma_position: float = field(default=0.03, metadata=in_range(0))
-    sigma_rotation: float = field(default=0.5, metadata=in_range(0, 90))
-    sigma_landmark: float = field(default=0.02, metadata=in_range(0))
-    sigma_common: float = field(default=0.0, metadata=in_range(0))
-    sigma_pixel: float = field(default=1.0, metadata=in_range(0, lo_open=True))
-    miscalibration: float = field(default=1.0, metadata=in_range(0, lo_open=True))
-    map_fraction: float = field(default=1.0, metadata=in_range(0, 1))
-    clutter: int = field(default=0, metadata=in_range(0))
-    max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))
+    sigma_position: float = field(default=0.03, metadata=in_range(0, unit="m"))
+    sigma_rotation: float = field(default=0.5, metadata=in_range(0, 90, unit="deg"))
+    sigma_landmark: float = field(default=0.02, metadata=in_range(0, unit="m"))
+    sigma_common: float = field(default=0.0, metadata=in_range(0, unit="m"))
+    sigma_pixel: float = field(default=1.0, metadata=in_range(0, lo_open=True, unit="px"))
+    miscalibration: float = field(default=1.0, metadata=in_range(0, lo_open=True, unit="dimensionless"))
+    map_fraction: float = field(default=1.0, metadata=in_range(0, 1, unit="dimensionless"))
+    clutter: int = field(default=0, metadata=in_range(0, unit="features per frame"))
+    max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True, unit="deg"))
 
     def __post_init__(self) -> None:
         validate_fields(self, "belief")
