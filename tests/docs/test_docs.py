@@ -104,6 +104,26 @@ def test_settings_page_gives_every_number_a_range_and_a_unit_and_every_name_what
     assert missing == []
 
 
+def test_the_suite_page_documents_every_suite_key_and_its_example_loads(tmp_path):
+    """docs/reference/suites.md has a section per key the loader knows (``SUITE_KEYS``), each with an
+    example of that key, and its whole example is a suite the loader accepts."""
+    import yaml
+
+    from assocbench.harness.suite import SUITE_KEYS, load_suite
+
+    page = (ROOT / "docs" / "reference" / "suites.md").read_text()
+    sections = re.findall(r"^### `(\w+)`\n(.*?)(?=^##|\Z)", page, re.M | re.S)
+    assert [key for key, _ in sections] == list(SUITE_KEYS)
+    for key, text in sections:
+        (example,) = re.findall(r"```yaml\n(.*?)```", text, re.S)
+        assert list(yaml.safe_load(example)) == [key], key
+    whole = re.search(r"## An example.*?```yaml\n(.*?)```", page, re.S).group(1)
+    assert set(yaml.safe_load(whole)) == set(SUITE_KEYS)
+    (tmp_path / "example.yaml").write_text(whole)
+    suite = load_suite(tmp_path / "example.yaml")
+    assert len(suite.runs) == 24 and suite.track == "planar"
+
+
 def test_cli_page_lists_every_command_and_option(reference):
     page = reference.cli_markdown()
     parser = build_parser()
