@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import sys
 from collections.abc import Callable
+from itertools import zip_longest
 from pathlib import Path
 
 import pandas as pd
@@ -60,7 +61,9 @@ def cell_results(runs: list[Run], records: dict, imports: dict, graph: ImportGra
     out = []
     for mi, run in enumerate(runs):
         try:
-            inputs: RunInputs | str = run_inputs(graph, run_roots(run.spec, run.entry.method), imports[(0, mi)])
+            report = imports.get((0, mi))
+            inputs: RunInputs | str = run_inputs(graph, run_roots(run.spec, run.entry.method), report) \
+                if report is not None else "its worker sent no record of what it imported"
         except Stale as exc:
             inputs = str(exc)
         out.append((run_result(run, records[(0, mi)]), inputs))
@@ -132,8 +135,8 @@ def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str 
 
 
 def missing_cells(suite: Suite, out: Path) -> tuple[dict[Run, Result], list[list[Run]], list[str]]:
-    """The stored results of the suite's runs that can be reused, the others grouped by cell (in
-    the suite's order, a task per cell) and why stored runs are out of date."""
+    """The stored results of the suite's runs that can be reused, the others grouped by cell (a
+    task per cell, ``in_turns``) and why stored runs are out of date."""
     done, todo, changed = {}, {}, []
     for run in suite.runs:
         result, why = lookup(out, run)
@@ -142,7 +145,17 @@ def missing_cells(suite: Suite, out: Path) -> tuple[dict[Run, Result], list[list
         else:
             todo.setdefault(run.cell, []).append(run)
             changed += [why] if why else []
-    return done, list(todo.values()), changed
+    return done, in_turns(list(todo.values())), changed
+
+
+def in_turns(tasks: list[list[Run]]) -> list[list[Run]]:
+    """``tasks`` with one task of each sequence in turn (its source's content key): the first
+    tasks that run side by side (``--jobs N``) make different sequences, where two difficulties of
+    one scene and seed would render the same one twice on a cold cache."""
+    by_source: dict[str, list] = {}
+    for runs in tasks:
+        by_source.setdefault(runs[0].spec.source.key, []).append(runs)
+    return [runs for turn in zip_longest(*by_source.values()) for runs in turn if runs is not None]
 
 
 def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", address: str | None = None,

@@ -213,3 +213,18 @@ def test_a_method_costs_only_its_own_runs(tmp_path, monkeypatch):
     tuned = textwrap.dedent("""[enn, mnn, {name: lsa, method: lsa, params: {confidence: 0.9}}]""")
     run_suite(load_suite(_suite(tmp_path, tuned, seeds=seeds)), out, progress=False)
     assert computed == ["lsa", "lsa"]
+
+
+def test_side_by_side_tasks_make_different_sequences(tmp_path):
+    """The missing runs form a task per scene, seed and difficulty, taken a sequence at a time in
+    turn: with --jobs 2 on a cold cache, two difficulties of one scene rendered it twice at once."""
+    from assocbench.harness.sweep import missing_cells
+
+    path = tmp_path / "suite.yaml"
+    path.write_text("base: {frames: 2}\nscenes: [checkerboard, room]\nmethods: [enn, mnn]\nseeds: [0]\n"
+                    "difficulties: {easy: {}, hard: {belief: {clutter: 5}}}\n")
+    done, tasks, changed = missing_cells(load_suite(path), tmp_path / "out")
+    assert done == {} and changed == []
+    assert [(runs[0].cell.scenario, [r.entry.label for r in runs]) for runs in tasks] == [
+        ("checkerboard/easy", ["enn", "mnn"]), ("room/easy", ["enn", "mnn"]),
+        ("checkerboard/hard", ["enn", "mnn"]), ("room/hard", ["enn", "mnn"])]
