@@ -37,11 +37,16 @@ from pathlib import Path
 PACKAGE_ROOT = Path(__file__).resolve().parents[1]
 DATA_SUFFIXES = (".json",)   # the package's data read by the code beside it (learned models)
 HARNESS_ROOT = "assocbench.harness.sandbox"   # what a worker runs: its imports reach the frame loops
-# libraries whose version changes a run's numbers, by top-level module: linear algebra, special
-# functions and random streams (numpy, scipy), the compiled kernels (numba, llvmlite), ray casts and
-# scene compiling (mujoco), feature detection (cv2), the iSAM2 back end (gtsam), the summaries'
-# medians and quantiles (pandas)
-NUMERIC_LIBRARIES = ("numpy", "scipy", "numba", "llvmlite", "mujoco", "cv2", "gtsam", "pandas")
+# libraries whose version changes a run's numbers, by top-level module, with the distributions that
+# provide it: linear algebra, special functions and random streams (numpy, scipy), the compiled
+# kernels (numba, llvmlite), ray casts and scene compiling (mujoco), feature detection (cv2), the
+# iSAM2 back end (gtsam), the summaries' medians and quantiles (pandas)
+LIBRARY_DISTRIBUTIONS = {
+    "numpy": ("numpy",), "scipy": ("scipy",), "numba": ("numba",), "llvmlite": ("llvmlite",), "mujoco": ("mujoco",),
+    "cv2": ("opencv-python-headless", "opencv-python", "opencv-contrib-python-headless", "opencv-contrib-python"),
+    "gtsam": ("gtsam",), "pandas": ("pandas",),
+}
+NUMERIC_LIBRARIES = tuple(LIBRARY_DISTRIBUTIONS)
 
 
 class Stale(Exception):
@@ -224,28 +229,27 @@ def pickled_modules(obj: object) -> set[str]:
     return pickler.found
 
 
-@cache
-def _distributions() -> dict[str, list[str]]:
-    return metadata.packages_distributions()
-
-
 def library_versions(tops: Iterable[str]) -> dict[str, str]:
-    """``{distribution: version}`` of the installed distributions providing the top-level modules
-    ``tops`` (``cv2`` -> ``opencv-python-headless``)."""
-    out = {}
-    for top in tops:
-        for dist in _distributions().get(top, []):
-            try:
-                out[dist] = metadata.version(dist)
-            except metadata.PackageNotFoundError:
-                out[dist] = ""
-    return out
+    """``{module: "distribution version"}`` of the numeric libraries ``tops`` (``cv2`` ->
+    ``opencv-python-headless 4.10.0.84``): the first of its distributions installed; "" for none."""
+    return {top: next((f"{dist} {_version(dist)}" for dist in LIBRARY_DISTRIBUTIONS[top] if _version(dist)), "")
+            for top in tops if top in LIBRARY_DISTRIBUTIONS}
+
+
+@cache
+def _version(dist: str) -> str:
+    """An installed distribution's version ("" when it is not installed), read once a process:
+    reading it scans every installed distribution."""
+    try:
+        return metadata.version(dist)
+    except metadata.PackageNotFoundError:
+        return ""
 
 
 @dataclass(frozen=True)
 class RunInputs:
-    """A stored run's inputs: ``files`` (``file_name`` -> digest) and ``libraries`` (distribution ->
-    version)."""
+    """A stored run's inputs: ``files`` (``file_name`` -> digest) and ``libraries`` (top-level module
+    -> ``"distribution version"``, ``library_versions``)."""
 
     files: dict[str, str]
     libraries: dict[str, str]
@@ -258,10 +262,10 @@ class RunInputs:
                 return f"{name} is gone"
             if now[0] != sha:
                 return f"{name} changed"
-        now = library_versions(_distribution_tops(self.libraries))
-        for dist, version in sorted(self.libraries.items()):
-            if now.get(dist, "") != version:
-                return f"{dist} {version} is now {now.get(dist) or 'not installed'}"
+        now = library_versions(self.libraries)
+        for top, version in sorted(self.libraries.items()):
+            if now.get(top) != version:
+                return f"{version or top} is now {now.get(top) or 'not installed'}"
         return None
 
     def to_json(self) -> dict:
@@ -273,11 +277,6 @@ class RunInputs:
         if not all(isinstance(d, dict) and all(isinstance(v, str) for v in d.values()) for d in (files, libraries)):
             raise ValueError("inputs must map names to strings")
         return cls(dict(files), dict(libraries))
-
-
-def _distribution_tops(libraries: dict[str, str]) -> set[str]:
-    """The top-level modules the distributions ``libraries`` provide."""
-    return {top for top, dists in _distributions().items() if set(dists) & set(libraries)}
 
 
 def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict) -> RunInputs:

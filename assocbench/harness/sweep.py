@@ -81,11 +81,14 @@ def _report(line: str) -> None:
     tqdm.write(f"assocbench: {line}", file=sys.stderr)
 
 
-def run_cell(runs: list[Run], cache_dir: str | None = None) -> list[tuple[Result, RunInputs | str]]:
-    """The results and inputs of ``runs`` (one cell's), run in a worker process (``cell_results``)."""
+def run_cell(runs: list[Run], cache_dir: str | None = None,
+             graph: ImportGraph | None = None) -> list[tuple[Result, RunInputs | str]]:
+    """The results and inputs of ``runs`` (one cell's), run in a worker process (``cell_results``;
+    ``graph``: the files already read, shared by a sweep's tasks)."""
+    graph = graph or ImportGraph()
     out = []   # made while the task's spooled records are still open
     Supervisor(1, _report).run([cell_task(runs, cache_dir)],
-                               lambda _, records, imports: out.extend(cell_results(runs, records, imports, ImportGraph())))
+                               lambda _, records, imports: out.extend(cell_results(runs, records, imports, graph)))
     return out
 
 
@@ -117,11 +120,12 @@ def _run_dask(todo: list[list[Run]], keep: Callable, client, cache_dir: str | No
 def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str | None) -> None:
     """Run each cell's ``todo`` in at most ``jobs`` worker processes, keeping each as it finishes;
     a task that fails outside any method call is named, the others still run, then ``TaskFailed``."""
+    graph = ImportGraph()
     if jobs == 1:
         failed = []
         for runs in todo:
             try:
-                keep(runs, run_cell(runs, cache_dir))
+                keep(runs, run_cell(runs, cache_dir, graph))
             except TaskFailed as exc:
                 failed.append(exc)
         if failed:
@@ -129,7 +133,6 @@ def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str 
         return
     tasks = [cell_task(runs, cache_dir) for runs in todo]
     runs_of = {id(t): runs for t, runs in zip(tasks, todo)}
-    graph = ImportGraph()
     Supervisor(jobs, _report).run(tasks, lambda task, records, imports: keep(
         runs_of[id(task)], cell_results(runs_of[id(task)], records, imports, graph)))
 

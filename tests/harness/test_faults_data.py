@@ -139,10 +139,10 @@ def test_a_stored_run_is_used_only_while_its_inputs_match(tmp_path):
     assert lookup(tmp_path, run) == (None, f"{helper} changed")
     from assocbench.harness.inputs import file_digest
 
-    store_run(tmp_path, run, result, RunInputs({str(helper): file_digest(helper)[0]}, {"numpy": np.__version__}))
+    store_run(tmp_path, run, result, RunInputs({str(helper): file_digest(helper)[0]}, {"numpy": f"numpy {np.__version__}"}))
     assert load_run(tmp_path, run) is not None
-    store_run(tmp_path, run, result, RunInputs({str(helper): file_digest(helper)[0]}, {"numpy": "0.0.1"}))
-    assert lookup(tmp_path, run) == (None, f"numpy 0.0.1 is now {np.__version__}")
+    store_run(tmp_path, run, result, RunInputs({str(helper): file_digest(helper)[0]}, {"numpy": "numpy 0.0.1"}))
+    assert lookup(tmp_path, run) == (None, f"numpy 0.0.1 is now numpy {np.__version__}")
     helper.unlink()
     assert lookup(tmp_path, run)[1] == f"{helper} is gone"
 

@@ -81,11 +81,11 @@ def test_interrupted_sweep_resumes_without_rerunning_done_runs(tmp_path, monkeyp
     calls = []
     real = sweep.run_cell
 
-    def flaky(runs, cache_dir=None):
+    def flaky(runs, cache_dir=None, graph=None):
         calls.append(runs[0].cell.scene)
         if runs[0].cell.scene == "room" and len(calls) == 2:
             raise KeyboardInterrupt
-        return real(runs, cache_dir)
+        return real(runs, cache_dir, graph)
 
     monkeypatch.setattr(sweep, "run_cell", flaky)
     with pytest.raises(KeyboardInterrupt):

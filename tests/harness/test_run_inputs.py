@@ -198,8 +198,8 @@ def test_a_method_costs_only_its_own_runs(tmp_path, monkeypatch):
 
     computed = []
     real = sweep.run_cell
-    monkeypatch.setattr(sweep, "run_cell", lambda runs, cache_dir=None: (
-        computed.extend(r.entry.label for r in runs), real(runs, cache_dir))[1])
+    monkeypatch.setattr(sweep, "run_cell", lambda runs, cache_dir=None, graph=None: (
+        computed.extend(r.entry.label for r in runs), real(runs, cache_dir, graph))[1])
     out, seeds = tmp_path / "out", "[0, 1]"
     two, _ = run_suite(load_suite(_suite(tmp_path, "[enn, mnn]", seeds=seeds)), out, progress=False)
     assert sorted(computed) == ["enn", "enn", "mnn", "mnn"]
