@@ -174,19 +174,26 @@ class ImportGraph:
                 if path.is_relative_to(PACKAGE_ROOT) else []
         return self._data[folder]
 
-    def closure(self, roots: Iterable[str]) -> set[str]:
-        """``roots`` and every module their files import, through source modules; a library's
-        modules are reached but not followed."""
-        seen, todo = set(), list(roots)
+    def closure(self, roots: Iterable[str], installed: Iterable[str] = ()) -> set[str]:
+        """``roots`` and every module their files import, through source modules (``is_source``);
+        a library's modules are reached but not followed."""
+        seen, todo, installed = set(), list(roots), set(installed)
         while todo:
             name = todo.pop()
             if name in seen:
                 continue
             seen.add(name)
             path = self.file(name)
-            if path is not None and not is_library(path):
+            if path is not None and is_source(name, path, installed):
                 todo += self.imports(name)
         return seen
+
+
+def is_source(name: str, path: Path, installed: set[str]) -> bool:
+    """Whether module ``name`` at ``path`` is hashed as a source file: this package's modules and
+    any outside the libraries' folders, and those of the ``installed`` top-level packages (a plugin
+    installed with pip: its own modules are the method's code, wherever they are)."""
+    return not is_library(path) or name.partition(".")[0] in installed
 
 
 def _packages(name: str) -> list[str]:
@@ -279,16 +286,17 @@ class RunInputs:
         return cls(dict(files), dict(libraries))
 
 
-def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict) -> RunInputs:
+def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict, installed: Iterable[str] = ()) -> RunInputs:
     """The inputs of one method's run from its ``roots`` (module names) and the worker's
-    ``report`` (``ImportLog.report``); ``Stale`` when a file was saved after the worker loaded it."""
+    ``report`` (``ImportLog.report``), the modules of the ``installed`` top-level packages hashed
+    too (``is_source``); ``Stale`` when a file was saved after the worker loaded it."""
     loaded = {str(Path(path).resolve()): at for path, at in report["loaded"].items()}
-    files, tops = {}, set()
-    for name in sorted(graph.closure(set(roots) | set(report["names"]))):
+    files, tops, installed = {}, set(), set(installed)
+    for name in sorted(graph.closure(set(roots) | set(report["names"]), installed)):
         path = graph.file(name)
         if path is None:
             continue
-        if is_library(path):
+        if not is_source(name, path, installed):
             tops.add(name.partition(".")[0])
             continue
         for f in [path, *graph.data_files(path)]:
@@ -302,14 +310,16 @@ def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict) -> RunInp
     return RunInputs(files, library_versions(sorted(tops & set(report["libraries"]))))  # loaded and imported
 
 
-def run_roots(spec, method: str) -> set[str]:
+def run_roots(spec, method: str) -> tuple[set[str], set[str]]:
     """The modules a worker starts one method's run from: its harness (``HARNESS_ROOT``), the
-    track's module, the modules of the run's spec (settings, frame source) and of the method's class."""
+    track's module, the modules of the run's spec (settings, frame source) and of the method's
+    class; and the top-level packages of the track's and the method's modules (hashed even where
+    they are installed as libraries: ``is_source``)."""
     from ..associators.registry import associator_class
 
-    roots = {HARNESS_ROOT, type(spec.track_impl).__module__} | pickled_modules(spec)
+    own = {type(spec.track_impl).__module__}
     try:
-        roots.add(associator_class(method).__module__)
+        own.add(associator_class(method).__module__)
     except Exception:  # noqa: BLE001 - oracle, a track's own method: the worker's log has what it loaded
         pass
-    return roots
+    return {HARNESS_ROOT} | own | pickled_modules(spec), {name.partition(".")[0] for name in own}

@@ -300,7 +300,7 @@ class Supervisor:
         self.watch = watch or (lambda event, k: None)
         self.tick = WATCH_TICK_S if watch is not None else None
 
-    def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict], None]) -> None:
+    def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict, dict], None]) -> None:
         """Run ``tasks``; ``on_done(task, records, imports)`` as each finishes, with
         ``records[(run, method)]`` the per-frame records in frame order (a ``RecordSpool``: read from
         disk, open only during ``on_done``) and ``imports[(run, method)]`` what its worker imported

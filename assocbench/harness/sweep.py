@@ -60,14 +60,19 @@ def cell_results(runs: list[Run], records: dict, imports: dict, graph: ImportGra
     """Each run's result and its inputs (``inputs.run_inputs``), or why they cannot be stored."""
     out = []
     for mi, run in enumerate(runs):
-        try:
-            report = imports.get((0, mi))
-            inputs: RunInputs | str = run_inputs(graph, run_roots(run.spec, run.entry.method), report) \
-                if report is not None else "its worker sent no record of what it imported"
-        except Stale as exc:
-            inputs = str(exc)
-        out.append((run_result(run, records[(0, mi)]), inputs))
+        out.append((run_result(run, records[(0, mi)]), _inputs(run, imports.get((0, mi)), graph)))
     return out
+
+
+def _inputs(run: Run, report: dict | None, graph: ImportGraph) -> RunInputs | str:
+    """A run's inputs from its worker's ``report``, or why they cannot be stored."""
+    if report is None:
+        return "its worker sent no record of what it imported"
+    roots, installed = run_roots(run.spec, run.entry.method)
+    try:
+        return run_inputs(graph, roots, report, installed)
+    except Stale as exc:
+        return str(exc)
 
 
 class _Bar(tqdm):

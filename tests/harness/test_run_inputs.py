@@ -228,3 +228,22 @@ def test_side_by_side_tasks_make_different_sequences(tmp_path):
     assert [(runs[0].cell.scenario, [r.entry.label for r in runs]) for runs in tasks] == [
         ("checkerboard/easy", ["enn", "mnn"]), ("room/easy", ["enn", "mnn"]),
         ("checkerboard/hard", ["enn", "mnn"]), ("room/hard", ["enn", "mnn"])]
+
+
+def test_an_installed_plugins_own_modules_are_hashed_where_other_libraries_are_not(tmp_path, monkeypatch):
+    """A plugin installed with pip lives among the libraries, whose modules are not hashed (their
+    versions are recorded where they change numbers): its own package's modules are its code."""
+    import assocbench.harness.inputs as inputs
+
+    site = tmp_path / "site"
+    (site / "keys_installed").mkdir(parents=True)
+    (site / "keys_installed" / "__init__.py").write_text("")
+    (site / "keys_installed" / "method.py").write_text("from .helper import K\nimport keys_other_lib\n")
+    (site / "keys_installed" / "helper.py").write_text("K = 1\n")
+    (site / "keys_other_lib.py").write_text("X = 1\n")
+    monkeypatch.syspath_prepend(str(site))
+    monkeypatch.setattr(inputs, "is_library", lambda path: path.is_relative_to(site))
+    report = {"names": [], "loaded": {}, "earliest": 0.0, "libraries": []}
+    files = inputs.run_inputs(inputs.ImportGraph(), {"keys_installed.method"}, report, {"keys_installed"}).files
+    assert {Path(f).name for f in files} == {"__init__.py", "method.py", "helper.py"}
+    assert inputs.run_inputs(inputs.ImportGraph(), {"keys_installed.method"}, report).files == {}
