@@ -162,7 +162,7 @@ def gym_envs_markdown() -> str:
 
     out = ["| id | track | scene | loop |", "|---|---|---|---|"]
     for env_id, (track, env) in env_ids().items():
-        about = get_track(track).shipped_scenes().get(env.scene, "")
+        about = get_track(track).scenes().get(env.scene, "")
         loop = "closed" if env.loop else "open"
         out.append(f"| `{env_id}` | {track} | `{env.scene}`: {_cell(about)} | {loop} |")
     return "\n".join(out)
