@@ -6,7 +6,9 @@ Public API::
     association = make_associator("jcbb").associate(problem)
 """
 
-from . import _runtime  # noqa: F401  (MUJOCO_GL=egl, single-thread BLAS, unless the user chose)
+# first: _load_times notes when each later module is loaded; _runtime sets MUJOCO_GL=egl and
+# single-thread BLAS, unless the user chose
+from . import _load_times, _runtime  # noqa: F401
 from .association.compatibility import jointly_compatible, surprisal
 from .association.problem import Problem, validate_association
 from .associators import Associator, available, make_associator

@@ -24,7 +24,7 @@ import re
 import typing
 from collections.abc import Iterator, Mapping
 from dataclasses import dataclass, field
-from typing import Any
+from typing import Any, NamedTuple
 
 from .errors import UserError
 from .validation import check_field, describe_range, typed_section
@@ -98,18 +98,33 @@ class Schema:
             values[name] = section.build(cfg[name], name)
         return Settings(values)
 
-    def describe(self) -> Iterator[tuple[str, Any, str, str]]:
-        """Each setting as ``(dotted key, default, accepts, doc)`` for the settings reference:
-        ``accepts`` is the range, the choices or the type."""
+    def describe(self) -> Iterator[Described]:
+        """Each setting for the settings reference (``Described``), top-level keys first."""
         for cls in self.keys:
             instance = cls()
             for f in dataclasses.fields(cls):
-                yield f.name, getattr(instance, f.name), accepts(cls, f), field_docs(cls).get(f.name, "")
+                yield _described(f.name, instance, cls, f)
         for name, section in self.sections.items():
             instance = section.cls()
             for f in section.fields():
-                yield f"{name}.{f.name}", getattr(instance, f.name), accepts(section.cls, f), \
-                    field_docs(section.cls).get(f.name, "")
+                yield _described(f"{name}.{f.name}", instance, section.cls, f)
+
+
+class Described(NamedTuple):
+    """One setting as the settings reference gives it: ``accepts`` is the range, the choices or
+    the type in words; ``unit`` the unit of a number (``in_range(unit=...)``), "" for others."""
+
+    key: str
+    default: Any
+    accepts: str
+    unit: str
+    doc: str
+    kind: Any   # the field's annotation (``int``, ``float | None``, ``str``)
+
+
+def _described(key: str, instance: Any, cls: type, f: dataclasses.Field) -> Described:
+    return Described(key, getattr(instance, f.name), accepts(cls, f), f.metadata.get("unit", ""),
+                     field_docs(cls).get(f.name, ""), _hints(cls).get(f.name, Any))
 
 
 class Settings(Mapping):
@@ -163,8 +178,10 @@ def accepts(cls: type, f: dataclasses.Field) -> str:
     """What a field accepts, in words: its range, its choices, or its type."""
     if "range" in f.metadata:
         lo, hi, lo_open, hi_open = f.metadata["range"]
-        kind = "integer" if _hints(cls).get(f.name) is int else "number"
-        return f"{kind} {describe_range(lo, hi, lo_open, hi_open)}"
+        hint = _hints(cls).get(f.name)
+        kinds = set(typing.get_args(hint)) or {hint}
+        kind = "integer" if int in kinds and float not in kinds else "number"
+        return ("null or " if type(None) in kinds else "") + f"{kind} {describe_range(lo, hi, lo_open, hi_open)}"
     if "choices" in f.metadata:
         return "one of " + ", ".join(f.metadata["choices"])
     if "accepts" in f.metadata:

@@ -74,9 +74,11 @@ def _expanded_size(node: yaml.Node, memo: dict, open_nodes: set) -> int:
 
 
 def in_range(lo: Number | None = None, hi: Number | None = None, *, lo_open: bool = False,
-             hi_open: bool = False) -> dict:
-    """Field metadata: the value must lie in ``[lo, hi]`` (``(`` / ``)`` where open; None: unbounded)."""
-    return {"range": (lo, hi, lo_open, hi_open)}
+             hi_open: bool = False, unit: str | None = None) -> dict:
+    """Field metadata: the value must lie in ``[lo, hi]`` (``(`` / ``)`` where open; None: unbounded),
+    in ``unit`` (``"m"``, ``"deg"``; ``"dimensionless"`` for a ratio or a share), which the settings
+    reference shows."""
+    return {"range": (lo, hi, lo_open, hi_open)} | ({"unit": unit} if unit else {})
 
 
 def one_of(*choices: str) -> dict:

@@ -27,13 +27,12 @@ def suite_problems(name: str) -> list:
     """Every (labels, problem, truth) of the suite, in export order."""
     suite = load_suite(resolve_suite(name))
     out = []
-    for job in suite.jobs:
-        for difficulty, cfg in job.runs:
-            spec = run_spec(cfg)
-            problems = Problems(spec.track_impl, spec.source, spec)
-            for k in range(len(problems)):
-                out.append(({"track": suite.track, "scene": job.name, "difficulty": difficulty, "seed": job.seed,
-                             "frame": k}, *problems[k]))
+    for cell in suite.cells:
+        spec = run_spec(cell.config(suite.methods[0]))
+        problems = Problems(spec.track_impl, spec.source, spec)
+        for k in range(len(problems)):
+            out.append(({"track": suite.track, "scene": cell.name, "difficulty": cell.difficulty, "seed": cell.seed,
+                         "frame": k}, *problems[k]))
     return out
 
 

@@ -35,16 +35,17 @@ class BeliefConfig:
 
     # at most MAX_SIGMA_M, and k at most MAX_MISCALIBRATION: a std of 1e300 squared overflows (an
     # OverflowError in the worker), and an estimate a kilometre off sees no landmark of any scene
-    sigma_position: float = field(default=0.03, metadata=in_range(0, MAX_SIGMA_M))
-    sigma_rotation: float = field(default=0.5, metadata=in_range(0, 90))
-    sigma_landmark: float = field(default=0.02, metadata=in_range(0, MAX_SIGMA_M))
-    sigma_common: float = field(default=0.0, metadata=in_range(0, MAX_SIGMA_M))
+    sigma_position: float = field(default=0.03, metadata=in_range(0, MAX_SIGMA_M, unit="m"))
+    sigma_rotation: float = field(default=0.5, metadata=in_range(0, 90, unit="deg"))
+    sigma_landmark: float = field(default=0.02, metadata=in_range(0, MAX_SIGMA_M, unit="m"))
+    sigma_common: float = field(default=0.0, metadata=in_range(0, MAX_SIGMA_M, unit="m"))
     # at least MIN_SIGMA_PIXEL: 1e-300 squares to 0, a singular R; at most MAX_SIGMA_PIXEL, many images wide
-    sigma_pixel: float = field(default=1.0, metadata=in_range(MIN_SIGMA_PIXEL, MAX_SIGMA_PIXEL))
-    miscalibration: float = field(default=1.0, metadata=in_range(0, MAX_MISCALIBRATION, lo_open=True))
-    map_fraction: float = field(default=1.0, metadata=in_range(0, 1))
-    clutter: int = field(default=0, metadata=in_range(0))
-    max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))
+    sigma_pixel: float = field(default=1.0, metadata=in_range(MIN_SIGMA_PIXEL, MAX_SIGMA_PIXEL, unit="px"))
+    miscalibration: float = field(default=1.0, metadata=in_range(0, MAX_MISCALIBRATION, lo_open=True,
+                                                                 unit="dimensionless"))
+    map_fraction: float = field(default=1.0, metadata=in_range(0, 1, unit="dimensionless"))
+    clutter: int = field(default=0, metadata=in_range(0, unit="features per frame"))
+    max_view_angle: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True, unit="deg"))
 
     def __post_init__(self) -> None:
         validate_fields(self, "belief")

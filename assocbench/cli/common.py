@@ -17,7 +17,7 @@ from ..sim.settings import MIN_SIDE  # a zero side made a rendering rig divide b
 
 
 def add_run_options(p: argparse.ArgumentParser) -> None:
-    """The flags that pick a sequence and a belief (see configs/default.yaml)."""
+    """The flags that pick a sequence and a belief (every setting: docs/reference/settings.md)."""
     p.add_argument("--track", help="the run's track (assocbench list tracks); default: the method's own track, else "
                    "the scene's, else the default track")
     p.add_argument("--scene", help="a scene or dataset the track ships (assocbench list scenes), or a file of the "

@@ -24,7 +24,7 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
     p.add_argument("--executor", choices=EXECUTORS, default="local", help="local processes or a dask cluster")
     p.add_argument("--address", help="dask scheduler address, e.g. tcp://127.0.0.1:8786")
-    p.add_argument("--out", help="folder for the leaderboard files and its stored jobs (default "
+    p.add_argument("--out", help="folder for the leaderboard files and its stored runs (default "
                    "results/runs/<suite name>; the committed reference in results/ is written with --out results)")
     p.add_argument("--quiet", action="store_true", help="no progress bar")
 

@@ -65,12 +65,12 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"assocbench: error: {exc}", file=sys.stderr)
         return 2
-    except TaskFailed as exc:   # our own code failed outside any method call; the other jobs are kept
-        print(f"assocbench: error: {exc}; finished jobs are kept and a rerun resumes", file=sys.stderr)
+    except TaskFailed as exc:   # our own code failed outside any method call; the other runs are kept
+        print(f"assocbench: error: {exc}; finished runs are kept and a rerun resumes", file=sys.stderr)
         return 1
     except KeyboardInterrupt as exc:
         what = "terminated" if isinstance(exc, _Terminated) else "interrupted"
-        kept = "; finished jobs are kept and a rerun resumes" if args.command == "leaderboard" else ""
+        kept = "; finished runs are kept and a rerun resumes" if args.command == "leaderboard" else ""
         print(f"assocbench: {what}{kept}", file=sys.stderr)
         return 143 if isinstance(exc, _Terminated) else 130
 

@@ -50,14 +50,15 @@ class RunKeys:
     time_limit_s: the most one call of the method may take (s); a call past it is a failed frame.
     """
 
-    track: str | None = None
-    scene: str | None = None
-    frames: int | None = field(default=None, metadata=in_range(1, None))
-    seed: int = field(default=0, metadata=in_range(0, 2**32 - 1))
-    method: str = "jcbb"
+    track: str | None = field(default=None, metadata={"accepts": "null or a track's name (assocbench list tracks)"})
+    scene: str | None = field(default=None, metadata={"accepts": "null, a scene or dataset the track ships, or a file"})
+    frames: int | None = field(default=None, metadata=in_range(1, None, unit="frames"))
+    seed: int = field(default=0, metadata=in_range(0, 2**32 - 1, unit="dimensionless"))
+    method: str = field(default="jcbb", metadata={"accepts": "an associator's name (assocbench list methods) or "
+                                                            "pkg.module:Class"})
     params: dict = field(default_factory=dict, metadata={"accepts": "a mapping (the method's parameters)"})
     loop: bool = False
-    time_limit_s: float = field(default=30.0, metadata=in_range(0, 86400, lo_open=True) | {"unit": "s"})
+    time_limit_s: float = field(default=30.0, metadata=in_range(0, 86400, lo_open=True, unit="s"))
 
     def check(self) -> None:
         free_mapping({"params": self.params}, "params")   # its numbers finite; the method checks the rest
@@ -71,8 +72,8 @@ class Limits:
     clutter: the most clutter features a frame (belief.clutter).
     """
 
-    frames: int = field(default=5000, metadata=in_range(1, None))
-    clutter: int = field(default=1000, metadata=in_range(1, None))
+    frames: int = field(default=5000, metadata=in_range(1, None, unit="frames"))
+    clutter: int = field(default=1000, metadata=in_range(1, None, unit="features per frame"))
 
 
 COMMON = Schema((RunKeys,), {"limits": Section(Limits)})

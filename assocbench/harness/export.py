@@ -75,14 +75,13 @@ def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda 
     card = _card(name, path, suite, drive)
     start = time.perf_counter()
     with DatasetWriter(out, card) as writer:
-        for job in suite.jobs:
-            for difficulty, cfg in job.runs:
-                spec = run_spec(cfg)
-                labels = {"track": track.name, "scene": job.name, "difficulty": difficulty, "seed": job.seed}
-                frames = open_problems(track, spec) if drive == "open" else driven_loop(spec, driver)
-                for k, (problem, truth) in enumerate(frames):
-                    writer.add({**labels, "frame": k}, problem, truth)
-                progress(f"{job.name}/{difficulty} seed {job.seed}: {len(spec.source)} frames")
+        for cell in suite.cells:
+            spec = run_spec(cell.config(suite.methods[0]))
+            labels = {"track": track.name, "scene": cell.name, "difficulty": cell.difficulty, "seed": cell.seed}
+            frames = open_problems(track, spec) if drive == "open" else driven_loop(spec, driver)
+            for k, (problem, truth) in enumerate(frames):
+                writer.add({**labels, "frame": k}, problem, truth)
+            progress(f"{cell.scenario} seed {cell.seed}: {len(spec.source)} frames")
     written = read_yaml(out / "card.yaml")
     return {**written, "seconds": time.perf_counter() - start}
 
@@ -90,7 +89,7 @@ def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda 
 def _driver(name: str, suite: Suite, drive: str) -> MethodEntry | None:
     """What drives the loop: ``None`` (open, or the truth for ``oracle``) or the suite's method
     labelled ``drive``; a one-line error for anything else, or for a loop drive of an open suite."""
-    methods = suite.jobs[0].methods if suite.jobs else ()
+    methods = suite.methods
     labels = [m.label for m in methods]
     if drive not in DRIVES and drive not in labels:
         raise UserError(f"--drive {drive!r} is neither open, oracle nor a method of suite {name!r} "

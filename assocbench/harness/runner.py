@@ -26,6 +26,7 @@ from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..tracks.base import loop_words
 from ..tracks.capabilities import OwnFrames, has
+from .imports import for_every_method
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
 METHOD, TRACK = "method", "track"   # whose code a call runs: the method's, or the track's (a frame's problem)
@@ -83,7 +84,9 @@ class Problems:
 
     def __getitem__(self, k: int) -> tuple[Problem, FrameTruth]:
         if k not in self._built:
-            self._built[k] = checked_frame(self.track.name, k, *self.track.problem(self.source, k, self.run))
+            with for_every_method():   # built once for all the run's methods: each depends on it
+                problem, truth = self.track.problem(self.source, k, self.run)
+            self._built[k] = checked_frame(self.track.name, k, problem, truth)
         return self._built[k]
 
 

@@ -42,6 +42,7 @@ from tqdm import tqdm
 from ..errors import UserError
 from ..tracks.capabilities import OwnFrames, WarmUp, has
 from ..tracks.registry import get_track
+from . import imports
 from .config import RunSpec
 from .loop import loop_records
 from .progress import RunProgress
@@ -98,6 +99,7 @@ class _Progress:
     records: dict = field(default_factory=dict)
     faults: dict = field(default_factory=dict)
     resume: tuple[int, int, int] = (0, 0, 0)
+    imports: dict = field(default_factory=dict)   # (run, method) -> what its worker imported (imports.py)
 
 
 # ---------------------------------------------------------------- worker side
@@ -164,13 +166,17 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
     """Run the task's runs × methods from ``resume``; a closed-loop run replays the frames before
     ``resume`` from ``replay`` (frame -> (association, error)) to rebuild its filter."""
     cache = Path(task.cache_dir) if task.cache_dir else None
+    log = imports.start()
     for r in range(resume[0], len(task.runs)):
         spec = task.runs[r][1]
         track = spec.track_impl
-        warm_track(track)   # no-op where the parent warmed it and forked this worker
-        load_source(spec.source, cache)
+        log.begin_run()
+        with log.for_every_method():
+            warm_track(track)   # no-op where the parent warmed it and forked this worker
+            load_source(spec.source, cache)
         problems = None if spec.loop or has(track, OwnFrames) else Problems(track, spec.source, spec)
         for mi in range(resume[1] if r == resume[0] else 0, len(task.methods)):
+            log.begin_method()
             _, method, params = task.methods[mi]
             run = spec.with_method(method, params)
             first = resume[2] if (r, mi) == resume[:2] else 0
@@ -187,6 +193,7 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
                                         Path(task.artifacts) if task.artifacts else None)
             for record in records:
                 send(("frame", r, mi, record["frame"], record))
+            send(("imports", r, mi, log.report()))
 
 
 # ---------------------------------------------------------------- parent side
@@ -335,10 +342,11 @@ class Supervisor:
         self.watch = watch or (lambda event, k: None)
         self.tick = WATCH_TICK_S if watch is not None else None
 
-    def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict], None]) -> None:
-        """Run ``tasks``; ``on_done(task, records)`` as each finishes, with ``records[(run, method)]``
-        the per-frame records in frame order (a ``RecordSpool``: read from disk, open only during
-        ``on_done``). Raises ``TaskFailed`` at the end if a task failed
+    def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict, dict], None]) -> None:
+        """Run ``tasks``; ``on_done(task, records, imports)`` as each finishes, with
+        ``records[(run, method)]`` the per-frame records in frame order (a ``RecordSpool``: read from
+        disk, open only during ``on_done``) and ``imports[(run, method)]`` what its worker imported
+        (``imports.ImportLog.report``). Raises ``TaskFailed`` at the end if a task failed
         outside any method call (the others still run), ``UserError`` at once for bad input."""
         pending, live, failed = deque(tasks), [], []
         total = len(pending)
@@ -356,7 +364,7 @@ class Supervisor:
                         continue
                     live.remove(w)
                     if outcome == "done":
-                        on_done(w.task, dict(w.progress.records))
+                        on_done(w.task, dict(w.progress.records), dict(w.progress.imports))
                         _close_spools(w.progress)
                     elif outcome == "restart":
                         live.append(self._launch(w.task, w.progress))
@@ -375,14 +383,14 @@ class Supervisor:
     def run_one(self, task: Task) -> dict:
         """Records of one task (see ``run``), each (run, method)'s as a list in frame order."""
         out = {}
-        self.run([task], lambda _, records: out.update({key: list(spool) for key, spool in records.items()}))
+        self.run([task], lambda _, records, __: out.update({key: list(spool) for key, spool in records.items()}))
         return out
 
     def run_one_table(self, task: Task, drop: tuple[str, ...] = ()) -> dict:
         """The per-frame table (``frame_table``) of each (run, method) of one task, built from
         its spooled records without holding them all."""
         out = {}
-        self.run([task], lambda _, records: out.update({key: frame_table(spool, drop)
+        self.run([task], lambda _, records, __: out.update({key: frame_table(spool, drop)
                                                          for key, spool in records.items()}))
         return out
 
@@ -426,6 +434,8 @@ class Supervisor:
                 spool.add(k, record)
                 w.call = None
                 self.watch("frame", k)
+            elif msg[0] == "imports":
+                w.progress.imports[(msg[1], msg[2])] = _merged(w.progress.imports.get((msg[1], msg[2])), msg[3])
             elif msg[0] == "done":
                 _stop(w, grace=5.0)
                 return "done"
@@ -467,6 +477,19 @@ class Supervisor:
         faults[k] = (error, elapsed)
         w.progress.resume = (r, mi, first if k == WARM_UP else k)
         return "restart"
+
+
+def _merged(before: dict | None, report: dict) -> dict:
+    """One method's import report, with what a worker killed earlier in its run reported: every
+    name asked for, each module's earliest load."""
+    if before is None:
+        return report
+    loaded = dict(report["loaded"])
+    for path, at in before["loaded"].items():
+        loaded[path] = min(at, loaded.get(path, at))
+    return {**report, "names": sorted(set(report["names"]) | set(before["names"])), "loaded": loaded,
+            "earliest": min(report["earliest"], before["earliest"]),
+            "libraries": sorted(set(report["libraries"]) | set(before["libraries"]))}
 
 
 def _deadline(w: _Running) -> float | None:

@@ -12,8 +12,10 @@ end, as the difficulty ``<difficulty>-<backend>``. docs/reference/suites.md desc
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import importlib.util
+import inspect
 import json
 from dataclasses import dataclass, field
 from functools import cached_property
@@ -22,15 +24,16 @@ from pathlib import Path
 from ..associators.registry import associator_class
 from ..configs import shipped_config
 from ..errors import UserError
-from ..fingerprint import class_digest, package_digest
 from ..sources.base import short_name
 from ..tracks.base import GuardedMetric, Track
 from ..tracks.inference import infer_track
 from ..tracks.registry import get_track, iter_tracks
 from ..validation import brief, check_number
-from .config import check_method, defaults, merge, run_spec
+from .config import RunSpec, check_method, defaults, merge, run_spec
+from .inputs import file_name
 from .yamlfile import read_yaml
 
+KEY_FORMAT = 1   # of a stored run's key: a new format never reuses runs stored under the old one
 SUITE_KEYS = ("description", "track", "requires", "base", "scenes", "difficulties", "backends", "methods", "seeds",
               "tolerance", "ate_tolerance")
 
@@ -44,56 +47,84 @@ class MethodEntry:
     params: dict = field(default_factory=dict)
 
 
-@dataclass(frozen=True)
-class Job:
-    """Everything run on one rendered sequence: all difficulties and methods for a scene and seed."""
+@dataclass(frozen=True, eq=False)
+class Cell:
+    """One scene, seed and difficulty (or ``<difficulty>-<backend>``) of a suite: the run config
+    every method of the suite runs on (its ``method`` is set per method: ``config``)."""
 
     scene: str
     seed: int
-    runs: tuple  # ((difficulty, run config), ...)
-    methods: tuple[MethodEntry, ...]
-
-    @cached_property
-    def key(self) -> str:
-        """Hash of the job's settings, its frame sources' content keys (``source.key``: the scene's or
-        log's files, a waypoint file, the code that makes the frames) and the code that runs it (this
-        package and each method's package), so results stored by other code or from other inputs
-        are never reused. Computed once per job: a source edited while a sweep runs must not make a
-        job stored under one key be looked up under another."""
-        specs = [run_spec({**cfg, "scene": self.scene, "seed": self.seed}) for _, cfg in self.runs]
-        code = [package_digest()] + [_method_digest(m.method) for m in self.methods] + self._track_digests(specs)
-        code += [spec.source.key for spec in specs]
-        code += self._param_file_digests()       # a file a method's parameter names (a learned model)
-        payload = json.dumps([self.scene, self.seed, self.runs, [vars(m) for m in self.methods], code],
-                             sort_keys=True, default=str)
-        return hashlib.sha256(payload.encode()).hexdigest()[:16]
-
-    def _param_file_digests(self) -> list[str]:
-        """The content of each file a method's parameter names (``params.model`` of ``learned``, or
-        a plugin's data file): the settings hold its path alone, and a file rewritten in place (a
-        retrained model) must not reuse the numbers the old one made."""
-        paths = (Path(v) for m in self.methods for v in m.params.values() if isinstance(v, str) and v)
-        return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
-
-    def _track_digests(self, specs: list) -> list[str]:
-        """Digests of the job's track when it lives outside this package (a user's track module):
-        editing it must not reuse numbers its old code made. Built-ins are in ``package_digest``."""
-        if not specs:
-            return []
-        cls = type(specs[0].track_impl)
-        return [] if cls.__module__.startswith("assocbench.") else [class_digest(cls)]
+    difficulty: str
+    cfg: dict
 
     @property
     def name(self) -> str:
-        """The job's scene or dataset by its short name (never a machine path)."""
+        """The cell's scene or dataset by its short name (never a machine path)."""
         return short_name(self.scene)
 
+    @property
+    def scenario(self) -> str:
+        return f"{self.name}/{self.difficulty}"
 
-def _method_digest(method: str) -> str:
-    """Digest of the file defining a method's class; the name alone when it does not resolve (the
-    job then records the error)."""
+    def config(self, entry: MethodEntry) -> dict:
+        """The run config of ``entry``'s method on this cell."""
+        return {**self.cfg, "method": entry.method, "params": dict(entry.params)}
+
+
+@dataclass(frozen=True, eq=False)
+class Run:
+    """The stored unit of a leaderboard: one method on one cell."""
+
+    cell: Cell
+    entry: MethodEntry
+
+    @cached_property
+    def spec(self) -> RunSpec:
+        return run_spec(self.cell.config(self.entry))
+
+    @cached_property
+    def key(self) -> str:
+        """What a stored run is looked up by: the run's checked settings (the method and its
+        parameters among them), its frame source's content key (``source.key``: the scene's files,
+        a waypoint file, a log), the file of the method's class and the content of each file a
+        parameter names. Labels (the difficulty's and the method's names) are not in it. The code
+        the run imported is checked when a stored run is found (``inputs.RunInputs``). Computed
+        once: a file edited while a sweep runs must not move a run from one key to another."""
+        payload = {"format": KEY_FORMAT, "settings": settings_payload(self.spec.settings),
+                   "source": self.spec.source.key, "class": _class_file(self.entry.method),
+                   "param_files": _param_file_digests(self.entry.params)}
+        return hashlib.sha256(json.dumps(payload, sort_keys=True, default=str).encode()).hexdigest()[:20]
+
+    @property
+    def label(self) -> dict:
+        """The columns that say which run of the suite this is (not stored with it)."""
+        return {"scenario": self.cell.scenario, "scene": self.cell.name, "difficulty": self.cell.difficulty,
+                "method": self.entry.label, "seed": self.cell.seed}
+
+    @property
+    def name(self) -> str:
+        return f"{self.entry.label} on {self.cell.scenario} seed {self.cell.seed}"
+
+
+def settings_payload(settings) -> dict:
+    """A run's typed settings as plain values (sections as mappings), for a key."""
+    return {k: dataclasses.asdict(v) if dataclasses.is_dataclass(v) else v for k, v in settings.items()}
+
+
+def _param_file_digests(params: dict) -> list[str]:
+    """The content of each file a method's parameter names (``params.model`` of ``learned``, or a
+    plugin's data file): the settings hold its path alone, and a file rewritten in place (a
+    retrained model) must not reuse the numbers the old one made."""
+    paths = (Path(v) for v in params.values() if isinstance(v, str) and v)
+    return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
+
+
+def _class_file(method: str) -> str:
+    """The file defining a method's class (``inputs.file_name``), so that another module of the
+    same name found on another path is another run; the name alone where it does not resolve
+    (``oracle``, a track's own method)."""
     try:
-        return class_digest(associator_class(method))
+        return file_name(Path(inspect.getsourcefile(associator_class(method))).resolve())
     except Exception:  # noqa: BLE001 - a broken plugin must not stop the sweep from being planned
         return method
 
@@ -101,7 +132,8 @@ def _method_digest(method: str) -> str:
 @dataclass(frozen=True)
 class Suite:
     name: str
-    jobs: tuple[Job, ...]
+    cells: tuple[Cell, ...]
+    methods: tuple[MethodEntry, ...]
     tolerance: float
     ate_tolerance: float = 0.01   # m: a closed loop's ATE may rise this much above the baseline
     track: str = ""               # every run of a suite is on one track (one table, one baseline)
@@ -112,6 +144,11 @@ class Suite:
     def track_impl(self) -> Track:
         return get_track(self.track)
 
+    @cached_property
+    def runs(self) -> tuple[Run, ...]:
+        """Every stored unit of the suite: each cell (scene, seed, difficulty) × each method."""
+        return tuple(Run(cell, entry) for cell in self.cells for entry in self.methods)
+
     def guards(self) -> tuple[GuardedMetric, ...]:
         """The columns ``check`` compares (the track's)."""
         return self.track_impl.guards(self.loop)
@@ -121,20 +158,15 @@ class Suite:
 
     def first_source(self):
         """The frame source of the suite's first run (its cache folder is checked before a sweep)."""
-        return run_spec(self.jobs[0].runs[0][1]).source if self.jobs else None
+        return self.runs[0].spec.source if self.runs else None
 
     def scene_paths(self) -> dict[str, str]:
-        """Each job's scene by its short name (the scenario's) -> the scene it names (a user MJCF's path)."""
-        return {job.name: job.scene for job in self.jobs}
+        """Each cell's scene by its short name (the scenario's) -> the scene it names (a user MJCF's path)."""
+        return {cell.name: cell.scene for cell in self.cells}
 
     def rows(self) -> list[tuple[str, str]]:
         """The (scenario, method label) rows a run of this suite must produce."""
-        first = {}
-        for job in self.jobs:
-            for difficulty, _ in job.runs:
-                for m in job.methods:
-                    first.setdefault((f"{job.name}/{difficulty}", m.label), None)
-        return list(first)
+        return list(dict.fromkeys((run.cell.scenario, run.entry.label) for run in self.runs))
 
 
 def _methods(raw, where: str) -> tuple[MethodEntry, ...]:
@@ -201,21 +233,21 @@ def load_suite(path: str | Path) -> Suite:
     for m in methods:   # unknown methods, broken plugins, bad parameters: now
         check_method(m.method, m.params, loop, track)
     tolerance = check_number(raw.get("tolerance", 0.02), f"tolerance in {path}", lo=0)
-    jobs = []
+    cells = []
     for scene in scenes:
         for seed in seeds:
-            runs = []
             for name, override in difficulties.items():
                 cfg = base
                 for part in override if isinstance(override, list) else [override]:
                     cfg = merge(cfg, part or {}, f"{path} difficulty {name}", track.name)
-                cfg = merge(cfg, {"scene": scene, "seed": seed, "method": methods[0].method}, str(path), track.name)
-                run_spec(cfg)  # validate now
-                runs.append((str(name), cfg))
-            jobs.append(Job(str(scene), int(seed), tuple(runs), methods))
+                cfg = merge(cfg, {"scene": scene, "seed": seed}, str(path), track.name)
+                cells.append(Cell(str(scene), int(seed), str(name), cfg))
     ate_tolerance = check_number(raw.get("ate_tolerance", 0.01), f"ate_tolerance in {path}", lo=0)
-    return Suite(path.stem, tuple(jobs), float(tolerance), float(ate_tolerance), track.name, loop,
-                 _requires(raw, str(path)))
+    suite = Suite(path.stem, tuple(cells), methods, float(tolerance), float(ate_tolerance), track.name, loop,
+                  _requires(raw, str(path)))
+    for run in suite.runs:
+        run.spec  # noqa: B018 - every run is resolved (checked) now, not in a worker
+    return suite
 
 
 def missing_modules(modules) -> str | None:

@@ -1,15 +1,24 @@
-"""Run a suite's jobs: one worker process at a time, several (``--jobs N``), or on a dask cluster.
+"""Run a suite's missing runs: one worker process at a time, several (``--jobs N``), or on a dask cluster.
 
-Every job runs in a worker process (``sandbox.py``): a method call past its time limit, or a
-method that dies or exits, fails that frame and the job goes on; an interrupt kills the workers
-at once. Each job's results are stored by ``jobstore`` under ``<out>/jobs/`` as it finishes; a
-job whose stored files are complete and verified is skipped, so an interrupted sweep resumes
-where it stopped.
+The stored unit is one run: a method on one scene, seed and difficulty (``suite.Run``). A sweep
+looks each run up in ``<out>/runs/`` (``runstore``) and computes only those not stored, or stored
+from other inputs: adding a method to a suite computes its runs alone, removing one computes
+nothing, changing one method's parameters recomputes that method. The missing runs of one scene,
+seed and difficulty form one worker task (``sandbox.Task``), which reads the sequence once and
+builds each frame's problem once for all its methods.
+
+Every task runs in a worker process (``sandbox.py``): a method call past its time limit, or a
+method that dies or exits, fails that frame and the task goes on; an interrupt kills the workers
+at once. Each run is stored as its task finishes, with the inputs its worker imported
+(``inputs.py``), so an interrupted sweep resumes where it stopped; a run whose code was saved while
+it ran is returned but not stored.
 """
 
 from __future__ import annotations
 
 import sys
+from collections.abc import Callable
+from itertools import zip_longest
 from pathlib import Path
 
 import pandas as pd
@@ -17,44 +26,53 @@ from tqdm import tqdm
 
 from ..atomic import ensure_dir
 from ..errors import UserError
-from .config import run_spec
-from .jobstore import load_job, store_job
+from .inputs import ImportGraph, RunInputs, Stale, run_inputs, run_roots
 from .records import frame_table
 from .runner import summarize_run
+from .runstore import FOLDER, as_read_back, lookup, store_run
 from .sandbox import Supervisor, Task, TaskFailed
-from .suite import Job, Suite
+from .suite import Run, Suite
 
 EXECUTORS = ("local", "dask")
-def kept_frames(per_frame: pd.DataFrame, label: dict, columns: tuple[str, ...]) -> pd.DataFrame:
-    """The leaderboard's per-frame rows of one run: ``label``'s columns, ``frame`` and those of the
-    track's ``columns`` (``Columns.frames``) the run has."""
-    kept = ["frame"] + [c for c in columns if c in per_frame]
-    return per_frame.assign(**label)[list(label) + kept]
+Result = tuple[pd.DataFrame, pd.DataFrame]   # a run's summary row and per-frame records, unlabelled
 
 
-def job_task(job: Job, cache_dir: str | None = None) -> Task:
-    """The worker task of ``job``: its runs (difficulty, resolved spec) and its methods."""
-    return Task(f"{job.name} seed {job.seed}", tuple((f"{job.name}/{d} seed {job.seed}", run_spec(cfg))
-                                                      for d, cfg in job.runs),
-                tuple((m.label, m.method, dict(m.params)) for m in job.methods), cache_dir)
+def cell_task(runs: list[Run], cache_dir: str | None = None) -> Task:
+    """The worker task of ``runs``, methods of one cell (scene, seed, difficulty): the cell's run
+    and the methods."""
+    cell = runs[0].cell
+    name = f"{cell.scenario} seed {cell.seed}"
+    return Task(name, ((name, runs[0].spec),), tuple((r.entry.label, r.entry.method, dict(r.entry.params))
+                                                      for r in runs), cache_dir)
 
 
-def job_result(job: Job, records: dict) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Summaries (one row per difficulty × method) and per-frame (n, runtime) of one job, from
-    the worker's records by (difficulty index, method index) (each an iterable in frame order:
-    a ``RecordSpool``)."""
-    summaries, frames = [], []
-    for r, (difficulty, cfg) in enumerate(job.runs):
-        spec = run_spec(cfg)
-        track = spec.track_impl
-        for mi, entry in enumerate(job.methods):
-            per_frame = frame_table(records[(r, mi)])
-            errors = sorted(set(per_frame["error"]) - {""})
-            label = {"scenario": f"{job.name}/{difficulty}", "scene": job.name, "difficulty": difficulty,
-                     "method": entry.label, "seed": job.seed}
-            summaries.append({**label, **summarize_run(track, per_frame), "error": errors[0] if errors else ""})
-            frames.append(kept_frames(per_frame, label, track.columns(spec.loop).frames))
-    return pd.DataFrame(summaries), pd.concat(frames, ignore_index=True)
+def run_result(run: Run, records) -> Result:
+    """A run's summary row and the per-frame columns of its track (``Columns.frames``) the run has,
+    from the worker's records (an iterable in frame order: a ``RecordSpool``)."""
+    per_frame = frame_table(records)
+    errors = sorted(set(per_frame["error"]) - {""})
+    summary = pd.DataFrame([{**summarize_run(run.spec.track_impl, per_frame), "error": errors[0] if errors else ""}])
+    kept = ["frame"] + [c for c in run.spec.track_impl.columns(run.spec.loop).frames if c in per_frame]
+    return summary, per_frame[kept]
+
+
+def cell_results(runs: list[Run], records: dict, imports: dict, graph: ImportGraph) -> list[tuple[Result, RunInputs | str]]:
+    """Each run's result and its inputs (``inputs.run_inputs``), or why they cannot be stored."""
+    out = []
+    for mi, run in enumerate(runs):
+        out.append((run_result(run, records[(0, mi)]), _inputs(run, imports.get((0, mi)), graph)))
+    return out
+
+
+def _inputs(run: Run, report: dict | None, graph: ImportGraph) -> RunInputs | str:
+    """A run's inputs from its worker's ``report``, or why they cannot be stored."""
+    if report is None:
+        return "its worker sent no record of what it imported"
+    roots, installed = run_roots(run.spec, run.entry.method)
+    try:
+        return run_inputs(graph, roots, report, installed)
+    except Stale as exc:
+        return str(exc)
 
 
 class _Bar(tqdm):
@@ -68,11 +86,15 @@ def _report(line: str) -> None:
     tqdm.write(f"assocbench: {line}", file=sys.stderr)
 
 
-def run_job(job: Job, cache_dir: str | None = None) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Summaries and per-frame records of one job, run in a worker process (see ``job_result``)."""
+def run_cell(runs: list[Run], cache_dir: str | None = None,
+             graph: ImportGraph | None = None) -> list[tuple[Result, RunInputs | str]]:
+    """The results and inputs of ``runs`` (one cell's), run in a worker process (``cell_results``;
+    ``graph``: the files already read, shared by a sweep's tasks)."""
+    graph = graph or ImportGraph()
     out = []   # made while the task's spooled records are still open
-    Supervisor(1, _report).run([job_task(job, cache_dir)], lambda _, records: out.append(job_result(job, records)))
-    return out[0]
+    Supervisor(1, _report).run([cell_task(runs, cache_dir)],
+                               lambda _, records, imports: out.extend(cell_results(runs, records, imports, graph)))
+    return out
 
 
 def _dask_client(address: str | None):
@@ -89,45 +111,66 @@ def _dask_client(address: str | None):
         raise UserError(f"cannot reach dask scheduler {address}: {exc}") from None
 
 
-def _run_dask(todo: list[Job], out: Path, client, cache_dir: str | None, bar: tqdm) -> None:
-    """Run ``todo`` on the dask cluster of ``client`` (opened by ``_dask_client``), storing each
-    job as it finishes."""
+def _run_dask(todo: list[list[Run]], keep: Callable, client, cache_dir: str | None) -> None:
+    """Run each cell's ``todo`` on the dask cluster of ``client`` (opened by ``_dask_client``),
+    keeping each as it finishes."""
     from dask.distributed import as_completed as dask_completed  # importable: the client exists
 
     with client:
-        futures = {client.submit(run_job, j, cache_dir, pure=False): j for j in todo}
+        futures = {client.submit(run_cell, runs, cache_dir, pure=False): runs for runs in todo}
         for fut in dask_completed(futures):
-            store_job(out, futures[fut], fut.result())
-            bar.update()
+            keep(futures[fut], fut.result())
 
 
-def _run_local(todo: list[Job], out: Path, jobs: int, cache_dir: str | None, bar: tqdm) -> None:
-    """Run ``todo`` in at most ``jobs`` worker processes, storing each job as it finishes; a job
-    that fails outside any method call is named, the others still run, then ``TaskFailed``."""
+def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str | None) -> None:
+    """Run each cell's ``todo`` in at most ``jobs`` worker processes, keeping each as it finishes;
+    a task that fails outside any method call is named, the others still run, then ``TaskFailed``."""
+    graph = ImportGraph()
     if jobs == 1:
         failed = []
-        for j in todo:
+        for runs in todo:
             try:
-                store_job(out, j, run_job(j, cache_dir))
+                keep(runs, run_cell(runs, cache_dir, graph))
             except TaskFailed as exc:
                 failed.append(exc)
-            bar.update()
         if failed:
-            raise TaskFailed(f"{len(failed)} of {len(todo)} job(s) failed; first: {failed[0]}")
+            raise TaskFailed(f"{len(failed)} of {len(todo)} task(s) failed; first: {failed[0]}")
         return
-    tasks = [job_task(j, cache_dir) for j in todo]
-    job_of = {id(t): j for t, j in zip(tasks, todo)}
+    tasks = [cell_task(runs, cache_dir) for runs in todo]
+    runs_of = {id(t): runs for t, runs in zip(tasks, todo)}
+    Supervisor(jobs, _report).run(tasks, lambda task, records, imports: keep(
+        runs_of[id(task)], cell_results(runs_of[id(task)], records, imports, graph)))
 
-    def finished(task: Task, records: dict) -> None:
-        store_job(out, job_of[id(task)], job_result(job_of[id(task)], records))
-        bar.update()
 
-    Supervisor(jobs, _report).run(tasks, finished)
+def missing_cells(suite: Suite, out: Path) -> tuple[dict[Run, Result], list[list[Run]], list[str]]:
+    """The stored results of the suite's runs that can be reused, the others grouped by cell (a
+    task per cell, ``in_turns``) and why stored runs are out of date."""
+    done, todo, changed = {}, {}, []
+    for run in suite.runs:
+        result, why = lookup(out, run)
+        if result is not None:
+            done[run] = result
+        else:
+            todo.setdefault(run.cell, []).append(run)
+            changed += [why] if why else []
+    return done, in_turns(list(todo.values())), changed
+
+
+def in_turns(tasks: list[list[Run]]) -> list[list[Run]]:
+    """``tasks`` with one task of each sequence in turn (its source's content key): the first
+    tasks that run side by side (``--jobs N``) make different sequences, where two difficulties of
+    one scene and seed would render the same one twice on a cold cache."""
+    by_source: dict[str, list] = {}
+    for runs in tasks:
+        by_source.setdefault(runs[0].spec.source.key, []).append(runs)
+    return [runs for turn in zip_longest(*by_source.values()) for runs in turn if runs is not None]
 
 
 def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", address: str | None = None,
               cache_dir: str | None = None, progress: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Run every job not already stored under ``out``; return all summaries and frame records."""
+    """Compute every run of ``suite`` not stored under ``out`` (``missing_cells``), store each as its
+    task finishes, and return the summaries and frame records of all runs, labelled, in the suite's
+    order."""
     if executor not in EXECUTORS:
         raise UserError(f"unknown executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
     if jobs < 1:
@@ -135,27 +178,38 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
     # the cluster is reached before anything is written: a missing extra, no address or an
     # unreachable scheduler is one line and leaves no output folder behind
     client = _dask_client(address) if executor == "dask" else None
-    ensure_dir(out / "jobs")
-    done = [load_job(out, j) for j in suite.jobs]
-    todo = [j for j, d in zip(suite.jobs, done) if d is None]
-    bar = _Bar(total=len(suite.jobs), initial=len(suite.jobs) - len(todo), desc=f"{suite.name}",
-               unit="job", disable=not progress or not sys.stderr.isatty())  # no bars in logs
+    ensure_dir(out / FOLDER)
+    done, todo, changed = missing_cells(suite, out)
+    if changed:
+        _report(f"{len(changed)} stored run(s) are out of date ({changed[0]}); recomputing them")
+    bar = _Bar(total=len(suite.runs), initial=len(done), desc=f"{suite.name}", unit="run",
+               disable=not progress or not sys.stderr.isatty())  # no bars in logs
+
+    def keep(runs: list[Run], results: list[tuple[Result, RunInputs | str]]) -> None:
+        for run, (result, inputs) in zip(runs, results):
+            if isinstance(inputs, str):
+                _report(f"{run.name} is not stored: {inputs} (it is recomputed next time)")
+            else:
+                store_run(out, run, result, inputs)
+            done[run] = as_read_back(result)
+        bar.update(len(runs))
+
     try:
         if executor == "dask":
-            _run_dask(todo, out, client, cache_dir, bar)
+            _run_dask(todo, keep, client, cache_dir)
         else:
-            _run_local(todo, out, jobs, cache_dir, bar)
+            _run_local(todo, keep, jobs, cache_dir)
     finally:
         bar.close()
-    parts = [d or _reloaded(out, j) for j, d in zip(suite.jobs, done)]
-    summaries = pd.concat([s for s, _ in parts], ignore_index=True)
-    return summaries, pd.concat([f for _, f in parts], ignore_index=True)
+    parts = [_labelled(run, done[run]) for run in suite.runs]
+    return pd.concat([s for s, _ in parts], ignore_index=True), pd.concat([f for _, f in parts], ignore_index=True)
 
 
-def _reloaded(out: Path, job: Job) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """A job stored by this sweep, read back verified (so every job's frames have CSV dtypes)."""
-    result = load_job(out, job)
-    if result is None:
-        raise UserError(f"job {job.name} seed {job.seed} was stored under {out / 'jobs'} but cannot be read back; "
-                        "run again to recompute it")
-    return result
+def _labelled(run: Run, result: Result) -> Result:
+    """A run's summary and frames with the suite's labels first (scenario, scene, difficulty,
+    method, seed)."""
+    summary, frames = result
+    label = run.label
+    return (pd.concat([pd.DataFrame([label] * len(summary)), summary.reset_index(drop=True)], axis=1),
+            frames.assign(**label)[list(label) + list(frames.columns)])
+

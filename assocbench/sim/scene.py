@@ -113,31 +113,62 @@ class Scene:
 
 
 ASSET_SUFFIXES = {".png", ".obj", ".stl", ".msh", ".xml"}
+# which <compiler> folder an element's files are looked up in (MuJoCo's rule: meshes, height fields
+# and skins in meshdir, textures in texturedir; assetdir sets both), relative to the main file
+ASSET_DIRS = {"mesh": "meshdir", "hfield": "meshdir", "skin": "meshdir", "texture": "texturedir"}
 
 
-def scene_files(path: Path) -> list[Path]:
-    """Every file the MJCF at ``path`` is made of: itself, each file it ``<include>``s (recursively)
-    and every file any element names with ``file=`` (textures, meshes), found beside the including
-    file or the main one; and, as before, the asset files beside it. What a digest must cover."""
-    seen: dict[Path, None] = {}
-    todo = [path.resolve()]
+def _mjcf_trees(path: Path) -> list[tuple[Path, ET.Element]]:
+    """The main MJCF and every file it ``<include>``s (recursively), parsed; an include is looked
+    for beside the main file (MuJoCo's rule) and beside the including file."""
+    trees, todo, seen = [], [path], set()
     while todo:
         current = todo.pop()
         if current in seen or not current.is_file():
             continue
-        seen[current] = None
-        if current.suffix.lower() != ".xml":
-            continue
+        seen.add(current)
         try:
             root = ET.parse(current).getroot()
         except ET.ParseError:
             continue   # MuJoCo's own parse reports it when the scene loads
+        trees.append((current, root))
+        todo += [(base / element.get("file")).resolve() for element in root.iter("include") if element.get("file")
+                 for base in (path.parent, current.parent)]
+    return trees
+
+
+def _asset_folders(path: Path, trees: list[tuple[Path, ET.Element]]) -> dict[str, Path]:
+    """``meshdir`` and ``texturedir`` as the scene's ``<compiler>`` sets them (``assetdir`` both)."""
+    out: dict[str, Path] = {}
+    for _, root in trees:
+        for compiler in root.iter("compiler"):
+            for key in ("assetdir", "meshdir", "texturedir"):
+                if compiler.get(key):
+                    folder = (path.parent / compiler.get(key)).resolve()
+                    out |= {"meshdir": folder, "texturedir": folder} if key == "assetdir" else {key: folder}
+    return out
+
+
+def scene_files(path: Path) -> list[Path]:
+    """Every file the MJCF at ``path`` is made of: itself, each file it ``<include>``s (recursively)
+    and every file an element names (``file=``, a cube texture's ``fileright=`` and the like:
+    meshes, height fields, skins, textures), in its ``<compiler>`` folder (``meshdir``,
+    ``texturedir``, ``assetdir``) or beside the including file or the main one; and the asset files
+    beside the main file. What a digest must cover."""
+    path = path.resolve()
+    trees = _mjcf_trees(path)
+    folders = _asset_folders(path, trees)
+    found = [file for file, _ in trees]
+    for current, root in trees:
         for element in root.iter():
-            name = element.get("file")
-            if name:
-                todo += [(base / name).resolve() for base in (current.parent, path.parent)]
+            if element.tag == "include":
+                continue
+            bases = [folders[ASSET_DIRS[element.tag]]] if ASSET_DIRS.get(element.tag) in folders else []
+            bases += [current.parent, path.parent]
+            names = [value for key, value in element.attrib.items() if key.startswith("file") and value]
+            found += [f for name in names for f in ((base / name).resolve() for base in bases) if f.is_file()]
     extras = [f.resolve() for f in sorted(path.parent.iterdir()) if f.suffix.lower() in ASSET_SUFFIXES - {".xml"}]
-    return sorted(dict.fromkeys([*seen, *extras]))
+    return sorted(dict.fromkeys([*found, *extras]))
 
 
 def scene_digest(scene: str | Path) -> str:

@@ -31,7 +31,8 @@ class PathKeys:
     trajectory_params: the trajectory's parameters, e.g. {file: path.csv} for waypoints.
     """
 
-    trajectory: str | None = None
+    trajectory: str | None = field(default=None, metadata={"accepts": "null or a trajectory of the track "
+                                                                    "(assocbench list trajectories)"})
     trajectory_params: dict = field(default_factory=dict, metadata={"accepts": "a mapping (the trajectory's)"})
 
     def check(self) -> None:
@@ -48,7 +49,8 @@ class ImageKeys:
 
     resolution: list = field(default_factory=lambda: [640, 480],
                              metadata={"accepts": f"[width, height], integers {MIN_SIDE}..{MAX_SIDE}", "unit": "px"})
-    msaa: int | None = field(default=None, metadata={"accepts": f"null or an integer 0..{MAX_MSAA}"})
+    msaa: int | None = field(default=None, metadata={"accepts": f"null or an integer 0..{MAX_MSAA}",
+                                                     "unit": "samples per pixel"})
 
     def check(self) -> None:
         res = self.resolution
@@ -73,15 +75,15 @@ class LidarConfig:
     """
 
     mode: str = field(default="lidar", metadata=one_of(*LIDAR_MODES))
-    beams: int = field(default=720, metadata=in_range(1, 100000))
-    fov_deg: float = field(default=360.0, metadata=in_range(0, 360, lo_open=True))
-    max_range: float = field(default=10.0, metadata=in_range(0, 1000, lo_open=True))
+    beams: int = field(default=720, metadata=in_range(1, 100000, unit="beams per scan"))
+    fov_deg: float = field(default=360.0, metadata=in_range(0, 360, lo_open=True, unit="deg"))
+    max_range: float = field(default=10.0, metadata=in_range(0, 1000, lo_open=True, unit="m"))
     # at least 1e-6 m: a range σ of 1e-300 squares to 0, a singular R (the worker crashed)
-    sigma_range: float = field(default=0.01, metadata=in_range(1e-6, 10))
+    sigma_range: float = field(default=0.01, metadata=in_range(1e-6, 10, unit="m"))
     # at least 1e-6 deg: a bearing σ below it squares to a covariance under numpy's tolerance
-    sigma_bearing_deg: float = field(default=0.5, metadata=in_range(1e-6, 180))
-    dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True))
-    height: float = field(default=0.5, metadata=in_range(0, 100, lo_open=True))
+    sigma_bearing_deg: float = field(default=0.5, metadata=in_range(1e-6, 180, unit="deg"))
+    dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True, unit="dimensionless"))
+    height: float = field(default=0.5, metadata=in_range(0, 100, lo_open=True, unit="m"))
 
     def __post_init__(self) -> None:
         validate_fields(self, "lidar")

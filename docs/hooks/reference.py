@@ -5,10 +5,10 @@ A page asks for a generated part with a marker line, replaced in ``on_page_markd
 * ``<!-- generated: associators -->``: every registered associator (the registry, plugins
   included): name, kind, summary, and each parameter's type, default and range, read from the
   dataclass fields and their ``assocbench.validation`` metadata (``in_range`` / ``one_of``);
-* ``<!-- generated: settings -->``: every run setting: the schema is
-  ``assocbench.harness.config.defaults()``; a section's dataclass (``BeliefConfig``,
-  ``EstimatorConfig``, each registered track's ``section_types()``) gives the type, range and the
-  meaning (its docstring's ``name: text`` lines), ``configs/default.yaml`` the run's default;
+* ``<!-- generated: settings -->``: every setting of every registered track, from its schema
+  (``assocbench.harness.config.run_schema(track).describe()``): the tracks that have it, its
+  default, what it accepts (its field's ``in_range`` / ``one_of`` metadata), its unit and its
+  meaning (its dataclass docstring's ``name: text`` lines);
 * ``<!-- generated: cli -->``: every command and option of ``assocbench.cli.main.build_parser()``;
 * ``<!-- generated: gym_envs -->``: every registered Gymnasium env id (``assocbench.gymenv.env_ids()``,
   from the track registry): track, scene, open or closed loop.
@@ -53,22 +53,6 @@ def _default_text(value) -> str:
     return "`null`" if value is None else f"`{value!r}`" if isinstance(value, str) else f"`{value}`"
 
 
-def _field_docs(cls: type) -> dict[str, str]:
-    """``{field: meaning}`` from the class docstring's ``name: text`` entries (the house style:
-    ``sigma_position: camera position std (m).``); a field the docstring does not name is absent."""
-    doc = cls.__doc__ or ""
-    names = [f.name for f in dataclasses.fields(cls)]
-    # ``a / b: text`` names two fields at once: each gets the text after the shared colon
-    hits = sorted((m.start(), m.end(), name) for name in names
-                  for m in re.finditer(rf"(?<![\w.`]){re.escape(name)}(?:\s*/\s*\w+)*: ", doc))
-    out = {}
-    for _, end, name in hits:
-        stop = min((start for start, _, _ in hits if start >= end), default=len(doc))
-        text = re.split(r"\n\s*\n", doc[end:stop])[0]
-        out.setdefault(name, " ".join(text.split()))
-    return out
-
-
 def associator_rows() -> list[dict]:
     """One row per registered associator: built-ins, then entry-point plugins."""
     from assocbench.associators.dense import DenseAssociator
@@ -103,84 +87,45 @@ def associators_markdown() -> str:
     return "\n".join(lines) + "\n"
 
 
-def _section_classes() -> dict[str, tuple[type, str]]:
-    """``{section: (dataclass, owner)}`` for every typed section: the common ones and each track's."""
-    from assocbench.belief.config import BeliefConfig
-    from assocbench.estimators.config import EstimatorConfig
+def setting_rows() -> dict[str, tuple]:
+    """Every setting of every registered track, once: ``{dotted key: (Described, [tracks])}`` in
+    the order the schemas give them (``harness.config.run_schema(track).describe()``)."""
+    from assocbench.harness.config import run_schema
     from assocbench.tracks.registry import iter_tracks
 
-    out = {"belief": (BeliefConfig, "every track (open loop)"), "estimator": (EstimatorConfig, "every track (closed loop)")}
+    rows: dict[str, tuple] = {}
     for track in iter_tracks():
-        for name, cls in track.section_types().items():
-            owner = out[name][1] + ", " + track.name if name in out else f"{track.name} track"
-            out[name] = (cls, owner)
-    return out
-
-
-def _yaml_comments() -> dict[str, str]:
-    """``{dotted key: comment}`` from ``configs/default.yaml``'s end-of-line comments."""
-    from assocbench.configs import shipped_config
-
-    out, section = {}, None
-    for line in shipped_config("default.yaml").read_text().splitlines():
-        m = re.match(r"^(\s*)([\w]+):[^#]*?(?:#\s*(.*))?$", line)
-        if not m:
-            continue
-        indent, key, comment = m.groups()
-        if not indent:
-            section = key
-        dotted = key if not indent else f"{section}.{key}"
-        if comment:
-            out[dotted] = comment.strip()
-    return out
+        for described in run_schema(track).describe():
+            rows.setdefault(described.key, (described, []))[1].append(track.name)
+    return rows
 
 
 def setting_keys() -> list[str]:
-    """Every setting key of a run, dotted (``belief.sigma_position``); free-form mappings
+    """Every setting key of every track, dotted (``belief.sigma_position``); free-form mappings
     (``params``, ``trajectory_params``) are one key each."""
-    from assocbench.harness.config import defaults
-
-    keys = []
-    for name, value in defaults().items():
-        if isinstance(value, dict) and value:
-            keys += [f"{name}.{k}" for k in value]
-        else:
-            keys.append(name)
-    return keys
+    return list(setting_rows())
 
 
 def settings_markdown() -> str:
-    """The settings reference: the plain settings, then one table per section."""
-    from assocbench.harness.config import defaults, merge
-    from assocbench.harness.yamlfile import read_yaml, shipped_config
+    """The settings reference: the top-level settings, then one table per section, each setting
+    with the tracks that have it, its default, what it accepts (range or choices), unit and meaning."""
+    from assocbench.tracks.registry import iter_tracks
 
-    schema = defaults()
-    run_default = merge(defaults(), read_yaml(shipped_config("default.yaml")), "default.yaml")
-    comments = _yaml_comments()
-    typed = _section_classes()
-    out = ["## Plain settings", "", "| key | default | meaning |", "|---|---|---|"]
-    for name, value in schema.items():
-        if name not in typed and not (isinstance(value, dict) and value):
-            out.append(f"| `{name}` | {_cell(_default_text(run_default[name]))} | {_cell(comments.get(name, ''))} |")
-    for name, value in schema.items():
-        if not (isinstance(value, dict) and value):
-            continue
-        cls, owner = typed.get(name, (None, "every run"))
-        fields = {f.name: f for f in dataclasses.fields(cls)} if cls else {}
-        docs = _field_docs(cls) if cls else {}
-        where = f"`{cls.__module__}.{cls.__qualname__}`" if cls else "the harness"
-        out += ["", f"## `{name}`", "", f"Used by: {owner}. Checked by {where}.", "",
-                "| key | type | default | range | meaning |", "|---|---|---|---|---|"]
-        for key in value:
-            f = fields.get(key)
-            typ = str(f.type) if f else type(value[key]).__name__
-            rng = _range_text(dict(f.metadata)) if f else ""
-            meaning = docs.get(key) or comments.get(f"{name}.{key}", "")
-            default = run_default[name][key]
-            if default != value[key]:
-                meaning = f"{meaning} (the dataclass default is {value[key]!r}; `configs/default.yaml` sets {default!r})".strip()
-            out.append(f"| `{name}.{key}` | {_cell(typ)} | {_cell(_default_text(default))} | {_cell(rng)} | {_cell(meaning)} |")
-    return "\n".join(out) + "\n"
+    every = [track.name for track in iter_tracks()]
+    groups: dict[str, list] = {}
+    for key, row in setting_rows().items():
+        groups.setdefault(key.partition(".")[0] if "." in key else "", []).append(row)
+    out = []
+    for section, rows in groups.items():
+        tracks = list(dict.fromkeys(t for _, owners in rows for t in owners))
+        used = "every track" if tracks == every else "the " + ", ".join(tracks) + f" track{'s' if len(tracks) > 1 else ''}"
+        out += ["", "## Top-level settings" if not section else f"## `{section}`", "", f"Used by {used}.", "",
+                "| key | tracks | default | accepts | unit | meaning |", "|---|---|---|---|---|---|"]
+        for described, owners in rows:
+            where = "every track" if owners == every else ", ".join(owners)
+            out.append(f"| `{described.key}` | {where} | {_cell(_default_text(described.default))} | "
+                       f"{_cell(described.accepts)} | {_cell(described.unit)} | {_cell(described.doc)} |")
+    return "\n".join(out[1:]) + "\n"
 
 
 def _option_rows(parser: argparse.ArgumentParser) -> list[str]:
@@ -217,7 +162,7 @@ def gym_envs_markdown() -> str:
 
     out = ["| id | track | scene | loop |", "|---|---|---|---|"]
     for env_id, (track, env) in env_ids().items():
-        about = get_track(track).shipped_scenes().get(env.scene, "")
+        about = get_track(track).scenes().get(env.scene, "")
         loop = "closed" if env.loop else "open"
         out.append(f"| `{env_id}` | {track} | `{env.scene}`: {_cell(about)} | {loop} |")
     return "\n".join(out)

@@ -139,11 +139,10 @@ def test_export_of_the_camera_ci_suite_is_reproducible_and_round_trips(tmp_path)
         assert (tmp_path / "a" / name).read_bytes() == (tmp_path / "b" / name).read_bytes()
     suite = load_suite(resolve_suite("ci"))
     expected = []
-    for job in suite.jobs:
-        for _, cfg in job.runs:
-            spec = run_spec(cfg)
-            problems = Problems(spec.track_impl, spec.source, spec)
-            expected += [problems[k] for k in range(len(problems))]
+    for cell in suite.cells:
+        spec = run_spec(cell.config(suite.methods[0]))
+        problems = Problems(spec.track_impl, spec.source, spec)
+        expected += [problems[k] for k in range(len(problems))]
     got = [item for batch in read_problems(tmp_path / "a", batch_size=5) for item in batch]
     assert len(got) == len(expected) == read_card(tmp_path / "a")["sizes"]["frames"]
     for item, (problem, truth) in zip(got, expected):

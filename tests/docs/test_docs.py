@@ -8,6 +8,7 @@ from __future__ import annotations
 import argparse
 import importlib.util
 import re
+import typing
 from pathlib import Path
 
 import pytest
@@ -57,22 +58,70 @@ def test_associator_page_lists_an_installed_plugin(reference, tmp_path, monkeypa
     assert "never pairs anything" in row and "one of `calm`, `shy`" in row
 
 
-def test_settings_page_lists_every_setting_key(reference):
-    from assocbench.harness.config import defaults
+def test_settings_page_lists_every_setting_of_every_track(reference):
+    from assocbench.harness.config import run_schema
+    from assocbench.tracks.registry import iter_tracks
 
     page = reference.settings_markdown()
     keys = reference.setting_keys()
-    sections = [name for name, value in defaults().items() if isinstance(value, dict) and value]
-    assert {"belief.sigma_position", "estimator.mode", "lidar.beams", "icp.max_condition", "limits.frames"} <= set(keys)
-    assert set(keys) == table_names(page)
-    assert all(f"## `{name}`" in page for name in sections)
+    schemas = {track.name: run_schema(track) for track in iter_tracks()}
+    assert {"belief.sigma_position", "estimator.mode", "lidar.beams", "icp.max_condition", "limits.frames",
+            "dense.tracking", "frames", "seed"} <= set(keys)
+    assert set(keys) == table_names(page) == {d.key for schema in schemas.values() for d in schema.describe()}
+    assert all(f"## `{name}`" in page for schema in schemas.values() for name in schema.sections)
+
+
+def _rows(page: str) -> dict[str, list[str]]:
+    """``{key: [tracks, default, accepts, unit, meaning]}`` of the settings page's tables."""
+    rows = [[cell.strip() for cell in line[2:-2].split(" | ")] for line in page.splitlines() if line.startswith("| `")]
+    return {cells[0].strip("`"): cells[1:] for cells in rows}
 
 
 def test_settings_page_gives_ranges_and_meanings_from_the_dataclasses(reference):
-    rows = {line.split("|")[1].strip(" `"): line for line in reference.settings_markdown().splitlines()
-            if line.startswith("| `")}
-    assert "in [0, 90]" in rows["belief.sigma_rotation"] and "camera orientation std (deg)" in rows["belief.sigma_rotation"]
-    assert "one of `localisation`, `slam`" in rows["estimator.mode"]
+    rows = _rows(reference.settings_markdown())
+    tracks, default, accepts, unit, meaning = rows["belief.sigma_rotation"]
+    assert "in [0, 90]" in accepts and unit == "deg" and "camera orientation std (deg)" in meaning
+    assert rows["estimator.mode"][2] == "one of localisation, slam"
+    assert rows["belief.sigma_pixel"][0] == "camera"   # the planar and lines tracks' beliefs have no pixels
+
+
+def test_settings_page_gives_every_number_a_range_and_a_unit_and_every_name_what_it_accepts(reference):
+    """The issue's gap: no range or choices for dense.*, frames or seed, and no units anywhere. A
+    number must state its range and unit, a name its choices (or which names it takes)."""
+    from assocbench.harness.config import run_schema
+    from assocbench.tracks.registry import iter_tracks
+
+    rows = _rows(reference.settings_markdown())
+    missing = []
+    for track in iter_tracks():
+        for d in run_schema(track).describe():
+            kinds = set(typing.get_args(d.kind)) - {type(None)} or {d.kind}
+            _, _, accepts, unit, _ = rows[d.key]
+            numeric = bool(kinds & {int, float})
+            ranged = re.search(r"(in [\[(]|[<>]=? |\.\.)", accepts) is not None
+            if (numeric and not (ranged and unit)) or (kinds == {str} and accepts in ("", "a string")):
+                missing.append(f"{track.name}: {d.key} ({accepts!r}, unit {unit!r})")
+    assert missing == []
+
+
+def test_the_suite_page_documents_every_suite_key_and_its_example_loads(tmp_path):
+    """docs/reference/suites.md has a section per key the loader knows (``SUITE_KEYS``), each with an
+    example of that key, and its whole example is a suite the loader accepts."""
+    import yaml
+
+    from assocbench.harness.suite import SUITE_KEYS, load_suite
+
+    page = (ROOT / "docs" / "reference" / "suites.md").read_text()
+    sections = re.findall(r"^### `(\w+)`\n(.*?)(?=^##|\Z)", page, re.M | re.S)
+    assert [key for key, _ in sections] == list(SUITE_KEYS)
+    for key, text in sections:
+        (example,) = re.findall(r"```yaml\n(.*?)```", text, re.S)
+        assert list(yaml.safe_load(example)) == [key], key
+    whole = re.search(r"## An example.*?```yaml\n(.*?)```", page, re.S).group(1)
+    assert set(yaml.safe_load(whole)) == set(SUITE_KEYS)
+    (tmp_path / "example.yaml").write_text(whole)
+    suite = load_suite(tmp_path / "example.yaml")
+    assert len(suite.runs) == 24 and suite.track == "planar"
 
 
 def test_cli_page_lists_every_command_and_option(reference):

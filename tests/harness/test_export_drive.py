@@ -11,7 +11,6 @@ from cli_errors import assert_one_line_error
 
 from assocbench.cli.main import main
 from assocbench.dataset import read_card, read_problems
-from assocbench.harness.config import run_spec
 from assocbench.harness.loop import loop_records
 from assocbench.harness.suite import load_suite
 from assocbench.scoring.metrics import score_frame
@@ -36,8 +35,7 @@ def suite_file(tmp_path_factory):
 
 def leaderboard_loop(suite_file, method: str, params: dict) -> pd.DataFrame:
     """The per-frame records of the leaderboard's own closed loop of ``method`` on the suite's run."""
-    job = load_suite(suite_file).jobs[0]
-    spec = run_spec(job.runs[0][1])
+    spec = load_suite(suite_file).runs[0].spec
     return pd.DataFrame(list(loop_records(spec.source, spec.with_method(method, params))))
 
 

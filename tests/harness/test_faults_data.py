@@ -1,5 +1,5 @@
-"""Fault injection on stored data: damaged caches and stored jobs heal, a full disk or an unusable
-cache folder is one line, and a plugin's helper modules key its stored results."""
+"""Fault injection on stored data: damaged caches and stored runs heal, a stored run is used only
+while its inputs match, and a full disk or an unusable cache folder is one line."""
 
 from __future__ import annotations
 
@@ -8,8 +8,6 @@ import importlib
 import io
 import os
 import shutil
-import sys
-import textwrap
 
 import numpy as np
 import pandas as pd
@@ -19,9 +17,9 @@ import assocbench  # noqa: F401  (installs the numba cache guard)
 from assocbench import kernels
 from assocbench.atomic import CACHE, Role, atomic_path, ensure_dir, write_group
 from assocbench.errors import UserError
-from assocbench.fingerprint import class_digest
-from assocbench.harness.jobstore import load_job, store_job
-from assocbench.harness.suite import Job, MethodEntry, load_suite
+from assocbench.harness.inputs import RunInputs
+from assocbench.harness.runstore import load_run, lookup, store_run
+from assocbench.harness.suite import Cell, MethodEntry, Run, load_suite
 from assocbench.harness.sweep import run_suite
 from assocbench.tracks.camera.sequence import SequenceSpec, load_sequence
 
@@ -85,8 +83,11 @@ def test_a_cached_sequence_of_another_key_is_not_used(good_cache, tmp_path, caps
     assert "another key" in capsys.readouterr().err
 
 
-def _job() -> Job:
-    return Job("checkerboard", 0, (("hard", {"frames": 2}),), (MethodEntry("enn", "enn"),))
+def _run() -> Run:
+    return Run(Cell("checkerboard", 0, "hard", {"scene": "checkerboard", "frames": 2}), MethodEntry("enn", "enn"))
+
+
+NO_INPUTS = RunInputs({}, {})
 
 
 def _result():
@@ -97,43 +98,59 @@ def _result():
     return summary, frames
 
 
-def _job_files(out, part):
-    return sorted((out / "jobs").glob(f"*.{part}.csv"))
+def _run_files(out, part):
+    return sorted((out / "runs").glob(f"*.{part}.csv"))
 
 
-JOB_DAMAGE = {
+RUN_DAMAGE = {
     "summary cut to its first lines (head -n 3)":
-        lambda out: _job_files(out, "summary")[0].write_text("".join(
-            _job_files(out, "summary")[0].read_text().splitlines(keepends=True)[:3])),
-    "summary zero bytes": lambda out: _job_files(out, "summary")[0].write_bytes(b""),
-    "frames garbage": lambda out: _job_files(out, "frames")[0].write_bytes(b"\x00\xff garbage \x89\n" * 30),
-    "frames deleted": lambda out: _job_files(out, "frames")[0].unlink(),
-    "manifest zero bytes": lambda out: next((out / "jobs").glob("*.manifest.json")).write_bytes(b""),
-    "manifest garbage": lambda out: next((out / "jobs").glob("*.manifest.json")).write_text("{not json"),
-    "manifest missing (killed before it)": lambda out: next((out / "jobs").glob("*.manifest.json")).unlink(),
+        lambda out: _run_files(out, "summary")[0].write_text("".join(
+            _run_files(out, "summary")[0].read_text().splitlines(keepends=True)[:3])),
+    "summary zero bytes": lambda out: _run_files(out, "summary")[0].write_bytes(b""),
+    "frames garbage": lambda out: _run_files(out, "frames")[0].write_bytes(b"\x00\xff garbage \x89\n" * 30),
+    "frames deleted": lambda out: _run_files(out, "frames")[0].unlink(),
+    "manifest zero bytes": lambda out: next((out / "runs").glob("*.manifest.json")).write_bytes(b""),
+    "manifest garbage": lambda out: next((out / "runs").glob("*.manifest.json")).write_text("{not json"),
+    "manifest missing (killed before it)": lambda out: next((out / "runs").glob("*.manifest.json")).unlink(),
 }
 
 
-@pytest.mark.parametrize("damage", list(JOB_DAMAGE))
-def test_a_damaged_stored_job_is_recomputed_never_used(damage, tmp_path, capsys):
-    job, (summary, frames) = _job(), _result()
-    store_job(tmp_path, job, (summary, frames))
-    JOB_DAMAGE[damage](tmp_path)
-    assert load_job(tmp_path, job) is None
+@pytest.mark.parametrize("damage", list(RUN_DAMAGE))
+def test_a_damaged_stored_run_is_recomputed_never_used(damage, tmp_path, capsys):
+    run, (summary, frames) = _run(), _result()
+    store_run(tmp_path, run, (summary, frames), NO_INPUTS)
+    RUN_DAMAGE[damage](tmp_path)
+    assert load_run(tmp_path, run) is None
     lines = capsys.readouterr().err.strip().splitlines()
-    assert len(lines) == 1 and "recomputing" in lines[0] and job.scene in lines[0]
-    store_job(tmp_path, job, (summary, frames))   # what the sweep does next
-    loaded = load_job(tmp_path, job)
+    assert len(lines) == 1 and "recomputing" in lines[0] and run.name in lines[0]
+    store_run(tmp_path, run, (summary, frames), NO_INPUTS)   # what the sweep does next
+    loaded = load_run(tmp_path, run)
     pd.testing.assert_frame_equal(loaded[0], summary)
     pd.testing.assert_frame_equal(loaded[1], frames)
-    assert len(_job_files(tmp_path, "summary")) == 1   # the damaged copy is gone
+    assert len(_run_files(tmp_path, "summary")) == 1   # the damaged copy is gone
 
 
-def test_a_stored_job_reads_back_with_the_dtypes_a_sweep_returns(tmp_path, capsys):
+def test_a_stored_run_is_used_only_while_its_inputs_match(tmp_path):
+    helper = tmp_path / "helper.py"
+    helper.write_text("K = 1\n")
+    run, result = _run(), _result()
+    store_run(tmp_path, run, result, RunInputs({str(helper): "0" * 16}, {}))
+    assert lookup(tmp_path, run) == (None, f"{helper} changed")
+    from assocbench.harness.inputs import file_digest
+
+    store_run(tmp_path, run, result, RunInputs({str(helper): file_digest(helper)[0]}, {"numpy": f"numpy {np.__version__}"}))
+    assert load_run(tmp_path, run) is not None
+    store_run(tmp_path, run, result, RunInputs({str(helper): file_digest(helper)[0]}, {"numpy": "numpy 0.0.1"}))
+    assert lookup(tmp_path, run) == (None, f"numpy 0.0.1 is now numpy {np.__version__}")
+    helper.unlink()
+    assert lookup(tmp_path, run)[1] == f"{helper} is gone"
+
+
+def test_a_stored_run_reads_back_with_the_dtypes_a_sweep_returns(tmp_path, capsys):
     summary, frames = _result()
     summary["error"] = ""
-    store_job(tmp_path, _job(), (summary, frames))
-    loaded, loaded_frames = load_job(tmp_path, _job())
+    store_run(tmp_path, _run(), (summary, frames), NO_INPUTS)
+    loaded, loaded_frames = load_run(tmp_path, _run())
     assert loaded["error"].tolist() == [""] * 4
     # what run_suite returned before stored jobs were verified: the CSVs read back as they are
     old = pd.read_csv(io.StringIO(summary.to_csv(index=False)), dtype={"error": str}).fillna({"error": ""})
@@ -142,18 +159,17 @@ def test_a_stored_job_reads_back_with_the_dtypes_a_sweep_returns(tmp_path, capsy
     assert capsys.readouterr().err == ""
 
 
-def test_a_truncated_job_file_is_recomputed_by_a_resumed_sweep(tmp_path, capsys):
-    """The issue's experiment end to end: ``head -n 2`` of a stored summary, then resume."""
-    from assocbench.harness.suite import load_suite
-    from assocbench.harness.sweep import run_suite
+def test_a_truncated_run_file_is_recomputed_by_a_resumed_sweep(tmp_path, capsys):
+    """The issue's experiment end to end: ``head -n 1`` of a stored summary, then resume."""
 
     path = tmp_path / "suite.yaml"
     path.write_text("base: {frames: 2, resolution: [320, 240]}\nscenes: [checkerboard]\n"
                     "difficulties: {easy: {}, hard: {belief: {sigma_rotation: 2.0}}}\nmethods: [enn, mnn]\nseeds: [0]\n")
     suite = load_suite(path)
     first, _ = run_suite(suite, tmp_path / "runs", progress=False)
-    (stored,) = (tmp_path / "runs" / "jobs").glob("*.summary.csv")
-    stored.write_text("".join(stored.read_text().splitlines(keepends=True)[:2]))
+    stored = sorted((tmp_path / "runs" / "runs").glob("*.summary.csv"))
+    assert len(stored) == 4   # one a run: two methods × two difficulties
+    stored[0].write_text("".join(stored[0].read_text().splitlines(keepends=True)[:1]))
     capsys.readouterr()
     again, _ = run_suite(suite, tmp_path / "runs", progress=False)
     cols = ["scenario", "method", "precision", "recall", "f1"]
@@ -231,15 +247,15 @@ def test_a_full_disk_while_writing_a_csv_names_the_file(tmp_path, monkeypatch):
     assert list(tmp_path.iterdir()) == []
 
 
-def test_a_job_cut_short_by_a_full_disk_is_not_stored(tmp_path, monkeypatch):
-    job, result = _job(), _result()
+def test_a_run_cut_short_by_a_full_disk_is_not_stored(tmp_path, monkeypatch):
+    run, result = _run(), _result()
     real = type(tmp_path).write_bytes
     monkeypatch.setattr(type(tmp_path), "write_bytes",
                         lambda self, data: _full() if "frames" in self.name else real(self, data))
     with pytest.raises(UserError, match="No space left"):
-        store_job(tmp_path, job, result)
+        store_run(tmp_path, run, result, NO_INPUTS)
     monkeypatch.undo()
-    assert load_job(tmp_path, job) is None
+    assert load_run(tmp_path, run) is None
 
 
 def test_an_unusable_cache_folder_names_the_cache_not_out(tmp_path, monkeypatch):
@@ -396,69 +412,3 @@ def test_an_empty_cache_variable_means_unset_and_a_relative_one_is_fixed_once(tm
     assert _runtime.cache_root() == tmp_path / "rel"
 
 
-PLUGIN = '''
-from assocbench import Associator
-from {helper} import pick
-
-class Picky(Associator):
-    def associate(self, problem):
-        return pick(problem)
-'''
-
-
-@pytest.mark.parametrize("layout", ["package", "single module"])
-def test_editing_a_helper_module_of_a_plugin_changes_its_job_key(layout, tmp_path, monkeypatch):
-    """Stored leaderboard jobs are keyed by the plugin's whole source tree, not its class's file."""
-    name = f"h4plug_{layout.replace(' ', '_')}"
-    if layout == "package":
-        (tmp_path / name).mkdir()
-        (tmp_path / name / "__init__.py").write_text("")
-        (tmp_path / name / "method.py").write_text(PLUGIN.format(helper=f"{name}.helper"))
-        helper, spec = tmp_path / name / "helper.py", f"{name}.method:Picky"
-    else:
-        (tmp_path / f"{name}.py").write_text(PLUGIN.format(helper=f"{name}_helper"))
-        helper, spec = tmp_path / f"{name}_helper.py", f"{name}:Picky"
-    helper.write_text("def pick(problem):\n    return [-1] * problem.n\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    def job():  # a job's key is computed once, so each sweep plans its own jobs
-        return Job("room", 0, (("easy", {}),), (MethodEntry("mine", spec),))
-
-    before = job().key
-    helper.write_text(textwrap.dedent("""
-        def pick(problem):
-            return list(range(problem.n))
-    """))
-    assert job().key != before
-    for mod in [m for m in sys.modules if m.startswith(name)]:
-        sys.modules.pop(mod)
-
-
-def test_a_huge_plugin_folder_is_not_hashed_whole(tmp_path, monkeypatch, capsys):
-    import assocbench.fingerprint as fingerprint
-
-    for i in range(4):
-        (tmp_path / f"h4big_{i}.py").write_text(f"X = {i}\n")
-    (tmp_path / "h4big.py").write_text("class C:\n    pass\n")
-    monkeypatch.syspath_prepend(str(tmp_path))
-    monkeypatch.setattr(fingerprint, "MAX_FILES", 3)
-    cls = importlib.import_module("h4big").C
-    before = class_digest(cls)
-    assert "more than 3 .py files" in capsys.readouterr().err
-    (tmp_path / "h4big_0.py").write_text("X = 10\n")
-    assert class_digest(cls) == before   # bounded: the module's own file only, as the warning says
-    sys.modules.pop("h4big", None)
-
-
-def test_a_source_edited_during_a_sweep_does_not_lose_its_jobs(tmp_path, monkeypatch):
-    """A job's key is computed once: a digest that changes between storing a job and reading it
-    back (a file saved while the sweep runs) used to end the sweep with 'cannot be read back'."""
-    import itertools
-
-    import assocbench.harness.suite as suite_module
-
-    counter = itertools.count()
-    monkeypatch.setattr(suite_module, "package_digest", lambda: f"edit{next(counter)}")
-    path = tmp_path / "suite.yaml"
-    path.write_text("base: {frames: 2, resolution: [320, 240]}\nscenes: [room]\nmethods: [enn]\nseeds: [0]\n")
-    summaries, _ = run_suite(load_suite(path), tmp_path / "runs", progress=False)
-    assert len(summaries) == 1 and summaries.loc[0, "status"] == "ok"

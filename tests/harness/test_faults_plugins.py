@@ -312,7 +312,7 @@ def test_a_stopped_sweep_returns_at_once_keeps_finished_jobs_and_leaves_no_proce
         err = log.read_text()
         if how != "sigkill":
             assert code == (130 if how == "ctrl-c" else 143), err
-            assert "finished jobs are kept" in err
+            assert "finished runs are kept" in err
         assert _wait_for(lambda: not _survivors(marker), 10), f"left running: {_survivors(marker)}"
         assert len(list(out.rglob("*.manifest.json"))) == 1   # the finished job, kept
     finally:

@@ -74,20 +74,20 @@ def test_failing_plugins_do_not_stop_the_sweep(tmp_path, plugins):
     assert rows.loc["mnn", "failures"] == 0 and rows.loc["mnn", "recall"] > 0
 
 
-def test_interrupted_sweep_resumes_without_rerunning_done_jobs(tmp_path, monkeypatch):
+def test_interrupted_sweep_resumes_without_rerunning_done_runs(tmp_path, monkeypatch):
     import assocbench.harness.sweep as sweep
 
     suite = load_suite(write_suite(tmp_path, "[enn]", scenes="[checkerboard, room]", frames=2))
     calls = []
-    real = sweep.run_job
+    real = sweep.run_cell
 
-    def flaky(job, cache_dir=None):
-        calls.append(job.scene)
-        if job.scene == "room" and len(calls) == 2:
+    def flaky(runs, cache_dir=None, graph=None):
+        calls.append(runs[0].cell.scene)
+        if runs[0].cell.scene == "room" and len(calls) == 2:
             raise KeyboardInterrupt
-        return real(job, cache_dir)
+        return real(runs, cache_dir, graph)
 
-    monkeypatch.setattr(sweep, "run_job", flaky)
+    monkeypatch.setattr(sweep, "run_cell", flaky)
     with pytest.raises(KeyboardInterrupt):
         run_suite(suite, tmp_path / "runs", progress=False)
     summaries, _ = run_suite(suite, tmp_path / "runs", progress=False)
@@ -96,19 +96,19 @@ def test_interrupted_sweep_resumes_without_rerunning_done_jobs(tmp_path, monkeyp
 
 
 def test_editing_a_plugin_invalidates_its_stored_results(tmp_path, plugins):
-    """Stored job results are keyed by the code that made them: after the plugin's file changes,
-    the same suite recomputes instead of reusing the old numbers."""
+    """A stored run records the code that made it: after the plugin's file changes, the same
+    suite recomputes instead of reusing the old numbers, and stores the new run in its place."""
     suite_path = write_suite(tmp_path, f"[{{name: mine, method: '{plugins}:Degraded'}}]", frames=2)
     before, _ = run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
     (tmp_path / "bench_plugins.py").write_text(PLUGINS.replace("out[::3] = -1", "pass  # no longer degraded"))
     sys.modules.pop(plugins, None)
     after, _ = run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
     assert after.loc[0, "recall"] > before.loc[0, "recall"]
-    assert len(list((tmp_path / "runs" / "jobs").glob("*.summary.csv"))) == 2
+    assert len(list((tmp_path / "runs" / "runs").glob("*.summary.csv"))) == 1
 
 
 def test_editing_a_waypoint_file_invalidates_its_stored_results(tmp_path):
-    """A stored job is keyed by the waypoint file's content, not its name (as by the scene's):
+    """A stored run is keyed by the waypoint file's content, not its name (as by the scene's):
     after the file is edited, the same suite drives the new path instead of reusing old numbers."""
     from user_room import PATH, path_csv, room_mjcf
 
@@ -119,10 +119,10 @@ def test_editing_a_waypoint_file_invalidates_its_stored_results(tmp_path):
     run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
     path_csv(tmp_path, [(7.5, 1.3)] + PATH[1:])
     run_suite(load_suite(suite_path), tmp_path / "runs", progress=False)
-    assert len(list((tmp_path / "runs" / "jobs").glob("*.summary.csv"))) == 2
+    assert len(list((tmp_path / "runs" / "runs").glob("*.summary.csv"))) == 2
 
 
-def test_rewriting_a_file_a_method_parameter_names_changes_its_stored_jobs_key(tmp_path):
+def test_rewriting_a_file_a_method_parameter_names_changes_its_stored_runs_key(tmp_path):
     """A learned model retrained in place (same path, new trees) must not reuse stored numbers."""
     import shutil
     from pathlib import Path
@@ -132,10 +132,10 @@ def test_rewriting_a_file_a_method_parameter_names_changes_its_stored_jobs_key(t
     model = tmp_path / "model.json"
     shutil.copy(Path(forest_file).parent / "camera.json", model)
     suite = write_suite(tmp_path, f"[{{name: mine, method: learned, params: {{model: '{model}'}}}}]", frames=2)
-    before = load_suite(suite).jobs[0].key
-    assert load_suite(suite).jobs[0].key == before
+    before = load_suite(suite).runs[0].key
+    assert load_suite(suite).runs[0].key == before
     model.write_text(model.read_text() + "\n")
-    assert load_suite(suite).jobs[0].key != before
+    assert load_suite(suite).runs[0].key != before
 
 
 def test_check_passes_against_its_own_baseline_and_catches_a_degraded_plugin(tmp_path, plugins, capsys):

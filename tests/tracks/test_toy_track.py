@@ -66,8 +66,9 @@ def _wait_for(predicate, timeout: float) -> bool:
 
 
 def _manifests(out: Path) -> dict[str, tuple[int, bytes]]:
-    """Stored jobs under ``out``: manifest name -> (seed, its bytes)."""
-    return {p.name: (json.loads(p.read_bytes())["seed"], p.read_bytes()) for p in out.glob("jobs/*.manifest.json")}
+    """Stored runs under ``out``: manifest name -> (seed, its bytes)."""
+    return {p.name: (int(json.loads(p.read_bytes())["run"].rpartition(" seed ")[2]), p.read_bytes())
+            for p in out.glob("runs/*.manifest.json")}
 
 
 def _without_timing(path: Path) -> pd.DataFrame:
@@ -117,8 +118,8 @@ def test_the_forkserver_warms_the_track_once_for_all_its_workers(toy, tmp_path):
 
 
 def test_an_interrupted_leaderboard_resumes_to_the_same_table(toy, tmp_path):
-    """Seed 1's job is slow (TOY_DELAY_S): Ctrl-C after seed 0's job is stored stops the sweep;
-    the rerun computes seed 1 only and writes what an uninterrupted sweep writes."""
+    """Seed 1's runs are slow (TOY_DELAY_S): Ctrl-C after seed 0's four runs are stored stops the
+    sweep; the rerun computes seed 1 only and writes what an uninterrupted sweep writes."""
     scene, suite = toy
     out, log = tmp_path / "out", tmp_path / "built.txt"
     with (tmp_path / "stderr.txt").open("w") as stderr:
@@ -127,22 +128,22 @@ def test_an_interrupted_leaderboard_resumes_to_the_same_table(toy, tmp_path):
                                 start_new_session=True, stdout=subprocess.DEVNULL, stderr=stderr,
                                 preexec_fn=_default_sigint)  # noqa: PLW1509 - the test has no threads
     try:
-        assert _wait_for(lambda: _manifests(out) or proc.poll() is not None, 120)
+        assert _wait_for(lambda: len(_manifests(out)) == 4 or proc.poll() is not None, 120)
         assert proc.poll() is None, (tmp_path / "stderr.txt").read_text()
         os.killpg(proc.pid, signal.SIGINT)
         assert proc.wait(timeout=15) == 130
     finally:
         if proc.poll() is None:
             os.killpg(proc.pid, signal.SIGKILL)
-    assert "finished jobs are kept" in (tmp_path / "stderr.txt").read_text()
+    assert "finished runs are kept" in (tmp_path / "stderr.txt").read_text()
     kept = _manifests(out)
-    assert [seed for seed, _ in kept.values()] == [0]
+    assert [seed for seed, _ in kept.values()] == [0] * 4
     log.unlink()
     resumed = cli("leaderboard", "--suite", str(suite), "--out", str(out), "--jobs", "2", "--quiet", TOY_LOG=str(log))
     assert resumed.returncode == 0, resumed.stderr
-    assert log.read_text().split() == ["1", "1"]            # seed 1's job only, both difficulties
+    assert log.read_text().split() == ["1", "1"]            # seed 1's runs only, both difficulties
     after = _manifests(out)
-    assert all(after[name] == kept[name] for name in kept) and len(after) == 2   # seed 0's job untouched
+    assert all(after[name] == kept[name] for name in kept) and len(after) == 8   # seed 0's runs untouched
     fresh = cli("leaderboard", "--suite", str(suite), "--out", str(tmp_path / "fresh"), "--jobs", "2", "--quiet")
     assert fresh.returncode == 0, fresh.stderr
     pd.testing.assert_frame_equal(_without_timing(out / "leaderboard.csv"),
@@ -199,10 +200,15 @@ def test_a_track_module_that_does_not_import_is_one_line(monkeypatch):
         list(iter_tracks())
 
 
-def test_editing_a_user_track_changes_its_jobs_key(toy_module, toy):
-    """A stored job made by a user track's old code is not reused after the track is edited."""
+def test_editing_a_user_track_makes_its_stored_runs_out_of_date(toy_module, toy, tmp_path):
+    """A stored run made by a user track's old code is not reused after the track is edited."""
+    from assocbench.harness.runstore import lookup
     from assocbench.harness.suite import load_suite
+    from assocbench.harness.sweep import run_suite
 
-    key = load_suite(toy[1]).jobs[0].key
+    suite = load_suite(toy[1])
+    run_suite(suite, tmp_path / "out", progress=False)
+    stored, why = lookup(tmp_path / "out", suite.runs[0])
+    assert stored is not None and why is None
     toy_module.write_text(toy_module.read_text() + "\n# edited\n")
-    assert load_suite(toy[1]).jobs[0].key != key
+    assert lookup(tmp_path / "out", suite.runs[0]) == (None, f"{toy_module} changed")

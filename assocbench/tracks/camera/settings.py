@@ -23,11 +23,11 @@ class DetectorConfig:
     """
 
     method: str = field(default="shi-tomasi", metadata=one_of(*DETECTORS))
-    max_features: int = field(default=400, metadata=in_range(1, 5000))
-    quality: float = field(default=0.02, metadata=in_range(0, 1, lo_open=True))
-    min_distance: float = field(default=6.0, metadata=in_range(0))
-    subpix_window: int = field(default=4, metadata=in_range(0, 32))
-    noise_px: float = field(default=0.0, metadata=in_range(0))
+    max_features: int = field(default=400, metadata=in_range(1, 5000, unit="features per frame"))
+    quality: float = field(default=0.02, metadata=in_range(0, 1, lo_open=True, unit="dimensionless"))
+    min_distance: float = field(default=6.0, metadata=in_range(0, unit="px"))
+    subpix_window: int = field(default=4, metadata=in_range(0, 32, unit="px"))
+    noise_px: float = field(default=0.0, metadata=in_range(0, unit="px"))
 
     def __post_init__(self) -> None:
         validate_fields(self, "detector")
@@ -43,7 +43,7 @@ class TruthConfig:
         at the projection; one extra render pass).
     """
 
-    gate_px: float = field(default=2.0, metadata=in_range(0, 50, lo_open=True))
+    gate_px: float = field(default=2.0, metadata=in_range(0, 50, lo_open=True, unit="px"))
     occlusion: str = field(default="ray", metadata=one_of("ray", "depth"))
 
     def __post_init__(self) -> None:

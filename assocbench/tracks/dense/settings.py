@@ -9,7 +9,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ...errors import UserError
-from ...validation import check_number, in_range, validate_fields
+from ...validation import in_range, one_of, validate_fields
 
 MAX_DOWNSAMPLE = 16
 
@@ -34,14 +34,14 @@ class DepthConfig:
         (0.15 mm / 0.013 deg; at 2 px it slid 13 cm off): the default is 3.
     """
 
-    downsample: int = field(default=2, metadata=in_range(1, MAX_DOWNSAMPLE))
-    sigma_base: float = field(default=0.0012, metadata=in_range(0, 1))
-    sigma_quad: float = field(default=0.0019, metadata=in_range(0, 1))
-    grazing_deg: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True))
-    dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True))
-    min_depth: float = field(default=0.2, metadata=in_range(0, None, lo_open=True))
-    max_depth: float = field(default=8.0, metadata=in_range(0, None, lo_open=True))
-    normal_smooth_px: float = field(default=3.0, metadata=in_range(0, 10))
+    downsample: int = field(default=2, metadata=in_range(1, MAX_DOWNSAMPLE, unit="px (stride)"))
+    sigma_base: float = field(default=0.0012, metadata=in_range(0, 1, unit="m"))
+    sigma_quad: float = field(default=0.0019, metadata=in_range(0, 1, unit="1/m"))
+    grazing_deg: float = field(default=75.0, metadata=in_range(0, 90, lo_open=True, unit="deg"))
+    dropout: float = field(default=0.0, metadata=in_range(0, 1, hi_open=True, unit="dimensionless"))
+    min_depth: float = field(default=0.2, metadata=in_range(0, None, lo_open=True, unit="m"))
+    max_depth: float = field(default=8.0, metadata=in_range(0, None, lo_open=True, unit="m"))
+    normal_smooth_px: float = field(default=3.0, metadata=in_range(0, 10, unit="px"))
 
     def __post_init__(self) -> None:
         self.check()
@@ -93,16 +93,16 @@ class IcpConfig:
     The thresholds' defaults and their evidence: see the module docstring.
     """
 
-    max_iterations: int = field(default=100, metadata=in_range(1, 10_000))
-    converge_rot_deg: float = field(default=5e-3, metadata=in_range(0, 180, lo_open=True))
-    converge_trans: float = field(default=1e-4, metadata=in_range(0, None, lo_open=True))
-    min_pairs: int = field(default=200, metadata=in_range(6, None))
-    min_inlier_share: float = field(default=0.5, metadata=in_range(0, 1))
-    min_direction_share: float = field(default=0.25, metadata=in_range(0, 1))
-    max_rms: float = field(default=0.02, metadata=in_range(0, None, lo_open=True))
-    max_condition: float = field(default=1000.0, metadata=in_range(1, None))
-    max_step_m: float = field(default=0.15, metadata=in_range(0, None, lo_open=True))
-    max_step_deg: float = field(default=10.0, metadata=in_range(0, 180, lo_open=True))
+    max_iterations: int = field(default=100, metadata=in_range(1, 10_000, unit="iterations"))
+    converge_rot_deg: float = field(default=5e-3, metadata=in_range(0, 180, lo_open=True, unit="deg"))
+    converge_trans: float = field(default=1e-4, metadata=in_range(0, None, lo_open=True, unit="m"))
+    min_pairs: int = field(default=200, metadata=in_range(6, None, unit="pairs"))
+    min_inlier_share: float = field(default=0.5, metadata=in_range(0, 1, unit="dimensionless"))
+    min_direction_share: float = field(default=0.25, metadata=in_range(0, 1, unit="dimensionless"))
+    max_rms: float = field(default=0.02, metadata=in_range(0, None, lo_open=True, unit="m"))
+    max_condition: float = field(default=1000.0, metadata=in_range(1, None, unit="dimensionless"))
+    max_step_m: float = field(default=0.15, metadata=in_range(0, None, lo_open=True, unit="m"))
+    max_step_deg: float = field(default=10.0, metadata=in_range(0, 180, lo_open=True, unit="deg"))
 
     def __post_init__(self) -> None:
         self.check()
@@ -139,13 +139,13 @@ class FusionConfig:
         the homework's rule 1.7 mm, 0.36/2.9 mm (docs/tracks/dense.md).
     """
 
-    d_thr: float = field(default=0.05, metadata=in_range(0, 10, lo_open=True))
-    angle_deg: float = field(default=20.0, metadata=in_range(0, 180, lo_open=True))
-    dormant_frames: int = field(default=20, metadata=in_range(1, 10**9))
-    stable_weight: int = field(default=3, metadata=in_range(1, 10**9))
+    d_thr: float = field(default=0.05, metadata=in_range(0, 10, lo_open=True, unit="m"))
+    angle_deg: float = field(default=20.0, metadata=in_range(0, 180, lo_open=True, unit="deg"))
+    dormant_frames: int = field(default=20, metadata=in_range(1, 10**9, unit="frames"))
+    stable_weight: int = field(default=3, metadata=in_range(1, 10**9, unit="merges + 1"))
     remove_dormant: bool = True
     remove_outliers: bool = True
-    voxel: float = field(default=0.01, metadata=in_range(0, 10))
+    voxel: float = field(default=0.01, metadata=in_range(0, 10, unit="m"))
 
     def __post_init__(self) -> None:
         self.check()
@@ -179,18 +179,11 @@ class DenseConfig:
     path_frames: the camera path is laid out over this many frames; a run takes its first ones.
     """
 
-    tracking: str = "model"
-    prediction: str = "view"
+    tracking: str = field(default="model", metadata=one_of(*TRACKING))
+    prediction: str = field(default="view", metadata=one_of(*PREDICTION))
     index: bool = True
-    truth_tol: float = 0.03
-    path_frames: int = 200
+    truth_tol: float = field(default=0.03, metadata=in_range(0, 1, lo_open=True, unit="m"))
+    path_frames: int = field(default=200, metadata=in_range(2, None, unit="frames"))
 
-    def check(self) -> None:
-        if self.tracking not in TRACKING:
-            raise UserError(f"dense.tracking must be one of {', '.join(TRACKING)}, got {self.tracking!r}")
-        if self.prediction not in PREDICTION:
-            raise UserError(f"dense.prediction must be one of {', '.join(PREDICTION)}, got {self.prediction!r}")
-        if not isinstance(self.index, bool):
-            raise UserError(f"dense.index must be true or false, got {self.index!r}")
-        check_number(self.truth_tol, "dense.truth_tol", lo=0, hi=1, lo_open=True)
-        check_number(self.path_frames, "dense.path_frames", integer=True, lo=2)
+    def __post_init__(self) -> None:
+        validate_fields(self, "dense")

@@ -20,10 +20,10 @@ class PostDetectorConfig:
     detection's beams that must hit one post for the detection to be labelled with it.
     """
 
-    min_points: int = field(default=4, metadata=in_range(3, 10000))   # 2 points fit any circle: no residual
-    gap: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True))
-    max_rms: float = field(default=0.03, metadata=in_range(0, 10, lo_open=True))
-    min_share: float = field(default=0.8, metadata=in_range(0.5, 1, lo_open=True))
+    min_points: int = field(default=4, metadata=in_range(3, 10000, unit="points"))   # 2 points fit any circle: no residual
+    gap: float | None = field(default=None, metadata=in_range(0, 100, lo_open=True, unit="m"))
+    max_rms: float = field(default=0.03, metadata=in_range(0, 10, lo_open=True, unit="m"))
+    min_share: float = field(default=0.8, metadata=in_range(0.5, 1, lo_open=True, unit="dimensionless"))
 
     def __post_init__(self) -> None:
         validate_fields(self, "posts")

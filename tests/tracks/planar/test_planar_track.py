@@ -67,9 +67,9 @@ def test_new_landmark_gate_keeps_features_near_a_landmark_from_becoming_one():
 
 def test_the_planar_suite_crosses_difficulties_with_back_ends():
     suite = load_suite(resolve_suite("planar"))
-    names = [name for name, _ in suite.jobs[0].runs]
-    assert names == ["easy-ekf", "easy-isam2", "hard-ekf", "hard-isam2"]
-    backends = [cfg["estimator"]["name"] for _, cfg in suite.jobs[0].runs]
+    first = [cell for cell in suite.cells if (cell.scene, cell.seed) == (suite.cells[0].scene, suite.cells[0].seed)]
+    assert [cell.difficulty for cell in first] == ["easy-ekf", "easy-isam2", "hard-ekf", "hard-isam2"]
+    backends = [cell.cfg["estimator"]["name"] for cell in first]
     assert backends == ["ekf", "isam2", "ekf", "isam2"]
 
 
