@@ -53,8 +53,10 @@ def mean_ranks(suite: Suite, methods: list[str], difficulty: str = ALL) -> pd.Se
 
 
 def mean_metric(suite: Suite, methods: list[str]) -> pd.Series:
-    """Each method's primary metric, averaged over the suite's scenarios."""
-    return suite.table.groupby("method")[suite.primary.key].mean().reindex(methods)
+    """Each method's primary metric, averaged over the suite's scenarios; NaN where a scenario has
+    none (every frame failed): an average of the others would flatter it."""
+    column = suite.table.groupby("method")[suite.primary.key]
+    return column.agg(lambda v: v.mean(skipna=False)).reindex(methods)
 
 
 def rho(a: pd.Series, b: pd.Series) -> float:
@@ -83,11 +85,15 @@ def difficulty_table(sim: Suite, real: Suite, methods: list[str]) -> pd.DataFram
     return pd.DataFrame(rows).T
 
 
+def _num(value: float) -> str:
+    return "n/a" if np.isnan(value) else f"{value:.3f}"
+
+
 def markdown(table: pd.DataFrame, correlation: float, by_difficulty: pd.DataFrame, sim: Suite, real: Suite) -> str:
     """The two tables and the correlation, as Markdown."""
     metric = f"{sim.primary.label}" + ("" if sim.primary.key == real.primary.key else f" / {real.primary.label}")
     head = [f"| method | sim {metric} | sim rank | real {real.primary.label} | real rank | shift |", "|---|---|---|---|---|---|"]
-    rows = [f"| {r.method} | {r.sim_metric:.3f} | {r.sim_rank:.2f} | {r.real_metric:.3f} | {r.real_rank:.2f} | "
+    rows = [f"| {r.method} | {_num(r.sim_metric)} | {r.sim_rank:.2f} | {_num(r.real_metric)} | {r.real_rank:.2f} | "
             f"{r.shift:+.2f} |" for r in table.itertuples()]
     scenarios = (f"{sim.table['scenario'].nunique()} simulated scenarios ({', '.join(sorted(sim.table['scene'].unique()))} "
                  f"x {', '.join(dict.fromkeys(sim.table['difficulty']))}), {real.table['scenario'].nunique()} real ones "

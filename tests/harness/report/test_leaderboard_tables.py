@@ -1,5 +1,6 @@
-"""benchmarks/sim_vs_real.py: each method's mean rank on a simulated leaderboard against a recorded one,
-ranked as the report ranks, over the shared methods, with Spearman's correlation."""
+"""Tables made from leaderboards by benchmark scripts: sim_vs_real.py (each method's mean rank on a
+simulated leaderboard against a recorded one, ranked as the report ranks, over the shared methods,
+with Spearman's correlation) and call_sizes.py (time per call and the largest problem, per method)."""
 
 from __future__ import annotations
 
@@ -46,6 +47,10 @@ def test_only_shared_methods_are_ranked_and_a_not_ok_row_ranks_last(tmp_path, sc
     assert script.main([str(sim), str(real)]) == 0
     out = capsys.readouterr().out
     assert "over 3 methods (a, b, c)" in out and "| c | 0.700 | 3.00 | 0.825 | 3.00 | +0.00 |" in out
+    real = board(tmp_path / "nan", "checkerboard", {"a": [0.9, 0.9], "b": [0.8, 0.8], "c": [0.95, float("nan")]},
+                 status={("c", "hard"): "failed frames"})
+    assert script.main([str(sim), str(real)]) == 0
+    assert "| c | 0.700 | 3.00 | n/a | 2.00 | -1.00 |" in capsys.readouterr().out   # no mean of the 0.95 alone
     assert "| easy | +1.00 | +1.00 | +1.00 |" in out
 
 
@@ -56,3 +61,27 @@ def test_too_few_shared_methods_or_an_unshared_one_asked_for_is_one_line(tmp_pat
     assert "share 2 methods (a, b): a rank correlation needs 3 or more" in capsys.readouterr().err
     assert script.main([str(sim), str(real), "--methods", "a", "c"]) == 2
     assert "method c is not ranked on both leaderboards" in capsys.readouterr().err
+
+
+def test_call_sizes_reads_every_stored_run_of_a_leaderboard(tmp_path, monkeypatch, capsys):
+    """benchmarks/call_sizes.py: per method its calls, time per call and the largest n and m, from
+    the runs a leaderboard stored (through their manifests), and its failed and timed-out frames."""
+    import json
+
+    import pandas as pd
+
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    import call_sizes
+
+    jobs = tmp_path / "lb" / "jobs"
+    jobs.mkdir(parents=True)
+    for key, (n, m, seconds, failures) in {"a": (10, 50, [0.001, 0.003], 1), "b": (30, 20, [0.002, 0.005], 0)}.items():
+        pd.DataFrame({"method": "mnn", "n": [n, n - 1], "m": [m, m], "runtime_s": seconds}).to_csv(jobs / f"{key}.f.csv")
+        pd.DataFrame({"method": ["mnn"], "failures": [failures], "timed_out": [2]}).to_csv(jobs / f"{key}.s.csv")
+        files = {"frames": {"name": f"{key}.f.csv"}, "summary": {"name": f"{key}.s.csv"}}
+        (jobs / f"{key}.manifest.json").write_text(json.dumps({"files": files}))
+    (jobs / "stale.f.csv").write_text("method,n,m,runtime_s\nmnn,999,999,9\n")   # named by no manifest
+    assert call_sizes.main([str(tmp_path / "lb")]) == 0
+    assert "| mnn | 4 | 2.5 | 4.7 | 5.0 | 30 | 50 | 1 | 4 |" in capsys.readouterr().out
+    assert call_sizes.main([str(tmp_path)]) == 2
+    assert "holds no stored run" in capsys.readouterr().err
