@@ -70,7 +70,8 @@ class Appearance(Associator):
 
 def descriptor_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
     """Euclidean distances (k, l) between the rows of ``a`` (k, D) and ``b`` (l, D), as
-    ``sqrt(‖a‖² + ‖b‖² − 2 a·b)`` in float64 (exact for integer descriptors such as SIFT's bytes)."""
+    ``sqrt(‖a‖² + ‖b‖² − 2 a·b)`` in float64 (the squares exact between integer descriptors such as
+    SIFT's bytes)."""
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     sq = np.einsum("ij,ij->i", a, a)[:, None] + np.einsum("ij,ij->i", b, b)[None, :] - 2.0 * (a @ b.T)
     return np.sqrt(np.maximum(sq, 0.0))
