@@ -136,11 +136,21 @@ def landmark_views(bundle: Bundle, owner: np.ndarray, cameras: int) -> np.ndarra
         return total / count[:, :, None]
 
 
-def spots_of(keys: Keys) -> tuple[np.ndarray, np.ndarray]:
-    """The distinct keypoint positions of an image (s, 2) (column, row) and each keypoint's spot (k,)."""
+@dataclass(frozen=True)
+class Spots:
+    """An image's distinct keypoint positions: ``pixels`` (s, 2) (column, row), the spot of each
+    keypoint ``of_key`` (k,) and the first keypoint of each spot ``first_key`` (s,)."""
+
+    pixels: np.ndarray
+    of_key: np.ndarray
+    first_key: np.ndarray
+
+
+def spots_of(keys: Keys) -> Spots:
+    """The spots of an image's keypoints (positions within ``SAME_SPOT_PX`` are one)."""
     grid = np.round(keys.pixels / SAME_SPOT_PX).astype(np.int64)
     _, first, spot = np.unique(grid, axis=0, return_index=True, return_inverse=True)
-    return keys.pixels[first], spot.ravel()
+    return Spots(keys.pixels[first], spot.ravel(), first)
 
 
 def match_views(views_px: np.ndarray, spots: np.ndarray, radius: float) -> np.ndarray:
@@ -174,30 +184,29 @@ def build_recording(bundle: Bundle, keys: list[Keys], images: list[Path], camera
     views = landmark_views(bundle, owner, len(cameras))
     photos, distances = [], []
     for c, (k, camera) in enumerate(zip(keys, cameras)):
-        spot_px, spot = spots_of(k)
+        spots = spots_of(k)
         view_px = np.full((count, 2), np.nan)
         seen = np.isfinite(views[:, c, 0])
         view_px[seen] = camera.to_pixels(views[seen, c])
-        photos.append(_photo(images[c], camera, k, spot, seen, match_views(view_px, spot_px, radius)))
-        distances.append(_raw_view_distances(bundle, c, camera, spot_px))
+        photos.append(_photo(images[c], camera, k, spots, seen, match_views(view_px, spots.pixels, radius)))
+        distances.append(_raw_view_distances(bundle, c, camera, spots.pixels))
     near = np.concatenate(distances)
     report = MatchReport(bundle.observations, int(np.sum(near <= radius)), float(np.median(near)) if len(near) else np.nan,
                          radius, len(bundle.points), count, tuple(int(np.sum(p.reference >= 0)) for p in photos))
     return Recording(landmarks, tuple(photos), report)
 
 
-def _photo(image: Path, camera: BundlerCamera, keys: Keys, spot: np.ndarray, seen: np.ndarray,
+def _photo(image: Path, camera: BundlerCamera, keys: Keys, spots: Spots, seen: np.ndarray,
            paired_spot: np.ndarray) -> Photo:
-    """One image's labels, reference and descriptor sums from its landmarks' paired spots."""
+    """One image's labels, reference (each landmark's spot's first keypoint) and descriptor sums
+    from its landmarks' paired spots."""
     count = len(seen)
-    owner_of_spot = np.full(spot.max(initial=-1) + 1, -1, np.int64)
+    owner_of_spot = np.full(len(spots.pixels), -1, np.int64)
     has = paired_spot >= 0
     owner_of_spot[paired_spot[has]] = np.flatnonzero(has)
-    labels = owner_of_spot[spot] if len(spot) else np.zeros(0, np.int64)
+    labels = owner_of_spot[spots.of_key]
     reference = np.full(count, -1, np.int64)
-    first_key = np.full(len(owner_of_spot), -1, np.int64)
-    first_key[spot[::-1]] = np.arange(len(spot))[::-1]
-    reference[has] = first_key[paired_spot[has]]
+    reference[has] = spots.first_key[paired_spot[has]]
     descriptor_sum = np.zeros((count, keys.descriptors.shape[1]))
     labelled = labels >= 0
     np.add.at(descriptor_sum, labels[labelled], keys.descriptors[labelled].astype(np.float64))
