@@ -22,6 +22,25 @@ def random_problem(rng, n: int, m: int, d: int = 2, angular=()) -> Problem:
     return Problem(z, R, zhat, P, volume=900.0, angular=angular)
 
 
+def for_method(method: str, problem: Problem, truth=None, seed: int = 0) -> Problem:
+    """``problem`` as ``method`` needs it: itself for a geometric method; for a method that needs
+    descriptors (its class's ``needs_descriptors``), with distinct random ones (D = 16) for the
+    measurements and, for each candidate, its true measurement's (``truth`` (n,), -1: none) or a
+    random one."""
+    from assocbench.associators.registry import associator_class
+
+    if not getattr(associator_class(method), "needs_descriptors", False):
+        return problem
+    rng = np.random.default_rng(seed)
+    features = rng.integers(0, 256, (problem.m, 16)).astype(np.uint8)
+    landmarks = rng.integers(0, 256, (problem.n, 16)).astype(np.uint8)
+    if truth is not None:
+        truth = np.asarray(truth)
+        landmarks[truth >= 0] = features[truth[truth >= 0]]
+    return Problem(problem.z, problem.R, problem.zhat, problem.P, problem.landmark_ids, problem.volume,
+                   problem.angular, descriptors=features, landmark_descriptors=landmarks)
+
+
 def wrap(y: np.ndarray, angular) -> np.ndarray:
     y = np.array(y, float)
     for a in angular:

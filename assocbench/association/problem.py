@@ -372,6 +372,9 @@ class Problem:
     """Measurements ``z`` (m, d) with noise ``R`` (m, d, d); predictions ``zhat`` (n, d) with
     joint covariance ``P`` (n·d, n·d) including cross terms; ``landmark_ids`` (n,) map ids;
     ``volume`` the measure |Y| of the measurement domain; ``angular`` the dims that wrap.
+    Optionally, appearance: ``descriptors`` (m, D) of the measurements and ``landmark_descriptors``
+    (n, D) of the candidates (both or neither; any real dtype, kept as given: SIFT's uint8 stays
+    uint8). Geometric methods ignore them; an appearance method compares them.
 
     The innovation covariance of pairing landmarks J with features I is
     ``P[J, J] + blockdiag(R[I])``. Arrays are validated (shape, finiteness, symmetry,
@@ -392,9 +395,12 @@ class Problem:
     landmark_ids: np.ndarray | None = None
     volume: float = 1.0
     angular: tuple[int, ...] = ()
+    descriptors: np.ndarray | None = None
+    landmark_descriptors: np.ndarray | None = None
 
     def __init__(self, z: np.ndarray, R: np.ndarray, zhat: np.ndarray, P: np.ndarray,
-                 landmark_ids: np.ndarray | None = None, volume: float = 1.0, angular: tuple[int, ...] = ()) -> None:
+                 landmark_ids: np.ndarray | None = None, volume: float = 1.0, angular: tuple[int, ...] = (),
+                 descriptors: np.ndarray | None = None, landmark_descriptors: np.ndarray | None = None) -> None:
         arrays = _plain_views(z, R, zhat, P) or _converted(z, R, zhat, P)
         screened = arrays.pop("screened")
         n, d = arrays["zhat"].shape
@@ -415,8 +421,12 @@ class Problem:
         for arr in arrays.values():
             # one problem is shared by every method of a sweep: none may change it for the next
             arr.setflags(write=False)   # ~0.1 us cheaper than .flags.writeable, which builds an object
+        if descriptors is None and landmark_descriptors is None:
+            appearance = _NO_APPEARANCE
+        else:
+            appearance = _appearance(descriptors, landmark_descriptors, arrays["z"].shape[0], n)
         # frozen: past __setattr__, in one step (a dataclass __init__ set each field in its own call)
-        self.__dict__.update(arrays, landmark_ids=ids, volume=volume, angular=angular, _validated=False)
+        self.__dict__.update(arrays, landmark_ids=ids, volume=volume, angular=angular, _validated=False, **appearance)
         if not screened:
             self.validate()             # decides now: raises naming the field, or passes
 
@@ -443,6 +453,8 @@ class Problem:
             _check_spd("P", self.P, allow_semidefinite=True)
         if verdict == 7:
             _decide_definite("P", self.P, 1e-10 * scale)
+        for name in DESCRIPTOR_FIELDS:
+            _check_finite(name, getattr(self, name))
         object.__setattr__(self, "_validated", True)
         return self
 
@@ -452,7 +464,8 @@ class Problem:
             return NotImplemented
         arrays = ("z", "R", "zhat", "P", "landmark_ids")
         return (all(np.array_equal(getattr(self, a), getattr(other, a)) for a in arrays)
-                and self.volume == other.volume and self.angular == other.angular)
+                and self.volume == other.volume and self.angular == other.angular
+                and all(_same_or_both_none(getattr(self, a), getattr(other, a)) for a in DESCRIPTOR_FIELDS))
 
     __hash__ = None  # mutable arrays inside: not hashable
 
@@ -473,6 +486,40 @@ class Problem:
         d = self.d
         k = j if k is None else k
         return self.P[j * d:(j + 1) * d, k * d:(k + 1) * d]
+
+
+DESCRIPTOR_FIELDS = ("descriptors", "landmark_descriptors")
+_NO_APPEARANCE = dict.fromkeys(DESCRIPTOR_FIELDS)
+
+
+def _appearance(descriptors, landmark_descriptors, m: int, n: int) -> dict:
+    """The two descriptor arrays, read-only, after the checks that cost nothing: both given, real
+    numbers, ``(m, D)`` and ``(n, D)`` with one ``D``. Finiteness is ``validate``'s (O(m D))."""
+    if descriptors is None or landmark_descriptors is None:
+        given = "descriptors" if landmark_descriptors is None else "landmark_descriptors"
+        raise ValueError(f"Problem.{given} needs its partner: give descriptors (m, D) and landmark_descriptors "
+                         "(n, D) together, or neither")
+    out = {}
+    for name, value, rows in (("descriptors", descriptors, m), ("landmark_descriptors", landmark_descriptors, n)):
+        arr = np.array(_real_numbers(name, value))      # a copy: no caller's array can change it later
+        if arr.ndim != 2 or arr.shape[0] != rows or arr.shape[1] == 0:
+            raise ValueError(f"Problem.{name} has shape {arr.shape}, expected ({rows}, D) with D >= 1")
+        arr.setflags(write=False)
+        out[name] = arr
+    if out["descriptors"].shape[1] != out["landmark_descriptors"].shape[1]:
+        raise ValueError(f"Problem.descriptors have D = {out['descriptors'].shape[1]}, landmark_descriptors "
+                         f"D = {out['landmark_descriptors'].shape[1]}: both must have one length")
+    return out
+
+
+def _check_finite(name: str, arr: np.ndarray | None) -> None:
+    """Raise naming the field when a floating descriptor array holds NaN or infinity."""
+    if arr is not None and arr.dtype.kind == "f" and not np.isfinite(arr).all():
+        raise ValueError(f"Problem.{name} contains NaN or infinite values")
+
+
+def _same_or_both_none(a: np.ndarray | None, b: np.ndarray | None) -> bool:
+    return (a is None and b is None) or (a is not None and b is not None and np.array_equal(a, b))
 
 
 def validate_association(association, problem: Problem) -> np.ndarray:

@@ -14,6 +14,7 @@ from importlib.metadata import entry_points
 
 from ..errors import UserError
 from ..validation import brief, validate_fields
+from .appearance import Appearance
 from .base import Associator
 from .ccda import CCDA
 from .dense import DENSE_METHODS, DenseAssociator
@@ -29,7 +30,8 @@ from .rjc import RJC
 from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive, Learned)}
+BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive, Learned,
+                                                                    Appearance)}
 ALL_BUILTINS: dict[str, type] = {**BUILTINS, **DENSE_METHODS}
 
 

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 import numpy as np
 
 from ..association.problem import NO_MATCH
+from ..models.pinhole import perturb_pose
 from ..validation import in_range, validate_fields
 
 MAX_SIGMA_M = 1000.0
@@ -54,6 +55,19 @@ class BeliefConfig:
     def pose_covariance(self) -> np.ndarray:
         """Σ of ``[δp, δθ]`` (6, 6), rotation in radians."""
         return np.diag([self.sigma_position**2] * 3 + [np.deg2rad(self.sigma_rotation) ** 2] * 3)
+
+
+def sample_estimate(R: np.ndarray, p: np.ndarray, landmarks: np.ndarray, cfg: BeliefConfig,
+                    rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Estimated ``(R̂, p̂, l̂)`` of a camera (orientation ``R``, camera to world; centre ``p``) and
+    ``landmarks`` (n, 3): the truth perturbed by an error drawn from ``k² Σ`` (the pose's
+    ``[δp, δθ]`` as ``pinhole.perturb_pose`` applies it)."""
+    k = cfg.miscalibration
+    e_pose = rng.normal(0.0, 1.0, 6) * np.sqrt(np.diag(cfg.pose_covariance)) * k
+    e_lm = rng.normal(0.0, cfg.sigma_landmark * k, landmarks.shape)
+    e_lm += rng.normal(0.0, cfg.sigma_common * k, 3)
+    R_hat, p_hat = perturb_pose(R, p, e_pose[:3], e_pose[3:])
+    return R_hat, p_hat, landmarks + e_lm
 
 
 def map_mask(n_landmarks: int, cfg: BeliefConfig, seed: int) -> np.ndarray:

@@ -87,8 +87,9 @@ def main(args: argparse.Namespace) -> int:
                **{k: summary[k] for k in track.columns(spec.loop).summary}}
         summary_df = pd.DataFrame([row])
         path = f", trajectory {row['trajectory']}" if "trajectory" in row else ""
+        against = track.columns(spec.loop).against
         title = f"{row['method']} on {row['scene']} ({track.name} track): {words}{path}, {row['frames']} frames, " \
-                f"seed {row['seed']}"
+                f"seed {row['seed']}" + ("" if against == "truth" else f", scored against the {against}")
         writers = {out / name: partial(df.to_csv, index=False, float_format="%.9g")   # all files or none
                    for name, df in (("frames.csv", frames), ("summary.csv", summary_df))}
         if "est_x" in frames:   # an estimated trajectory (a closed loop, a track that tracks): TUM files for evo

@@ -14,7 +14,18 @@ from ..association.problem import Problem
 from ..association.truth import FrameTruth
 from ..errors import UserError
 from ..validation import BoundedLoader, brief
-from .schema import ARRAYS, CARD_FILE, LABELS, PROBLEMS_FILE, SCHEMA_VERSION, SIZES, pyarrow, row_problem
+from .schema import (
+    ARRAYS,
+    CARD_FILE,
+    LABELS,
+    PROBLEMS_FILE,
+    READABLE_VERSIONS,
+    SCHEMA_VERSION,
+    SIZES,
+    columns_of,
+    pyarrow,
+    row_problem,
+)
 
 
 @dataclass(frozen=True)
@@ -41,8 +52,9 @@ def read_card(folder: str | Path) -> dict:
     except yaml.YAMLError as exc:
         raise UserError(f"{path} is not a readable dataset card ({_first_line(exc)}): export the data again") from exc
     version = card.get("schema_version") if isinstance(card, dict) else None
-    if version != SCHEMA_VERSION:
-        raise UserError(f"{path} has schema version {brief(version)}, this assocbench reads version {SCHEMA_VERSION}: "
+    if version not in READABLE_VERSIONS:
+        raise UserError(f"{path} has schema version {brief(version)}, this assocbench reads versions "
+                        f"{', '.join(map(str, READABLE_VERSIONS))}, writes {SCHEMA_VERSION}: "
                         "export the data again with this version")
     return card
 
@@ -55,9 +67,12 @@ def read_problems(folder: str | Path, batch_size: int = 64) -> Iterator[list[Lab
 
 
 def _batch_problems(batch) -> Iterator[LabelledProblem]:
-    scalars = {name: batch.column(name).to_pylist() for name, _ in LABELS + SIZES}
+    present = set(batch.schema.names)   # a version 1 table has no appearance columns
+    scalars = {name: batch.column(name).to_pylist() for name, _ in LABELS + SIZES if name in present}
     lists = {}
     for name, _ in ARRAYS:
+        if name not in present:
+            continue
         col = batch.column(name)
         # a sliced list column keeps offsets into its whole values buffer: slice that buffer by them
         lists[name] = (col.values.to_numpy(zero_copy_only=False), col.offsets.to_numpy())
@@ -85,13 +100,14 @@ def _open_table(folder: str | Path):
     one whose bytes are not those the card's SHA-256 records, is a one-line error (pyarrow's own
     would be a traceback)."""
     card = read_card(folder)
+    version = card["schema_version"]
     path = Path(folder) / PROBLEMS_FILE
     pa = pyarrow()
     try:
         parquet = pa.parquet.ParquetFile(path)
     except (pa.ArrowException, OSError) as exc:
         raise UserError(f"{path} is not a readable Parquet table ({_first_line(exc)}): export the data again") from exc
-    missing = [name for name, _ in LABELS + SIZES + ARRAYS if name not in parquet.schema_arrow.names]
+    missing = [name for name in columns_of(version) if name not in parquet.schema_arrow.names]
     if missing:
         raise UserError(f"{path} lacks the columns {', '.join(missing)} of an assocbench export: export the data again")
     _check_digest(path, card)

@@ -81,7 +81,7 @@ class DatasetWriter:
 
 
 COLUMN_MEANING = {
-    "track": "the track that made the problem (camera, planar, lines)",
+    "track": "the track that made the problem (camera, planar, lines, photos)",
     "scene": "scene name or MJCF path", "difficulty": "the suite's difficulty name",
     "seed": "the run's seed (sequence and belief)", "frame": "frame index in the sequence, from 0",
     "m": "number of measurements", "n": "number of candidate landmarks", "d": "measurement dimension",
@@ -90,9 +90,14 @@ COLUMN_MEANING = {
     "R": "(m, d, d) measurement noise covariances", "zhat": "(n, d) predicted measurements",
     "P": "(n d, n d) joint covariance of the predictions, cross terms kept",
     "landmark_ids": "(n,) map ids of the candidates", "angular": "measurement dims that wrap (radians)",
-    "feature_labels": "(m,) truth: map id imaged by each measurement, -1 for clutter and look-alikes",
-    "association": "(n,) truth: feature paired with each candidate, -1 for none",
-    "visible": "(n,) truth: whether each candidate is really visible",
+    "descriptor_length": "D, the length of a descriptor; 0: the problem has no descriptors (a geometric track)",
+    "descriptors": "(m, D) appearance of each measurement (photos: its SIFT descriptor), C order, float32",
+    "landmark_descriptors": "(n, D) appearance of each candidate (photos: the mean SIFT descriptor of the keypoints "
+                            "that built it in the other images), float32",
+    "feature_labels": "(m,) truth (a recorded track: its reference): map id imaged by each measurement, -1 for "
+                      "clutter and look-alikes",
+    "association": "(n,) truth (or reference): feature paired with each candidate, -1 for none",
+    "visible": "(n,) truth (or reference): whether each candidate is really visible",
 }
 
 

@@ -18,7 +18,7 @@ from pathlib import Path
 
 import numpy as np
 
-from ..association.problem import NO_MATCH, Problem, validate_association
+from ..association.problem import DESCRIPTOR_FIELDS, NO_MATCH, Problem, validate_association
 from ..association.truth import FrameTruth
 from ..associators.registry import make_associator
 from ..errors import UserError
@@ -116,7 +116,7 @@ def checked_truth(track: str, k: int, problem: Problem, truth: FrameTruth) -> Fr
 def private_copy(problem: Problem) -> Problem:
     """A read-only copy of ``problem`` with arrays of its own: what one ``associate`` call gets."""
     out = copy.copy(problem)
-    for name in _ARRAYS:
+    for name in _ARRAYS + tuple(d for d in DESCRIPTOR_FIELDS if getattr(problem, d) is not None):
         arr = getattr(problem, name).copy()
         arr.flags.writeable = False
         object.__setattr__(out, name, arr)

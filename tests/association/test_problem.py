@@ -278,3 +278,62 @@ def test_an_array_of_no_real_numbers_is_refused_naming_the_field(field, kind):
     bad = {"text": fields[field].astype(str), "complex": fields[field] * (1 + 1j), "None": None}[kind]
     with pytest.raises(ValueError, match=rf"^Problem\.{field} must be an array of real numbers"):
         Problem(**{**fields, field: bad})
+
+
+# ---------------------------------------------------------------- appearance (optional descriptors)
+
+def with_descriptors(m: int = 2, n: int = 3, **over) -> Problem:
+    fields = dict(descriptors=np.arange(m * 4, dtype=np.uint8).reshape(m, 4),
+                  landmark_descriptors=np.ones((n, 4), np.float32))
+    return make(**(fields | over))
+
+
+def test_descriptors_are_optional_and_kept_read_only_in_their_own_dtype():
+    plain = make()
+    assert plain.descriptors is None and plain.landmark_descriptors is None
+    p = with_descriptors()
+    assert p.descriptors.dtype == np.uint8 and p.landmark_descriptors.dtype == np.float32
+    assert p.descriptors.shape == (2, 4) and p.landmark_descriptors.shape == (3, 4)
+    assert not p.descriptors.flags.writeable and not p.landmark_descriptors.flags.writeable
+    assert p == with_descriptors() and p != plain and p != with_descriptors(landmark_descriptors=np.zeros((3, 4)))
+
+
+def test_descriptors_are_a_copy_the_caller_cannot_change():
+    mine = np.zeros((2, 4))
+    p = with_descriptors(descriptors=mine)
+    mine[0, 0] = 7.0
+    assert p.descriptors[0, 0] == 0.0
+
+
+@pytest.mark.parametrize("over,message", [
+    (dict(landmark_descriptors=None), "Problem.descriptors needs its partner"),
+    (dict(descriptors=None), "Problem.landmark_descriptors needs its partner"),
+    (dict(descriptors=np.zeros((3, 4))), r"Problem.descriptors has shape \(3, 4\), expected \(2, D\)"),
+    (dict(landmark_descriptors=np.zeros(12)), r"Problem.landmark_descriptors has shape \(12,\)"),
+    (dict(descriptors=np.zeros((2, 0)), landmark_descriptors=np.zeros((3, 0))), "D >= 1"),
+    (dict(landmark_descriptors=np.zeros((3, 5))), "both must have one length"),
+    (dict(descriptors=np.array([["a"] * 4] * 2)), "Problem.descriptors must be an array of real numbers"),
+    (dict(landmark_descriptors=np.full((3, 4), np.nan)), "Problem.landmark_descriptors contains NaN"),
+    (dict(descriptors=np.full((2, 4), np.inf)), "Problem.descriptors contains NaN or infinite"),
+])
+def test_bad_descriptors_are_refused_naming_the_field(over, message):
+    with pytest.raises(ValueError, match=message):
+        with_descriptors(**over)
+
+
+def test_non_finite_descriptors_are_found_by_validate_not_construction():
+    """Finiteness costs O(m D): ``validate`` decides it, once, as it does the whole of ``P``."""
+    p = Problem(np.zeros((2, 2)), np.repeat(np.eye(2)[None], 2, 0), np.ones((3, 2)), np.eye(6),
+                descriptors=np.full((2, 4), np.nan), landmark_descriptors=np.zeros((3, 4)))
+    with pytest.raises(ValueError, match="Problem.descriptors contains NaN"):
+        p.validate()
+
+
+def test_the_harness_private_copy_gives_descriptors_of_their_own():
+    from assocbench.harness.runner import private_copy
+
+    p = with_descriptors()
+    copy = private_copy(p)
+    assert copy == p and not np.shares_memory(copy.descriptors, p.descriptors)
+    assert not np.shares_memory(copy.landmark_descriptors, p.landmark_descriptors)
+    assert not copy.descriptors.flags.writeable and private_copy(make()).descriptors is None

@@ -2,10 +2,12 @@
 
 from __future__ import annotations
 
+from pathlib import Path
+
 import numpy as np
 import pytest
 from plugins import install_entry_point
-from problems import random_problem, reference_joint, reference_surprisal
+from problems import for_method, random_problem, reference_joint, reference_surprisal
 
 from assocbench import Problem, make_associator, validate_association
 from assocbench.associators.registry import available, is_dense
@@ -27,21 +29,21 @@ def easy_problem(n: int = 6) -> tuple[Problem, np.ndarray]:
 def test_output_is_valid_on_random_problems(method, rng):
     assoc = make_associator(method)
     for _ in range(10):
-        p = random_problem(rng, n=int(rng.integers(1, 7)), m=int(rng.integers(1, 8)))
+        p = for_method(method, random_problem(rng, n=int(rng.integers(1, 7)), m=int(rng.integers(1, 8))))
         validate_association(assoc.associate(p), p)
 
 
 @pytest.mark.parametrize("method", METHODS)
 def test_perfect_on_an_easy_problem(method):
     p, truth = easy_problem()
-    assert make_associator(method).associate(p).tolist() == truth.tolist()
+    assert make_associator(method).associate(for_method(method, p, truth)).tolist() == truth.tolist()
 
 
 @pytest.mark.parametrize("method", METHODS)
 @pytest.mark.parametrize("m,n", [(0, 3), (3, 0), (0, 0)])
 def test_empty_inputs_give_all_unassociated(method, m, n):
     p = Problem(np.zeros((m, 2)), np.repeat(np.eye(2)[None], m, 0), np.zeros((n, 2)), np.eye(2 * n))
-    out = make_associator(method).associate(p)
+    out = make_associator(method).associate(for_method(method, p))
     assert out.shape == (n,) and np.all(out == -1)
 
 
@@ -187,13 +189,15 @@ def signatures():
             if name.startswith("assocbench") for attr, obj in list(vars(mod).items()) if isinstance(obj, CPUDispatcher)}
 
 method = sys.argv[1]
+sys.path.insert(0, sys.argv[2])
+from problems import for_method
 associator = make_associator(method)
 warm_up(associator)
 before = signatures()
 makers = [range_bearing_problem, range_bearing_problem, camera_problem]   # learned: its planar and camera models
 for seed, make in enumerate(makers):
-    problem, _ = make(np.random.default_rng(seed), n=60 + 40 * seed)
-    associator.associate(private_copy(problem))
+    problem, truth = make(np.random.default_rng(seed), n=60 + 40 * seed)
+    associator.associate(private_copy(for_method(method, problem, truth)))
 after = signatures()
 print(sorted(k for k, v in after.items() if v > before.get(k, 0)))
 """
@@ -207,7 +211,8 @@ def test_warm_up_loads_every_kernel_a_frame_uses(method):
     import subprocess
     import sys
 
-    out = subprocess.run([sys.executable, "-c", WARM_CHECK, method], capture_output=True, text=True, timeout=300)
+    tests = str(Path(__file__).parents[1])   # where problems.py is
+    out = subprocess.run([sys.executable, "-c", WARM_CHECK, method, tests], capture_output=True, text=True, timeout=300)
     assert out.returncode == 0, out.stderr[-2000:]
     assert out.stdout.strip().splitlines()[-1] == "[]", out.stdout
 

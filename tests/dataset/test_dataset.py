@@ -3,6 +3,7 @@ byte reproducible; ``assocbench export`` on the camera ci suite and its bad inpu
 
 from __future__ import annotations
 
+import importlib.util
 import sys
 
 import numpy as np
@@ -10,12 +11,14 @@ import pytest
 from cli_errors import assert_one_line_error
 from problems import random_problem
 
+from assocbench import Problem
 from assocbench.association.truth import FrameTruth
 from assocbench.cli.main import main
 from assocbench.dataset import read_card, read_problems
 from assocbench.dataset.reader import count_frames
 from assocbench.dataset.schema import ROW_GROUP
 from assocbench.dataset.writer import DatasetWriter
+from assocbench.errors import UserError
 
 
 def labelled(rng, count: int) -> list:
@@ -186,3 +189,61 @@ def test_a_truth_that_does_not_fit_its_problem_is_refused_on_read(tmp_path, rng)
     write(tmp_path / "d", rows)
     with pytest.raises(UserError, match="in the export is invalid: FrameTruth.association pairs feature 0"):
         next(read_problems(tmp_path / "d"))
+def with_appearance(rows: list, rng) -> list:
+    """The rows with descriptors on every other frame: SIFT-like bytes (D = 128) for the
+    measurements, float means for the candidates."""
+    out = []
+    for k, (labels, p, t) in enumerate(rows):
+        if k % 2 == 0:
+            p = Problem(p.z, p.R, p.zhat, p.P, p.landmark_ids, p.volume, p.angular,
+                        descriptors=rng.integers(0, 256, (p.m, 128)).astype(np.uint8),
+                        landmark_descriptors=rng.uniform(0, 255, (p.n, 128)).astype(np.float32))
+        out.append((labels, p, t))
+    return out
+
+
+def test_descriptors_round_trip_and_a_problem_without_them_stays_without(tmp_path, rng):
+    rows = with_appearance(labelled(rng, ROW_GROUP + 3), rng)
+    write(tmp_path / "d", rows)
+    got = [item for b in read_problems(tmp_path / "d") for item in b]
+    for item, (_, p, _) in zip(got, rows):
+        assert item.problem == p
+        assert (item.problem.descriptors is None) == (p.descriptors is None)
+    card = read_card(tmp_path / "d")
+    assert card["schema_version"] == 2 and {"descriptors", "landmark_descriptors"} <= {c["name"] for c in card["schema"]}
+
+
+def test_a_version_1_export_is_still_read_as_problems_without_descriptors(tmp_path, rng):
+    """A table written before the appearance columns existed (schema version 1)."""
+    import pyarrow.parquet as pq
+    import yaml
+
+    rows = labelled(rng, 4)
+    write(tmp_path / "d", rows)
+    table = pq.read_table(tmp_path / "d" / "problems.parquet")
+    pq.write_table(table.drop_columns(["descriptor_length", "descriptors", "landmark_descriptors"]),
+                   tmp_path / "d" / "problems.parquet")
+    card = yaml.safe_load((tmp_path / "d" / "card.yaml").read_text())
+    (tmp_path / "d" / "card.yaml").write_text(yaml.safe_dump(card | {"schema_version": 1}))
+    got = [item for b in read_problems(tmp_path / "d") for item in b]
+    assert [item.problem for item in got] == [p for _, p, _ in rows]
+    assert all(item.problem.descriptors is None for item in got)
+    (tmp_path / "d" / "card.yaml").write_text(yaml.safe_dump(card | {"schema_version": 3}))
+    with pytest.raises(UserError, match="reads versions 1, 2"):
+        next(read_problems(tmp_path / "d"))
+
+
+@pytest.mark.skipif(importlib.util.find_spec("gtsam") is None, reason="the photos track reads gtsam's data")
+def test_export_of_a_photos_suite_writes_the_sift_descriptors_and_says_reference(tmp_path):
+    suite = tmp_path / "photos.yaml"
+    suite.write_text("track: photos\nscenes: [balbianello]\nbase: {frames: 2}\ndifficulties: {easy: {}}\n"
+                     "methods: [mnn]\nseeds: [0]\n")
+    assert main(["export", "--suite", str(suite), "--out", str(tmp_path / "d"), "--quiet"]) == 0
+    got = [item for b in read_problems(tmp_path / "d") for item in b]
+    assert [g.problem.m for g in got] == [2455, 2082]
+    for item in got:
+        assert item.problem.descriptors.shape == (item.problem.m, 128)
+        assert item.problem.landmark_descriptors.shape == (item.problem.n, 128)
+        assert np.array_equal(item.problem.descriptors, np.round(item.problem.descriptors))   # SIFT's bytes, exactly
+    card = read_card(tmp_path / "d")
+    assert card["labels"] == "reference" and "gtsam" in card["licence"] and card["track"] == "photos"

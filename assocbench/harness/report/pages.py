@@ -270,11 +270,25 @@ def _badges(r: pd.Series, counts: list[str]) -> str:
                    f"</span>" for k in counts if pd.notna(r[k]) and r[k] > 0)
 
 
+# the catalogue's words for a simulation's truth, and what they become for a recording's reference
+REFERENCE_WORDS = (("are true", "agree with the reference"), ("true pairings", "reference pairings"),
+                   ("the true one", "the reference's"), ("than the truth", "than the reference"),
+                   ("as the truth", "as the reference"), ("true outcome", "reference outcome"))
+
+
+def against_reference(text: str) -> str:
+    """A column's meaning for a suite scored against a recording's reference, not a truth."""
+    for truth, reference in REFERENCE_WORDS:
+        text = text.replace(truth, reference)
+    return text
+
+
 def _legend(suite: Suite, columns: list[Column]) -> str:
     items = [("scene / difficulty / back end", "the scenario, split from its name scene/difficulty-backend (the back "
               "end: the estimator, the line extractor or the ICP target)") if suite.table["backend"].ne("").any()
              else ("scene / difficulty", "the scenario, split from its name scene/difficulty")]
-    items += [(c.header, escape(c.meaning) + (f"; {BETTER[c.better]}" if c.better else "")
+    items += [(c.header, escape(against_reference(c.meaning) if suite.against == "reference" else c.meaning)
+               + (f"; {BETTER[c.better]}" if c.better else "")
                + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
     items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", f"{meaning} (behind &ldquo;more columns&rdquo;; "
                "a count above 0 is a badge beside the method's name)")

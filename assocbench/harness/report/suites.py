@@ -79,6 +79,11 @@ class Suite:
     def loop_words(self) -> str:
         return self.card["words"]
 
+    @property
+    def against(self) -> str:
+        """What its runs were scored against: ``truth``, or a recording's ``reference``."""
+        return self.card.get("against", "truth")
+
 
 def read_suite(path: Path, source: str) -> Suite:
     """The leaderboard in ``path`` (a folder holding ``leaderboard.csv``, or that file)."""

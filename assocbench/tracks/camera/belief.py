@@ -13,24 +13,14 @@ import numpy as np
 
 from ...association.problem import NO_MATCH, Problem
 from ...association.truth import FrameTruth
-from ...belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
-from ...models.pinhole import perturb_pose, predict_bundle
+from ...belief.config import BeliefConfig, map_mask, prediction_covariance, sample_estimate, true_association
+from ...models.pinhole import predict_bundle
 from .sequence import Sequence
 
 
 def bundle_covariance(J_pose: np.ndarray, J_l: np.ndarray, cfg: BeliefConfig) -> np.ndarray:
     """``P = J Σ Jᵀ`` (2n, 2n) of the camera's 6-dof pose and 3-D landmarks (``prediction_covariance``)."""
     return prediction_covariance(J_pose, J_l, cfg.pose_covariance, cfg)
-
-
-def sample_estimate(R, p, landmarks, cfg: BeliefConfig, rng: np.random.Generator):
-    """Estimated ``(R̂, p̂, l̂)``: truth perturbed by an error drawn from ``k² Σ``."""
-    k = cfg.miscalibration
-    e_pose = rng.normal(0.0, 1.0, 6) * np.sqrt(np.diag(cfg.pose_covariance)) * k
-    e_lm = rng.normal(0.0, cfg.sigma_landmark * k, landmarks.shape)
-    e_lm += rng.normal(0.0, cfg.sigma_common * k, 3)
-    R_hat, p_hat = perturb_pose(R, p, e_pose[:3], e_pose[3:])
-    return R_hat, p_hat, landmarks + e_lm
 
 
 def expected_in_view(seq: Sequence, p_hat: np.ndarray, l_hat: np.ndarray, h: np.ndarray, depth: np.ndarray,

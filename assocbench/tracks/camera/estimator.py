@@ -4,11 +4,10 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...belief.config import BeliefConfig, map_mask
+from ...belief.config import BeliefConfig, map_mask, sample_estimate
 from ...belief.planar import map_covariance
 from ...errors import UserError
 from ...estimators.config import EstimatorConfig
-from .belief import sample_estimate
 from .ekf import CameraEKF
 
 

@@ -5,11 +5,11 @@ from __future__ import annotations
 import numpy as np
 
 from ...association.problem import Problem
-from ...belief.config import BeliefConfig
+from ...belief.config import BeliefConfig, sample_estimate
 from ...models.camera import Intrinsics
 from ...models.pinhole import predict_bundle
 from ...models.synthetic import observe
-from .belief import bundle_covariance, sample_estimate
+from .belief import bundle_covariance
 
 
 def camera_problem(rng: np.random.Generator, n: int = 40, p_detect: float = 0.8, clutter_ratio: float = 0.2,

@@ -16,7 +16,9 @@ from assocbench.models.polar_line import ANGULAR, jacobians, predict
 from assocbench.models.range_bearing import wrap
 from assocbench.tracks.lines.belief import RANGE_MARGIN, candidate_lines, make_line_problem, pose_prediction_covariance
 
-METHODS = sorted(BUILTINS)   # learned included: its shipped lines model (associators/learned/lines.json)
+# learned included: its shipped lines model (associators/learned/lines.json); not the methods that need
+# descriptors (appearance): a line has none
+METHODS = sorted(m for m, cls in BUILTINS.items() if not getattr(cls, "needs_descriptors", False))
 # parameters for this scale: ENN's gate is a distance in measurement units (rad and m mixed here;
 # its default 25 suits pixels and would accept any pairing)
 PARAMS = {"enn": {"gate": 0.3}}
