@@ -22,7 +22,7 @@ import pandas as pd
 from scipy.stats import spearmanr
 
 from assocbench.errors import UserError
-from assocbench.harness.report.ranking import REFERENCE_METHODS, scenario_ranks
+from assocbench.harness.report.ranking import REFERENCE_METHODS, suite_blocks
 from assocbench.harness.report.suites import Suite, read_suite
 
 ALL = "all"
@@ -48,8 +48,9 @@ def mean_ranks(suite: Suite, methods: list[str], difficulty: str = ALL) -> pd.Se
     table = suite.table[suite.table["method"].isin(methods)]
     if difficulty != ALL:
         table = table[table["difficulty"] == difficulty]
-    ranks = scenario_ranks(replace(suite, table=table))
-    return ranks.groupby("method")["rank"].mean().reindex(methods)
+    blocks = suite_blocks(replace(suite, table=table, runs=None))  # a scenario is a block (means over seeds)
+    blocks["rank"] = blocks.groupby("block")["key"].rank(method="average")
+    return blocks.groupby("method")["rank"].mean().reindex(methods)
 
 
 def mean_metric(suite: Suite, methods: list[str]) -> pd.Series:

@@ -68,7 +68,7 @@ def run_pictures(spec, seq: Sequence, frames: Iterable[RunFrame]) -> Iterator[np
             f, r = rf.estimator, rf.record
             est_p.append(f.p.copy())
             note = (f"frame {rf.k}: error {100 * r['pos_err']:.1f} cm, {r['rot_err_deg']:.2f} deg, "
-                    f"NEES {r['nees']:.1f}, map {r['map_size']}")
+                    f"NEES {r['nees']:.1f}, map {int(np.sum(f.book.confirmed))}")   # the filter's confirmed landmarks
             means = f.landmarks
             top = top_view(seq.positions[:rf.k + 1], np.array(est_p), f.R, seq.landmarks, means,
                            landmark_blocks(f.covariance, len(means)), f.book.confirmed, size=size, bounds=bounds,

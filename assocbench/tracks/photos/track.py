@@ -15,7 +15,6 @@ from ...errors import UserError
 from ...settings import Schema, Section, Settings
 from ..base import Columns, FeatureTrack, SuiteFile
 from .settings import PhotoBelief, PhotoSettings
-from .source import GTSAM, PhotoSource, balbianello, gtsam_data
 
 SUITES = {"real_photos": False}   # name -> guarded by check
 # the belief of a fixed set of photos: no clutter is added (the keypoints are clutter enough) and
@@ -37,8 +36,10 @@ class PhotosTrack(FeatureTrack):
     def settings(self) -> Schema:
         return Schema((), {"belief": BELIEF, "photos": Section(PhotoSettings)})
 
-    def source(self, settings: Settings) -> PhotoSource:
+    def source(self, settings: Settings) -> Any:
         """One frame per image of the reconstruction the scene names (``balbianello``)."""
+        from .source import PhotoSource, balbianello
+
         scene = settings.scene or next(iter(self.scenes()))
         if scene != "balbianello":
             raise UserError(f"the photos track reads the reconstruction 'balbianello', not {scene!r}")
@@ -48,7 +49,7 @@ class PhotosTrack(FeatureTrack):
             raise UserError(f"frames {frames}: {photos.name} has {len(photos.images)} images, one frame each")
         return PhotoSource(photos, frames, settings.photos.match_radius)
 
-    def problem(self, source: PhotoSource, k: int, run: Any):
+    def problem(self, source: Any, k: int, run: Any):
         from .belief import make_photo_problem
 
         return make_photo_problem(source[k], run.belief, run.seed)
@@ -69,6 +70,8 @@ class PhotosTrack(FeatureTrack):
     # --- capabilities ----------------------------------------------------------------------
     def unavailable(self) -> str | None:
         """Without ``gtsam`` there is no Balbianello to read."""
+        from .source import GTSAM, gtsam_data
+
         return GTSAM if gtsam_data() is None else None
 
     def frame_picture(self, run: Any, index: int) -> tuple[np.ndarray, str]:
@@ -76,7 +79,7 @@ class PhotosTrack(FeatureTrack):
 
         return frame_picture(run, index)
 
-    def run_pictures(self, run: Any, source: PhotoSource, frames):
+    def run_pictures(self, run: Any, source: Any, frames):
         from .pictures import run_pictures
 
         return run_pictures(run, source, frames)

@@ -45,7 +45,6 @@ def test_the_leaderboard_picture_gets_the_frames_whose_icp_failed():
 def test_the_leaderboard_keeps_what_tells_a_raising_method_from_icp_failing():
     """The sweep keeps a run's frames for the leaderboard's picture; it must keep ``icp_reason``, or
     a frame whose method raised is drawn and counted as ICP failing (it was dropped)."""
-    from assocbench.harness.sweep import kept_frames
     from assocbench.tracks.dense.leaderboard import pictures
     from assocbench.tracks.dense.summary import METHOD_FAILED
     from assocbench.tracks.registry import get_track
@@ -56,6 +55,7 @@ def test_the_leaderboard_keeps_what_tells_a_raising_method_from_icp_failing():
                               | {f"{p}{c}": 0.1 * k for p in ("true_", "est_") for c in "xyz"} for k in range(4)])
     per_frame.loc[2, "error"] = "RuntimeError: boom"
     label = {"scenario": "crates/default", "scene": "crates", "difficulty": "default", "method": "flaky", "seed": 0}
-    (panel,) = pictures(kept_frames(per_frame, label, get_track("dense").columns(False).frames))
+    kept = ["frame"] + [c for c in get_track("dense").columns(False).frames if c in per_frame]
+    (panel,) = pictures(per_frame.assign(**label)[list(label) + kept])
     assert panel["raised"].tolist() == [False, False, True, False]
     assert (panel["failed"] & ~panel["raised"]).tolist() == [False, True, False, False]
