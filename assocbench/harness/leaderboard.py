@@ -196,13 +196,13 @@ def write_loop_plots(table: pd.DataFrame, frames: pd.DataFrame, out: Path, diffi
     ``leaderboard_map.png`` (the first scene) and ``leaderboard_map_<scene>.png`` (the others)."""
     from ..viz.loop_plots import ate_figure, nees_figure
 
-    scenes, columns = _grid(table, difficulties)
+    names, columns = _grid(table, difficulties)   # not ``scenes``: that maps each name to its scene's path
     paths = {k: out / f"leaderboard_{k}.png" for k in ("ate", "nees")}
-    save_figure(ate_figure(table, scenes, columns), paths["ate"])
-    save_figure(nees_figure(frames, scenes, columns), paths["nees"])
+    save_figure(ate_figure(table, names, columns), paths["ate"])
+    save_figure(nees_figure(frames, names, columns), paths["nees"])
     if not has(track, TopView):
         return paths
-    for k, scene in enumerate(scenes):   # a top view per scene, at its hardest difficulty, lowest seed
+    for k, scene in enumerate(names):   # a top view per scene, at its hardest difficulty, lowest seed
         key = f"map_{scene}" if k else "map"
         paths[key] = out / f"leaderboard_{key}.png"
         save_figure(map_view(frames, scene, columns[-1], track, scenes.get(scene, scene)), paths[key])
