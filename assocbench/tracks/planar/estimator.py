@@ -7,7 +7,7 @@ import numpy as np
 from ...belief.config import BeliefConfig, map_mask
 from ...belief.planar import map_covariance, planar_pose_covariance, sample_planar_estimate
 from ...estimators.config import EstimatorConfig
-from .ekf import PlanarEKF
+from ...estimators.planar_ekf import PlanarEKF
 
 
 def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
@@ -16,7 +16,8 @@ def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed:
     with zero covariance and no map; ``localisation`` from the sampled pose and mapped posts
     (``belief.map_fraction``) with Σ = blockdiag(Σ_pose, Σ_L) reported."""
     if cfg.name == "isam2":
-        from .isam2 import PlanarISAM2 as cls  # gtsam is an extra: imported only when iSAM2 is asked for
+        # gtsam is an extra: imported only when iSAM2 is asked for
+        from ...estimators.planar_isam2 import PlanarISAM2 as cls
     else:
         cls = PlanarEKF
     if cfg.mode == "slam":
