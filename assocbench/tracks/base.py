@@ -55,13 +55,16 @@ class Metric:
 class Columns:
     """A track's summary columns: ``summary`` in the order ``run`` prints and writes them,
     ``primary`` the metric the report ranks its methods by, ``frames`` the per-frame columns a
-    leaderboard keeps beside ``frame`` (its pictures read them), and ``units`` of the track's own
-    columns (the shared ones are in ``scoring.units``)."""
+    leaderboard keeps beside ``frame`` (its pictures read them), ``units`` of the track's own
+    columns (the shared ones are in ``scoring.units``), and ``scored_against``: what its labels
+    are, ``truth`` (a simulation's) or ``reference`` (a recorded dataset's own association, not
+    ground truth), the word its leaderboard, report page and pictures use."""
 
     summary: tuple[str, ...]
     primary: Metric
     frames: tuple[str, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
+    scored_against: str = "truth"
 
 
 @dataclass(frozen=True)

@@ -6,9 +6,10 @@ import matplotlib.pyplot as plt
 import pandas as pd
 
 from assocbench.harness import leaderboard
+from assocbench.tracks.base import FeatureTrack
 
 
-class TopViewTrack:
+class TopViewTrack(FeatureTrack):
     """A track with a top view that remembers which scene path it was asked to draw."""
 
     name = "fake"

@@ -11,7 +11,7 @@ from importlib import resources
 
 import pandas as pd
 
-from ..leaderboard import ORACLE_LABEL
+from ..leaderboard import oracle_label
 from .columns import BY_KEY, COUNT_COLUMNS, NOT_METRICS, Column, column
 from .ranking import REFERENCE_METHODS, overview
 from .ranking import __doc__ as RANK_RULE
@@ -135,8 +135,8 @@ def suite_body(suite: Suite, pictures: list[str]) -> str:
            f'<p class="lead">{escape(suite.track)} track{", " + suite.loop_words if suite.loop_words else ""}. One row per scenario and '
            f"method: the mean &plusmn; std {seeds}. Click a column's header to sort by it; pick a scene, difficulty, "
            f"back end or method to filter. Ranked on the overview by {escape(suite.primary.header)} "
-           f"({BETTER[suite.primary.better]}). Rows in <i>italics</i>: the true association, a reference, not a "
-           f"method; rows in red are <b>not ok</b> (numbers the harness could not trust; the status says why).</p>",
+           f"({BETTER[suite.primary.better]}). Rows in <i>italics</i>: {_oracle_words(suite)}; rows in red are "
+           f"<b>not ok</b> (numbers the harness could not trust; the status says why).</p>",
            _filters(t), _table(suite, columns), "<h2>Columns</h2>", _legend(suite, columns)]
     if pictures:
         figures = "".join(f'<figure><a href="{p}"><img src="{p}" alt="{escape(caption(name, suite))}"></a>'
@@ -174,14 +174,27 @@ def _table(suite: Suite, columns: list[Column]) -> str:
     head += [f'<th class="sortable" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
              f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
     head.append('<th class="text sortable" data-type="text">status<span class="unit"></span></th>')
-    rows = [_row(r, labels, columns, counts, suite.kind) for _, r in t.iterrows()]
+    rows = [_row(r, labels, columns, counts, suite.kind, oracle_label(_scored_against(suite))) for _, r in t.iterrows()]
     return (f'<div class="scroll"><table class="filterable"><thead><tr>{"".join(head)}</tr></thead>\n<tbody>\n'
             + "\n".join(rows) + "\n</tbody></table></div>")
 
 
-def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str) -> str:
+def _scored_against(suite: Suite) -> str:
+    """What the suite's scores are against: ``truth``, or a recorded track's ``reference`` (its card)."""
+    return suite.card.get("scored_against", "truth")
+
+
+def _oracle_words(suite: Suite) -> str:
+    word = _scored_against(suite)
+    if word == "truth":
+        return "the true association, a reference, not a method"
+    return (f"the dataset's own {escape(word)} association, not a method; every score on this page is against that "
+            f"{escape(word)} (its labels, its landmarks, the path a solver fitted to them), not ground truth")
+
+
+def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str, oracle_name: str) -> str:
     oracle = r["method"] in REFERENCE_METHODS
-    name = ORACLE_LABEL if oracle else r["method"]
+    name = oracle_name if oracle else r["method"]
     attrs = "".join(f' data-{k}="{escape(str(r[k]))}"' for k in ("scene", "difficulty", "backend", "method"))
     look = ' class="oracle"' if oracle else ' class="notok"' if r["status"] != "ok" else ""
     cells = [f'<td class="text" data-v="{escape(str(r[k]))}">{escape(str(r[k]))}</td>' for k, _ in labels]
