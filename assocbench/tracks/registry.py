@@ -29,7 +29,8 @@ MODULES_VARIABLE = "ASSOCBENCH_TRACKS"   # modules that register a track when im
 BUILTINS = {"camera": "assocbench.tracks.camera.track:CameraTrack",
             "planar": "assocbench.tracks.planar.track:PlanarTrack",
             "lines": "assocbench.tracks.lines.track:LinesTrack",
-            "dense": "assocbench.tracks.dense.track:DenseTrack"}
+            "dense": "assocbench.tracks.dense.track:DenseTrack",
+            "planar_log": "assocbench.tracks.planar_log.track:PlanarLogTrack"}
 DEFAULT_TRACK = "camera"   # a run that names no track, no scene and no method of a track's own
 
 _TRACKS: dict[str, Track] = {}
