@@ -20,7 +20,7 @@ from ..base import SMOOTHED_ATE_GUARD, Columns, FeatureTrack, GuardedMetric, Sui
 from .settings import LogConfig
 
 VICTORIA_PARK = "victoria_park"
-SUITES = {"real_victoria": False}
+SUITES = {"real_victoria": False, "real_victoria_open": False, "real_victoria_ci": True}
 GTSAM = "gtsam is not installed (pip install 'assocbench[gtsam]'; from a clone: pip install '.[gtsam]')"
 # a recorded sensor's noise is the log's: no pixel noise, no viewing angle; the odometry's noise is
 # the log's too (its scale is log.odometry_scale), and no camera part of the estimator applies
