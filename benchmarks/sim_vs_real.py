@@ -51,10 +51,28 @@ def compare(sim: pd.DataFrame, real: pd.DataFrame, metric: str, backend: str) ->
     return out.sort_values("real place"), rho, sorted(sim["scenario"].unique())
 
 
+def places(sim: pd.DataFrame, real: pd.DataFrame, metrics: list[str], backends: list[str]) -> list[str]:
+    """One Markdown table of every method's simulated and real place for each metric and back end
+    (``back end`` columns joined by " / "), and a last row of Spearman's ρ (the docs page's table)."""
+    results = {(m, b): compare(sim, real, m, b) for m in metrics for b in backends}
+    methods = sorted(set.union(*(set(t.index) for t, _, _ in results.values())),
+                     key=lambda name: [results[metrics[0], b][0].loc[name, "sim place"] for b in backends])
+    head = [f"{where} place {m} ({' / '.join(backends)})" for m in metrics for where in ("sim", "real")]
+    lines = ["| method | " + " | ".join(head) + " |", "|---" * (len(head) + 1) + "|"]
+    for name in methods:
+        cells = [" / ".join(f"{results[m, b][0].loc[name, f'{where} place']:g}" for b in backends)
+                 for m in metrics for where in ("sim", "real")]
+        lines.append(f"| {name} | " + " | ".join(cells) + " |")
+    rhos = [" / ".join(f"{results[m, b][1]:.2f}" for b in backends) for m in metrics]
+    lines.append("| **Spearman ρ** | " + " | ".join(cell for rho in rhos for cell in ("", f"**{rho}**")) + " |")
+    return lines + [""]
+
+
 def markdown(sim_path: Path, real_path: Path, metrics: list[str]) -> str:
-    """The sim-vs-real tables (module docstring) as Markdown."""
+    """The sim-vs-real tables (module docstring) as Markdown: all places in one table, then one
+    table per back end and metric with the values and the scenarios used."""
     sim, real = pd.read_csv(sim_path), pd.read_csv(real_path)
-    lines = []
+    lines = places(sim, real, metrics, sorted(set(real["scenario"].map(backend_of))))
     for backend in sorted(set(real["scenario"].map(backend_of))):
         for metric in metrics:
             table, rho, scenarios = compare(sim, real, metric, backend)

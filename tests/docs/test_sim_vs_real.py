@@ -39,3 +39,14 @@ def test_ranks_per_back_end_and_spearman(sim_vs_real, tmp_path):
     real.to_csv(tmp_path / "real.csv", index=False)
     text = sim_vs_real.markdown(tmp_path / "sim.csv", tmp_path / "real.csv", ["ate_rmse", "f1"])
     assert "**ekf, ate_rmse** (Spearman ρ = -0.87 over 3 methods" in text and "**ekf, f1** (Spearman ρ = -1.00" in text
+
+
+def test_one_table_of_every_place_and_rho(sim_vs_real):
+    sim = leaderboard([("a/easy-ekf", "x", 1.0, 0.9), ("a/easy-ekf", "y", 2.0, 0.8), ("a/easy-ekf", "z", 3.0, 0.7),
+                       ("a/easy-isam2", "x", 3.0, 0.9), ("a/easy-isam2", "y", 2.0, 0.8), ("a/easy-isam2", "z", 1.0, 0.7)])
+    real = leaderboard([("v/recorded-ekf", "x", 5.0, 0.5), ("v/recorded-ekf", "y", 4.0, 0.6), ("v/recorded-ekf", "z", 3.0, 0.7),
+                        ("v/recorded-isam2", "x", 5.0, 0.5), ("v/recorded-isam2", "y", 4.0, 0.6),
+                        ("v/recorded-isam2", "z", 3.0, 0.7)])
+    lines = sim_vs_real.places(sim, real, ["ate_rmse"], ["ekf", "isam2"])
+    assert lines[0] == "| method | sim place ate_rmse (ekf / isam2) | real place ate_rmse (ekf / isam2) |"
+    assert lines[2] == "| x | 1 / 3 | 3 / 3 |" and lines[-2] == "| **Spearman ρ** |  | **-1.00 / 1.00** |"
