@@ -35,7 +35,9 @@ def main() -> None:
     path = shipped_log(args.scene) if args.scene in SHIPPED_ODOMETRY_SCALES else Path(args.scene)
     scale = args.scale or SHIPPED_ODOMETRY_SCALES.get(args.scene, 1.0)
     log = read_log(path)
-    poses = reference_solution(log).poses
+    reference = reference_solution(log)
+    poses = reference.poses
+    print(f"reference solution: {reference.describe()}")
     windows = [w for w in WINDOWS if w < len(poses)]
     means = [float(np.mean(window_nees(log, poses, w))) for w in windows]
     counts = [len(window_nees(log, poses, w)) for w in windows]

@@ -22,6 +22,7 @@ residuals. ``outliers``: referenced sightings whose residual exceeds χ²₂(0.9
 from __future__ import annotations
 
 import importlib.metadata
+import sys
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -87,13 +88,22 @@ def reference_solution(log: RangeBearingLog, cache_dir: Path | None = None, use_
     key = reference_key(log)
     if use_cache and (key, cache_dir) in _SOLVED:   # read once per process
         return _SOLVED[key, cache_dir]
-    solution = cached_sequence(CACHE_FOLDER, key, lambda: solve(log), save_pickled, load_pickled, cache_dir, use_cache,
-                               suffix=".pkl", what="reference solution")
+    solution = cached_sequence(CACHE_FOLDER, key, lambda: announced(log), save_pickled, load_pickled, cache_dir,
+                               use_cache, suffix=".pkl", what="reference solution")
     _SOLVED[key, cache_dir] = solution
     return solution
 
 
 _SOLVED: dict[tuple[str, Path | None], ReferenceSolution] = {}
+
+
+def announced(log: RangeBearingLog) -> ReferenceSolution:
+    """``solve(log)``, saying on stderr that it runs (seconds, once per log file) and how well it fits."""
+    print(f"assocbench: computing the reference solution of {log.name} (once per log file) ...", file=sys.stderr,
+          flush=True)
+    solution = solve(log)
+    print(f"assocbench: reference solution of {log.name}: {solution.describe()}", file=sys.stderr, flush=True)
+    return solution
 
 
 def solve(log: RangeBearingLog) -> ReferenceSolution:

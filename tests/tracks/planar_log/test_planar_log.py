@@ -78,13 +78,14 @@ def test_the_shipped_example_runs_end_to_end(capsys, tmp_path):
     assert loop["status"] == "ok" and loop["pair_precision"] == 1.0 and loop["reference_landmarks"] == 8
 
 
-def test_the_reference_solution_recovers_a_simulated_path_and_is_cached(tmp_path, monkeypatch):
+def test_the_reference_solution_recovers_a_simulated_path_and_is_cached(tmp_path, monkeypatch, capsys):
     from assocbench.tracks.planar_log import reference
 
     path = tmp_path / "mine.log"
     truth = simulated_log(path)
     log = read_log(path)
     solution = reference.reference_solution(log, tmp_path / "cache")
+    assert f"reference solution of mine: {solution.describe()}" in capsys.readouterr().err   # its fit, said once
     assert np.sqrt(np.mean(np.sum((solution.poses[:, :2] - truth[:, :2]) ** 2, axis=1))) < 0.1
     assert np.abs(solution.landmarks - LANDMARKS[solution.ids - 50]).max() < 0.1
     assert 0.3 < solution.chi2_dof < 3 and solution.sightings == np.sum(log.sighting_ref >= 0)
