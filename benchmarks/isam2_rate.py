@@ -36,8 +36,8 @@ from _util import print_table  # noqa: E402
 
 from assocbench.estimators.base import FrameData, Motion  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
+from assocbench.estimators.planar_isam2 import PlanarISAM2, import_gtsam  # noqa: E402
 from assocbench.models.range_bearing import predict, wrap  # noqa: E402
-from assocbench.tracks.planar.isam2 import PlanarISAM2, import_gtsam  # noqa: E402
 
 SPACING, STEP, ROW_GAP, MAX_RANGE, FOV = 2.0, 0.5, 6.0, 5.0, 2 * np.pi
 R_MEAS = np.diag([0.02, np.deg2rad(0.5)]) ** 2

@@ -33,8 +33,8 @@ from _util import print_table, summary_ms  # noqa: E402
 
 from assocbench.estimators.base import Estimator, FrameData, Motion  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
+from assocbench.estimators.planar_ekf import PlanarEKF  # noqa: E402
 from assocbench.models.range_bearing import predict, wrap  # noqa: E402
-from assocbench.tracks.planar.ekf import PlanarEKF  # noqa: E402
 
 MAX_RANGE, FOV, STEP = 5.0, 2 * np.pi, 0.1
 R_MEAS = np.diag([0.02 ** 2, np.deg2rad(0.5) ** 2])

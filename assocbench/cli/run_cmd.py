@@ -42,10 +42,11 @@ def default_out(cfg: dict, scene: str, method: str, seed: int) -> Path:
     return Path("results/runs") / tag
 
 
-def tum_writers(frames: pd.DataFrame, out: Path) -> dict:
+def tum_writers(frames: pd.DataFrame, out: Path, truth: str = "truth") -> dict:
     """Writers of ``truth.txt`` and ``estimate.txt`` (TUM: ``t x y z qx qy qz qw``, one line per
     frame with a pose, t = frame index in seconds), for ``evo_ape tum truth.txt estimate.txt``. A
-    frame with no pose (its estimator had failed: NaN) has no line in either file."""
+    frame with no pose (its estimator had failed: NaN) has no line in either file. ``truth``: the
+    first file's name, a recorded track's ``reference`` (``Columns.scored_against``)."""
     columns = [f"{p}{c}" for p in ("true_", "est_") for c in ("x", "y", "z", "qx", "qy", "qz", "qw")]
     frames = frames[np.isfinite(frames[columns].to_numpy(dtype=float)).all(axis=1)]
 
@@ -54,7 +55,7 @@ def tum_writers(frames: pd.DataFrame, out: Path) -> dict:
         R = Rotation.from_quat(frames[[f"{prefix}{c}" for c in ("qx", "qy", "qz", "qw")]].to_numpy(dtype=float))
         text = tum_text(frames["frame"].to_numpy(dtype=float), R.as_matrix(), p, out / f"{prefix}trajectory")
         return lambda path: Path(path).write_text(text)
-    return {out / "truth.txt": writer("true_"), out / "estimate.txt": writer("est_")}
+    return {out / f"{truth}.txt": writer("true_"), out / "estimate.txt": writer("est_")}
 
 
 def source_labels(source) -> dict:
@@ -87,13 +88,13 @@ def main(args: argparse.Namespace) -> int:
                **{k: summary[k] for k in track.columns(spec.loop).summary}}
         summary_df = pd.DataFrame([row])
         path = f", trajectory {row['trajectory']}" if "trajectory" in row else ""
-        against = track.columns(spec.loop).against
+        against = track.columns(spec.loop).scored_against
         title = f"{row['method']} on {row['scene']} ({track.name} track): {words}{path}, {row['frames']} frames, " \
                 f"seed {row['seed']}" + ("" if against == "truth" else f", scored against the {against}")
         writers = {out / name: partial(df.to_csv, index=False, float_format="%.9g")   # all files or none
                    for name, df in (("frames.csv", frames), ("summary.csv", summary_df))}
         if "est_x" in frames:   # an estimated trajectory (a closed loop, a track that tracks): TUM files for evo
-            writers |= tum_writers(frames, out)
+            writers |= tum_writers(frames, out, against)
         if has(track, RunFiles):
             writers |= track.run_files(frames, Path(artifacts), out, title)
         write_group(writers)

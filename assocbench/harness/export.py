@@ -137,6 +137,6 @@ def _card(name: str, path: Path, suite: Suite, drive: str = "open") -> dict:
             by="the true association" if drive == "oracle" else f"method {drive}"),
         "format": "Apache Parquet, one row per frame (problems.parquet); " + WHY_PARQUET,
         "reader": "from assocbench.dataset import read_problems; for batch in read_problems(DIR): ...",
-        "labels": suite.track_impl.columns(suite.loop).against,
+        "labels": suite.track_impl.columns(suite.loop).scored_against,
         "licence": getattr(suite.track_impl, "data_licence", "") or LICENCE,   # a recorded track names its data's
     }

@@ -25,7 +25,7 @@ from ..errors import UserError
 from ..scoring.aggregate import summarize
 from ..scoring.metrics import score_frame, true_mass, unscored_frame
 from ..tracks.base import loop_words
-from ..tracks.capabilities import OwnFrames, has
+from ..tracks.capabilities import OwnFrames, RunScores, has
 from .imports import for_every_method
 
 WARM_UP = -1          # the call index of building the associator and its warm-up call
@@ -281,8 +281,11 @@ class GuardedCalls:
 
 def summarize_run(track, frames) -> dict:
     """The summary row of one run's per-frame records: the track's own (``OwnFrames``), else the
-    shared metrics of association problems (``scoring.aggregate.summarize``)."""
-    return track.summarize(frames) if has(track, OwnFrames) else summarize(frames)
+    shared metrics of association problems (``scoring.aggregate.summarize``) and the track's own
+    scores of the run (``RunScores``)."""
+    if has(track, OwnFrames):
+        return track.summarize(frames)
+    return summarize(frames) | (track.run_scores(frames) if has(track, RunScores) else {})
 
 
 def describe_run(track, run) -> tuple[dict, str]:

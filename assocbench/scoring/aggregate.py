@@ -20,6 +20,8 @@ run can never read as a perfect one; ``check`` fails every row that is not ``ok`
 
 from __future__ import annotations
 
+from collections.abc import Sequence
+
 import numpy as np
 import pandas as pd
 
@@ -98,8 +100,9 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
     } | (loop_summary(frames) if "nees" in frames else {})
 
 
-def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
-    """Mean and std over seeds of each method × scenario, sorted by scenario, rows that are not ok
+def leaderboard_table(summaries: pd.DataFrame, extra: Sequence[str] = ()) -> pd.DataFrame:
+    """Mean and std over seeds of each method × scenario (the shared metrics, and the columns
+    ``extra`` of a track's own that the summaries have), sorted by scenario, rows that are not ok
     last, then F1 (best first);
     a closed-loop suite's by ATE (lowest first), with ``diverged`` the number of seeds that did.
     A NaN in any seed makes the mean NaN (it is not skipped), and ``status`` is ``ok`` only when
@@ -110,6 +113,7 @@ def leaderboard_table(summaries: pd.DataFrame) -> pd.DataFrame:
         metrics += [c for c in LOOP_COLUMNS if c not in ("anees_lo", "anees_hi", "diverged_at")]
         summaries = summaries.assign(diverged=(summaries["diverged_at"] >= 0).astype(float))
     optional = list(REPORTED_METRICS) + (["revisits", "loop_closures", "ate_smoothed"] if loop else [])   # older results lack them
+    metrics += [c for c in extra if c in summaries and c not in metrics]
     summaries = summaries.assign(**{c: np.nan for c in optional if c not in summaries})
     grouped = summaries.groupby(["scenario", "method"], sort=True)
     mean = grouped[metrics].agg(lambda col: col.mean(skipna=False))

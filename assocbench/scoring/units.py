@@ -15,7 +15,9 @@ UNITS = {"ate_rmse": "m", "ate_smoothed": "m", "map_rmse": "m", "surprisal_gap":
          "diverged_at": "frame (-1: never)", "icp_failures": "frames", "wrong_steps": "frames",
          "clutter_accepted": "features", "no_depth": "features", "map_size": "landmarks", "new_landmarks": "landmarks", "revisits": "re-sightings",
          "loop_closures": "re-sightings",
-         "map_points": "points", "duplicates": "landmarks", "false_landmarks": "landmarks"}
+         "map_points": "points", "duplicates": "landmarks", "false_landmarks": "landmarks",
+         "pair_precision": "share of sighting pairs", "pair_recall": "share of sighting pairs",
+         "reference_landmarks": "landmarks"}
 SUFFIX_UNITS = (("_ms", "ms"), ("_mm", "mm"), ("_deg", "deg"), ("_pct", "%"), ("_s", "s"))
 
 

@@ -56,15 +56,15 @@ class Columns:
     """A track's summary columns: ``summary`` in the order ``run`` prints and writes them,
     ``primary`` the metric the report ranks its methods by, ``frames`` the per-frame columns a
     leaderboard keeps beside ``frame`` (its pictures read them), ``units`` of the track's own
-    columns (the shared ones are in ``scoring.units``), and what its runs are scored ``against``:
-    ``truth`` (a simulation's) or ``reference`` (a recording's own labels, which pages must not call
-    the truth)."""
+    columns (the shared ones are in ``scoring.units``), and ``scored_against``: what its labels
+    are, ``truth`` (a simulation's) or ``reference`` (a recorded dataset's own association, not
+    ground truth), the word its leaderboard, report page and pictures use."""
 
     summary: tuple[str, ...]
     primary: Metric
     frames: tuple[str, ...] = ()
     units: Mapping[str, str] = field(default_factory=dict)
-    against: str = "truth"
+    scored_against: str = "truth"
 
 
 @dataclass(frozen=True)

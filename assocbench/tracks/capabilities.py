@@ -16,6 +16,7 @@ run's track lacks, it says so in one line (``lacks``).
 ``OwnMethods``         methods only this track runs (they then imply it)
 ``Trajectories``       named paths for ``assocbench list``
 ``Requirements``       an optional package the track needs (listed as unavailable without it)
+``RunScores``          summary columns of its own, computed from a run's per-frame records
 =====================  ========================================================================
 """
 
@@ -223,6 +224,16 @@ class Requirements(Protocol):
 
     def unavailable(self) -> str | None:
         """Why the track cannot run here (``gtsam is not installed: pip install ...``), or None."""
+
+
+@runtime_checkable
+class RunScores(Protocol):
+    """Summary columns of its own beside the shared ones (a track whose frames are ``Problem``s):
+    scores of a whole run that no single frame has (a recorded track's pairwise "same landmark"
+    precision over every sighting). Its ``Columns.summary`` lists them."""
+
+    def run_scores(self, frames: Any) -> dict:
+        """``{column: value}`` from a run's per-frame records (a pandas DataFrame)."""
 
 
 def has(track: Any, capability: type) -> bool:

@@ -30,7 +30,8 @@ BUILTINS = {"camera": "assocbench.tracks.camera.track:CameraTrack",
             "planar": "assocbench.tracks.planar.track:PlanarTrack",
             "lines": "assocbench.tracks.lines.track:LinesTrack",
             "dense": "assocbench.tracks.dense.track:DenseTrack",
-            "photos": "assocbench.tracks.photos.track:PhotosTrack"}
+            "photos": "assocbench.tracks.photos.track:PhotosTrack",
+            "planar_log": "assocbench.tracks.planar_log.track:PlanarLogTrack"}
 DEFAULT_TRACK = "camera"   # a run that names no track, no scene and no method of a track's own
 
 _TRACKS: dict[str, Track] = {}

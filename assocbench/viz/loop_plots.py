@@ -21,7 +21,7 @@ from scipy.stats import chi2
 from .plots import method_styles
 
 ORACLE = "oracle"               # harness.config.ORACLE; viz does not import the harness
-ORACLE_LABEL = "oracle (truth)"
+ORACLE_LABEL = "oracle (truth)"   # a simulated track's (``label``)
 POSE_DOF = 6                    # NEES of a 6-DoF pose error
 BAND = (0.025, 0.975)           # two-sided 95 % per frame
 BOUND = 0.999                   # harness divergence test's level
@@ -52,8 +52,10 @@ def method_order(methods) -> list[str]:
     return ([ORACLE] if ORACLE in names else []) + [m for m in names if m != ORACLE]
 
 
-def label(method: str) -> str:
-    return ORACLE_LABEL if method == ORACLE else method
+def label(method: str, scored_against: str = "truth") -> str:
+    """A method's name in a legend: the oracle as what it is, ``oracle (truth)`` on a simulated
+    track, ``oracle (reference)`` on a recorded one (``tracks.base.Columns.scored_against``)."""
+    return f"{ORACLE} ({scored_against})" if method == ORACLE else method
 
 
 def scenario_grid(scenarios, scenes: Sequence[str] | None = None,
@@ -123,11 +125,13 @@ def _ate_panel(ax, sub: pd.DataFrame, order: list[str], styles: dict, title: str
     ax.grid(axis="y", alpha=0.3, which="both")
 
 
-def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None):
+def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None,
+               scored_against: str = "truth"):
     """ATE RMSE (m) of each method in each scenario (``scenario`` = ``scene/difficulty``,
     ``method``, ``ate_rmse``, ``ate_rmse_std``: mean and std over seeds): a row of panels per
     scene, a column per difficulty, a bar per method with ± std error bars. ``oracle`` is hatched
-    and labelled "oracle (truth)": the filter fed the true association, the floor the others chase."""
+    and labelled "oracle (truth)": the filter fed the true association, the floor the others chase
+    (``scored_against``: "reference" on a recorded track, whose labels are a dataset's)."""
     from matplotlib.patches import Patch
 
     order = method_order(table["method"])
@@ -136,10 +140,11 @@ def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficu
     log = wants_log(table)
     for scenario, ax in axes.items():
         _ate_panel(ax, table[table["scenario"] == scenario], order, styles, scenario, log)
-    handles = [Patch(label=label(m), **_bar_style(m, styles)) for m in order]
+    handles = [Patch(label=label(m, scored_against), **_bar_style(m, styles)) for m in order]
     fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 6), frameon=False, fontsize=8)
     scale = (f"log axes: a panel spans more than {LOG_RATIO:g}x" if log else "linear axes")
-    fig.text(0.5, 0.005, "absolute trajectory error (RMSE of the position, no alignment)\nbars: mean over "
+    against = "" if scored_against == "truth" else f" against the {scored_against} path"
+    fig.text(0.5, 0.005, f"absolute trajectory error (RMSE of the position{against}, no alignment)\nbars: mean over "
              f"seeds, whiskers: ± std; every panel on {scale}",
              ha="center", va="bottom", fontsize=7)
     fig.tight_layout(rect=(0, 0.3 / fig.get_figheight(), 1, 1 - 0.5 / fig.get_figheight()))
@@ -159,12 +164,14 @@ def median_over_seeds(frames: pd.DataFrame) -> pd.DataFrame:
     return finite.groupby(["method", "frame"], as_index=False)["nees"].median()
 
 
-def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None):
+def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None,
+                scored_against: str = "truth"):
     """Pose NEES against frame (``scenario``, ``method``, ``seed``, ``frame``, ``nees`` per row): a
     panel per scenario, a line per method (median over seeds), log y; shaded: the per-frame
     two-sided 95 % band of χ²_q, q the frames' ``nees_dof`` (6: [1.24, 14.4], dashed χ²₆(0.999) = 22.5;
     3, in the plane: [0.22, 9.35], dashed 16.3).
-    A line above the band says the filter is overconfident (its covariance too small)."""
+    A line above the band says the filter is overconfident (its covariance too small); on a
+    recorded track (``scored_against`` "reference") the error is taken against the reference path."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -189,8 +196,8 @@ def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, diffi
         ax.set_ylim(bottom=floor / 1.3)
         readable_log_axis(ax)
         ax.grid(alpha=0.3, which="major")
-    handles = [Line2D([], [], color=styles[m]["color"], lw=1.4, ls=":" if m == ORACLE else "-", label=label(m))
-               for m in order]
+    handles = [Line2D([], [], color=styles[m]["color"], lw=1.4, ls=":" if m == ORACLE else "-",
+                      label=label(m, scored_against)) for m in order]
     handles += [Patch(color="0.85", label=f"per-frame 95 % band of $\\chi^2_{dof}$"),
                 Line2D([], [], color="0.3", ls="--", label=f"$\\chi^2_{dof}$(0.999)")]
     fig.legend(handles=handles, loc="upper center", ncol=min(len(handles), 5), frameon=False, fontsize=8)
@@ -231,14 +238,15 @@ def _map_panel(ax, run: pd.DataFrame, landmarks, means, color, limits) -> None:
 
 
 def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
-               maps: Mapping[str, np.ndarray] | None = None, title: str = ""):
+               maps: Mapping[str, np.ndarray] | None = None, title: str = "", scored_against: str = "truth"):
     """Top view (x–y, metres, equal axes) of one run per method, a panel each.
 
     frames: per-frame rows of one scenario and one seed with ``method``, ``frame``, ``true_x``,
     ``true_y``, ``est_x``, ``est_y`` (a closed-loop ``frames.csv``, as the leaderboard stores it);
     landmarks: the true landmarks (L, 2+), grey; maps: per method its final estimated landmark
     means (N, 2+). ``frames.csv`` does not record the map, so without ``maps`` the panels show the
-    trajectories only, and the figure says so."""
+    trajectories only, and the figure says so. ``scored_against``: what the path and landmarks
+    drawn are, "truth" or a recorded track's "reference" (the caption's word)."""
     from matplotlib.figure import Figure
 
     order = method_order(frames["method"])
@@ -253,8 +261,10 @@ def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
     for ax, method in zip(axes.flat, order):
         _map_panel(ax, frames[frames["method"] == method].sort_values("frame"), landmarks,
                    None if maps is None else maps.get(method), styles[method]["color"], limits)
-        ax.set_title(label(method), fontsize=9)
-    what = "thick black: true path; thin: estimate" + ("; grey dots: true landmarks" if landmarks is not None else "")
+        ax.set_title(label(method, scored_against), fontsize=9)
+    word = "true" if scored_against == "truth" else scored_against
+    what = f"thick black: {word} path; thin: estimate" + (f"; grey dots: {word} landmarks" if landmarks is not None
+                                                           else "")
     if "odo_x" in frames and np.isfinite(frames["odo_x"].to_numpy(dtype=float)).any():
         what += "; dashed: odometry alone"
     what += "; +: final map" if maps is not None else "; map not recorded (trajectories only)"
@@ -276,7 +286,7 @@ def final_maps(frames: pd.DataFrame) -> dict[str, np.ndarray] | None:
     return out
 
 
-def landmark_map_figure(frames: pd.DataFrame, landmarks: np.ndarray, title: str = ""):
-    """``map_figure`` of one seed's closed-loop ``frames`` over the true ``landmarks`` (x, y first),
-    with each method's final map (``final_maps``)."""
-    return map_figure(frames, landmarks, final_maps(frames), title=title)
+def landmark_map_figure(frames: pd.DataFrame, landmarks: np.ndarray, title: str = "", scored_against: str = "truth"):
+    """``map_figure`` of one seed's closed-loop ``frames`` over the true (or reference) ``landmarks``
+    (x, y first), with each method's final map (``final_maps``)."""
+    return map_figure(frames, landmarks, final_maps(frames), title=title, scored_against=scored_against)

@@ -28,7 +28,8 @@ from pathlib import Path
 
 ROOT = Path(__file__).resolve().parents[2]
 # the committed leaderboards the site's report is built from, in its order (a missing one is skipped)
-REPORT_SUITES = ("results", "results/loop", "results/planar", "results/lines", "results/dense", "results/real/photos")
+REPORT_SUITES = ("results", "results/loop", "results/planar", "results/lines", "results/dense", "results/real/photos",
+                 "results/real/victoria", "results/real/victoria_open")
 MARKER = re.compile(r"^<!-- generated: (\w+) -->$", re.M)
 
 

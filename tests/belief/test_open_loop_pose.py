@@ -10,8 +10,8 @@ from assocbench.belief.config import BeliefConfig
 from assocbench.belief.planar import open_loop_pose
 from assocbench.models import polar_line, range_bearing
 from assocbench.tracks.lines.belief import make_line_problem
-from assocbench.tracks.planar.belief import make_planar_problem
 from assocbench.tracks.planar.sequence import PlanarSequenceSpec, make_planar_sequence
+from assocbench.tracks.plane_belief import make_planar_problem
 
 
 def test_the_lines_problem_is_predicted_from_the_open_loop_pose():

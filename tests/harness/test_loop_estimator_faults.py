@@ -27,7 +27,7 @@ GTSAM_ERROR = "Indeterminant linear system detected while working near variable 
 
 def inject(monkeypatch, name: str) -> None:
     """Make ``PlanarISAM2.<name>`` raise GTSAM's error from frame ``FAIL_AT`` on."""
-    from assocbench.tracks.planar.isam2 import PlanarISAM2
+    from assocbench.estimators.planar_isam2 import PlanarISAM2
 
     real = getattr(PlanarISAM2, name)
 
@@ -77,7 +77,7 @@ seeds: [0]
 # a script whose top level (which a forkserver's workers import too) breaks iSAM2's update
 LAUNCHER = f"""
 import sys
-from assocbench.tracks.planar.isam2 import PlanarISAM2
+from assocbench.estimators.planar_isam2 import PlanarISAM2
 
 real = PlanarISAM2._flush
 

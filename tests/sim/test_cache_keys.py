@@ -28,7 +28,7 @@ def _edit(path):
     ("models/pinhole.py", True),            # a measurement model
     ("models/camera.py", True),             # the intrinsics
     ("sim/render.py", True),                # shared rendering
-    ("tracks/planar/ekf.py", False),        # another track
+    ("tracks/planar/track.py", False),      # another track
     ("tracks/lines/extract.py", False),
     ("associators/jcbb.py", False),         # association never changes a sequence
 ])

@@ -75,6 +75,12 @@ CATALOGUE = (
     Column("false_landmarks", "false landmarks", "map entries with no true landmark behind them", "low", 2),
     Column("map_rmse", "map RMSE", "RMSE of the final map's landmark positions", "low", 4),
     Column("map_size", "map size", "landmarks in the final map", "", 1, main=False),
+    Column("pair_precision", "pair precision", "of the pairs of sightings the method put on one landmark, the share "
+           "the reference says are one (a wrong merge lowers it)", "high"),
+    Column("pair_recall", "pair recall", "of the pairs of sightings the reference says are one landmark, the share "
+           "the method put on one (a duplicate landmark lowers it)", "high"),
+    Column("reference_landmarks", "reference landmarks", "landmarks of the dataset's reference its frames sighted "
+           "(what map size is compared with)", "", 1, main=False),
     Column("new_landmarks", "new landmarks", "landmarks the method's decisions added to the map", "", 1, main=False),
     Column("no_depth", "no depth", "features that could not be initialised (no triangulation depth)", "", 1,
            main=False),

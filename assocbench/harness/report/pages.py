@@ -14,7 +14,7 @@ import pandas as pd
 from ...scoring.loop_summary import BAND_LEGEND, band_mark
 from ...viz.cd_diagram import cd_figure
 from ...viz.plots import figure_bytes
-from ..leaderboard import ORACLE_LABEL
+from ..leaderboard import oracle_label
 from .columns import BY_KEY, COUNT_COLUMNS, NOT_METRICS, Column, column
 from .ranking import REFERENCE_METHODS, RULE, Ranking, rankings
 from .suites import Suite, caption
@@ -191,8 +191,8 @@ def suite_body(suite: Suite, pictures: list[str]) -> str:
            f'<p class="lead">{escape(suite.track)} track{", " + suite.loop_words if suite.loop_words else ""}. One row per scenario and '
            f"method: the mean &plusmn; std {seeds}. Click a column's header to sort by it; pick a scene, difficulty, "
            f"back end or method to filter. Ranked on the overview by {escape(suite.primary.header)} "
-           f"({BETTER[suite.primary.better]}). Rows in <i>italics</i>: the true association, a reference, not a "
-           f"method; rows in red are <b>not ok</b> (numbers the harness could not trust; the status says why).</p>",
+           f"({BETTER[suite.primary.better]}). Rows in <i>italics</i>: {_oracle_words(suite)}; rows in red are "
+           f"<b>not ok</b> (numbers the harness could not trust; the status says why).</p>",
            _filters(t), _table(suite, columns), "<h2>Columns</h2>", _legend(suite, columns)]
     if pictures:
         figures = "".join(f'<figure><a href="{p}"><img src="{p}" alt="{escape(caption(name, suite))}"></a>'
@@ -231,15 +231,23 @@ def _table(suite: Suite, columns: list[Column]) -> str:
     head += [f'<th class="sortable more" data-type="num" title="{escape(COUNT_COLUMNS[k][1])}">{COUNT_COLUMNS[k][0]}'
              f'<span class="unit">{"seeds" if k == "diverged" else "frames"}</span></th>' for k in counts]
     head.append('<th class="text sortable" data-type="text">status<span class="unit"></span></th>')
-    rows = [_row(r, labels, columns, counts, suite.kind) for _, r in t.iterrows()]
+    rows = [_row(r, labels, columns, counts, suite.kind, oracle_label(suite.scored_against)) for _, r in t.iterrows()]
     stacked = " stacked" if suite.kind == "loop" or suite.family != "feature" else ""   # many columns: each std under its mean, to fit 1400 px
     return (f'<div class="scroll"><table class="filterable{stacked}"><thead><tr>{"".join(head)}</tr></thead>\n'
             '<tbody>\n' + "\n".join(rows) + "\n</tbody></table></div>")
 
 
-def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str) -> str:
+def _oracle_words(suite: Suite) -> str:
+    word = suite.scored_against
+    if word == "truth":
+        return "the true association, a reference, not a method"
+    return (f"the dataset's own {escape(word)} association, not a method; every score on this page is against that "
+            f"{escape(word)} (its labels, its landmarks, the path a solver fitted to them), not ground truth")
+
+
+def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: str, oracle_name: str) -> str:
     oracle = r["method"] in REFERENCE_METHODS
-    name = ORACLE_LABEL if oracle else r["method"]
+    name = oracle_name if oracle else r["method"]
     attrs = "".join(f' data-{k}="{escape(str(r[k]))}"' for k in ("scene", "difficulty", "backend", "method"))
     look = ' class="oracle"' if oracle else ' class="notok"' if r["status"] != "ok" else ""
     cells = [f'<td class="text" data-v="{escape(str(r[k]))}">{escape(str(r[k]))}</td>' for k, _ in labels]
@@ -287,7 +295,7 @@ def _legend(suite: Suite, columns: list[Column]) -> str:
     items = [("scene / difficulty / back end", "the scenario, split from its name scene/difficulty-backend (the back "
               "end: the estimator, the line extractor or the ICP target)") if suite.table["backend"].ne("").any()
              else ("scene / difficulty", "the scenario, split from its name scene/difficulty")]
-    items += [(c.header, escape(against_reference(c.meaning) if suite.against == "reference" else c.meaning)
+    items += [(c.header, escape(against_reference(c.meaning) if suite.scored_against == "reference" else c.meaning)
                + (f"; {BETTER[c.better]}" if c.better else "")
                + ("" if c.shown(suite.kind) else " (behind &ldquo;more columns&rdquo;)")) for c in columns]
     items += [(f"{label} [{'seeds' if k == 'diverged' else 'frames'}]", f"{meaning} (behind &ldquo;more columns&rdquo;; "

@@ -12,6 +12,7 @@ import numpy as np
 import pandas as pd
 
 from ...scoring.aggregate import OK
+from .columns import Column
 from .significance import ALPHA, RankTest, block_ranks, friedman_nemenyi
 from .suites import Suite
 
@@ -51,13 +52,13 @@ class Ranking:
     scenarios_out: dict[str, str] = field(default_factory=dict)
 
 
-def suite_blocks(suite: Suite) -> pd.DataFrame:
+def suite_blocks(suite: Suite, metric: Column | None = None) -> pd.DataFrame:
     """One row per block x method of ``suite`` (the oracle left out): ``block`` (its id),
-    ``scenario``, ``key`` (the primary metric signed so that lower is better; +inf where the run
-    cannot win), ``diverged``, ``ok``."""
+    ``scenario``, ``key`` (``metric``, by default the suite's primary one, signed so that lower is
+    better; +inf where the run cannot win), ``diverged``, ``ok``."""
     runs = suite.runs if suite.runs is not None else suite.table
     runs = runs[~runs["method"].isin(REFERENCE_METHODS)]
-    metric = suite.primary
+    metric = metric or suite.primary
     value = (1.0 if metric.better == "low" else -1.0) * runs[metric.key].astype(float)
     diverged = runs["diverged"].fillna(0).gt(0) if "diverged" in runs else pd.Series(False, index=runs.index)
     ok = (runs["status"] == OK) & np.isfinite(value) & ~diverged

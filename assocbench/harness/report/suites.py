@@ -80,9 +80,9 @@ class Suite:
         return self.card["words"]
 
     @property
-    def against(self) -> str:
-        """What its runs were scored against: ``truth``, or a recording's ``reference``."""
-        return self.card.get("against", "truth")
+    def scored_against(self) -> str:
+        """What its runs were scored against: ``truth``, or a recorded track's ``reference``."""
+        return self.card.get("scored_against", "truth")
 
 
 def read_suite(path: Path, source: str) -> Suite:

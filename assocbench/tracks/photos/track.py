@@ -56,7 +56,7 @@ class PhotosTrack(FeatureTrack):
 
     def columns(self, loop: bool) -> Columns:
         """The shared columns, scored against the reconstruction's reference, not a truth."""
-        return replace(super().columns(loop), against="reference")
+        return replace(super().columns(loop), scored_against="reference")
 
     def suites(self) -> dict[str, SuiteFile]:
         from ...configs import shipped_config

@@ -61,7 +61,7 @@ class PlanarTrack(LidarTrack):
         return self.lidar_source(spec)
 
     def problem(self, source: FrameSource, k: int, run: Any):
-        from .belief import make_planar_problem
+        from ..plane_belief import make_planar_problem
 
         return make_planar_problem(source.sequence, k, run.belief, run.seed)
 
@@ -85,7 +85,7 @@ class PlanarTrack(LidarTrack):
         return marks.landmark_geoms > 0
 
     def estimator(self, source: FrameSource, run: Any):
-        from .estimator import make_planar_estimator
+        from ..plane_estimator import make_planar_estimator
 
         return make_planar_estimator(source.sequence, run.estimator, run.belief, run.seed)
 

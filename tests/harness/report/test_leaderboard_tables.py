@@ -54,6 +54,28 @@ def test_only_shared_methods_are_ranked_and_a_not_ok_row_ranks_last(tmp_path, sc
     assert "| easy | +1.00 | +1.00 | +1.00 |" in out
 
 
+def test_back_ends_are_compared_apart_by_each_metric_asked_and_a_diverged_run_keeps_its_value(tmp_path, script, capsys):
+    """--by backend: the ekf scenarios against the ekf ones, isam2 against isam2; by ATE (lower is
+    better) and F1; x diverged on the real ekf run, yet ranks by its ATE (the report would rank it last)."""
+    def rows(scene, difficulty, values, diverged=()):
+        return [{"scenario": f"{scene}/{difficulty}", "method": m, "ate_rmse": a, "f1": f, "status": "ok",
+                 "diverged": int(m in diverged)} for m, (a, f) in values.items()]
+
+    sim = tiny_leaderboard(tmp_path / "sim", rows("park", "easy-ekf", {"x": (1, .9), "y": (2, .8), "z": (3, .7)})
+                           + rows("post_grid", "hard-ekf", {"x": (1, .9), "y": (3, .8), "z": (2, .7)})
+                           + rows("park", "easy-isam2", {"x": (3, .9), "y": (2, .8), "z": (1, .7)}))
+    real = tiny_leaderboard(tmp_path / "real", rows("victoria_park", "whole-ekf", {"x": (5, .5), "y": (4, .6), "z": (3, .7)}, "x")
+                            + rows("victoria_park", "whole-isam2", {"x": (5, .5), "y": (4, .6), "z": (3, .7)}))
+    assert script.main([str(sim), str(real), "--by", "backend", "--metric", "ate_rmse", "f1"]) == 0
+    out = capsys.readouterr().out
+    ekf, isam2 = out.split("### ATE, back end isam2")[0], out.split("### ATE, back end isam2")[1].split("### F1")[0]
+    assert "| x | 1.000 | 1.00 | 5.000 | 3.00 | +2.00 |" in ekf and "ρ = -0.87 over 3 methods" in ekf  # y, z tie in sim
+    assert "2 simulated scenarios" in ekf and "ρ = +1.00" in isam2 and "1 simulated scenario (park" in isam2
+    assert "### F1, back end ekf" in out and "### F1, back end isam2" in out
+    assert script.main([str(sim), str(real), "--metric", "ate"]) == 2
+    assert "has no column 'ate': give a metric both leaderboards have" in capsys.readouterr().err
+
+
 def test_too_few_shared_methods_or_an_unshared_one_asked_for_is_one_line(tmp_path, script, capsys):
     sim = board(tmp_path / "sim", "room", {"a": [0.9, 0.9], "b": [0.8, 0.8], "c": [0.7, 0.7]})
     real = board(tmp_path / "real", "checkerboard", {"a": [0.9, 0.9], "b": [0.8, 0.8], "x": [0.7, 0.7]})

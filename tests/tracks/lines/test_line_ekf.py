@@ -18,12 +18,12 @@ from assocbench.belief.config import BeliefConfig, true_association
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData
 from assocbench.estimators.config import EstimatorConfig
+from assocbench.estimators.planar_ekf import PlanarEKF
 from assocbench.models.polar_line import jacobians, predict
 from assocbench.models.range_bearing import pose_error, wrap
 from assocbench.scoring.trajectory import anees_band, ate_rmse
 from assocbench.tracks.lines.belief import candidate_lines
 from assocbench.tracks.lines.ekf import LineEKF
-from assocbench.tracks.planar.ekf import PlanarEKF
 from assocbench.tracks.registry import get_track
 
 STEPS, SEEDS = 200, 10

@@ -99,5 +99,5 @@ def test_the_leaderboard_card_says_the_runs_are_scored_against_the_reference():
     from assocbench.tracks.registry import get_track
 
     photos = card(get_track("photos"), False)
-    assert photos["against"] == "reference" and card(get_track("camera"), False)["against"] == "truth"
+    assert photos["scored_against"] == "reference" and card(get_track("camera"), False)["scored_against"] == "truth"
     assert json.loads(json.dumps(photos)) == photos

@@ -19,9 +19,9 @@ from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData, Motion
 from assocbench.estimators.config import EstimatorConfig
 from assocbench.estimators.ekf_core import NotPositiveDefinite
+from assocbench.estimators.planar_ekf import PlanarEKF
 from assocbench.models.range_bearing import jacobians, pose_error, predict, wrap
 from assocbench.scoring.trajectory import anees, anees_band
-from assocbench.tracks.planar.ekf import PlanarEKF
 
 STEPS, SEEDS = 500, 20
 MAP_ALL = dict(target_paired=1000, max_new_per_frame=1000, max_landmarks=5000)   # every seen post mapped

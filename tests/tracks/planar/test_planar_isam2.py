@@ -13,8 +13,8 @@ from scipy.stats import chi2
 from assocbench.errors import UserError
 from assocbench.estimators.base import FrameData, Motion
 from assocbench.estimators.config import EstimatorConfig
+from assocbench.estimators.planar_isam2 import PlanarISAM2, tangent_to_world
 from assocbench.models.range_bearing import pose_error
-from assocbench.tracks.planar.isam2 import PlanarISAM2, tangent_to_world
 
 try:
     import gtsam
@@ -292,7 +292,7 @@ def test_last_bit_differences_do_not_grow(monkeypatch):
 def test_no_landmark_from_a_feature_closer_than_min_init_range():
     """initialise skips a feature inside MIN_INIT_RANGE (no post's centre can be that near) and
     still makes the others, within the same caps."""
-    from assocbench.tracks.planar.isam2 import MIN_INIT_RANGE
+    from assocbench.estimators.planar_isam2 import MIN_INIT_RANGE
     est = PlanarISAM2(EstimatorConfig(name="isam2", mode="slam"), np.zeros(3), np.zeros((3, 3)), np.zeros((0, 2)),
                       np.zeros(0, np.int64), 5.0, 2 * np.pi)
     R = np.diag([0.01, np.deg2rad(0.5)]) ** 2
@@ -334,7 +334,7 @@ def test_exact_odometry_or_precise_lidar_runs(mode, sigma_t, sigma_h_deg, sigma_
 def test_noise_above_the_floor_is_passed_unchanged():
     """Every shipped σ is far above NOISE_FLOOR: its covariance reaches GTSAM bit for bit; one
     below it is raised to NOISE_FLOOR² along that eigenvector only."""
-    from assocbench.tracks.planar.isam2 import NOISE_FLOOR
+    from assocbench.estimators.planar_isam2 import NOISE_FLOOR
     est = PlanarISAM2(EstimatorConfig(name="isam2", mode="slam"), np.zeros(3), np.zeros((3, 3)), np.zeros((0, 2)),
                       np.zeros(0, np.int64), 5.0, np.pi)
     S = np.array([[1e-4, 2e-5], [2e-5, 3e-4]])

@@ -23,11 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...association.problem import Problem
-from ...errors import UserError
-from ...estimators.base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
-from ...estimators.config import EstimatorConfig
-from ...estimators.ekf_core import (
+from ..association.problem import Problem
+from ..errors import UserError
+from ..models.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
+from .base import Estimator, FrameData, LandmarkBook, Motion, UpdateReport, creation_room
+from .config import EstimatorConfig
+from .ekf_core import (
     augment,
     block_diag,
     bundle_jacobian,
@@ -36,8 +37,7 @@ from ...estimators.ekf_core import (
     remove,
     state_columns,
 )
-from ...estimators.planar_pose import PlanarPoseViews, motion_step
-from ...models.range_bearing import ANGULAR, inverse, inverse_jacobians, jacobians, predict, wrap
+from .planar_pose import PlanarPoseViews, motion_step
 
 POSE = np.arange(3)
 MARGIN_SIGMAS = 3.0   # candidate bounds widened by this many σ of the predicted range / bearing

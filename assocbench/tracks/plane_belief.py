@@ -1,30 +1,34 @@
-"""The planar track's open-loop problem of one frame: the sampled estimate (``belief.planar``)
-predicts each mapped post in range-bearing, ``P = H Σ Hᵀ``; measurements are the frame's post
-detections plus uniform clutter over range × bearing."""
+"""The open-loop problem of one frame of a robot in the plane with range-bearing point landmarks
+(the planar track's posts, a recorded log's reference map): the sampled estimate
+(``belief.planar``) predicts each mapped landmark in range-bearing, ``P = H Σ Hᵀ``; measurements
+are the frame's detections plus uniform clutter over range × bearing."""
 
 from __future__ import annotations
 
 import numpy as np
 
-from ...association.problem import NO_MATCH, Problem
-from ...association.truth import FrameTruth
-from ...belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
-from ...belief.planar import (
+from ..association.problem import NO_MATCH, Problem
+from ..association.truth import FrameTruth
+from ..belief.config import BeliefConfig, map_mask, prediction_covariance, true_association
+from ..belief.planar import (
     clutter_detections,
     in_sensor_view,
     nominal_noise,
     planar_pose_covariance,
     sample_planar_estimate,
 )
-from ...models.range_bearing import ANGULAR, jacobians, predict
+from ..models.range_bearing import ANGULAR, jacobians, predict
 
 
 def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
-    """The open-loop association problem of one planar frame and its truth (``seq``: a
-    ``PlanarSequence``; its ``max_range`` and ``fov`` bound the candidates)."""
+    """The open-loop association problem of one planar frame and its truth. ``seq`` has the
+    frames' ``poses`` (N, 3), ``z``, ``R``, ``labels`` and ``visible`` (N, L), the ``landmarks``
+    (L, 2), the sensor's ``max_range`` and ``fov`` (they bound the candidates) and the
+    ``nominal_R`` a clutter detection reports when a frame has no detection (a ``PlanarSequence``,
+    a recorded log's sequence)."""
     rng = np.random.default_rng([seed, frame, 101])
-    pose_hat, map_hat = sample_planar_estimate(seq.poses[frame], seq.posts, cfg, rng)
-    in_map = map_mask(len(seq.posts), cfg, seed)
+    pose_hat, map_hat = sample_planar_estimate(seq.poses[frame], seq.landmarks, cfg, rng)
+    in_map = map_mask(len(seq.landmarks), cfg, seed)
     zhat = predict(pose_hat, map_hat)
     cand = np.flatnonzero(in_map & in_sensor_view(zhat, seq.max_range, seq.fov))
     H_pose, H_l = jacobians(pose_hat, map_hat[cand])

@@ -47,12 +47,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from ...association.problem import Problem
-from ...errors import UserError
-from ...estimators.base import CONFIRMED, Estimator, FrameData, LandmarkBook, Motion, UpdateReport
-from ...estimators.config import EstimatorConfig
-from ...models.range_bearing import ANGULAR, inverse, jacobians, predict
-from ...models.se2 import rot2, rz
+from ..association.problem import Problem
+from ..errors import UserError
+from ..models.range_bearing import ANGULAR, inverse, jacobians, predict
+from ..models.se2 import rot2, rz
+from .base import CONFIRMED, Estimator, FrameData, LandmarkBook, Motion, UpdateReport
+from .config import EstimatorConfig
 
 GAUGE_SIGMA = 1e-6             # σ floor of the priors (m, rad): P = 0 in slam mode is the gauge
 NOISE_FLOOR = 1e-5             # σ floor (m, rad) of every odometry and measurement noise given to GTSAM (_noise)
