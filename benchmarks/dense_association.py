@@ -59,7 +59,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms, timed
+from _util import print_table, run_recorded, summary_ms, timed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb  # noqa: E402
@@ -183,4 +183,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -94,7 +94,7 @@ except (ImportError, OSError) as exc:   # OSError: libusb-1.0 missing on Debian
     sys.exit(2)
 
 import numpy as np  # noqa: E402
-from _util import print_table, summary_ms  # noqa: E402
+from _util import print_table, run_recorded, summary_ms  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -319,4 +319,4 @@ def report(table1: list, table2: list, results: list[dict], args) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

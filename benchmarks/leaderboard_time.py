@@ -12,7 +12,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import print_table
+from _util import print_table, run_recorded
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,4 +39,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)
