@@ -192,3 +192,15 @@ def test_every_script_that_prints_a_table_records_it_and_run_all_runs_it_or_says
     planned = {run.script for run in run_all.runs()}
     assert planned | set(run_all.NOT_RUN) == recording_scripts() and not planned & set(run_all.NOT_RUN)
     assert len({run.record for run in run_all.runs()}) == len(run_all.runs())   # no two runs share a record
+
+
+def test_the_association_compile_notice_announces_what_first_run_measured():
+    """The notice's "~N s" is a measurement: within a factor 2 of benchmarks/first_run.py's record."""
+    from assocbench import kernels
+
+    path = BENCHMARKS / "records" / "first_run.json"
+    if not path.is_file():
+        pytest.skip("benchmarks/records/first_run.json not recorded yet (python benchmarks/run_all.py --only first_run)")
+    rows = {row[0]: row for row in json.loads(path.read_text())["tables"][0]["rows"]}
+    measured = float(rows["association kernels, jcbb"][2])
+    assert measured / 2 <= kernels.ASSOCIATION_COMPILE_S <= measured * 2, (measured, kernels.ASSOCIATION_COMPILE_S)
