@@ -18,6 +18,7 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from _util import print_markdown, run_recorded
 
 from assocbench.errors import UserError
 from assocbench.harness.runstore import FOLDER
@@ -66,9 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"call_sizes: error: {exc}", file=sys.stderr)
         return 2
-    print(markdown(call_table(*runs)), end="")
+    print_markdown(markdown(call_table(*runs)))
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_recorded(main)
