@@ -101,10 +101,9 @@ TREE_KEYS = ("left", "right", "feature", "threshold", "value")
 
 
 def checked_trees(doc: dict, where: str) -> list[dict]:
-    """The document's trees, each checked node by node (``_check_tree``); a model that is not a
-    forest the walk can follow is refused in one line naming the file, tree and node. The
-    compiled walk reads ``x[feature]`` and the child indices unchecked: an index out of range read
-    other memory (a feature 12 of 12 ran with status ok, a child 1e6 segfaulted the worker)."""
+    """The document's trees, each checked node by node (``_check_tree``); a model the walk cannot
+    follow is refused in one line naming the file, tree and node, since the compiled walk indexes
+    unchecked (out of range it would read other memory)."""
     trees = doc.get("trees")
     if not isinstance(trees, list) or not trees:
         raise UserError(f"model {where} has no trees: make one with `assocbench train --data DIR --out MODEL`")
