@@ -1,5 +1,5 @@
 """CCDA: combined constraint data association, a maximum clique of the correspondence graph (Bailey,
-    Nebot, Rosenblatt & Durrant-Whyte, ICRA 2000; Bailey's PhD thesis, Sydney 2002).
+Nebot, Rosenblatt & Durrant-Whyte, ICRA 2000; Bailey's PhD thesis, Sydney 2002).
 
 The graph has a vertex per candidate pairing (feature i, landmark j) passing the unary constraint,
 and an edge between (i, j) and (i', j'), i ≠ i', j ≠ j', when they satisfy the binary constraint;

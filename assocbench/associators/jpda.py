@@ -1,6 +1,6 @@
 """JPDA: joint probabilistic data association (Fortmann, Bar-Shalom & Scheffe 1983), a soft
-    associator: marginal association probabilities, exact per cluster by enumeration, loopy belief
-    propagation (Williams & Lau 2014) past a size limit.
+associator: marginal association probabilities, exact per cluster by enumeration, loopy belief
+propagation (Williams & Lau 2014) past a size limit.
 
 Landmarks ``j``, features ``i``; a pair is gated when ``NIS_ij <= χ²_d(c)``. A joint event ``θ``
 pairs each landmark with at most one gated feature and each feature with at most one landmark; the

@@ -1,5 +1,5 @@
 """RJC: randomised joint compatibility (Paz, Guivant, Tardós & Neira, "Data association in O(n) for
-    divide and conquer SLAM", RSS 2007).
+divide and conquer SLAM", RSS 2007).
 
 RANSAC over the features: each iteration draws ``b`` features, finds the sample's best jointly
 compatible hypothesis with JCBB (a tree over ``b`` features whatever the problem's size), then

@@ -11,9 +11,9 @@ back end). Poses ``X(k)`` (``Pose2``), landmarks ``L(map id)`` (``Point2``):
   order is bearing, range).
 
 Coordinates: ``Pose2``'s tangent is body-frame (``x ⊕ ξ = x·Exp(ξ)``), so a world-frame error is
-    ``[R(θ) ξ_xy, ξ_θ]``: covariances from GTSAM are mapped by ``T = blockdiag(R(θ), 1, I₂…)``
-    (``Σ_w = T Σ_t Tᵀ``, θ of iSAM2's linearisation point), those given to it by ``Tᵀ``; an
-    increment's Q becomes ``blockdiag(R(Δθ)ᵀ, 1) Q blockdiag(R(Δθ), 1)``.
+``[R(θ) ξ_xy, ξ_θ]``: covariances from GTSAM are mapped by ``T = blockdiag(R(θ), 1, I₂…)``
+(``Σ_w = T Σ_t Tᵀ``, θ of iSAM2's linearisation point), those given to it by ``Tᵀ``; an
+increment's Q becomes ``blockdiag(R(Δθ)ᵀ, 1) Q blockdiag(R(Δθ), 1)``.
 
 Factors wait in a batch and reach iSAM2 when something reads the estimate, so a frame costs one or
 two updates. A dropped tentative landmark's factors are removed (``removeFactorIndices``): a

@@ -9,10 +9,10 @@ P, ``landmark_mask`` (N,). The joint covariance and the angular dims are in ``in
 terminating step observes nothing (masks zero).
 
 Action: ``MultiDiscrete`` of N entries in [-1, M-1], the feature paired with each candidate (padded
-    slots -1); ``info["action_mask"]`` says which values each slot may take (``actions.py``). An
-    invalid action is never scored silently: with ``invalid_action="penalize"`` (default) the reward
-    is ``-n``, nothing counts as found, ``jointly_compatible`` is False and
-    ``info["invalid_action"]`` says why; with ``"raise"`` the step raises ``ValueError``.
+slots -1); ``info["action_mask"]`` says which values each slot may take (``actions.py``). An
+invalid action is never scored silently: with ``invalid_action="penalize"`` (default) the reward
+is ``-n``, nothing counts as found, ``jointly_compatible`` is False and
+``info["invalid_action"]`` says why; with ``"raise"`` the step raises ``ValueError``.
 
 Reward: TP − FP of the step.
 

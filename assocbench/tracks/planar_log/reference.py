@@ -3,15 +3,15 @@ with GTSAM to the log's odometry and referenced sightings (its own association),
 log file and cached. It is a reference, not ground truth: what the log's association implies.
 
 How: batch Levenberg–Marquardt from dead reckoning stops in a wrong minimum on Victoria Park, so an
-    iSAM2 pass comes first (``BATCH`` poses at a time, each new pose and landmark initialised from
-    the estimate), then Levenberg–Marquardt polishes the whole graph. Factors:
-    ``BetweenFactorPose2`` per increment (the file's covariance), ``BearingRangeFactor2D`` per
-    referenced sighting (``R = G Σ Gᵀ``, bearing first), a prior fixing the first pose at the origin
-    (``GAUGE_SIGMA``: the gauge); unreferenced sightings are left out.
+iSAM2 pass comes first (``BATCH`` poses at a time, each new pose and landmark initialised from
+the estimate), then Levenberg–Marquardt polishes the whole graph. Factors:
+``BetweenFactorPose2`` per increment (the file's covariance), ``BearingRangeFactor2D`` per
+referenced sighting (``R = G Σ Gᵀ``, bearing first), a prior fixing the first pose at the origin
+(``GAUGE_SIGMA``: the gauge); unreferenced sightings are left out.
 
 Fit: ``chi2 = Σ‖whitened residual‖²`` at the optimum; ``dof`` = measurement dims − (variable dims −
-    3); ``chi2 / dof`` near 1 says the log's covariances describe its residuals. ``outliers``:
-    referenced sightings past χ²₂(0.999).
+3); ``chi2 / dof`` near 1 says the log's covariances describe its residuals. ``outliers``:
+referenced sightings past χ²₂(0.999).
 """
 
 from __future__ import annotations
