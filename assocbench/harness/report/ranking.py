@@ -38,9 +38,9 @@ RULE = (
 
 @dataclass
 class Ranking:
-    """One ranking: ``table`` has a row per ranked method (``method``, ``place``, ``mean_rank``,
-    ``last``: blocks where its run diverged, was not ok or had no value), best first; ``left_out``
-    and ``scenarios_out`` say which methods and scenarios were not compared, and why."""
+    """One ranking: ``table`` a row per ranked method (``method``, ``place``, ``mean_rank``,
+    ``last``: blocks where it diverged, was not ok or had no value), best first; ``left_out`` and
+    ``scenarios_out`` say what was not compared and why."""
 
     title: str
     slug: str
@@ -53,9 +53,8 @@ class Ranking:
 
 
 def suite_blocks(suite: Suite, metric: Column | None = None) -> pd.DataFrame:
-    """One row per block x method of ``suite`` (the oracle left out): ``block`` (its id),
-    ``scenario``, ``key`` (``metric``, by default the suite's primary one, signed so that lower is
-    better; +inf where the run cannot win), ``diverged``, ``ok``."""
+    """One row per block x method (no oracle): ``block``, ``scenario``, ``key`` (``metric``, signed
+    so lower is better; +inf where the run cannot win), ``diverged``, ``ok``."""
     runs = suite.runs if suite.runs is not None else suite.table
     runs = runs[~runs["method"].isin(REFERENCE_METHODS)]
     metric = metric or suite.primary
