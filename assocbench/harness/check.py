@@ -30,8 +30,8 @@ def check_tolerance(value, where: str = "--tolerance") -> float:
 def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "ci",
                   default: bool = False) -> pd.DataFrame:
     """The baseline CSV (``scenario, method`` and every guarded column in range), or a one-line
-    error: a missing, empty, truncated or non-numeric baseline, or one lacking a guarded column,
-    vouches for nothing. ``default``: the default path, relative to the working folder."""
+    error for one that cannot vouch for anything (missing, empty, truncated, non-numeric, a guarded
+    column lacking). ``default``: the default path, relative to the working folder."""
     if not path.is_file():
         how = "" if suite == "ci" else f" --suite {suite}"
         where = (f" in {Path.cwd()}: check guards a clone of assocbench (its baselines are the clone's results/); "
@@ -67,8 +67,8 @@ def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "c
 
 def compare(current: pd.DataFrame, baseline: pd.DataFrame, guards: tuple[GuardedMetric, ...],
             tolerances: dict[str, float], expected: list[tuple[str, str]]) -> pd.DataFrame:
-    """Findings that make ``check`` fail: a guarded column worse than the baseline by more than
-    ``tolerances[guard.tolerance] · guard.scale``, a non-finite value, a status not ``ok``, or an
+    """Findings that fail ``check``: a guarded column worse than the baseline by more than
+    ``tolerances[guard.tolerance] · guard.scale``, a non-finite value, a status not ``ok``, an
     ``expected`` row missing on either side."""
     cur = current.set_index(KEY)
     base = baseline.set_index(KEY)

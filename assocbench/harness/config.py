@@ -106,8 +106,8 @@ def _paths(cfg: dict, sections: set[str]) -> list[str]:
 
 
 def _unknown(key: str, known: list[str], where: str, track: str, everywhere: list[str]) -> UserError:
-    """An unknown dotted ``key``: the tracks that have it, else the same name elsewhere
-    (``limits.time_limit_s`` -> ``time_limit_s``) or the closest spelling."""
+    """An unknown dotted ``key``: the tracks that have it, else that name elsewhere or the closest
+    spelling."""
     others = [t for t in owners(key) if t != track]
     if others:
         return UserError(f"{key} is a setting of the {' and '.join(others)} track{'s' if len(others) > 1 else ''}, "
@@ -124,8 +124,8 @@ def _unknown(key: str, known: list[str], where: str, track: str, everywhere: lis
 
 
 def merge(base: dict, override: dict, where: str, track: str | None = None) -> dict:
-    """``base`` (a complete config of ``track``) updated by ``override``: every key must be
-    ``base``'s; a section (a mapping that is not free-form like ``params``) merges key by key."""
+    """``base`` (a complete config of ``track``) updated by ``override``, whose keys must be
+    ``base``'s; sections (not free-form ``params``) merge key by key."""
     track = track or str(base.get("track"))
     sections = set(run_schema(get_track(track)).sections)
     everywhere = _paths(base, sections)
@@ -234,9 +234,8 @@ class RunSpec:
 
 
 def run_spec(cfg: dict) -> RunSpec:
-    """Resolve a merged config into a ``RunSpec``, checking every value once, before anything runs:
-    types and ranges, the method and parameters (built once), the closed loop, sizes against
-    ``limits``."""
+    """Resolve a merged config into a ``RunSpec``, checking every value once before anything runs
+    (types, ranges, the method built once, the closed loop, ``limits``)."""
     track = get_track(cfg.get("track") or infer_track(cfg.get("scene"), cfg.get("method")).name)
     cfg = merge(defaults(track), {k: v for k, v in cfg.items() if k != "track"}, "the run config", track.name)
     settings = run_schema(track).build(cfg)
@@ -287,9 +286,8 @@ def with_pictures(spec: RunSpec, what: str) -> RunSpec:
 
 
 def check_method(method: str, params: dict, loop: bool, track: Track) -> None:
-    """Refuse an unknown method or bad parameters now (built once). ``oracle`` exists only in the
-    closed loop; a track with its own frame loop checks its methods itself; a class with
-    ``check_track(track, params)`` is asked about the track."""
+    """Refuse an unknown method or bad parameters now (built once). ``oracle`` is closed-loop only;
+    an ``OwnFrames`` track checks its methods; a class's ``check_track(track, params)`` is asked."""
     if has(track, OwnFrames):
         track.check_method(method, params)
         return

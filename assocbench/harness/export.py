@@ -57,8 +57,8 @@ def check_export_folder(out: Path) -> Path:
 
 def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda line: None,
                  drive: str = "open") -> dict:
-    """Write every problem of suite ``name`` into ``out`` by ``drive`` (module docstring); returns
-    the card with the write's ``seconds`` and rate (not on the card: output is byte for byte)."""
+    """Write every problem of suite ``name`` into ``out`` by ``drive``; returns the card with the
+    write's ``seconds`` and rate (kept off the card, which is byte for byte)."""
     check_export_folder(out)
     pyarrow()   # an install without the learn extra is told so before anything runs or is created
     path = resolve_suite(name)
@@ -83,8 +83,8 @@ def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda 
 
 
 def _driver(name: str, suite: Suite, drive: str) -> MethodEntry | None:
-    """What drives the loop: ``None`` (open, or the truth for ``oracle``) or the method labelled
-    ``drive``; one-line error otherwise, or for a loop drive of an open suite."""
+    """The loop's driver: ``None`` (open, or ``oracle``'s truth) or the method labelled ``drive``; a
+    one-line error otherwise."""
     methods = suite.methods
     labels = [m.label for m in methods]
     if drive not in DRIVES and drive not in labels:
@@ -103,8 +103,8 @@ def open_problems(track, spec) -> Iterator[tuple[Problem, FrameTruth]]:
 
 
 def driven_loop(spec, driver: MethodEntry | None) -> Iterator[tuple[Problem, FrameTruth]]:
-    """Each frame's (problem, truth) of the run's closed loop, the filter updated with the truth
-    (``driver`` None) or with ``driver``'s answer (a failed frame updates nothing)."""
+    """Each frame's (problem, truth) of the closed loop, updated with the truth (``driver`` None) or
+    ``driver``'s answer."""
     associator = None if driver is None else make_associator(driver.method, **driver.params)
     loop = ClosedLoop(spec.source, spec)
     for k in range(len(spec.source)):

@@ -46,9 +46,8 @@ class ImportLog:
             self._into = before
 
     def report(self) -> dict:
-        """What the parent needs of one method's run (``inputs.run_inputs``): names asked for, each
-        source module's load time, the numeric libraries loaded, and when this worker line's first
-        process started."""
+        """What the parent needs for ``inputs.run_inputs``: names asked for, each source module's
+        load time, the numeric libraries loaded, this worker line's start."""
         loaded = {}
         for name, module in list(sys.modules.items()):
             path = getattr(module, "__file__", None)

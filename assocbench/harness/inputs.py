@@ -185,9 +185,8 @@ class ImportGraph:
 
 
 def is_source(name: str, path: Path, installed: set[str]) -> bool:
-    """Whether module ``name`` at ``path`` is hashed: this package's modules, any outside the
-    libraries' folders, and those of the ``installed`` top-level packages (a pip-installed plugin is
-    the method's code)."""
+    """Whether module ``name`` at ``path`` is hashed: this package's, any outside the libraries'
+    folders, and the ``installed`` top-level packages' (a pip-installed plugin)."""
     return not is_library(path) or name.partition(".")[0] in installed
 
 
@@ -282,9 +281,8 @@ class RunInputs:
 
 
 def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict, installed: Iterable[str] = ()) -> RunInputs:
-    """The inputs of one method's run from its ``roots`` and the worker's ``report``, the
-    ``installed`` packages' modules hashed too; ``Stale`` when a file was saved after the worker
-    loaded it."""
+    """The inputs of a method's run from its ``roots`` and the worker's ``report``; ``Stale`` when a
+    file was saved after it loaded."""
     loaded = {str(Path(path).resolve()): at for path, at in report["loaded"].items()}
     files, tops, installed = {}, set(), set(installed)
     for name in sorted(graph.closure(set(roots) | set(report["names"]), installed)):
@@ -306,9 +304,8 @@ def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict, installed
 
 
 def run_roots(spec, method: str) -> tuple[set[str], set[str]]:
-    """The modules a worker starts a run from: its harness (``HARNESS_ROOT``), the track's module,
-    the spec's (settings, frame source) and the method class's; and the top-level packages of the
-    track's and method's modules (hashed even when installed)."""
+    """The modules a worker starts a run from (``HARNESS_ROOT``, the track's, the spec's, the method
+    class's) and their top-level packages (hashed even when installed)."""
     from ..associators.registry import associator_class
 
     own = {type(spec.track_impl).__module__}

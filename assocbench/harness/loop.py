@@ -35,8 +35,8 @@ class EstimatorFailed(RuntimeError):
 
 
 def _guarded(fn: Callable, *args, **kwargs):
-    """``fn(*args, **kwargs)`` with what it raises turned into ``EstimatorFailed``, except bad input
-    (``UserError``) and an update refused as not positive definite (a failed frame)."""
+    """``fn(*args, **kwargs)`` with its exceptions made ``EstimatorFailed``, except ``UserError``
+    and a not-positive-definite update (a failed frame)."""
     try:
         return fn(*args, **kwargs)
     except (UserError, NotPositiveDefinite):
@@ -135,8 +135,8 @@ class ClosedLoop:
         return record | {"new_landmarks": len(made), "no_depth": no_depth}
 
     def _made_label(self, map_id: int, label: int) -> int:
-        """The landmark a new map entry truly is: its feature's ``label``; for a two-view
-        triangulation, only if the earlier view's feature images the same landmark (else false)."""
+        """The landmark a new map entry truly is: its feature's ``label``, for a two-view one only
+        if both views image it (else false)."""
         first = getattr(self._est, "first_sighting", {}).get(map_id)
         if first is None:
             return int(label)
@@ -157,8 +157,8 @@ class ClosedLoop:
 
 
 def new_landmark_features(problem: Problem, association: np.ndarray, gate: float) -> np.ndarray:
-    """Features a slam filter may make landmarks of: unassociated, with Mahalanobis distance
-    ``√(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)`` above ``gate`` to every candidate (0: all)."""
+    """Unassociated features farther than ``gate`` (Mahalanobis, ``√(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)``)
+    from every candidate: a slam filter's new landmarks (0: all)."""
     free = np.setdiff1d(np.arange(problem.m), association[association >= 0])
     if gate <= 0 or problem.n == 0 or not len(free):
         return free.astype(np.int64)
@@ -179,8 +179,7 @@ def loop_records(source, run, first: int = 0, faults: dict | None = None,
                  on_call: Callable[[int, float], None] = lambda k, limit: None,
                  replay: dict | None = None) -> Iterator[dict]:
     """Per-frame records of the method's closed loop on ``source`` from ``first`` (earlier frames
-    replayed from ``replay[k] = (association, error)``); ``faults``, ``on_call`` as in
-    ``runner.frame_records``."""
+    replayed from ``replay``); ``faults``, ``on_call`` as ``runner.frame_records``'."""
     faults, replay = faults or {}, replay or {}
     method, params, time_limit_s = run.method, run.params, run.time_limit_s
     try:

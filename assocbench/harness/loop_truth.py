@@ -26,9 +26,8 @@ class MapTruth:
 
 
 def loop_truth(map_ids: np.ndarray, truth: MapTruth, labels: np.ndarray, visible: np.ndarray) -> FrameTruth:
-    """Truth of a closed-loop problem: the feature truly imaging each candidate's landmark,
-    one-to-one, older entries first (a later duplicate truly pairs with nothing); ``labels`` (m,)
-    each feature's landmark or -1; ``visible`` (n,)."""
+    """Truth of a closed-loop problem: each candidate's truly imaging feature, one-to-one, older
+    entries first (a later duplicate pairs with nothing); ``labels`` (m,), ``visible`` (n,)."""
     association = np.full(len(map_ids), NO_MATCH, dtype=np.int64)
     feature_labels = np.full(len(labels), NO_MATCH, dtype=np.int64)
     features_of: dict[int, list[int]] = {}
@@ -47,8 +46,8 @@ def loop_truth(map_ids: np.ndarray, truth: MapTruth, labels: np.ndarray, visible
 
 def map_quality(map_ids: list[int], confirmed: np.ndarray, estimates: np.ndarray, truth: MapTruth,
                 landmarks: np.ndarray) -> dict[str, float]:
-    """Confirmed entries (``map_size``), ``duplicates`` (beyond the first per landmark),
-    ``false_landmarks`` (tied to none) and ``map_rmse`` (m) of the tied ones against the truth."""
+    """Confirmed ``map_size``, ``duplicates``, ``false_landmarks`` (tied to none) and ``map_rmse``
+    (m) of the tied ones."""
     labels = np.array([truth.label[m] for m in map_ids], dtype=np.int64)[np.asarray(confirmed, bool)]
     tied = labels >= 0
     errors = np.linalg.norm(np.asarray(estimates)[np.asarray(confirmed, bool)][tied] - landmarks[labels[tied]], axis=1)

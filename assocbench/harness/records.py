@@ -74,9 +74,8 @@ def _spool_error(exc: OSError) -> UserError:
 
 
 def frame_table(records: Iterable[dict], drop: tuple[str, ...] = ()) -> pd.DataFrame:
-    """``pd.DataFrame(list(records))`` without ``drop``'s columns, ``CHUNK`` records at a time:
-    pieces joined in order, columns by first appearance, a missing column NaN (the dtypes one table
-    would infer)."""
+    """``pd.DataFrame(list(records))`` less ``drop``'s columns, ``CHUNK`` records at a time (columns
+    by first appearance, missing ones NaN: one table's dtypes)."""
     it = iter(records)
     pieces = []
     while chunk := list(islice(it, CHUNK)):

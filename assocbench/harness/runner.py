@@ -45,8 +45,8 @@ def warm_scoring() -> None:
 
 
 def warm_up(associator) -> None:
-    """Run ``associator`` once on a tiny problem, so loading kernels is not timed as the first
-    frame. Errors are left to the real frames, ``SystemExit`` included; a user's interrupt passes."""
+    """Run ``associator`` once on a tiny problem so loading kernels is not timed; errors are left to
+    the real frames, a user's interrupt passes."""
     try:
         hook = getattr(associator, "warm_up", None)   # Associator subclasses have one; other plugins need not
         if callable(hook):
@@ -67,8 +67,8 @@ def load_source(source, cache_dir: Path | None) -> None:
 
 
 class Problems:
-    """The open loop's problem and truth of each frame, built when first asked for, checked whole
-    (``checked_frame``) and kept for the run's other methods: each frame built once."""
+    """The open loop's problem and truth per frame, built when first asked for, checked whole and
+    kept for the run's other methods."""
 
     def __init__(self, track, source, run) -> None:
         self.track, self.source, self.run = track, source, run
@@ -87,8 +87,7 @@ class Problems:
 
 def checked_frame(track: str, k: int, problem: Problem, truth: FrameTruth) -> tuple[Problem, FrameTruth]:
     """``(problem, truth)`` of frame ``k`` once ``Problem.validate`` and ``checked_truth`` pass,
-    else a ``UserError`` naming track and frame: the frame is every method's input, so the command
-    stops (exit 2) rather than score against impossible pairs."""
+    else a ``UserError`` naming track and frame (every method's input: the command stops, exit 2)."""
     try:
         problem.validate()
     except ValueError as exc:
@@ -118,8 +117,8 @@ def private_copy(problem: Problem) -> Problem:
 
 
 def user_interrupt(exc: BaseException) -> bool:
-    """Whether ``exc`` is a real Ctrl-C: a ``KeyboardInterrupt`` where SIGINT is not ignored (a
-    worker ignores it, so there one can only come from the method: a failure)."""
+    """Whether ``exc`` is a real Ctrl-C, a ``KeyboardInterrupt`` where SIGINT is not ignored (in a
+    worker one can only be the method's)."""
     return isinstance(exc, KeyboardInterrupt) and signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
 
 
@@ -129,8 +128,8 @@ def describe(exc: BaseException) -> str:
 
 
 def method_diagnostics(associator, problem: Problem) -> dict:
-    """What a method's ``info`` says of the last call: ``timed_out``, ``proven_optimal`` (1.0, 0.0,
-    or NaN where unsaid) and a soft associator's validated ``marginals``."""
+    """What ``info`` says of the last call: ``timed_out``, ``proven_optimal`` (1.0, 0.0, NaN
+    unsaid), a soft method's validated ``marginals``."""
     info = getattr(associator, "info", None) or {}
     proven = info.get("proven_optimal")
     if proven is not None and not isinstance(proven, (bool, np.bool_)):
@@ -143,8 +142,8 @@ def method_diagnostics(associator, problem: Problem) -> dict:
 
 
 def soft_marginals(marginals, problem: Problem) -> np.ndarray:
-    """``info["marginals"]`` as an (n, m + 1) array of probabilities whose rows sum to 1 (within
-    1e-6); anything else fails the frame (``ValueError``)."""
+    """``info["marginals"]`` as (n, m + 1) probabilities with rows summing to 1 (1e-6), else a
+    ``ValueError`` failing the frame."""
     shape = (problem.n, problem.m + 1)
     beta = np.array(marginals, dtype=np.float64) if marginals is not None else None
     if beta is None or beta.shape != shape:
@@ -159,8 +158,7 @@ def soft_marginals(marginals, problem: Problem) -> np.ndarray:
 
 def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float, dict, str]:
     """``associate`` on a private copy of ``problem``, timed alone: (association validated against
-    the pristine problem, runtime_s, diagnostics, error). Whatever the method raises, or its code
-    that validation runs (``__array__``, an ``info`` property), fails the frame."""
+    the pristine problem, runtime_s, diagnostics, error); whatever its code raises fails the frame."""
     start = time.perf_counter()
     try:
         raw = associator.associate(private_copy(problem))
@@ -186,8 +184,8 @@ def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runti
 
 
 def guarded_build(make: Callable[[], object]) -> tuple[object | None, str]:
-    """``(make(), "")``, or ``(None, error)`` when building fails in the method's own code; a bad
-    name or parameter (``UserError``) and a real Ctrl-C propagate."""
+    """``(make(), "")``, or ``(None, error)`` when the method's own constructor fails; ``UserError``
+    and a real Ctrl-C propagate."""
     try:
         return make(), ""
     except UserError:
@@ -241,8 +239,8 @@ def frame_records(problems: Problems, method: str, params: dict,
 
 @dataclass
 class GuardedCalls:
-    """The plugin boundary for a track's own frame loop (``tracks.base.MethodCalls``): each call
-    announced with its limit, timed, and what it raises (but a real Ctrl-C) made the frame's error."""
+    """The plugin boundary of a track's own frame loop (``MethodCalls``): each call announced with
+    its limit, timed, its exceptions (but Ctrl-C) the frame's error."""
 
     time_limit_s: float
     faults: dict
@@ -267,8 +265,7 @@ class GuardedCalls:
 
 
 def summarize_run(track, frames) -> dict:
-    """A run's summary row: the track's own (``OwnFrames``), else the shared metrics
-    (``scoring.aggregate.summarize``) and the track's ``RunScores``."""
+    """A run's summary row: the track's own, else the shared metrics and the track's ``RunScores``."""
     if has(track, OwnFrames):
         return track.summarize(frames)
     return summarize(frames) | (track.run_scores(frames) if has(track, RunScores) else {})

@@ -56,9 +56,9 @@ def store_run(out: Path, run: Run, result: tuple[pd.DataFrame, pd.DataFrame], in
 
 
 def lookup(out: Path, run: Run) -> tuple[tuple[pd.DataFrame, pd.DataFrame] | None, str | None]:
-    """The stored (summary, frames) of ``run`` if complete, verified and made from today's inputs,
-    else ``(None, why)``: ``why`` names the changed input, None when there is nothing. Damaged files
-    are removed with one line on stderr."""
+    """The stored (summary, frames) of ``run`` if complete, verified and from today's inputs, else
+    ``(None, why)`` (``why``: the changed input, or None); damaged files are removed with one line
+    on stderr."""
     folder, key = Path(out) / FOLDER, run.key
     manifest = manifest_path(out, key)
     if not manifest.is_file():

@@ -73,9 +73,8 @@ _GUARD = ("a script that runs assocbench from a process with threads (workers th
 
 @dataclass(frozen=True)
 class Task:
-    """Work for one worker: the runs ``(label, RunSpec)`` on one sequence and the methods
-    ``(label, method, params)`` called on their frames; ``name`` and the labels say which in
-    messages."""
+    """One worker's work: the runs ``(label, RunSpec)`` on one sequence and the methods
+    ``(label, method, params)``; ``name`` and labels for messages."""
 
     name: str
     runs: tuple
@@ -90,8 +89,8 @@ class TaskFailed(RuntimeError):
 
 @dataclass
 class _Progress:
-    """What the parent knows of a task: records by (run, method) (a ``RecordSpool`` each), calls
-    failed in a killed worker (frame -> (error, runtime_s)), and where a fresh worker resumes."""
+    """What the parent knows of a task: records per (run, method), calls failed in killed workers,
+    where a fresh worker resumes."""
 
     records: dict = field(default_factory=dict)
     faults: dict = field(default_factory=dict)
@@ -123,8 +122,8 @@ def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, enviro
 
 
 def _become_worker(environ: dict) -> None:
-    """A session of its own (``_kill_session`` kills everything its method started), interrupts left
-    to the parent, the parent's environment; exit with the parent."""
+    """Its own session (so ``_kill_session`` kills all its method started), interrupts left to the
+    parent, the parent's environment, exit with the parent."""
     try:
         os.setsid()
     except OSError:   # already a session's leader
@@ -158,8 +157,8 @@ def _kill_session(pid: int) -> None:
 
 def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: dict,
               replay: dict | None = None) -> None:
-    """Run the task's runs × methods from ``resume``; a closed-loop run replays the frames before it
-    from ``replay`` (frame -> (association, error))."""
+    """Run the task's runs × methods from ``resume``, a closed loop replaying earlier frames from
+    ``replay``."""
     cache = Path(task.cache_dir) if task.cache_dir else None
     log = imports.start()
     for r in range(resume[0], len(task.runs)):
@@ -194,9 +193,8 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
 # ---------------------------------------------------------------- parent side
 
 def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
-    """``fork`` when this process has no other thread (no lock can be inherited held, and a worker
-    starts with all this process loaded); otherwise (a progress monitor, a dask worker, user
-    threads) a forkserver started once with the built-ins warm."""
+    """``fork`` when this process has no other thread (no lock inherited held; workers start with
+    all loaded), else a forkserver started once with the built-ins warm."""
     methods, tracks = list(methods), list(tracks)
     if "fork" in mp.get_all_start_methods() and _single_threaded():
         warm_builtins(methods, tracks)  # here, so that every worker inherits the loaded kernels
@@ -252,9 +250,8 @@ _warm: set[str] = set()
 
 
 def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
-    """Load the kernels of the built-in associators among ``methods`` and of the ``tracks`` here,
-    once (numba's cache; a cold compile is announced by ``kernels.warm``). Only assocbench's own
-    code runs here."""
+    """Load the kernels of the built-in ``methods`` and the ``tracks`` here, once (a cold compile is
+    announced); only assocbench's code runs here."""
     for name in sorted(set(tracks)):
         warm_track(get_track(name))
     from ..associators.registry import BUILTINS
@@ -498,8 +495,8 @@ def _close_spools(progress: _Progress) -> None:
 
 
 def _stop(w: _Running, grace: float = 0.0) -> None:
-    """End ``w``'s process (killed after ``grace`` s) and its method's processes, release its
-    handles. The group is killed before ``join``: an unreaped worker's id cannot be reused."""
+    """End ``w``'s process (killed after ``grace`` s) and its method's, releasing its handles; the
+    group dies before ``join`` (an unreaped id is not reused)."""
     if grace:
         wait([w.process.sentinel], grace)
     _kill_session(w.process.pid)
@@ -525,9 +522,9 @@ class _allow_children:
 
 def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False,
             artifacts: Path | None = None, progress: bool = False) -> tuple[pd.DataFrame, dict]:
-    """Run ``spec`` in a worker (``spec.time_limit_s`` per call): per-frame records and the track's
-    summary. ``associations=True`` keeps each frame's association in an ``association`` column;
-    ``artifacts``: a folder for end-of-run files (``RunFiles``); ``progress``: a bar on stderr."""
+    """Run ``spec`` in a worker (``time_limit_s`` per call): per-frame records and the summary.
+    ``associations=True`` adds an ``association`` column; ``artifacts``: a folder for ``RunFiles``;
+    ``progress``: a bar on stderr."""
     name = f"{spec.source.name} seed {spec.seed}"
     task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
                 str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)

@@ -106,8 +106,8 @@ def settings_payload(settings) -> dict:
 
 
 def _param_file_digests(params: dict) -> list[str]:
-    """The content of each file a parameter names (``learned``'s ``params.model``, a plugin's data),
-    so a file rewritten in place does not reuse the old numbers."""
+    """Each parameter-named file's content (``learned``'s ``params.model``), so one rewritten in
+    place reruns."""
     paths = (Path(v) for v in params.values() if isinstance(v, str) and v)
     return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
 
@@ -263,8 +263,8 @@ def _requires(raw: dict, where: str) -> tuple[str, ...]:
 
 
 def suite_track(raw: dict, methods: tuple[MethodEntry, ...], where: str) -> Track:
-    """The one track of a suite's runs: its ``track``, else the one each method and scene implies;
-    mixed tracks are refused (one table cannot hold them)."""
+    """The suite's one track: its ``track``, else what its methods and scenes imply; mixed tracks
+    are refused."""
     base = raw.get("base") or {}
     named = raw.get("track") or base.get("track")
     if named is not None:
@@ -295,8 +295,8 @@ def _crossed(difficulties: dict, backends: dict) -> dict:
 
 
 def resolve_suite(name: str) -> Path:
-    """A suite file: ``name`` when it is an existing path or ends in .yaml/.yml, else a registered
-    track's shipped suite of that name (``Track.suites``)."""
+    """A suite file: ``name`` if an existing path or ``.yaml``/``.yml``, else a registered track's
+    shipped suite."""
     path = Path(name)
     if path.exists() or path.suffix in (".yaml", ".yml") or len(path.parts) > 1:
         return path

@@ -117,7 +117,7 @@ def _run_dask(todo: list[list[Run]], keep: Callable, client, cache_dir: str | No
 
 def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str | None) -> None:
     """Run each cell's ``todo`` in at most ``jobs`` workers, keeping each as it finishes; a task
-    failed outside any method call is named, the rest run, then ``TaskFailed``."""
+    failing outside a method call is named, the rest run, then ``TaskFailed``."""
     graph = ImportGraph()
     if jobs == 1:
         failed = []
@@ -160,8 +160,8 @@ def in_turns(tasks: list[list[Run]]) -> list[list[Run]]:
 
 def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", address: str | None = None,
               cache_dir: str | None = None, progress: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Compute every run of ``suite`` not stored under ``out``, store each as its task finishes, and
-    return all runs' summaries and frames, labelled, in the suite's order."""
+    """Compute the runs of ``suite`` not stored under ``out``, storing each as it finishes; return
+    every run's summary and frames, labelled, in suite order."""
     if executor not in EXECUTORS:
         raise UserError(f"unknown executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
     if jobs < 1:
