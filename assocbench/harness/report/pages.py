@@ -271,8 +271,8 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
 
 
 def _badges(r: pd.Series, counts: list[str]) -> str:
-    """A badge beside the method's name for each counted failure of the method (budget spent, failed frames,
-    diverged seeds): the row stays ok (the harness measured it) but the failure must not be missed."""
+    """A badge by the method's name per counted failure (budget spent, failed frames, diverged
+    seeds): the row stays ok, but the failure must not be missed."""
     return "".join(f' <span class="badge" title="{escape(COUNT_COLUMNS[k][1])}">{_num(r[k], 0)} {COUNT_COLUMNS[k][0]}'
                    f"</span>" for k in counts if pd.notna(r[k]) and r[k] > 0)
 

@@ -1,8 +1,7 @@
 """The overview's ranking: methods ranked in blocks (a scenario at a seed) by their suite's primary
-metric, over only the blocks every ranked method ran, with the Friedman test and the Nemenyi
-critical difference (``significance``) deciding which differences are more than noise.
-
-``RULE`` is the rule in words, as the overview page states it."""
+metric, over only the blocks every ranked method ran, the Friedman test and Nemenyi critical
+difference (``significance``) deciding which differences are more than noise. ``RULE`` states the
+rule as the page does."""
 
 from __future__ import annotations
 
@@ -68,8 +67,8 @@ def suite_blocks(suite: Suite, metric: Column | None = None) -> pd.DataFrame:
 
 
 def compared(blocks: pd.DataFrame) -> tuple[list[str], list[str]]:
-    """The methods and blocks to compare: for each c, the blocks run by at least c methods and the
-    methods that ran all of them; the choice with the most method x block results (then the most methods)."""
+    """The methods and blocks to compare: for each c, the blocks at least c methods ran and the
+    methods that ran them all; the choice with the most results (then methods)."""
     ran = {m: set(b) for m, b in blocks.groupby("method")["block"]}
     count = blocks.groupby("block")["method"].nunique()
     best: tuple[int, int, list[str], list[str]] = (-1, -1, [], [])

@@ -46,15 +46,15 @@ class RankTest:
         return self.rejects and abs(self.mean_rank[i] - self.mean_rank[j]) >= self.cd
 
     def places(self) -> np.ndarray:
-        """Each method's place: 1 + the number of methods significantly better than it, so that
-        methods no test can tell apart share a place (every method is 1st when the test does not reject)."""
+        """Each method's place: 1 + the methods significantly better, so methods no test tells apart
+        share a place (all 1st when the test does not reject)."""
         k = len(self.methods)
         return np.array([1 + sum(self.differ(i, j) and self.mean_rank[j] < self.mean_rank[i] for j in range(k))
                          for i in range(k)])
 
     def cliques(self) -> list[tuple[int, ...]]:
-        """The maximal runs of methods, in order of mean rank, that do not differ pairwise (the bars
-        of a critical-difference diagram); each is a tuple of indices into ``methods``, 2 or more long."""
+        """The maximal runs of methods by mean rank that do not differ pairwise (a diagram's bars),
+        as index tuples of 2 or more."""
         order = [int(i) for i in np.argsort(self.mean_rank, kind="stable")]
         runs: list[tuple[int, ...]] = []
         for a in range(len(order)):
@@ -67,8 +67,8 @@ class RankTest:
 
 
 def block_ranks(values: np.ndarray) -> np.ndarray:
-    """Ranks (1 best) of each row of ``values`` (blocks × methods, lower is better), ties sharing
-    the mean of their places; NaN and +inf rank after every finite value, tied among themselves."""
+    """Ranks (1 best) of each row of ``values`` (blocks × methods, lower better), ties sharing their
+    mean place; NaN and +inf last, tied."""
     keyed = np.where(np.isfinite(values), values, np.inf)
     return stats.rankdata(keyed, method="average", axis=1)
 

@@ -156,8 +156,8 @@ def _where(table: pd.DataFrame, i: int, name: str) -> str:
 
 
 def _check_rows(data: bytes, table: pd.DataFrame, name: str) -> None:
-    """Refuse a row with fewer fields than the header (a file cut mid-row: pandas fills them with
-    NaN, and a missing status read as ok) and a row with an empty status, seeds or frames."""
+    """Refuse a row with fewer fields than the header (a cut file: pandas would fill NaN and read
+    the status as ok) or an empty status, seeds or frames."""
     lines = [row for row in csv.reader(io.StringIO(data.decode("utf-8", "replace"))) if row]
     short = [i for i, row in enumerate(lines[1:]) if len(row) != len(lines[0])]
     if short:
@@ -171,8 +171,8 @@ def _check_rows(data: bytes, table: pd.DataFrame, name: str) -> None:
 
 
 def _check_values(table: pd.DataFrame, name: str) -> None:
-    """Refuse a number outside its column's range (``columns.value_range``), an infinite one and a
-    count that is not whole, naming the line and column: the report would rank ``f1=inf`` first."""
+    """Refuse a number outside its column's range (``columns.value_range``), an infinite one or a
+    fractional count, naming line and column (the report would rank ``f1=inf`` first)."""
     for key in [c for c in table if c not in LABEL_COLUMNS]:
         lo, hi = value_range(key)
         values = table[key].to_numpy(dtype=float)
@@ -187,8 +187,8 @@ def _check_values(table: pd.DataFrame, name: str) -> None:
 
 
 def read_card(path: Path, table: pd.DataFrame, source: str) -> dict:
-    """The folder's card, checked; without one, the card its track would write (``harness.leaderboard.card``),
-    the track found from the first row's scene and method (one line when none is found)."""
+    """The folder's card, checked; without one, the card its track would write, the track found from
+    the first row's scene and method."""
     if path.is_file():
         try:
             card = json.loads(path.read_text())
@@ -227,7 +227,7 @@ def _per_scenario(runs: pd.DataFrame) -> pd.DataFrame:
 
 def _with_parts(table: pd.DataFrame) -> pd.DataFrame:
     """Scene, difficulty and back end split from ``scene/difficulty-backend``, rows in leaderboard
-    order (scene, easy to hard), then by the order the CSV gave."""
+    order, then CSV order."""
     split = table["scenario"].str.rpartition("/")
     parts = split[2].str.partition("-")
     table = table.assign(scene=split[0], difficulty=parts[0], backend=parts[2])
