@@ -19,17 +19,16 @@ class Associator:
     """Base class. Subclasses are dataclasses whose fields are their parameters (with defaults).
 
     ``associate(problem)`` returns an (n,) int array: the feature paired with each candidate
-    landmark, or -1. It may set ``self.info`` (a dict of diagnostics, e.g. ``timed_out``).
+    landmark, or -1; it may set ``self.info`` (diagnostics, e.g. ``timed_out``).
 
-    Parameters are checked when built (``validate_fields``): the type from each field's annotation
-    (numbers finite), the range from its metadata, e.g.
-    ``confidence: float = field(default=0.99, metadata=CONFIDENCE)``; a bad value is a one-line
-    ``UserError`` naming ``params.<field>``. A subclass defining ``__post_init__`` calls
+    Parameters are checked when built (``validate_fields``): the type from the annotation, the range
+    from metadata (``confidence: float = field(default=0.99, metadata=CONFIDENCE)``); a bad value is
+    a one-line ``UserError`` naming ``params.<field>``. A subclass's ``__post_init__`` calls
     ``super().__post_init__()``.
 
-    ``soft``: a soft associator also reports its marginals in ``info["marginals"]``, (n, m + 1): row
-    ``j`` holds ``P(landmark j ↔ feature i)`` in column ``i`` and ``P(j unassociated)`` last, each
-    row summing to 1 (``scoring.metrics.true_mass``).
+    ``soft``: a soft associator reports marginals in ``info["marginals"]`` (n, m + 1): row ``j``
+    holds ``P(j ↔ feature i)`` in column ``i`` and ``P(j unassociated)`` last, each row summing to
+    1.
     """
 
     name: ClassVar[str] = "base"

@@ -1,19 +1,16 @@
-"""CCDA: combined constraint data association, a maximum clique of the correspondence graph (Bailey,
-Nebot, Rosenblatt & Durrant-Whyte, ICRA 2000; Bailey's PhD thesis, Sydney 2002).
+"""CCDA: combined constraint data association (Bailey, Nebot, Rosenblatt & Durrant-Whyte, ICRA 2000;
+Bailey's thesis, 2002). A vertex per pairing (i, j) passing the unary constraint, an edge between
+(i, j) and (i', j'), i ≠ i', j ≠ j', passing the binary one; the answer is a maximum clique. In
+measurement space:
 
-The graph has a vertex per candidate pairing (feature i, landmark j) passing the unary constraint,
-and an edge between (i, j) and (i', j'), i ≠ i', j ≠ j', when they satisfy the binary constraint;
-CCDA answers with a maximum clique. Both constraints are stated in measurement space:
+* unary: ``NIS_ij <= χ²_d(c)``;
+* binary: ``Δ = wrap((z_i - z_i') - (zhat_j - zhat_j'))``,
+  ``S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i'``, ``NIS_Δ = |L⁻¹Δ|² <= χ²_d(c)``
+  (``difference_nis``): blind to an error shifting both predictions alike, but what a pose error
+  does differently to the two is weighed by ``S_Δ``.
 
-* unary: the individual gate ``NIS_ij <= χ²_d(c)``;
-* binary: the difference of the two innovations, ``Δ = wrap((z_i - z_i') - (zhat_j - zhat_j'))``
-  with ``S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i'``, passes ``NIS_Δ = |L⁻¹Δ|² <= χ²_d(c)``
-  (``difference_nis``). Like Bailey's distance test it is blind to an error shifting both
-  predictions alike; unlike it, what a pose error does differently to the two stays in ``Δ`` and is
-  weighed by ``S_Δ``.
-
-The binary constraint needs no pose, so ``unary=False`` (every pair a vertex) associates with no
-pose prior, Bailey's point.
+The binary constraint needs no pose, so ``unary=False`` associates without a pose prior, Bailey's
+point.
 """
 
 from __future__ import annotations
@@ -168,22 +165,18 @@ def swap_descent(adj, clique, P, Pd, z, zhat, R, wrap, feats, lms):
 
 @dataclass
 class CCDA(Associator):
-    """Largest set of pairwise consistent pairings: a maximum clique of the correspondence graph,
-    found exactly (Tomita's MCQ on bitsets, ``max_clique``). Maximum cliques are seldom unique and
-    enumerating them costs far more than the search, so ties are broken by swapping one or two
-    pairings while that lowers the total binary NIS (``swap_descent``). Deterministic. As in
-    Bailey's CCDA the clique is not put to the joint test (and the true association, facing
-    ``k(k-1)/2`` binary tests, need not be a clique).
+    """A maximum clique of the correspondence graph, found exactly (``max_clique``). Maximum cliques
+    are seldom unique and enumerating them is dear, so ties are broken by swaps lowering the total
+    binary NIS (``swap_descent``); deterministic. As in Bailey's CCDA the clique is not put to the
+    joint test.
 
-    confidence: the gate ``c`` of both tests, χ²_d (0.99 like the other methods; higher raises
-        recall but slows large problems, ``benchmarks/ccda_scale.py``).
-    unary: apply the individual gate; False makes every (feature, landmark) pair a vertex (at most
-        ``MAX_VERTICES``; O((mn)²) tests).
-    max_nodes: node budget of the clique search, far above what range-bearing problems need; when
-        spent the largest clique so far is returned with ``info["timed_out"]``.
+    confidence: the gate ``c`` of both tests (higher raises recall but slows large problems,
+        ``benchmarks/ccda_scale.py``).
+    unary: apply the individual gate; False makes every pair a vertex (at most ``MAX_VERTICES``).
+    max_nodes: node budget of the clique search; when spent, the largest clique so far with
+        ``info["timed_out"]``.
 
-    ``info``: ``timed_out``; ``proven_optimal`` (the clique is maximum); ``nodes``; ``vertices``;
-    ``swaps``.
+    ``info``: ``timed_out``, ``proven_optimal``, ``nodes``, ``vertices``, ``swaps``.
     """
 
     name = "ccda"

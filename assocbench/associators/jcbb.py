@@ -36,44 +36,38 @@ def _call_tables(d: int, n: int, confidence: float, max_nodes: int | None) -> tu
 
 @dataclass
 class JCBB(Associator):
-    """Largest jointly compatible hypothesis, ties broken by lower joint NIS.
+    """Largest jointly compatible hypothesis, ties broken by lower joint NIS; pairs must pass the
+    individual gate ``χ²_d(c)``. Anytime, in three steps, each from the best hypothesis so far:
 
-    Pairs must pass the individual gate ``χ²_d(c)``. Anytime, in three steps, each from the best
-    hypothesis so far (the incumbent):
-
-    1. **Quick exact search, then the classic first dive** (one compiled call, ``jcbb_quick``): the
-       search gets about 30 nodes per candidate, enough to prove most small problems; where it runs
-       out, classic JCBB's first dive (``jcbb_dive.classic_dive``) runs in full, so an unproven
-       answer is never worse than it.
-    2. **More starts**, each kept if better: a global greedy dive, ``REORDERED_DIVES`` classic dives
-       ordered surest first by the previous answer (``NIS(H + p) - NIS(H)``), a fail-first dive, a
-       dive guided by the optimal assignment, and RJC's seeded RANSAC restarts (so never below RJC
-       with the same seed). A wrong early pairing pins the pose and starves a dive; sure pairings
-       first and clean samples fix the shallow levels (``benchmarks/jcbb_anytime.py``).
+    1. **Quick exact search, then the classic first dive** (``jcbb_quick``): about 30 nodes per
+       candidate prove most small problems; where they do not, classic JCBB's first dive runs in
+       full, so an answer is never worse than it.
+    2. **More starts**, each kept if better: a global greedy dive, ``REORDERED_DIVES`` dives ordered
+       surest first by the previous answer (``NIS(H + p) - NIS(H)``), a fail-first dive, a dive
+       guided by the optimal assignment, and RJC's seeded restarts (so never below RJC with the same
+       seed). A wrong early pairing starves a dive; sure pairings first and clean samples fix the
+       shallow levels (``benchmarks/jcbb_anytime.py``).
     3. **Branch and bound** (``jcbb_search``) with the budget left: branch on the landmark with the
-       fewest feasible features; try the pairings that keep joint compatibility (smallest NIS
-       increase first), then unassociated, then those that break it for now (a larger hypothesis has
-       a looser gate). The joint factor grows incrementally (forward checking). With ``k`` pairings,
-       NIS ``ν`` and bound ``b``:
+       fewest feasible features; try the jointly compatible pairings (smallest NIS increase first),
+       then none, then those that break the test for now (a larger hypothesis has a looser gate),
+       with forward checking. With ``k`` pairings, NIS ``ν`` and bound ``b``:
 
        * a pairing with ``ν + Δν > χ²_{d(k+b)}(c)`` leaves the subtree (NIS never decreases with pairings);
        * ``b``: the maximum matching of the feasible pairings, lowered while ``ν + δ_b > χ²_{d(k+b)}(c)`` (``δ_b``: the b-th smallest least increment per landmark and per feature);
        * a node is cut when ``k + b`` is below the best count, or equal with ``ν + δ_b`` no lower than the best NIS.
 
     A hypothesis counts when its NIS passes ``χ²_{dk}(c)``, so a search ending within budget returns
-    the exhaustive search's answer (``info["proven_optimal"]``). ``prefix_test=True`` also tests
-    every partial hypothesis, as the paper does (smaller tree, can miss an answer: never proven).
+    the exhaustive answer (``info["proven_optimal"]``). ``prefix_test=True`` tests every partial
+    hypothesis, as the paper does (never proven).
 
     confidence: individual and joint gate ``c``.
-    max_nodes: node budget (a dive counts a node per landmark, restarts their search nodes and
-        completion features). The classic dive always runs; later steps start while the budget has
-        room and finish; when spent, the incumbent is returned with ``info["timed_out"]``. None:
-        ``default_budget`` (shrinks as candidates grow) plus the quick search's nodes.
+    max_nodes: node budget (dives count a node per landmark); the classic dive always runs, later
+        steps while there is room; when spent, the incumbent with ``info["timed_out"]``. None:
+        ``default_budget`` plus the quick search's nodes.
     prefix_test: apply the joint test to every partial hypothesis (classic JCBB).
 
-    ``info``: ``timed_out``, ``proven_optimal``, ``nodes``, ``dive_pairings`` (None where the quick
-    search proved the problem), ``history`` (``(nodes, pairings, NIS)`` per improvement: the anytime
-    curve).
+    ``info``: ``timed_out``, ``proven_optimal``, ``nodes``, ``dive_pairings`` (None if no dive ran),
+    ``history`` (``(nodes, pairings, NIS)`` per improvement).
     """
 
     name = "jcbb"

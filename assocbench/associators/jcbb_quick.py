@@ -16,18 +16,12 @@ from .jcbb_search import is_matching, jcbb_search
 
 @njit(cache=True)
 def quick_jcbb(P, z, zhat, R, wrap, limit, gate, quick_by_count, budget_by_count, prefix_test):
-    """Step 1 of the anytime JCBB: the individual gate ``χ²_d(c) = limit``
-    (``gate[k] = χ²_{dk}(c)``), then, for ``c`` candidate landmarks and
-    ``q = min(quick_by_count[c], budget_by_count[c] - c)`` (``anytime_search.budget_tables``):
-
-    * where the compatible pairs form a matching, the classic dive, which the search proves at its
-      root;
-    * elsewhere the plain exact search with ``q`` nodes (what a proof costs at least), and only
-      where it runs out the classic dive (``c`` nodes); the better is the incumbent.
-
-    Returns (features, landmarks, NIS, nodes, timed out, the dive's pairings (-1: no dive), history
-    (h, 3), the mask ``ic`` (m, n), the candidate landmarks). Not timed out: proven (unless
-    ``prefix_test``)."""
+    """Step 1 of the anytime JCBB: the gate ``χ²_d(c) = limit``, then, for ``c`` candidates and
+    ``q = min(quick_by_count[c], budget_by_count[c] - c)``: where the compatible pairs form a
+    matching, the classic dive, proven at the search's root; else the exact search with ``q`` nodes
+    and, where it runs out, the classic dive (``c`` nodes). Returns (features, landmarks, NIS,
+    nodes, timed out, the dive's pairings (-1: none), history (h, 3), ``ic`` (m, n), the
+    candidates); not timed out: proven (unless ``prefix_test``)."""
     ic, candidates = gate_mask_kernel(P, z, zhat, R, wrap, limit)
     c = candidates.shape[0]
     budget = min(quick_by_count[c], budget_by_count[c] - c)

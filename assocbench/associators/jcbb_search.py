@@ -1,13 +1,8 @@
-"""The JCBB search, compiled: depth-first branch and bound with forward checking.
-
-Iterative (an explicit stack of levels) so numba compiles it. The joint test is the incremental one
-of ``association.compatibility``: the hypothesis keeps ``M = L⁻¹ P[J, :]`` (for the landmarks still
-in play) and, per landmark in play, its conditional moments ``c_j = Xᵀw``, ``G_j = XᵀX``
-(``advance_moments``), stored per hypothesis size ``k``. Testing a pairing costs O(d³) whatever
-``k``; backtracking just lowers ``k``. Each level holds one node: its landmark, its candidate
-features sorted by joint NIS increase, and the next child. The per-node helpers are inlined
-(``inline="always"``): as separate functions each call counts the references of every array it is
-passed.
+"""The JCBB search, compiled: depth-first branch and bound with forward checking, iterative (a stack
+of levels, one node each). The hypothesis keeps ``M = L⁻¹ P[J, :]`` for the landmarks in play and
+their conditional moments ``c_j = Xᵀw``, ``G_j = XᵀX`` per hypothesis size ``k``
+(``association.compatibility``), so a pairing's test is O(d³) whatever ``k`` and backtracking lowers
+``k``. Per-node helpers are inlined: separate calls would count every array's references.
 """
 
 from __future__ import annotations
@@ -321,16 +316,11 @@ def _adjacency(ic):
 
 @njit(cache=True)
 def _search_state(n, m, d, q):
-    """Every array of ``jcbb_search`` as views of one float, one integer and one boolean buffer (a
-    few allocations instead of about thirty):
-
-    * the factor ``Mt`` (nd, nd), ``w`` (nd,), the moments ``C`` (n + 1, n, d) and ``G`` (n + 1, n,
-      d, d) per hypothesis size, ``nis_at`` (n + 1,): not cleared (a search reads only what its
-      pushes wrote) except ``C[0]``, ``G[0]``, ``nis_at[0]``;
-    * per level (``n + 2``): the landmark, its candidates and NIS increases, the landmarks in play
-      below, bound and floor, the next child and flags (cleared);
-    * the current and best pairings (-1), the history, the forward check's pair lists (q,),
-      ``whitened_pair``'s and the bound's work arrays."""
+    """Every array of ``jcbb_search`` from one float, one integer and one boolean buffer: the factor
+    ``Mt``, ``w``, moments ``C``, ``G`` and ``nis_at`` per size (not cleared: a search reads only
+    what it wrote, but for size 0); per level (``n + 2``) the landmark, candidates, increments,
+    landmarks in play, bound, floor, next child and flags (cleared); current and best pairings,
+    history, the forward check's pair lists and the work arrays."""
     levels, nd = n + 2, n * d
     f = np.empty(nd * nd + nd + (n + 1) * n * d * (1 + d) + n + 1 + levels * (m + 1) + 2 * n + 2 + q + 2 * d * (d + 1))
     Mt, at = take(f, 0, nd * nd)

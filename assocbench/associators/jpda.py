@@ -31,35 +31,26 @@ BP_MAX_SWEEPS = 2000  # and in any case after this many (range-bearing clusters 
 @dataclass
 class JPDA(Associator):
     """Joint probabilistic data association: the marginal probability ``β_ji`` that landmark ``j``
-    produced feature ``i`` (``β_j∅``: undetected), then a hard association from them.
+    produced feature ``i`` (``β_j∅``: undetected), then a hard association. Each landmark's own
+    block ``P_jj`` is used, cross-covariances ignored (so, unlike JCBB, no common pose error is
+    exploited).
 
-    As in the tracking literature, each landmark's own block ``P_jj`` is used and the
-    cross-covariances ignored (so, unlike JCBB, JPDA cannot exploit a common pose error).
+    Events factor over the gating graph's clusters. A cluster with at most ``max_events`` events
+    (``events_lower_bound``, ``count_events``) is enumerated exactly, depth first; a larger one gets
+    loopy belief propagation (Williams & Lau 2014: linear per sweep, exact on a tree; overconfident
+    on loops, though its hard answers almost always agree: ``benchmarks/jpda_scale.py``). Hard
+    answer: ``j`` may take ``i`` when ``β_ji > β_j∅``, highest ``β`` first, one-to-one
+    (``greedy_one_to_one``).
 
-    **Exact, cluster by cluster.** Events factor over the connected components of the gating graph;
-    each cluster's events are enumerated depth first (compiled, log-sum-exp).
+    ``info``: ``exact``, ``approximate_clusters``, ``events``, ``clusters``, ``largest_cluster``,
+    ``bp_sweeps``, ``marginals``.
 
-    **Cut-over.** A cluster is enumerated when it has at most ``max_events`` events (counted by a
-    lower bound, ``events_lower_bound``, or a weightless walk that stops at the budget,
-    ``count_events``). A larger one gets loopy belief propagation on the assignment problem
-    (Williams & Lau 2014): linear per sweep, exact on a tree. On loops BP is overconfident (single
-    marginals can be far off), but its hard answers agree with exact JPDA's almost always
-    (tests/test_jpda.py, ``benchmarks/jpda_scale.py`` row ``jpda-bp``).
-
-    **Hard answer.** Landmark ``j`` may take feature ``i`` when ``β_ji > β_j∅``; highest ``β``
-    first, one-to-one (``greedy_one_to_one`` with cost ``-β``).
-
-    ``info``: ``exact``, ``approximate_clusters``, ``events`` (enumerated), ``clusters``,
-    ``largest_cluster``, ``bp_sweeps`` and ``marginals``.
-
-    p_detect: ``P_D``, the probability a candidate landmark yields a feature; 0.9 is a middle value
-        (on the synthetic problems 0.8-0.95 score alike).
+    p_detect: ``P_D``, the probability a candidate yields a feature (0.8-0.95 score alike).
     confidence: the gate ``χ²_d(c)``, also ``P_G``.
-    clutter_density: ``λ``, false features per unit measurement volume; None: ``1 / |Y|``
-        (``problem.volume``), one clutter feature over the domain, the same ``log|Y|`` the surprisal
-        and LSA use.
-    max_events: the most joint events an enumerated cluster may have; the default keeps exact JPDA
-        at n = 10 within its time limit (``benchmarks/jpda_scale.py``, calibration).
+    clutter_density: ``λ``, false features per unit volume; None: ``1 / |Y|``, the ``log|Y|`` the
+        surprisal and LSA use.
+    max_events: the most events an enumerated cluster may have; the default keeps n = 10 within its
+        time limit.
     """
 
     name = "jpda"

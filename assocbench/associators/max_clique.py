@@ -1,12 +1,8 @@
-"""Exact maximum clique, compiled: branch and bound with a greedy colouring bound.
-
-Tomita and Seki's MCQ (2003) on bitsets, as in San Segundo's BBMC (2011): the adjacency is a matrix
-of bits (row ``v``: ``⌈V/64⌉`` words), vertices renumbered in smallest-last order. A node holds the
-clique ``C`` and its candidates ``P`` (adjacent to all of ``C``), colours ``P`` greedily (each
-colour an independent set) and branches from the highest colour down: a clique inside ``P`` has at
-most as many vertices as colours, so a candidate of colour ``k`` ends the node once ``|C| + k``
-cannot beat the best. Candidates of too low a colour are not listed but stay in ``P`` (BBMC).
-Iterative, so numba compiles it; nothing is allocated per node.
+"""Exact maximum clique, compiled: Tomita and Seki's MCQ (2003) on bitsets as in San Segundo's BBMC
+(2011), vertices in smallest-last order. A node holds the clique ``C`` and its candidates ``P``,
+colours ``P`` greedily and branches from the highest colour down: a clique in ``P`` has at most as
+many vertices as colours, so colour ``k`` ends the node once ``|C| + k`` cannot beat the best (too
+low colours stay in ``P`` unlisted). Iterative; nothing is allocated per node.
 """
 
 from __future__ import annotations

@@ -1,19 +1,14 @@
-"""RJC: randomised joint compatibility (Paz, Guivant, Tardós & Neira, "Data association in O(n) for
-divide and conquer SLAM", RSS 2007).
-
-RANSAC over the features: each iteration draws ``b`` features, finds the sample's best jointly
-compatible hypothesis with JCBB (a tree over ``b`` features whatever the problem's size), then
-completes it in one pass over the other features; the largest hypothesis is kept. With ``P_good``
-the probability that a feature is good, a sample is clean with probability ``P_good^b``, so after
+"""RJC: randomised joint compatibility (Paz, Guivant, Tardós & Neira, RSS 2007). RANSAC over the
+features: JCBB on a sample of ``b`` features (a tree of ``b`` levels whatever the size), then a
+one-pass completion; the largest hypothesis is kept. A sample is clean with probability
+``P_good^b``, so after
 
     t = ceil( log(1 - P_success) / log(1 - P_good^b) )
 
-iterations some sample was clean with probability ``P_success``; ``t`` adapts as
-``P_good = max(P_good, k_best / N)``. Unlike the paper: the completion takes, per feature, the
-pairing with the smallest joint NIS increase that keeps the hypothesis jointly compatible (not the
-nearest neighbour), so the answer passes the joint test; only features with an individually
-compatible landmark are drawn and counted in ``N`` (others can join no hypothesis); equal-sized
-hypotheses are compared by joint NIS.
+iterations one was clean with probability ``P_success``; ``P_good = max(P_good, k_best / N)`` adapts
+``t``. Unlike the paper: the completion keeps the hypothesis jointly compatible (smallest joint NIS
+increase, not the nearest neighbour); only features with a compatible landmark are drawn and counted
+in ``N``; ties go to the lower joint NIS.
 """
 
 from __future__ import annotations
@@ -44,34 +39,25 @@ def ransac_iterations(p_fail: float, p_good: float, sample_size: int) -> int:
 
 @dataclass
 class RJC(Associator):
-    """Randomised joint compatibility: RANSAC samples of features, JCBB on each sample, then a
-    jointly compatible completion; the largest hypothesis wins.
-
-    Only the ``N`` features with an individually compatible landmark take part. Each iteration draws
-    ``b = min(sample_size, N)`` of them (``default_rng(seed)`` made afresh by every call, so an
-    answer never depends on earlier calls), runs JCBB on the sample
-    (``anytime_search.anytime_jcbb``), and completes it: the other features, fewest compatible
-    landmarks first, each take the open landmark with the smallest joint NIS increase keeping
-    ``NIS ≤ χ²_{d(k+1)}(c)``, or none. Most pairings win, ties to the lower joint NIS; a completion
-    that can no longer win is abandoned. With ``N ≤ sample_size`` the answer is JCBB's.
-
-    Defaults are the paper's: ``p_fail = 0.01``, ``p_good = 0.8``, ``b = 4``, so ``t = 9`` before
-    adapting (``benchmarks/rjc_scale.py``); ``max_iterations`` binds only when ``p_good`` is
-    lowered.
+    """Randomised joint compatibility. Each iteration draws ``b = min(sample_size, N)`` of the ``N``
+    features with a compatible landmark (``default_rng(seed)`` made afresh by every call), runs JCBB
+    on them (``anytime_search.anytime_jcbb``) and completes it: the other features, fewest
+    compatible landmarks first, each take the open landmark with the smallest joint NIS increase
+    keeping ``NIS ≤ χ²_{d(k+1)}(c)``. Most pairings win, ties to the lower NIS; a completion that
+    cannot win is abandoned; ``N ≤ sample_size`` gives JCBB's answer. Defaults are the paper's
+    (``t = 9`` before adapting; ``benchmarks/rjc_scale.py``).
 
     confidence: individual and joint gates ``χ²_{dk}(c)``.
     sample_size: features per sample ``b``.
-    p_fail: acceptable probability that no sample was clean (the paper's ``P_fail``).
-    p_good: prior probability that a feature is neither spurious nor mismatched (the paper's
-        ``P_good``; raised to the best hypothesis' share as the loop runs).
-    iterations: a fixed number of iterations; None adapts ``t`` as above.
-    max_iterations: cap on the adaptive count (a fixed ``iterations`` is not capped).
+    p_fail: acceptable probability that no sample was clean.
+    p_good: prior probability that a feature is good (raised to the best hypothesis' share as the
+        loop runs).
+    iterations: a fixed number of iterations; None adapts ``t``.
+    max_iterations: cap on the adaptive count.
     max_nodes: node budget of each sample's JCBB.
     seed: seed of the sampling.
 
-    ``info``: ``iterations`` run, ``required`` (the adaptive count before the cap), ``nodes``,
-    ``timed_out`` (a sample's JCBB ran out, or the cap stopped the loop short), ``nis`` (the
-    answer's joint NIS).
+    ``info``: ``iterations``, ``required`` (the adaptive count), ``nodes``, ``timed_out``, ``nis``.
     """
 
     name = "rjc"

@@ -1,31 +1,22 @@
 """Planar landmark SLAM on a GTSAM factor graph, solved incrementally with iSAM2 (the GMU project's
 back end). Poses ``X(k)`` (``Pose2``), landmarks ``L(map id)`` (``Point2``):
 
-* start: a prior on ``X(0)`` (slam: P = 0, the gauge, given σ = 1e-6 so the graph stays solvable);
-  in localisation a **joint** Gaussian prior over ``X(0)`` and the landmarks with P's full
-  covariance (a common-mode map error correlates every landmark; per-landmark priors would make the
-  smoother overconfident), entered as a linear factor ``U δ`` (``UᵀU = Σ_t⁻¹``) in a
-  ``LinearContainerFactor``, which relinearises it exactly;
+* start: a prior on ``X(0)`` (slam: the gauge, σ = 1e-6); localisation: a **joint** Gaussian prior
+  over ``X(0)`` and the landmarks with P's full covariance (a common map error correlates them;
+  per-landmark priors would be overconfident), a linear factor ``U δ`` (``UᵀU = Σ_t⁻¹``) in a
+  ``LinearContainerFactor``;
 * motion: ``BetweenFactorPose2(X(k−1), X(k), Δ)``, initial value ``x̂_{k−1} ⊕ Δ``;
-* measurement: ``BearingRangeFactor2D(X(k), L(id), φ, r)``, R's rows and columns swapped (GTSAM's
-  order is bearing, range).
+* measurement: ``BearingRangeFactor2D(X(k), L(id), φ, r)``, R in GTSAM's (bearing, range) order.
 
-Coordinates: ``Pose2``'s tangent is body-frame (``x ⊕ ξ = x·Exp(ξ)``), so a world-frame error is
-``[R(θ) ξ_xy, ξ_θ]``: covariances from GTSAM are mapped by ``T = blockdiag(R(θ), 1, I₂…)``
-(``Σ_w = T Σ_t Tᵀ``, θ of iSAM2's linearisation point), those given to it by ``Tᵀ``; an
-increment's Q becomes ``blockdiag(R(Δθ)ᵀ, 1) Q blockdiag(R(Δθ), 1)``.
+``Pose2``'s tangent is body-frame, so covariances from GTSAM are mapped to world ``[δx, δy, δθ]`` by
+``T = blockdiag(R(θ), 1, I₂…)`` (θ of the linearisation point), those given to it by ``Tᵀ``; an
+increment's Q by ``blockdiag(R(Δθ)ᵀ, 1)``. Factors wait in a batch until the estimate is read. A
+dropped tentative landmark's factors are removed: a smoother can undo a wrong association.
 
-Factors wait in a batch and reach iSAM2 when something reads the estimate, so a frame costs one or
-two updates. A dropped tentative landmark's factors are removed (``removeFactorIndices``): a
-smoother can undo a wrong association, where an EKF can only marginalise.
-
-No landmark is born closer than ``MIN_INIT_RANGE`` (the posts' radius: no post's centre is nearer
-the lidar). A bearing pins a landmark at range r to r σ_φ across the ray and swings by δp / r with a
-pose error, so a clutter landmark a few cm away never converges under iSAM2's one Gauss–Newton step
-per update: it jumps, and the chaos magnifies last-bit differences between CPUs' libm and BLAS
-rounding until associations differ. Bit for bit across CPUs is out of reach anyway (for the EKF too,
-whose decisions never differ); ``check`` guards iSAM2 with tolerances
-(configs/planar_isam2_ci.yaml).
+No landmark is born closer than ``MIN_INIT_RANGE``: a bearing swings by δp / r with a pose error, so
+a landmark a few cm away never converges under iSAM2's one Gauss–Newton step per update, and its
+chaos magnifies CPUs' last-bit rounding differences into different associations; ``check`` guards
+iSAM2 with tolerances (configs/planar_isam2_ci.yaml).
 """
 
 from __future__ import annotations

@@ -1,26 +1,18 @@
-"""The dense associator interface: pair source points (world) with pixels of a depth frame.
-
-Sources are a map's or a previous frame's ``points`` and unit ``normals`` (n, 3), world coordinates;
-the target is a ``DepthFrame`` and a guess ``(R, t)`` of its camera-to-world pose. A pair (i, pixel)
-passes the homework's filters, with ``q = R V[pixel] + t`` and ``n_q = R N[pixel]``:
+"""The dense associator interface: pair source points (world ``points`` and unit ``normals``, (n,
+3)) with pixels of a ``DepthFrame`` seen from a guess ``(R, t)`` (camera-to-world). With
+``q = R V[pixel] + t`` and ``n_q = R N[pixel]`` a pair passes the homework's filters
 
     target pixel valid (finite depth and normal),  |p_i − q| < gate(d),  n_p · n_q > cos(angle_deg)
 
-The method finds the candidate pixel: the projection under the guess (``projective``) or the nearest
-valid vertex in 3-D (``kdtree``). NaN fails every comparison.
-
-**The gate** grows with the depth noise at the pixel's measured depth ``d``:
+(NaN fails all); the method finds the pixel (``projective``: the projection; ``kdtree``: the nearest
+vertex). The gate grows with the depth noise at the pixel's depth ``d``:
 
     gate(d) = max(d_thr, gate_sigmas · σ(d)),   σ(d) = sigma_base + sigma_quad · d²
 
-(the sensor's model, ``DepthConfig.sigma``). The floor ``d_thr`` covers the pose guess's error;
-``gate_sigmas · σ`` the measurement's scatter where larger (far pixels), which a fixed gate would
-cut; 0 sigmas is the fixed gate.
-
-**Visible** source points are the ``considered`` ones (ICP's inlier share's denominator): in front
-of the camera, projecting into the image, and not hidden, ``z ≤ d + gate(d)``: a point behind a
-closer surface is neither a pair nor a miss. A point in front of the surface by more than the gate
-is visible (seen through) and counts, unpaired.
+(the floor covers the guess's error, ``gate_sigmas · σ`` far pixels' scatter; 0 sigmas: fixed).
+**Visible** points are the ``considered`` ones: in front, in the image, not hidden
+(``z ≤ d + gate(d)``); a point seen through (in front of the surface by more than the gate) counts,
+unpaired.
 """
 
 from __future__ import annotations

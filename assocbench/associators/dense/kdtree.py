@@ -1,13 +1,9 @@
-"""KD-tree data association: each source point's nearest valid vertex of the frame in 3-D.
-
-The tree (``scipy.spatial.cKDTree``) holds the frame's valid vertices in its CAMERA frame, so it is
-built once per frame whatever the guess, and cached for the last frame seen (by identity: a frame
-changed in place is not noticed). A point is queried at ``p_c = Rᵀ (p − t)`` bounded by
-``gate(max depth)``. First filter (``considered``), as in the projective method: ``z > 0``, the
-nearest pixel in the image, not hidden behind it (``z ≤ d + gate(d)``); without the view test a
-point just outside the view would pair with a border vertex the frame never saw of it. The tree
-holds valid vertices only, so a point projecting onto a missing pixel may still pair nearby.
-Distance and angle filters follow in world coordinates (``base.world_filters``).
+"""KD-tree data association: each source point's nearest valid vertex in 3-D. The tree holds the
+frame's valid vertices in its CAMERA frame, so it is built once per frame whatever the guess (cached
+by the frame's identity), and queried at ``p_c = Rᵀ (p − t)`` within ``gate(max depth)``. First
+filter as the projective method's (in front, in the image, not hidden), so a point outside the view
+does not pair with a border vertex; a point over a missing pixel may still pair nearby. Distance and
+angle filters follow (``base.world_filters``).
 """
 
 from __future__ import annotations

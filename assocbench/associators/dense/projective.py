@@ -1,17 +1,13 @@
-"""Projective data association (the homework's ``find_projective_correspondence``).
-
-Each source point ``p`` (world) is taken into the target camera, ``p_c = Rᵀ (p − t)``, and projected
-to its nearest pixel
+"""Projective data association (the homework's ``find_projective_correspondence``): each source
+point, ``p_c = Rᵀ (p − t)``, goes to its nearest pixel
 
     u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋      (pixel centres at integers)
 
-First filter (the homework's 2.1, ``considered``): ``z > 0`` (behind the camera a point would
-project through the centre), in the image, the pixel valid, and not hidden, ``z ≤ d + gate(d)``.
-Second filter: ``|p − q|² < gate(d)²`` (a pixel on the same ray at another depth is another surface)
-and ``n_p · n_q > cos(angle)``, evaluated in the camera frame as ``|p_c − V|² < gate(d)²`` and
-``(Rᵀ n_p) · N > cos(angle)``: a rotation keeps lengths and angles, so no pixel is rotated into the
-world (equal up to rounding). One compiled O(n) pass, pairs in source order; ``associate_numpy`` is
-the same in plain numpy, operation for operation (the tests' reference).
+First filter (``considered``): ``z > 0``, in the image, the pixel valid, not hidden
+(``z ≤ d + gate(d)``). Second: ``|p_c − V|² < gate(d)²`` and ``(Rᵀ n_p) · N > cos(angle)``, the
+world filters in the camera frame (rotations keep lengths and angles; equal up to rounding). One
+compiled O(n) pass, pairs in source order; ``associate_numpy`` is its numpy twin (the tests'
+reference).
 """
 
 from __future__ import annotations
