@@ -346,17 +346,15 @@ def _default_ids(n: int) -> np.ndarray:
 @dataclass(frozen=True, eq=False, init=False)     # __init__ below: the fields' checks in one pass
 class Problem:
     """Measurements ``z`` (m, d) with noise ``R`` (m, d, d); predictions ``zhat`` (n, d) with joint
-    covariance ``P`` (n·d, n·d) including cross terms; ``landmark_ids`` (n,) map ids; ``volume`` the
-    measure |Y| of the measurement domain; ``angular`` the dims that wrap. Optionally
-    ``descriptors`` (m, D) and ``landmark_descriptors`` (n, D) (both or neither, any real dtype,
-    kept as given), which only appearance methods read.
+    covariance ``P`` (n·d, n·d), cross terms included; ``landmark_ids`` (n,); ``volume`` |Y| of the
+    measurement domain; ``angular`` the dims that wrap; optionally ``descriptors`` (m, D) and
+    ``landmark_descriptors`` (n, D), both or neither, for appearance methods.
 
-    Pairing landmarks J with features I has innovation covariance ``P[J, J] + blockdiag(R[I])``.
-    Errors are ``ValueError`` naming the field. Construction checks the shapes and what every
-    associator reads (each ``R_i``, each diagonal block of ``P``), O(m d³ + n d³); the whole ``P``,
-    O((nd)³), is ``validate()``'s, called once by the harness and by every method reading cross
-    terms. The arrays are read-only views of the caller's where already C-ordered float64 (no copy):
-    do not write them while the problem is in use (the harness gives each call a private copy).
+    Pairing landmarks J with features I has innovation covariance ``P[J, J] + blockdiag(R[I])``. Bad
+    input is a ``ValueError`` naming the field: construction checks shapes and what every associator
+    reads (each ``R_i``, each ``P_jj``), O(m d³ + n d³); the whole ``P``, O((nd)³), is
+    ``validate()``'s. The arrays are read-only views of the caller's where already C-ordered
+    float64: do not write them while the problem is in use.
     """
 
     z: np.ndarray

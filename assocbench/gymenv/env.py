@@ -1,27 +1,22 @@
-"""Gymnasium environment: an episode is one pass along a track's trajectory, each step one frame's
-association problem. One class serves every track whose frames are ``Problem``s and that offers envs
-(``GymEnvs``); the track says what differs.
+"""Gymnasium environment: an episode is one pass along a track's trajectory, a step one frame's
+association problem; one class serves every track offering envs (``GymEnvs``).
 
-Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works; d is 2 on every
-built-in track): ``features`` (M, d) in the track's units, ``feature_cov`` (M, d, d),
-``feature_mask`` (M,); ``predictions`` (N, d), ``prediction_cov`` (N, d, d) the marginal blocks of
-P, ``landmark_mask`` (N,). The joint covariance and the angular dims are in ``info["problem"]``. A
-terminating step observes nothing (masks zero).
+Observation (``Dict``, padded to fixed maxima for ``gymnasium.make_vec``): ``features`` (M, d) in
+the track's units, ``feature_cov`` (M, d, d), ``feature_mask`` (M,); ``predictions`` (N, d),
+``prediction_cov`` (N, d, d) the marginal blocks of P, ``landmark_mask`` (N,); the joint covariance
+and angular dims in ``info["problem"]``. A terminating step observes nothing.
 
-Action: ``MultiDiscrete`` of N entries in [-1, M-1], the feature paired with each candidate (padded
-slots -1); ``info["action_mask"]`` says which values each slot may take (``actions.py``). An
-invalid action is never scored silently: with ``invalid_action="penalize"`` (default) the reward
-is ``-n``, nothing counts as found, ``jointly_compatible`` is False and
-``info["invalid_action"]`` says why; with ``"raise"`` the step raises ``ValueError``.
+Action: ``MultiDiscrete`` of N entries in [-1, M-1], each candidate's feature (padded slots -1;
+``info["action_mask"]``, ``actions.py``). An invalid action is never scored silently:
+``invalid_action="penalize"`` (default) rewards ``-n``, counts nothing found, sets
+``jointly_compatible`` False and says why in ``info["invalid_action"]``; ``"raise"`` raises
+``ValueError``. Reward: TP − FP.
 
-Reward: TP − FP of the step.
-
-``info`` holds fixed-size entries only (vector envs stack them): ``problem`` (absent once over),
-``truth`` (N,) (itself a valid action), ``action_mask``, ``frame``, and after a step
-``scored_frame`` and ``step_metrics``. After ``terminated=True``, ``step()`` raises ``ResetNeeded``.
-``render_mode="rgb_array"`` draws the frame as ``assocbench render`` does (``Pictures``); a process
-forked after MuJoCo rendered cannot render (the GL driver does not survive ``fork``), so ``reset``
-there raises a one-line ``UserError`` instead of hanging.
+``info`` (fixed-size, vector envs stack it): ``problem`` (absent once over), ``truth`` (N,),
+``action_mask``, ``frame``, after a step ``scored_frame`` and ``step_metrics``. After
+``terminated``, ``step()`` raises ``ResetNeeded``. ``render_mode="rgb_array"`` draws as
+``assocbench render`` does; a process forked after MuJoCo rendered cannot render (GL does not
+survive ``fork``), so ``reset`` there raises a one-line ``UserError`` instead of hanging.
 """
 
 from __future__ import annotations

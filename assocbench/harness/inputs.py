@@ -1,15 +1,10 @@
-"""A stored run's inputs, as make, Snakemake and DVC keep a dependency file: the source files its
-run imported with their digests, and the versions of the libraries that change numbers. A stored run
-is reused only while every one still matches (``RunInputs.changed``); editing a file the run never
-imported (another track's module) reuses it.
-
-The files (``ImportGraph.closure``): the modules a run starts from (``roots``: the worker's harness,
-the track's and method's modules, those of its settings and frame source), those the worker asked
-for while it ran (``imports.ImportLog``), and every module their files import (inside functions
-too), wherever it lives. Libraries are not hashed; their version is recorded where it changes
-numbers (``imports.NUMERIC_LIBRARIES``). Data files beside an imported module (``*.json``: the
-learned trees) count with it. A file saved after the worker loaded it means the code that ran is not
-the file: ``run_inputs`` raises ``Stale`` and the run is not stored.
+"""A stored run's inputs, as make and DVC keep a dependency file: the source files its run imported,
+with digests, and the versions of the libraries that change numbers; a stored run is reused only
+while all still match (``RunInputs.changed``), so editing another track's module reuses it. The
+files (``ImportGraph.closure``): the modules a run starts from (``roots``), those the worker asked
+for (``imports.ImportLog``) and every module their files import (inside functions too); libraries
+are not hashed but versioned (``imports.NUMERIC_LIBRARIES``); data files (``*.json``) count with
+their module. A file saved after the worker loaded it raises ``Stale``: the run is not stored.
 """
 
 from __future__ import annotations

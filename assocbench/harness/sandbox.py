@@ -1,18 +1,10 @@
 """Worker processes for method code: a per-call time limit, and methods that die, exit or hang fail
-their frames instead of the run.
-
-The parent (``Supervisor``) runs each ``Task`` (a leaderboard job: one sequence's runs × the
-methods; or one ``run``) in a worker forked from a forkserver that has imported assocbench and
-loaded the built-in kernels, so a worker starts warm. The worker announces each ``associate`` call
-(``call``) and sends each frame's record after it (``frame``, scored in the worker against the
-pristine problem); the parent waits with the call's time limit. When a call overruns or its worker
-dies, the parent kills it, records the frame as failed and resumes at the next frame in a fresh
-worker, which rebuilds the same problems from the cached sequence. A method whose construction or
-warm-up dies or hangs fails every frame.
-
-Workers ignore SIGINT and SIGTERM (the parent kills them) and exit when the parent is gone (a
-watchdog on its sentinel), so a killed sweep leaves no orphans; each leads its own session and is
-killed with its process group, taking the processes its method started.
+their frames instead of the run. The ``Supervisor`` runs each ``Task`` (one sequence's runs ×
+methods) in a worker forked from a forkserver with the built-in kernels loaded. The worker announces
+each call and sends each frame's record (scored in the worker against the pristine problem); when a
+call overruns or the worker dies, the parent kills it, fails the frame and resumes at the next frame
+in a fresh worker (same seed, same problems). Workers ignore SIGINT and SIGTERM, exit when the
+parent is gone, and are killed with their process group, taking what their method started.
 """
 
 from __future__ import annotations

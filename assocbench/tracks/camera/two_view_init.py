@@ -1,38 +1,27 @@
-"""Two-view landmark initialisation of the camera EKF-SLAM (``estimator.init: triangulation``).
+"""Two-view landmark initialisation of the camera EKF-SLAM (``estimator.init: triangulation``). A
+feature left unassociated in frame j waits as a ``View``; in a later frame k it is paired with an
+unassociated feature ``u_b`` (``triangulation.two_view_candidates``: nearest the epipolar line
+within the gate, in front of both cameras), and the landmark is the DLT point
+``l = X(u_a, u_b, ξ_j, ξ_k)``.
 
-A feature left unassociated in frame j waits as a ``View``. In a later frame k it is paired with a
-still unassociated feature ``u_b`` by ``triangulation.two_view_candidates`` (nearest to its epipolar
-line within the gate, in front of both cameras), and the landmark is the DLT point
-``l = X(u_a, u_b, ξ_j, ξ_k)`` of the two estimated poses.
-
-**Covariance: a clone of the pose.** ``l`` depends on ξ_j, whose error is correlated with the state,
-so while views of frame j wait the filter keeps a copy of ξ_j (stochastic cloning:
-``ekf_core.augment`` with Jacobian I, ``P_cc = P_ξξ``, ``P_cx = P_ξ·``; updates correct it through
-its correlations). The landmark is appended with the Jacobians to both poses and the pixels as the
-measurement:
+**A clone of the pose.** ``l`` depends on ξ_j, correlated with the state, so while views of frame j
+wait the filter keeps a copy of ξ_j (stochastic cloning: ``ekf_core.augment`` with Jacobian I) and
+the landmark is appended with Jacobians to both poses, the pixels as the measurement:
 
     P_ll = J_s P_ss J_sᵀ + J_u M J_uᵀ,   P_lx = J_s P_s·,   s = [ξ_k, ξ_j],
     J_s = [∂X/∂[δp_b, δθ_b], ∂X/∂[δp_a, δθ_a]],   J_u = ∂X/∂(u_a, v_a, u_b, v_b),
     M = blockdiag(R_a, R_b),
 
-and the clone is marginalised once no view of frame j waits: the exact first-order posterior. Adding
-Σ_j to M as if independent would be wrong: most of the two poses' errors is shared drift that moves
-both rays and the point together, not a baseline error (tests/test_two_view_init). Cost: 6 state
-dimensions per waiting frame (at most ``MAX_WAIT + 1``).
+the exact first-order posterior (treating ξ_j's error as independent would misread shared drift as a
+baseline error: tests/test_two_view_init). The clone is marginalised once no view of frame j waits.
 
-**Gate and parallax.** A true pair's epipolar distance moves with both pixels' noise and with the
-relative pose's rotation error, known at least to the odometry's ``(k − j) σ_θ²``, so the gate is
-``EPIPOLAR_SIGMAS · √(σ_a² + σ_b² + (k − j) f² σ_θ²)``. The DLT's first-order covariance holds while
-the relative depth spread is small (``s ≈ √2 σ / (f · parallax)``,
-``triangulation.triangulation_covariance``), so a pair needs ``s ≤ MAX_PIXEL_SPREAD`` and
-``depth_spread ≤ MAX_DEPTH_SPREAD``. The EKF asks more: a 3-D point updated through a projection far
-from linear in its uncertain depth feeds its error back into the pose (Civera, Davison & Montiel
-2008), hence ``MIN_PARALLAX_DEG``, below which the view keeps waiting (its baseline grows) for at
-most ``MAX_WAIT`` frames. A view finding no partner is dropped; one paired in a frame with no room
-for landmarks is dropped and its partner waits instead.
-
-On a self-similar scene a pair along the epipolar line may be wrong, so the landmark is tentative
-and the filter's confirm/drop rule with the method's own association judges it.
+**Gate and parallax.** The gate is ``EPIPOLAR_SIGMAS · √(σ_a² + σ_b² + (k − j) f² σ_θ²)`` (both
+pixels' noise and the relative rotation's, at least the odometry's). A pair needs the DLT's relative
+depth spread ``s ≈ √2 σ / (f · parallax)`` ≤ ``MAX_PIXEL_SPREAD`` and
+``depth_spread ≤ MAX_DEPTH_SPREAD``, and ``MIN_PARALLAX_DEG``: a 3-D point updated through a
+projection far from linear in its depth feeds its error back into the pose (Civera, Davison &
+Montiel 2008). With less, the view waits (at most ``MAX_WAIT`` frames); a view without partner is
+dropped. A pair on a self-similar scene may be wrong, so the landmark is tentative.
 """
 
 from __future__ import annotations

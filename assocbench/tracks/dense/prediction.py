@@ -1,23 +1,18 @@
-"""The model rendered into the view: KinectFusion's predicted maps, for a point map.
-
-Projecting the whole map in every ICP iteration costs O(map), and the map grows with the run.
-KinectFusion (Newcombe et al. 2011) renders the model ONCE per frame at the predicted pose; for a
-point map (Keller et al. 2013) that is a splat with a z-buffer. A map point goes to its nearest
-pixel
+"""The model rendered into the view: KinectFusion's predicted maps, for a point map. Projecting the
+whole map every ICP iteration costs O(map); KinectFusion (Newcombe et al. 2011) renders the model
+once per frame, for a point map a splat with a z-buffer (Keller et al. 2013). A map point goes to
+its nearest pixel
 
     u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋,      j = v W + u,   (x, y, z) = Rᵀ (p − t),
 
-and the pixel shows, by Keller et al.'s rule, the most confident point within ``band`` (fusion's
-``d_thr``) of the nearest, ties to the first born (so row order does not matter):
+and the pixel shows the most confident point within ``band`` (fusion's ``d_thr``) of the nearest,
+ties to the first born:
 
     z_min[j] = min_{i → j} z_i,   index[j] = argmax_{i → j, z_i ≤ z_min[j] + band} (w_i, −born_i),
 
-−1 where none lands. Nearest-wins would be biased: of two unmerged points of one surface, the nearer
-is the one whose noise pulled it towards the camera.
-
-The shown points (raster order) are ICP's source: at most one per pixel, so an iteration costs at
-most ``W · H`` whatever the map's size, and hidden points are no source. The splat visits only the
-map's blocks in the view frustum (same result as ``index=False``).
+−1 where none lands (nearest-wins would favour points whose noise pulled them towards the camera).
+The shown points are ICP's source: at most one per pixel whatever the map's size, hidden points
+none. Only the map's blocks in the view frustum are visited (same result as ``index=False``).
 """
 
 from __future__ import annotations

@@ -64,24 +64,24 @@ MIN_SMOOTH_PX = 0.1   # below it exp(-1/(2σ²)) < 1e-21: the neighbours' weight
 
 @dataclass(frozen=True)
 class IcpConfig:
-    """Settings of ``icp`` (section ``icp:``); the failure thresholds' evidence is
+    """Settings of ``icp`` (section ``icp:``); the thresholds' evidence is
     ``benchmarks/dense_icp_thresholds.py`` and ``dense_direction_share.py``.
 
     max_iterations: iterations at most; no convergence by then is a failure.
-    converge_rot_deg / converge_trans: converged when one update rotates less than this (deg) and
+    converge_rot_deg / converge_trans: converged when an update rotates less than this (deg) and
         moves less than this (m).
     min_pairs: fewer pairs in any iteration is a failure (too little to constrain 6 dof).
-    min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure;
-        catches gross failure only (wrong minima often keep half).
+    min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure; gross
+        failure only.
     min_direction_share: the final pairs' share of the visible points' information in the worst-kept
-        motion (``direction_share``) below this is a failure: the surfaces that fix some motion
-        found no partner (bays' side walls after a sideways slide, which no other test sees).
-    max_rms: final point-to-plane residual rms (m, each residual scaled by the gate's floor over its
-        gate) above this is a failure; gross mismatch only.
+        motion (``direction_share``) below this is a failure: a slide that lost the surfaces fixing
+        some motion (bays' side walls).
+    max_rms: final gated point-to-plane residual rms (m) above this is a failure; gross mismatch
+        only.
     max_condition: κ(S) (``stability_transform``) above this is a failure: some motion is
-        unconstrained (a plane, a corridor's axis). A noisy wrong minimum can pass it.
+        unconstrained.
     max_step_m / max_step_deg: a camera moved farther (m) or turned more (deg) than this from the
-        guess is a failure: beyond the capture range a converged pose is as likely a wrong minimum.
+        guess is a failure: past the capture range a converged pose is as likely wrong.
     """
 
     max_iterations: int = field(default=100, metadata=in_range(1, 10_000, unit="iterations"))

@@ -1,21 +1,15 @@
-"""The point map's voxel index: which map point holds a voxel of space (one surfel per voxel).
-
-With the homework's projective merge alone the map only grows: a surface seen again from a new pose
-has pixels on which no map point lands, and each adds a point. A rule independent of the pose bounds
-the density: a sample ``q`` with world normal ``m`` lands in the cell
+"""The point map's voxel index: which map point holds a voxel of space (one surfel per voxel). A
+surface seen again from a new pose has pixels no map point lands on, so the projective merge alone
+grows the map without bound. A sample ``q`` with world normal ``m`` lands in the cell
 
     key(q, m) = (⌊q_x/s_x⌋, ⌊q_y/s_y⌋, ⌊q_z/s_z⌋, c(m)),   c(m) = 2 a + [m_a < 0],  a = argmax_a |m_a|
 
-(``s_a`` = the thickness ``h`` along the normal's dominant axis, the voxel size along the others;
-the class keeps a thin wall's two faces apart), and merges into the map point holding that cell or a
-neighbour along ``a`` (``held_cell``) instead of being added. The thickness is fusion's ``d_thr`` so
-the depth noise along the normal does not split a plane into two layers. A point's cell is fixed
-when added. The map then holds at most one point per occupied cell (as ElasticFusion's surfel maps
-do).
-
-The table is open addressing with linear probing over int64 keys (20 bits per cell coordinate,
-offset by 2^19, the class in the low 3 bits), ``EMPTY`` and ``GONE`` (tombstone) free; ``rows``
-holds each key's map row beside it. It is rebuilt when used slots would pass half its size.
+(``s_a``: fusion's ``d_thr`` along the normal's dominant axis, so depth noise does not split a plane
+into two layers, the voxel size along the others; the class keeps a thin wall's faces apart) and
+merges into the point holding it or a neighbour along ``a`` (``held_cell``). A point's cell is fixed
+when added. The table is open addressing with linear probing over int64 keys (20 bits per
+coordinate, offset 2^19, the class in the low 3 bits; ``EMPTY``, ``GONE``), each key's row beside
+it, rebuilt past half full.
 """
 
 from __future__ import annotations

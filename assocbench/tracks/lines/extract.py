@@ -1,32 +1,25 @@
 """Lines ``(α, r)`` from a lidar scan, with their covariance, by one of three methods (lecture 24).
 
-**Points**: beams with a return, in beam order, ``p_i = ρ_i (cos β_i, sin β_i)``.
-
-**Breakpoints**: consecutive points are apart when ``|p_j − p_i| > d₀ + min(ρ_i, ρ_j) Δφ / sin λ``
-(Borges & Aldon's adaptive breakpoint, linearised: ``Δφ`` the beam step, ``λ`` the shallowest
-wall-to-beam angle read as one surface, ``d₀`` the noise margin). A dropped beam leaves a gap under
-the threshold unless the wall is near grazing; an occluder's run of NaN beams splits. Over a full
-circle the points are read from a breakpoint on, so a wall across the seam stays one chain; a scan
-without breakpoints is a closed loop, read from its farthest point.
+**Breakpoints**: the returns ``p_i = ρ_i (cos β_i, sin β_i)``, in beam order, split where
+``|p_j − p_i| > d₀ + min(ρ_i, ρ_j) Δφ / sin λ`` (Borges & Aldon's adaptive breakpoint: ``Δφ`` the
+beam step, ``λ`` the shallowest wall-to-beam angle, ``d₀`` the noise margin). Over a full circle the
+points are read from a breakpoint, so a wall across the seam stays one chain; no breakpoint at all
+is a closed loop, read from its farthest point.
 
 **Methods** (``LineExtractorConfig.method``):
 
-* ``polar``: one weighted polar fit per chain (the baseline: a chain turning a corner fails the
-  residual test).
-* ``split_merge``: iterative end-point fit: split at the point farthest from the chord while beyond
-  ``split_distance``; trim end points beyond ``TRIM_SIGMAS`` σ (a corner's beam may be the other
-  wall's); drop segments under ``min_points``; merge collinear segments, most compatible first, when
-  ``χ² = vᵀ(Σ_i + Σ_j)⁻¹v ≤ merge_chi2`` (``v = (Δα wrapped, Δr)``), their nearest ends within
-  ``merge_gap`` and the refit within ``split_distance`` of every point.
-* ``ransac``: ``ransac_iterations`` 2-point hypotheses over the points left, most inliers within
-  ``inlier_distance`` wins, refitted and re-selected once, cut at breakpoints into contiguous
-  pieces; pieces with ``min_points`` become lines and leave the pool, until too few points or
-  ``max_lines``.
+* ``polar``: one weighted polar fit per chain (the baseline: a chain turning a corner fails).
+* ``split_merge``: split at the point farthest from the chord while beyond ``split_distance``; trim
+  end points beyond ``TRIM_SIGMAS`` σ; drop segments under ``min_points``; merge collinear segments,
+  most compatible first, when ``χ² = vᵀ(Σ_i + Σ_j)⁻¹v ≤ merge_chi2`` (``v = (Δα, Δr)``), their ends
+  within ``merge_gap`` and the refit within ``split_distance``.
+* ``ransac``: ``ransac_iterations`` 2-point hypotheses, most inliers within ``inlier_distance``
+  wins, refitted, cut at breakpoints; pieces with ``min_points`` become lines, until too few points
+  or ``max_lines``.
 
-Every method ends with the weighted polar fit and covariance (``polar_fit``) of its inliers,
-dropping fits with RMS residual over ``max_rms`` and segments under ``min_length``. Null thresholds
-are multiples of the range noise σ: ``breakpoint_distance`` 10σ, ``split_distance`` 6σ,
-``inlier_distance`` 3σ, ``max_rms`` 2σ.
+All end with the weighted polar fit (``polar_fit``), dropping fits beyond ``max_rms`` and segments
+under ``min_length``. Null thresholds scale with σ: ``breakpoint_distance`` 10σ, ``split_distance``
+6σ, ``inlier_distance`` 3σ, ``max_rms`` 2σ.
 """
 
 from __future__ import annotations
