@@ -19,7 +19,6 @@ from functools import lru_cache
 
 import numpy as np
 from numba import njit
-from scipy.stats import chi2
 
 from .problem import Problem, pairs_of
 
@@ -40,6 +39,9 @@ def chi2_threshold(dof: int, confidence: float) -> float:
     """Gate ``χ²_dof(c)``: the ``confidence`` quantile of a χ² variable with ``dof`` degrees."""
     if not 0.0 < confidence < 1.0:
         raise ValueError(f"confidence must lie in (0, 1), got {confidence!r}")
+    # imported here, not at the top: scipy.stats takes seconds to import, and `import assocbench`
+    # (the registry, `assocbench list`) needs no gate
+    from scipy.stats import chi2
     return float(chi2.ppf(confidence, dof)) if dof > 0 else 0.0
 
 
