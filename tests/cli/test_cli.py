@@ -36,9 +36,6 @@ def assert_one_line_error(capsys, code: int, *needles: str) -> None:
     (["run", "--method", "jcbbb", "--frames", "2"], ["unknown method 'jcbbb'", "did you mean jcbb"]),
     (["run", "--set", "belief.sigma_rot=2", "--frames", "2"], ["unknown key 'belief.sigma_rot'", "sigma_rotation"]),
     (["run", "--set", "frames"], ["key=value"]),
-    # the flag won and the --set was dropped without a word, right or wrong
-    (["run", "--frames", "5", "--set", "frames=abc"], ["--frames 5 and --set frames=abc disagree: give frames once"]),
-    (["run", "--loop", "--set", "loop=false"], ["--loop and --set loop=false disagree"]),
     (["run", "--frames", "0"], ["frames must be an integer >= 1"]),
     (["run", "--set", "belief.map_fraction=2"], ["map_fraction"]),
     (["run", "--set", "msaa=-1"], ["msaa must be null", "0..16"]),
@@ -48,6 +45,16 @@ def assert_one_line_error(capsys, code: int, *needles: str) -> None:
 ])
 def test_bad_input_is_a_one_line_error(capsys, args, needles):
     assert_one_line_error(capsys, main(args), *needles)
+
+
+@pytest.mark.parametrize("args,needle", [
+    (["run", "--frames", "5", "--set", "frames=abc"], "--frames 5 and --set frames=abc disagree: give frames once"),
+    (["run", "--loop", "--set", "loop=false"], "--loop and --set loop=false disagree"),
+])
+def test_a_flag_and_a_set_that_disagree_are_refused(capsys, args, needle):
+    """Reproduction: `assocbench run --frames 5 --set frames=abc` ran 5 frames and dropped the --set
+    without a word (the flag won, right or wrong); so did `--loop --set loop=false`."""
+    assert_one_line_error(capsys, main(args), needle)
 
 
 @pytest.mark.parametrize("args,needles", [

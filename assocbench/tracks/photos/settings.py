@@ -5,7 +5,7 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from ...belief.config import BeliefConfig
+from ...belief.config import MAX_SIGMA_M, MAX_SIGMA_PIXEL, MIN_SIGMA_PIXEL, BeliefConfig
 from ...validation import in_range, validate_fields
 
 
@@ -25,10 +25,12 @@ class PhotoBelief(BeliefConfig):
     map_fraction: share of the landmarks that are in the map (the others' keypoints are clutter).
     """
 
-    sigma_position: float = field(default=0.005, metadata=in_range(0))
+    # the camera belief's bounds, in bundle units: a std of 1e300 squared overflows and a sigma_pixel
+    # of 1e-300 squares to a singular R, each a crash in the worker
+    sigma_position: float = field(default=0.005, metadata=in_range(0, MAX_SIGMA_M))
     sigma_rotation: float = field(default=0.1, metadata=in_range(0, 90))
-    sigma_landmark: float = field(default=0.002, metadata=in_range(0))
-    sigma_pixel: float = field(default=0.5, metadata=in_range(0, lo_open=True))
+    sigma_landmark: float = field(default=0.002, metadata=in_range(0, MAX_SIGMA_M))
+    sigma_pixel: float = field(default=0.5, metadata=in_range(MIN_SIGMA_PIXEL, MAX_SIGMA_PIXEL, unit="px"))
 
 
 @dataclass(frozen=True)

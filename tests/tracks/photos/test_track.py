@@ -79,9 +79,29 @@ def test_a_run_from_the_command_line_is_scored_against_the_reference(tmp_path, c
     (["--scene", "victoria_park"], "the photos track reads the reconstruction 'balbianello', not 'victoria_park'"),
     (["--set", "belief.clutter=3"], "belief.clutter"),
     (["--set", "photos.match_radius=0"], "photos.match_radius"),
+    (["--set", "belief.sigma_pixel=1e-300"], "belief.sigma_pixel must be a finite number in [1e-06, 10000.0]"),
+    (["--set", "belief.sigma_pixel=1e300"], "belief.sigma_pixel must be a finite number in [1e-06, 10000.0]"),
+    (["--set", "belief.sigma_position=1e300"], "belief.sigma_position must be a finite number in [0, 1000.0]"),
+    (["--set", "belief.sigma_landmark=1e300"], "belief.sigma_landmark must be a finite number in [0, 1000.0]"),
 ])
 def test_bad_runs_are_refused_in_one_line(capsys, args, message):
+    """Reproduction of the belief cases: `assocbench run --scene balbianello --set
+    belief.sigma_pixel=1e-300` (R = σ²I is 0, not positive definite), `sigma_position=1e300` or
+    `sigma_landmark=1e300` (σ² overflows: OverflowError) crashed the worker with a traceback, exit 1:
+    the photos belief had no upper bound and sigma_pixel no lower one, unlike the other tracks'."""
     assert_one_line_error(capsys, main(["run", "--track", "photos", "--method", "mnn", *args]), message)
+
+
+@pytest.mark.parametrize("setting", ["belief.sigma_pixel=1e-6", "belief.sigma_pixel=1e4", "belief.sigma_position=1000",
+                                     "belief.sigma_landmark=1000", "belief.sigma_common=1000",
+                                     "belief.miscalibration=1000"])
+def test_the_photos_belief_computes_at_the_ends_of_its_ranges(tmp_path, capsys, setting):
+    """At each bound the run is measured: ok, or not ok with its reason, never a crash."""
+    code = main(["run", "--track", "photos", "--method", "mnn", "--frames", "2", "--set", setting,
+                 "--out", str(tmp_path), "--format", "csv"])
+    err = capsys.readouterr().err
+    assert code in (0, 1) and "Traceback" not in err and "error:" not in err, err
+    assert (tmp_path / "summary.csv").is_file()
 
 
 def test_without_gtsam_the_track_is_listed_unavailable_and_a_run_is_refused_naming_the_extra(capsys, monkeypatch):
