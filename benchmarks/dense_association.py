@@ -40,7 +40,7 @@ from _util import print_table, run_recorded, summary_ms, timed
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb  # noqa: E402
 
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.associators.dense import make_dense_associator  # noqa: E402
 from assocbench.tracks.dense.fusion import PointMap, fuse, warm_fusion  # noqa: E402
 from assocbench.tracks.dense.metrics import score_correspondences  # noqa: E402
 from assocbench.tracks.dense.run import Source, frame_source, map_source  # noqa: E402

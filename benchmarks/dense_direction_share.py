@@ -20,7 +20,7 @@ import argparse
 import numpy as np
 from _util import print_table, run_recorded
 
-from assocbench.associators.registry import make_dense_associator
+from assocbench.associators.dense import make_dense_associator
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.runner import GuardedCalls
 from assocbench.tracks.dense.run import dense_records

@@ -54,7 +54,7 @@ import pandas as pd  # noqa: E402
 from _util import print_table, run_recorded  # noqa: E402
 from dense_rate import load, render_once, settings  # noqa: E402
 
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.associators.dense import make_dense_associator  # noqa: E402
 from assocbench.errors import UserError  # noqa: E402
 from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
 from assocbench.harness.runner import GuardedCalls  # noqa: E402

@@ -29,7 +29,7 @@ from _util import print_table, run_recorded
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import pose_error  # noqa: E402
 
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.associators.dense import make_dense_associator  # noqa: E402
 from assocbench.tracks.dense.icp import icp  # noqa: E402
 from assocbench.tracks.dense.run import frame_source  # noqa: E402
 from assocbench.tracks.dense.sequence import DenseSequenceSpec, load_dense_sequence  # noqa: E402

@@ -26,8 +26,8 @@ from _util import print_table, run_recorded, summary_ms, timed
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import ROOM, perturb, render, room_frame, source_set  # noqa: E402
 
+from assocbench.associators.dense import make_dense_associator  # noqa: E402
 from assocbench.associators.dense.projective import associate_numpy  # noqa: E402
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
 from assocbench.tracks.dense.icp import icp, normal_equations, solve_update, stability_transform  # noqa: E402
 from assocbench.tracks.dense.settings import IcpConfig
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402

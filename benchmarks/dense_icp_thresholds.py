@@ -40,7 +40,7 @@ from dense_synthetic import (  # noqa: E402  # noqa: E402
     source_set,
 )
 
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
+from assocbench.associators.dense import make_dense_associator  # noqa: E402
 from assocbench.tracks.dense.icp import icp  # noqa: E402
 from assocbench.tracks.dense.settings import IcpConfig
 from assocbench.tracks.dense.warm import warm_dense  # noqa: E402

@@ -229,7 +229,7 @@ def registrations(seq, pairs: int, runs: int) -> None:
     pose; time: median of ``runs`` calls (ms). ``pairs`` 0: no table."""
     if pairs <= 0:
         return
-    from assocbench.associators.registry import make_dense_associator
+    from assocbench.associators.dense import make_dense_associator
     from assocbench.tracks.dense.icp import icp, step_from
     from assocbench.tracks.dense.run import frame_source
     from assocbench.tracks.dense.settings import IcpConfig

@@ -74,8 +74,8 @@ from scipy.spatial import cKDTree  # noqa: E402
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import pose_error  # noqa: E402
 
+from assocbench.associators.dense import make_dense_associator  # noqa: E402
 from assocbench.associators.dense.base import DenseAssociator, Pairs  # noqa: E402
-from assocbench.associators.registry import make_dense_associator  # noqa: E402
 from assocbench.models.depth_frame import DepthFrame  # noqa: E402
 from assocbench.tracks.dense.icp import IcpResult, icp  # noqa: E402
 from assocbench.tracks.dense.run import frame_source  # noqa: E402

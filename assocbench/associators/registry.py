@@ -1,6 +1,12 @@
 """Registry of associators: the built-ins, entry-point plugins and ``pkg.module:Class`` specs.
-Feature associators (``Associator``) and dense ones (``dense.DenseAssociator``) share it; a method's
-kind implies its track, so a user's dense associator plugs in like a feature one."""
+Feature associators (``Associator``) and dense ones (``dense.DenseAssociator``; ``dense.is_dense``,
+``dense.make_dense_associator``) share it; a method's kind implies its track, so a user's dense
+associator plugs in like a feature one.
+
+Built-ins are lazy ``module:Class`` strings, as the track registry's: asking for one imports its
+module alone (and what that module imports), so a stored run's inputs (``harness/inputs.py``) name
+its method's files and no other method's, and editing one method recomputes only its runs.
+"""
 
 from __future__ import annotations
 
@@ -11,25 +17,35 @@ from importlib.metadata import entry_points
 
 from ..errors import UserError
 from ..validation import brief, validate_fields
-from .appearance import Appearance
 from .base import Associator
-from .ccda import CCDA
-from .dense import DENSE_METHODS, DenseAssociator
-from .enn import ENN
-from .jcbb import JCBB
-from .jpda import JPDA
-from .learned import Learned
-from .lsa import LSA
-from .ml import ML
-from .mnn import MNN
-from .naive import Naive
-from .rjc import RJC
-from .snn import SNN
 
 ENTRY_POINT_GROUP = "assocbench.associators"
-BUILTINS: dict[str, type[Associator]] = {cls.name: cls for cls in (ENN, MNN, ML, SNN, JCBB, LSA, RJC, CCDA, JPDA, Naive, Learned,
-                                                                    Appearance)}
-ALL_BUILTINS: dict[str, type] = {**BUILTINS, **DENSE_METHODS}
+BUILTINS: dict[str, str] = {   # feature associators: name -> "module:Class"
+    "enn": "assocbench.associators.enn:ENN",
+    "mnn": "assocbench.associators.mnn:MNN",
+    "ml": "assocbench.associators.ml:ML",
+    "snn": "assocbench.associators.snn:SNN",
+    "jcbb": "assocbench.associators.jcbb:JCBB",
+    "lsa": "assocbench.associators.lsa:LSA",
+    "rjc": "assocbench.associators.rjc:RJC",
+    "ccda": "assocbench.associators.ccda:CCDA",
+    "jpda": "assocbench.associators.jpda:JPDA",
+    "naive": "assocbench.associators.naive:Naive",
+    "learned": "assocbench.associators.learned.associator:Learned",
+    "appearance": "assocbench.associators.appearance:Appearance",
+}
+DENSE_BUILTINS: dict[str, str] = {   # the dense track's associators
+    "projective": "assocbench.associators.dense.projective:ProjectiveAssociator",
+    "kdtree": "assocbench.associators.dense.kdtree:KdTreeAssociator",
+}
+ALL_BUILTINS: dict[str, str] = {**BUILTINS, **DENSE_BUILTINS}
+
+
+def builtin_class(name: str) -> type:
+    """The class of the built-in ``name`` (a key of ``ALL_BUILTINS``), importing its module now.
+    Imported on every ask (a no-op once loaded) so a worker's import log sees which method asked."""
+    module, _, attr = ALL_BUILTINS[name].partition(":")
+    return getattr(importlib.import_module(module), attr)
 
 
 def _load_spec(spec: str) -> type[Associator]:
@@ -52,9 +68,15 @@ def plugins() -> dict[str, str]:
     return {ep.name: ep.value for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
+def names() -> list[str]:
+    """Every associator name usable with ``make_associator``, built-ins first, importing none."""
+    return list(dict.fromkeys([*ALL_BUILTINS, *plugins()]))
+
+
 def available() -> dict[str, str]:
-    """Every associator name usable with ``make_associator``, with its one-line summary."""
-    out = {name: cls.summary for name, cls in ALL_BUILTINS.items()}
+    """Every associator name usable with ``make_associator``, with its one-line summary (this
+    imports every built-in and plugin: ``names`` lists them without)."""
+    out = {name: builtin_class(name).summary for name in ALL_BUILTINS}
     for name, value in plugins().items():
         out.setdefault(name, _plugin_summary(value))
     return out
@@ -75,14 +97,14 @@ def associator_class(method: str) -> type[Associator]:
     """Class of a built-in name, a plugin name or a ``pkg.module:Class`` spec."""
     key = method.lower()
     if key in ALL_BUILTINS:
-        return ALL_BUILTINS[key]
+        return builtin_class(key)
     if method in plugins():
         return _load_spec(plugins()[method])
     if ":" in method:
         return _load_spec(method)
-    close = difflib.get_close_matches(key, list(available()), n=3, cutoff=0.4)
+    close = difflib.get_close_matches(key, names(), n=3, cutoff=0.4)
     hint = f"did you mean {', '.join(close)}? " if close else ""
-    raise UserError(f"unknown method {method!r}: {hint}choose one of {', '.join(available())} or pkg.module:Class")
+    raise UserError(f"unknown method {method!r}: {hint}choose one of {', '.join(names())} or pkg.module:Class")
 
 
 def make_associator(method: str, **params) -> Associator:
@@ -107,20 +129,3 @@ def make_associator(method: str, **params) -> Associator:
         validate_fields(associator, "params")   # Associator subclasses check themselves
     return associator
 
-
-def is_dense(method: str) -> bool:
-    """Whether ``method`` resolves to a dense associator (False when it does not resolve)."""
-    try:
-        return issubclass(associator_class(method), DenseAssociator)
-    except UserError:
-        return False
-
-
-def make_dense_associator(method: str, **params) -> DenseAssociator:
-    """A dense associator (``make_associator``), or a one-line error when ``method`` is not one."""
-    associator = make_associator(method, **params)
-    if not isinstance(associator, DenseAssociator):
-        raise UserError(f"method {method!r} is not a dense associator (subclass "
-                        "assocbench.associators.dense.DenseAssociator); a feature associator runs on the "
-                        "camera, planar or lines track")
-    return associator

@@ -37,7 +37,8 @@ def main(args: argparse.Namespace) -> int:
     suite = load_suite(path)
     check_cache(suite.first_source())
     out = check_output_folder(Path(args.out or f"results/runs/{suite.name}"))
-    summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet)
+    summaries, frames = run_suite(suite, out, args.jobs, args.executor, args.address, progress=not args.quiet,
+                                  say_reused=True)
     track = suite.track_impl
     paths = track.write_leaderboard(summaries, frames, out) if has(track, OwnLeaderboard) else \
         write_leaderboard(summaries, frames, out, track, suite.scene_paths())

@@ -246,7 +246,7 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
     announced); only assocbench's code runs here."""
     for name in sorted(set(tracks)):
         warm_track(get_track(name))
-    from ..associators.registry import BUILTINS
+    from ..associators.registry import BUILTINS, builtin_class
     from ..kernels import warm
     from .runner import warm_scoring, warm_up
 
@@ -255,7 +255,7 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
     # uses it (no tracks named: assume one does); a track with its own frame loop scores its own way
     scores = not tracks or any(not has(get_track(name), OwnFrames) for name in tracks)
     scoring = [warm_scoring] if scores and "scoring" not in _warm else []
-    warm([partial(warm_up, BUILTINS[name]()) for name in names] + scoring)
+    warm([partial(warm_up, builtin_class(name)()) for name in names] + scoring)
     _warm.update(names + (["scoring"] if scores else []))
 
 

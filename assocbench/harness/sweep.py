@@ -159,9 +159,11 @@ def in_turns(tasks: list[list[Run]]) -> list[list[Run]]:
 
 
 def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", address: str | None = None,
-              cache_dir: str | None = None, progress: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
+              cache_dir: str | None = None, progress: bool = True,
+              say_reused: bool = False) -> tuple[pd.DataFrame, pd.DataFrame]:
     """Compute the runs of ``suite`` not stored under ``out``, storing each as it finishes; return
-    every run's summary and frames, labelled, in suite order."""
+    every run's summary and frames, labelled, in suite order. ``say_reused``: end with one line on
+    stderr saying how many runs were computed and how many stored ones reused."""
     if executor not in EXECUTORS:
         raise UserError(f"unknown executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
     if jobs < 1:
@@ -171,6 +173,7 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
     client = _dask_client(address) if executor == "dask" else None
     ensure_dir(out / FOLDER)
     done, todo, changed = missing_cells(suite, out)
+    reused = len(done)
     if changed:
         _report(f"{len(changed)} stored run(s) are out of date ({changed[0]}); recomputing them")
     bar = _Bar(total=len(suite.runs), initial=len(done), desc=f"{suite.name}", unit="run",
@@ -192,8 +195,16 @@ def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", a
             _run_local(todo, keep, jobs, cache_dir)
     finally:
         bar.close()
+    if say_reused:
+        _report(_reuse_line(len(suite.runs) - reused, reused, out / FOLDER))
     parts = [_labelled(run, done[run]) for run in suite.runs]
     return pd.concat([s for s, _ in parts], ignore_index=True), pd.concat([f for _, f in parts], ignore_index=True)
+
+
+def _reuse_line(computed: int, reused: int, folder: Path) -> str:
+    """``computed 4 runs, reused 12 stored in <folder>``: what a sweep cost, so a user adding a
+    method sees that only its runs ran."""
+    return f"computed {computed} run{'' if computed == 1 else 's'}, reused {reused} stored in {folder}"
 
 
 def _labelled(run: Run, result: Result) -> Result:

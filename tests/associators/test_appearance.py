@@ -8,9 +8,9 @@ import pytest
 from problems import random_problem
 
 from assocbench import Problem, make_associator
-from assocbench.associators.registry import BUILTINS, is_dense
+from assocbench.associators.registry import BUILTINS, builtin_class
 
-GEOMETRIC = sorted(m for m, cls in BUILTINS.items() if not getattr(cls, "needs_descriptors", False) and not is_dense(m))
+GEOMETRIC = sorted(m for m in BUILTINS if not getattr(builtin_class(m), "needs_descriptors", False))
 
 
 def row(*values: float) -> list[float]:

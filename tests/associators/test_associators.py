@@ -10,7 +10,8 @@ from plugins import install_entry_point
 from problems import for_method, random_problem, reference_joint, reference_surprisal
 
 from assocbench import Problem, make_associator, validate_association
-from assocbench.associators.registry import available, is_dense
+from assocbench.associators.dense import is_dense
+from assocbench.associators.registry import available
 from assocbench.models.synthetic import lattice_problem, range_bearing_problem
 
 METHODS = sorted(m for m in available() if not is_dense(m))   # the dense ones: tests/tracks/dense

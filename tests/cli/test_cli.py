@@ -119,6 +119,16 @@ def test_run_twice_gives_identical_csvs_except_timing(tmp_path, capsys):
     assert "precision" in capsys.readouterr().out
 
 
+def test_the_leaderboard_says_how_many_runs_it_computed_and_how_many_it_reused(tmp_path, capsys):
+    """A user adding a method to a suite sees that only its runs ran (and removing one, that none did)."""
+    suite, out = tmp_path / "suite.yaml", tmp_path / "board"
+    for methods, said in (("[mnn]", "computed 2 runs, reused 0"), ("[mnn, lsa]", "computed 2 runs, reused 2"),
+                          ("[lsa]", "computed 0 runs, reused 2")):
+        suite.write_text(f"base: {{frames: 2}}\nscenes: [checkerboard]\nmethods: {methods}\nseeds: [0, 1]\n")
+        assert main(["leaderboard", "--suite", str(suite), "--out", str(out), "--quiet"]) == 0
+        assert f"assocbench: {said} stored in {out / 'runs'}\n" in capsys.readouterr().err
+
+
 def test_list_names_methods_scenes_and_trajectories(capsys):
     assert main(["list"]) == 0
     out = capsys.readouterr().out

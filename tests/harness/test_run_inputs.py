@@ -10,6 +10,7 @@ import os
 import subprocess
 import sys
 import textwrap
+import time
 import uuid
 from pathlib import Path
 
@@ -155,10 +156,20 @@ def test_a_planar_runs_inputs_are_its_own_track_and_no_other(tmp_path):
     (manifest,) = _manifests(out).values()
     files = manifest["inputs"]["files"]
     assert "assocbench/tracks/planar/track.py" in files and "assocbench/associators/mnn.py" in files
-    assert "assocbench/harness/runner.py" in files and "assocbench/associators/learned/planar.json" in files
+    assert "assocbench/harness/runner.py" in files
     others = [f for f in files if f.startswith(("assocbench/tracks/dense/", "assocbench/tracks/camera/",
                                                 "assocbench/tracks/lines/"))]
     assert others == [] and "numpy" in manifest["inputs"]["libraries"]
+
+
+def test_a_modules_data_files_are_among_the_inputs_of_the_runs_that_import_it():
+    """The learned models (``*.json`` beside their module) are inputs of a run that imports the
+    learned associator: a retrained model recomputes its runs."""
+    from assocbench.harness.inputs import ImportGraph, run_inputs
+
+    report = {"names": [], "loaded": {}, "earliest": time.time(), "libraries": []}   # loaded now
+    files = run_inputs(ImportGraph(), {"assocbench.associators.learned.associator"}, report).files
+    assert {"assocbench/associators/learned/planar.json", "assocbench/associators/learned/camera.json"} <= set(files)
 
 
 SPY = '''
@@ -198,15 +209,21 @@ def test_a_planar_worker_imports_no_module_of_another_track(tmp_path):
                                                 "assocbench.tracks.lines"))] == []
 
 
-def test_a_method_costs_only_its_own_runs(tmp_path, monkeypatch):
-    """Adding a method computes its runs alone, removing one computes nothing, changing one
-    method's parameters recomputes that method; the other rows are the stored ones."""
+def _count_computed(monkeypatch) -> list[str]:
+    """The labels of the runs each sweep computes from now on (the others are reused)."""
     import assocbench.harness.sweep as sweep
 
     computed = []
     real = sweep.run_cell
     monkeypatch.setattr(sweep, "run_cell", lambda runs, cache_dir=None, graph=None: (
         computed.extend(r.entry.label for r in runs), real(runs, cache_dir, graph))[1])
+    return computed
+
+
+def test_a_method_costs_only_its_own_runs(tmp_path, monkeypatch):
+    """Adding a method computes its runs alone, removing one computes nothing, changing one
+    method's parameters recomputes that method; the other rows are the stored ones."""
+    computed = _count_computed(monkeypatch)
     out, seeds = tmp_path / "out", "[0, 1]"
     two, _ = run_suite(load_suite(_suite(tmp_path, "[enn, mnn]", seeds=seeds)), out, progress=False)
     assert sorted(computed) == ["enn", "enn", "mnn", "mnn"]
@@ -220,6 +237,37 @@ def test_a_method_costs_only_its_own_runs(tmp_path, monkeypatch):
     tuned = textwrap.dedent("""[enn, mnn, {name: lsa, method: lsa, params: {confidence: 0.9}}]""")
     run_suite(load_suite(_suite(tmp_path, tuned, seeds=seeds)), out, progress=False)
     assert computed == ["lsa", "lsa"]
+
+
+def test_editing_one_built_in_method_recomputes_only_its_runs(tmp_path, monkeypatch):
+    """Each built-in associator is imported when asked for, so a run's inputs are its own method's
+    modules and none of another's: an edit in mnn.py recomputes MNN's runs alone, one in lsa.py
+    JCBB's alone (jcbb.py imports it). The registry imported every built-in, so any such edit
+    recomputed every method's runs. An edit is what the stored digest sees: the file's digest
+    changes (the package's files are never written by a test)."""
+    import assocbench.harness.inputs as inputs
+
+    computed = _count_computed(monkeypatch)
+    out, suite = tmp_path / "out", _suite(tmp_path, "[mnn, jcbb]")
+    first, _ = run_suite(load_suite(suite), out, progress=False)
+    files = {m["run"].split()[0]: set(m["inputs"]["files"]) for m in _manifests(out).values()}
+    mine = "assocbench/associators/"
+    assert sorted(f for f in files["mnn"] - files["jcbb"] if f.startswith(mine)) == [f"{mine}mnn.py"]
+    assert {f"{mine}jcbb.py", f"{mine}lsa.py", f"{mine}rjc.py"} <= files["jcbb"] - files["mnn"]
+    assert not any(f.startswith((f"{mine}dense/", f"{mine}learned/", f"{mine}snn.py")) for f in files["mnn"] | files["jcbb"])
+    edited, real = set(), inputs.file_digest
+
+    def digest(path: Path) -> tuple[str, int] | None:
+        got = real(path)
+        return (f"edited {got[0]}", got[1]) if got is not None and inputs.file_name(path) in edited else got
+
+    monkeypatch.setattr(inputs, "file_digest", digest)
+    for name, runs_of in (("mnn.py", ["mnn"]), ("lsa.py", ["jcbb"]), ("snn.py", [])):
+        edited.add(mine + name)
+        computed.clear()
+        again, _ = run_suite(load_suite(suite), out, progress=False)
+        assert computed == runs_of, name
+        pd.testing.assert_frame_equal(again[COLUMNS], first[COLUMNS])   # the same code: the same numbers
 
 
 def test_side_by_side_tasks_make_different_sequences(tmp_path):

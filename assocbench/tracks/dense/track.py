@@ -73,7 +73,7 @@ class DenseTrack(Track):
     # --- capabilities: its own frame loop, methods, leaderboard and files ---------------------
     def records(self, source: FrameSource, run: Any, calls: MethodCalls, first: int = 0,
                 artifacts: Path | None = None):
-        from ...associators.registry import make_dense_associator
+        from ...associators.dense import make_dense_associator
         from .run import dense_records
 
         return dense_records(source.sequence, run, calls, lambda: make_dense_associator(run.method, **gate_params(run)),
@@ -85,7 +85,7 @@ class DenseTrack(Track):
         return summarize_dense(frames)
 
     def check_method(self, method: str, params: dict) -> None:
-        from ...associators.registry import make_dense_associator
+        from ...associators.dense import make_dense_associator
 
         make_dense_associator(method, **params)   # bad names and parameters are refused now
 
@@ -94,7 +94,7 @@ class DenseTrack(Track):
         return {"tracking": tracking}, f"{tracking} tracking"
 
     def claims_method(self, method: str) -> bool:
-        from ...associators.registry import is_dense
+        from ...associators.dense import is_dense
 
         return isinstance(method, str) and is_dense(method)
 

@@ -9,9 +9,9 @@ import numpy as np
 import pytest
 from dense_synthetic import ROOM, correct, perturb, render, room_frame, rotation, source_set
 
-from assocbench.associators.dense import DENSE_METHODS, Pairs
+from assocbench.associators.dense import Pairs, make_dense_associator
 from assocbench.associators.dense.projective import associate_numpy
-from assocbench.associators.registry import make_dense_associator
+from assocbench.associators.registry import DENSE_BUILTINS, builtin_class
 from assocbench.errors import UserError
 
 
@@ -57,7 +57,7 @@ def with_hole(frame, rows: slice, cols: slice):
     return dataclasses.replace(frame, depth=depth, vertices=V, normals=N)
 
 
-@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+@pytest.mark.parametrize("name", sorted(DENSE_BUILTINS))
 def test_dense_associator(name, scene):
     A, B, (pts, nrm, true_pts, geom) = scene
     assoc = make_dense_associator(name)
@@ -125,7 +125,7 @@ def test_dense_associator(name, scene):
 def test_unknown_dense_method_is_one_line():
     with pytest.raises(UserError, match="did you mean projective"):
         make_dense_associator("projectiv")
-    assert isinstance(make_dense_associator("KDTree"), DENSE_METHODS["kdtree"])
+    assert isinstance(make_dense_associator("KDTree"), builtin_class("kdtree"))
 
 
 def test_projective_equals_plain_numpy(scene):
@@ -158,7 +158,7 @@ def test_kdtree_builds_its_tree_once_per_frame(scene):
     assert kd.tree(A)[0] is not tree
 
 
-@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+@pytest.mark.parametrize("name", sorted(DENSE_BUILTINS))
 def test_considered_counts_only_visible_points_and_the_gate_grows_with_depth(name, scene):
     """Source points pushed 0.5 m behind their surface along the view ray are hidden: neither
     paired nor considered. Pulled 0.5 m in front, they are visible (the sensor sees through them)

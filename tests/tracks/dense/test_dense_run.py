@@ -174,7 +174,7 @@ def test_frame_to_frame_after_a_lost_frame_registers_to_the_last_tracked_frame()
     registers the next frame to the last tracked frame's points, not to the lost frame's points
     placed at the held pose, one step off: on bays seed 1 (40 frames) every pose after the lost
     frame 8 inherited its 57 mm step (ATE 61.5 mm, all later steps right)."""
-    from assocbench.associators.registry import make_dense_associator
+    from assocbench.associators.dense import make_dense_associator
     from assocbench.harness.config import load_run_config, run_spec
     from assocbench.harness.runner import GuardedCalls
     from assocbench.tracks.dense.run import dense_records
@@ -196,7 +196,7 @@ def test_fusion_columns_are_empty_exactly_on_the_frames_not_fused():
     """``frames.csv``'s fusion columns (``fusion_considered``: map points on a valid pixel) are empty
     on a frame not fused (its ICP or its method failed) and only there: frame 0, fused into the
     empty map, had them empty too, so it read as a frame not fused (the cold check found)."""
-    from assocbench.associators.registry import make_dense_associator
+    from assocbench.associators.dense import make_dense_associator
     from assocbench.harness.config import load_run_config, run_spec
     from assocbench.harness.runner import GuardedCalls
     from assocbench.tracks.dense.run import dense_records

@@ -11,9 +11,9 @@ import numpy as np
 import pytest
 from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, source_set, wall_frame
 
-from assocbench.associators.dense import DENSE_METHODS, Pairs
+from assocbench.associators.dense import Pairs, make_dense_associator
 from assocbench.associators.dense.projective import ProjectiveAssociator
-from assocbench.associators.registry import make_dense_associator
+from assocbench.associators.registry import DENSE_BUILTINS
 from assocbench.errors import UserError
 from assocbench.models.depth_frame import NO_GEOM
 from assocbench.tracks.dense.icp import (
@@ -51,7 +51,7 @@ def clean():
 TOLERANCE = {"projective": (1e-4, 0.01), "kdtree": (1e-3, 0.1)}
 
 
-@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+@pytest.mark.parametrize("name", sorted(DENSE_BUILTINS))
 def test_converges_to_the_true_pose_from_3cm_3deg(name, clean):
     """With d_thr = 10 cm: a 3 deg turn moves points 2-3 m away by 10-16 cm, beyond the default
     5 cm gate, where 4 (projective) and 2 (kdtree) of 8 such starts end at a wrong minimum, all
@@ -71,7 +71,7 @@ def test_noisy_frames_converge_within_a_millimetre():
     """At a quarter of the sensor's noise (normals err ~20 deg) ICP from 1 cm / 1 deg is accepted
     and within 1 mm / 0.05 deg (measured 0.4-0.5 mm, 0.02-0.03 deg)."""
     (pts, nrm), B = frame_pair(0.25)
-    for name in sorted(DENSE_METHODS):
+    for name in sorted(DENSE_BUILTINS):
         R0, t0 = perturb(B.R, B.t, 1.0, 0.01, np.random.default_rng([5]))
         res = icp(pts, nrm, B, make_dense_associator(name), R0, t0)
         err_m, err_deg = pose_error(res.R, res.t, B.R, B.t)
@@ -138,7 +138,7 @@ def test_update_matches_finite_differences(clean):
     assert np.array_equal(res.first_pairs.source, pairs.source) and res.iterations == 1
 
 
-@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+@pytest.mark.parametrize("name", sorted(DENSE_BUILTINS))
 def test_failure_is_reported_not_a_wrong_pose(name, clean):
     """Starts of growing size (0.5-45 deg with as many cm): whenever ICP does not report failure
     its pose is within 1 mm / 0.1 deg; small starts succeed, 45 deg ones fail with a reason."""
@@ -159,7 +159,7 @@ def test_failure_is_reported_not_a_wrong_pose(name, clean):
     assert all(outcome[45, k] for k in range(2))
 
 
-@pytest.mark.parametrize("name", sorted(DENSE_METHODS))
+@pytest.mark.parametrize("name", sorted(DENSE_BUILTINS))
 def test_single_plane_is_degenerate(name):
     """A wall alone leaves two translations and a rotation free: failed, whatever the start."""
     W = wall_frame()
@@ -174,7 +174,7 @@ def test_nothing_valid_fails_without_an_exception(clean):
     (pts, nrm), B = clean
     nan = np.full_like(B.vertices, np.nan)
     empty = dataclasses.replace(B, depth=np.full_like(B.depth, np.nan), vertices=nan, normals=nan)
-    for name in sorted(DENSE_METHODS):
+    for name in sorted(DENSE_BUILTINS):
         res = icp(pts, nrm, empty, make_dense_associator(name), B.R, B.t)
         assert res.failed and "no valid pixel" in res.reason and not res.converged
         np.testing.assert_array_equal(res.R, B.R)

@@ -6,8 +6,7 @@ from __future__ import annotations
 
 import pytest
 
-from assocbench.associators.dense import projective
-from assocbench.associators.registry import make_dense_associator
+from assocbench.associators.dense import make_dense_associator, projective
 from assocbench.harness.config import load_run_config, run_spec
 from assocbench.harness.runner import GuardedCalls
 from assocbench.models import depth_frame
