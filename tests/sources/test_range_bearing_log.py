@@ -60,6 +60,7 @@ BAD = [
     ("LANDMARK 0 7 3.0 4.0 0.04 0 0.04\nLANDMARK 0 7 3.1 4.0 0.04 0 0.04", "ref", "sighted twice from pose 0"),
     ("LANDMARK 0 7 0.0 0.0 0.04 0.0 0.04", "x, y", "no bearing"),
     ("# nothing but a comment", "kind", "holds no ODOMETRY or LANDMARK line"),
+    (ODO, "kind", "holds no LANDMARK line"),   # once a KeyError traceback from the harness
 ]
 
 
@@ -83,7 +84,7 @@ def test_an_unreadable_file_is_refused_in_one_line(tmp_path):
 
 
 @pytest.mark.skipif(importlib.util.find_spec("gtsam") is None, reason="the planar_log track needs gtsam")
-@pytest.mark.parametrize("text,field,why", BAD[:10], ids=[b[1] for b in BAD[:10]])
+@pytest.mark.parametrize("text,field,why", BAD[:10] + BAD[-1:], ids=[b[1] for b in BAD[:10] + BAD[-1:]])
 def test_the_cli_refuses_a_bad_log_before_anything_runs(capsys, tmp_path, text, field, why):
     path = write(tmp_path, text + "\n")
     out = tmp_path / "out"
