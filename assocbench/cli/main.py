@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import argparse
+import os
 import signal
 import sys
 import threading
@@ -61,7 +62,9 @@ def main(argv: list[str] | None = None) -> int:
         parser.commands[args.command].error(f"unrecognized arguments: {' '.join(extra)}")
     try:
         with _sigterm_as_interrupt():
-            return int(args.handler(args) or 0)
+            code = int(args.handler(args) or 0)
+            sys.stdout.flush()   # here, not at exit: a reader that left is handled below
+            return code
     except UserError as exc:
         print(f"assocbench: error: {exc}", file=sys.stderr)
         return 2
@@ -73,6 +76,9 @@ def main(argv: list[str] | None = None) -> int:
         kept = "; finished runs are kept and a rerun resumes" if args.command == "leaderboard" else ""
         print(f"assocbench: {what}{kept}", file=sys.stderr)
         return 143 if isinstance(exc, _Terminated) else 130
+    except BrokenPipeError:   # `assocbench list | head -1`: the reader left, nothing to say to it
+        os.dup2(os.open(os.devnull, os.O_WRONLY), sys.stdout.fileno())   # the exit flush cannot fail
+        return 141   # the shell's code for a writer stopped by SIGPIPE (128 + 13)
 
 
 if __name__ == "__main__":

@@ -219,3 +219,14 @@ def test_list_gives_each_tracks_own_description_of_a_shared_trajectory(capsys):
     assert main(["list", "trajectories"]) == 0
     line = next(x for x in capsys.readouterr().out.splitlines() if x.startswith("  waypoints "))
     assert "[camera] Through the waypoints" in line and "[planar, lines] the user's own path" in line, line
+
+
+@pytest.mark.parametrize("command", [["list"], ["list", "methods"]])
+def test_output_into_a_reader_that_left_ends_quietly(command):
+    """Reproduction: ``assocbench list | true`` (a reader that stops before the output ends, like
+    ``| head -1``) printed a ``BrokenPipeError`` traceback and exited 1."""
+    child = subprocess.Popen([sys.executable, "-m", "assocbench.cli.main", *command], stdout=subprocess.PIPE,
+                             stderr=subprocess.PIPE, text=True)
+    child.stdout.close()   # the reader leaves before the command writes
+    err = child.stderr.read()
+    assert child.wait(timeout=120) == 141 and err == "", err
