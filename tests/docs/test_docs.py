@@ -150,3 +150,12 @@ def test_the_home_page_names_every_built_in_associator():
 
     text = (ROOT / "docs" / "index.md").read_text().lower()
     assert [name for name in BUILTINS if not re.search(rf"\b{name}\b", text)] == []
+
+
+def test_every_written_page_is_a_reference_of_at_most_250_lines():
+    """A page says what a thing is, how to run it and what its numbers mean; history goes to
+    CHANGELOG.md. (The dense page was 548 lines of measurement history.) The generated part of
+    benchmarks.md, one table per record, is not counted: its source here is a few lines."""
+    long = {str(p.relative_to(ROOT)): n for p in sorted((ROOT / "docs").rglob("*.md"))
+            if (n := len(p.read_text().splitlines())) > 250}
+    assert long == {}
