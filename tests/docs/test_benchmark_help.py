@@ -256,3 +256,17 @@ def test_dense_fusion_ab_times_two_trees_and_says_whether_their_maps_agree(tmp_p
         bad = subprocess.run([sys.executable, script, *argv], capture_output=True, text=True, timeout=60)
         assert bad.returncode == 2 and "Traceback" not in bad.stderr and bad.stdout == ""
         assert said in bad.stderr.strip().splitlines()[-1]
+
+
+def test_the_scripts_that_time_every_method_leave_out_those_that_need_descriptors(monkeypatch):
+    """associator_runtime.py, jcbb_anytime.py and pipeline_fps.py time every built-in on problems
+    without descriptors: with appearance among them all three stopped with its ValueError."""
+    monkeypatch.syspath_prepend(str(BENCHMARKS))
+    from _util import geometric_methods
+
+    from assocbench.associators.registry import BUILTINS
+
+    assert set(BUILTINS) - set(geometric_methods()) == {"appearance"}
+    for script in ("associator_runtime.py", "jcbb_anytime.py", "pipeline_fps.py"):
+        assert "geometric_methods()" in (BENCHMARKS / script).read_text() and \
+            "BUILTINS" not in (BENCHMARKS / script).read_text(), script
