@@ -1,11 +1,8 @@
-"""When each module of this process was loaded, so that a source file saved after its module was
-loaded is noticed: the code that ran is then not the file's content (``harness.inputs``).
-
-A finder first on ``sys.meta_path`` notes the time of every import that reaches the finders (a
-module not yet loaded, or loaded again after it was dropped from ``sys.modules``) and lets the
-other finders find it. A module loaded before this module was imported counts as loaded when the
-process started, the earliest it can have been. A process forked from this one inherits both.
-``listeners`` are told each name as it is looked for (a worker's import log).
+"""When each module of this process was loaded, so a source file saved after its module loaded is
+noticed (the code that ran is not the file's: ``harness.inputs``). A finder first on
+``sys.meta_path`` notes the time of every import reaching the finders and finds nothing itself; a
+module loaded before this one counts as loaded at process start. A forked process inherits both;
+``listeners`` hear each name looked for.
 """
 
 from __future__ import annotations
@@ -21,8 +18,8 @@ listeners: list[Callable[[str], None]] = []
 
 
 def _process_start() -> float:
-    """Wall-clock time this process started (Linux: ``/proc``; the boot time there has whole
-    seconds, so one is taken off), else now."""
+    """Wall-clock start of this process (Linux ``/proc``; its boot time has whole seconds, so one is
+    taken off), else now."""
     try:
         ticks = int(Path("/proc/self/stat").read_text().rpartition(")")[2].split()[19])
         boot = next(float(line.split()[1]) for line in Path("/proc/stat").read_text().splitlines()

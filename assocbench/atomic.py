@@ -1,9 +1,7 @@
-"""Atomic file writes: write a temporary file next to the target, then rename it in place.
-
-A write that fails (disk full, read-only file system, no permission) leaves the target as it
-was and raises a one-line ``UserError`` naming the file, the cause and what to change; the
-``Role`` of a path says what that is (``--out``, ``-o``, ``--baseline``, ``$ASSOCBENCH_CACHE``).
-``atomic_paths`` / ``write_group`` write several files as a group: all land or none do.
+"""Atomic file writes: a temporary file beside the target, renamed in place. A failed write (disk
+full, read-only, no permission) leaves the target as it was and raises a one-line ``UserError``
+naming the file, the cause and the setting to change (its ``Role``). ``atomic_paths`` /
+``write_group`` write several files that all land or none do.
 """
 
 from __future__ import annotations
@@ -22,10 +20,8 @@ from .errors import UserError
 
 @dataclass(frozen=True)
 class Role:
-    """What a path is for, so that an error names the setting to change.
-
-    ``option`` is a command-line option (``"--out"``) or, with a leading ``$``, an environment
-    variable (``"$ASSOCBENCH_CACHE"``)."""
+    """What a path is for, so an error names the setting to change: ``option`` is a command-line
+    option (``"--out"``) or, with ``$``, an environment variable."""
 
     what: str
     option: str
@@ -47,11 +43,9 @@ _PLACE_ERRORS = {errno.ENOSPC, errno.EDQUOT, errno.EROFS, errno.EACCES, errno.EP
 
 
 def check_cache_folder(*subfolders: str) -> None:
-    """A one-line ``UserError`` when the cache folder cannot be a folder (it, or the nearest of its
-    parents that exists, is a file) or cannot be created or written (created here if absent), or
-    one of its ``subfolders`` (where the tracks store their sequences: ``Track.cache_folder``) is
-    a file; checked before a run compiles or renders: otherwise kernels compiled for 20 s, the
-    sequence rendered, and only storing it said so."""
+    """One-line ``UserError`` when the cache folder (or a ``subfolders`` entry, where tracks store
+    sequences) is a file or cannot be created or written; checked before anything compiles or
+    renders, not after."""
     from ._runtime import cache_root
 
     root = cache_root()
@@ -84,8 +78,8 @@ def ensure_dir(path: Path, role: Role = OUTPUT) -> Path:
 
 
 def place_error(exc: OSError, target: Path | str, role: Role = OUTPUT, written: Sequence[Path] = ()) -> UserError | None:
-    """The one-line ``UserError`` for an ``OSError`` that says ``target`` cannot be written
-    there (disk full, read-only, no permission...); ``None`` for any other error."""
+    """The one-line ``UserError`` for an ``OSError`` meaning ``target`` cannot be written there;
+    ``None`` for any other error."""
     if exc.errno not in _PLACE_ERRORS:
         return None
     fix = role.fix()
@@ -97,21 +91,17 @@ def place_error(exc: OSError, target: Path | str, role: Role = OUTPUT, written: 
 
 @contextmanager
 def atomic_path(target: Path, suffix: str = "", role: Role = OUTPUT) -> Iterator[Path]:
-    """Yield a temporary path in the target's folder; rename it onto ``target`` on success.
-
-    On failure the temporary file is removed and ``target`` is untouched; an ``OSError`` that
-    means the place cannot take the file becomes a one-line ``UserError``."""
+    """Yield a temporary path in the target's folder, renamed onto ``target`` on success; on failure
+    it is removed and ``target`` untouched."""
     with atomic_paths([target], suffix, role) as (tmp,):
         yield tmp
 
 
 @contextmanager
 def atomic_paths(targets: Sequence[Path], suffix: str = "", role: Role = OUTPUT) -> Iterator[list[Path]]:
-    """Yield one temporary path per target; only when the block succeeds for all of them are
-    they renamed onto their targets, so a group of files lands whole or not at all.
-
-    The renames come last and need no space; a failure there (the folder changed under us)
-    can leave the earlier targets renamed, and the error says which."""
+    """Yield one temporary path per target, all renamed only when the block succeeds for all. The
+    renames come last and need no space; one failing there can leave earlier targets renamed, and
+    the error says which."""
     targets = [Path(t) for t in targets]
     temps: list[str] = []
     renamed: list[Path] = []
@@ -143,9 +133,8 @@ def atomic_paths(targets: Sequence[Path], suffix: str = "", role: Role = OUTPUT)
 
 
 def remove_orphans(target: Path) -> None:
-    """Delete the temporary files of ``target`` left by a writer that died before renaming them
-    (kill -9): each names its writer's process id, and only those of processes that are gone go,
-    so a concurrent writer's file in progress is left alone."""
+    """Delete temporary files of ``target`` left by a writer killed before renaming: each names its
+    writer's process id, and only those of dead processes go."""
     prefix = f".{target.name}."
     for leftover in target.parent.glob(glob.escape(prefix) + "*"):
         pid = leftover.name[len(prefix):].split(".", 1)[0]
@@ -167,9 +156,8 @@ def _alive(pid: int) -> bool:
 
 
 def _culprit(exc: OSError, targets: list[Path]) -> Path | str | None:
-    """Which target an error is about: the one its file name points at (the target, its
-    folder or its temporary file), all of them when it names no file (a full disk on write),
-    ``None`` when it is about some other file."""
+    """Which target an error is about: the one its file name points at, all when it names none (a
+    full disk), ``None`` for another file."""
     if exc.filename is None:
         return targets[0] if len(targets) == 1 else ", ".join(map(str, targets))
     name = Path(os.fsdecode(exc.filename))
@@ -181,8 +169,8 @@ def _culprit(exc: OSError, targets: list[Path]) -> Path | str | None:
 
 
 def write_group(writers: dict[Path, Callable[[Path], None]], role: Role = OUTPUT) -> None:
-    """Write several files as a group: ``writers[path](tmp)`` writes each to a temporary file,
-    and only when every one succeeded are they all renamed in place (see ``atomic_paths``)."""
+    """Write several files as a group: ``writers[path](tmp)`` each, all renamed only when every one
+    succeeded."""
     targets = list(writers)
     with atomic_paths(targets, role=role) as temps:
         for target, tmp in zip(targets, temps):

@@ -2,7 +2,6 @@
 
 
 class UserError(ValueError):
-    """Bad input from a user: the message is one line naming the problem and the fix.
-
-    The CLI prints it without a traceback and exits with code 2.
+    """Bad input from a user: a one-line message naming the problem and the fix; the CLI prints it
+    without a traceback and exits 2.
     """

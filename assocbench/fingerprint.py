@@ -1,10 +1,7 @@
-"""Fingerprints of the code behind a cached sequence, so a cache never outlives the code that made it.
-
-A rendered sequence is stored under a key that hashes its settings; ``sources_digest`` of the
-folders that make its frames joins the key, so editing the detector, a sensor or the truth
-labelling renders it again. ``package_digest`` names the folder of the compiled kernels
-(``_runtime``) and an exported dataset's code. A stored leaderboard run records the files it
-imported instead (``harness.inputs``).
+"""Fingerprints of the code behind cached data, so a cache never outlives the code that made it:
+``sources_digest`` of the folders that make a sequence joins its key (editing a sensor re-renders
+it); ``package_digest`` names the kernels' folder and an exported dataset's code. Stored leaderboard
+runs record their imported files instead (``harness.inputs``).
 """
 
 from __future__ import annotations
@@ -33,16 +30,14 @@ def _digest(base: Path, stamp: tuple) -> str:
 
 
 def package_digest(subpackage: str = "") -> str:
-    """Digest of this package's sources (or of one subpackage, e.g. ``"sim"``) and of the models
-    shipped as data (``*.json``: the learned associator's trees), so a retrained model never
-    reuses the numbers of the old one."""
+    """Digest of this package's sources (or a subpackage's) and its data models (``*.json``), so a
+    retrained model never reuses the old one's numbers."""
     root = PACKAGE_ROOT / subpackage if subpackage else PACKAGE_ROOT
     return files_digest(tuple(sorted(root.rglob("*.py")) + sorted(root.rglob("*.json"))), root.parent)
 
 
 def sources_digest(*subpackages: str) -> str:
-    """Digest of the sources under several subpackage folders (``"sim"``, ``"tracks/camera"``):
-    what a cached sequence is keyed by, so editing a measurement model or the track's own sensor
-    re-renders it while editing another track does not."""
+    """Digest of the sources under several subpackage folders: a cached sequence's key, so editing a
+    track's own sensor re-renders it and editing another track does not."""
     files = tuple(sorted(f for sub in subpackages for f in (PACKAGE_ROOT / sub).rglob("*.py")))
     return files_digest(files, PACKAGE_ROOT)

@@ -1,18 +1,11 @@
-"""Compiled kernels: a cache that heals, and one line on stderr while they compile.
+"""Compiled kernels: a cache that heals, and one line on stderr while they compile. Both sit on
+numba's cache-loading path, once per kernel and signature, never in timed calls:
 
-numba compiles each ``@njit(cache=True)`` kernel at its first call and keeps the machine code
-under ``NUMBA_CACHE_DIR`` (see ``_runtime``). Both additions sit on numba's cache-loading path,
-which runs once per kernel and signature in a process, never inside the timed calls:
-
-* A damaged cache file (a truncated ``.nbc``, an empty ``.nbi``: anything that fails while
-  loading) makes numba raise on every run until the folder is deleted by hand. ``install``
-  wraps ``numba.core.caching.Cache.load_overload`` so such a file is deleted, one line on
-  stderr says so, and the kernel is compiled again; a cache that cannot be written (disk full)
-  costs the caching, not the run.
-* ``warm(calls)`` runs calls that load or compile kernels (the harness warms the built-ins and
-  the scoring once per process, ``sandbox.warm_builtins``). When one must be compiled (a cache
-  empty for this version of the sources, ~30 s), it says so on stderr: one line, a dot per
-  compiled kernel, and the time it took. A warm cache prints nothing.
+* a damaged cache file would make numba raise on every run until deleted by hand; ``install`` wraps
+  ``Cache.load_overload`` so it is deleted with one line on stderr and recompiled, and an unwritable
+  cache costs only the caching;
+* ``warm(calls)`` runs calls that load kernels and, when one compiles, says so on stderr: one line,
+  a dot per kernel and the time taken. A warm cache prints nothing.
 """
 
 from __future__ import annotations
@@ -60,11 +53,17 @@ def install() -> None:
     Cache.load_overload, Cache.save_overload = load_overload, save_overload
 
 
-def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels", expect_s: float = 60) -> float | None:
-    """Run ``calls``; if a kernel compiles meanwhile, print ``compiling <what> (...)...`` at
-    the first one, a dot per kernel and ``done in N s`` at the end. Returns the seconds spent
-    compiling, ``None`` when everything came from the cache. A call's error is left to the
-    real call to report. ``expect_s``: about how long a cold compile takes, for the note."""
+# about what the association kernels' first compile takes for `assocbench run --method jcbb` from a
+# fresh clone on a 2-core machine; benchmarks/first_run.py measures it, and
+# tests/docs/test_benchmark_records.py holds this figure to that script's record
+ASSOCIATION_COMPILE_S = 130
+
+
+def warm(calls: Iterable[Callable[[], object]], what: str = "association kernels",
+         expect_s: float = ASSOCIATION_COMPILE_S) -> float | None:
+    """Run ``calls``; when a kernel compiles, print ``compiling <what> (...)...``, a dot per kernel
+    and ``done in N s``. Returns the seconds compiling, ``None`` when all came from the cache;
+    errors are left to the real call. ``expect_s``: a cold compile's rough time, for the note."""
     _state.update(active=True, started=None, what=what, expect=expect_s)
     try:
         for call in calls:
@@ -96,8 +95,8 @@ def _compiling(cache) -> None:
 
 
 def _fresh_line() -> str:
-    """On a terminal, a carriage return and an erase of the line: a worker's note then replaces a
-    progress bar's line (``run``'s bar redraws itself below) instead of running on after it."""
+    """On a terminal, a carriage return and erase, so a worker's note replaces a progress bar's
+    line."""
     try:
         return "\r\033[K" if sys.stderr.isatty() else ""
     except (AttributeError, ValueError):   # a replaced or closed stderr

@@ -1,19 +1,14 @@
 """A track's settings: one schema of top-level keys and sections, its defaults, and the typed values
-built from a run config, every value checked once.
+built from a run config, every value checked once. Fields declare what they accept (``validation``;
+a ``check()`` for rules across fields):
 
-A schema is made of dataclasses whose fields declare what they accept (``validation``: the type
-from the annotation, ``in_range`` / ``one_of`` metadata, a ``check()`` method for rules across
-fields):
+* ``keys``: dataclasses whose fields are top-level keys (``frames``, ``trajectory``);
+* ``sections``: ``name -> Section(cls)``, a nested mapping (``belief: {clutter: 5}``); fields a
+  track does not use are named in ``exclude``, refused in its runs and left at their defaults.
 
-* ``keys``: dataclasses whose fields are top-level keys of a run config (``frames``, ``trajectory``);
-* ``sections``: ``name -> Section(cls)``, a nested mapping (``belief: {clutter: 5}``). A track that
-  shares a section's class but not all of its fields names the ones it does not use (``exclude``):
-  they are refused in its runs, and left at their defaults in the typed value.
-
-``Schema.defaults()`` is the nested mapping a run config starts from; ``Schema.build(cfg)`` turns a
-merged mapping into ``Settings`` (attribute access: ``settings.belief.clutter``), checking each
-key's type and range, each section's ``check()``, once. A key the schema does not have is refused
-before that, when the config is merged (``harness.config``).
+``Schema.defaults()`` is where a run config starts; ``Schema.build(cfg)`` makes ``Settings``
+(``settings.belief.clutter``), checking each value and each section's ``check()`` once. Unknown keys
+are refused earlier, when merging (``harness.config``).
 """
 
 from __future__ import annotations
@@ -82,8 +77,8 @@ class Schema:
         return out | {name: section.defaults() for name, section in self.sections.items()}
 
     def build(self, cfg: dict) -> Settings:
-        """Typed, checked values of a merged config (every key present: ``defaults()`` merged with
-        the user's). Top-level keys are checked by their field, then the dataclass's ``check()``."""
+        """Typed, checked values of a merged config (``defaults()`` merged with the user's): each
+        key by its field, then the dataclass's ``check()``."""
         values: dict[str, Any] = {}
         for cls in self.keys:
             hints = _hints(cls)
@@ -111,8 +106,8 @@ class Schema:
 
 
 class Described(NamedTuple):
-    """One setting as the settings reference gives it: ``accepts`` is the range, the choices or
-    the type in words; ``unit`` the unit of a number (``in_range(unit=...)``), "" for others."""
+    """One setting as the settings reference gives it: ``accepts`` (range, choices or type in words)
+    and ``unit`` (``in_range(unit=...)``, "" otherwise)."""
 
     key: str
     default: Any
@@ -191,9 +186,9 @@ def accepts(cls: type, f: dataclasses.Field) -> str:
 
 
 def field_docs(cls: type) -> dict[str, str]:
-    """``{field: meaning}`` from the class docstring's ``name: text`` entries (the house style:
-    ``sigma_position: camera position std (m).``; ``a / b: text`` names two fields at once), or a
-    field's ``doc`` metadata; a field named nowhere is absent."""
+    """``{field: meaning}`` from the class docstring's ``name: text`` entries
+    (``sigma_position: camera position std (m).``; ``a / b: text`` names two fields) or a field's
+    ``doc`` metadata; a field named nowhere is absent."""
     doc = cls.__doc__ or ""
     names = [f.name for f in dataclasses.fields(cls)]
     hits = sorted((m.start(), m.end(), name) for name in names

@@ -1,16 +1,13 @@
-"""Checks of user settings: the type from a dataclass field's annotation, the range from its metadata.
-
-Every stage's settings (``BeliefConfig``, ``DetectorConfig``, ``TruthConfig``) and every
-associator are dataclasses; a field declares what it accepts::
+"""Checks of user settings: the type from a dataclass field's annotation, the range from its
+metadata. Settings sections and associators are dataclasses whose fields declare what they accept::
 
     sigma_position: float = field(default=0.03, metadata=in_range(0, None))
     occlusion: str = field(default="ray", metadata=one_of("ray", "depth"))
 
-and ``validate_fields(obj, "belief")`` checks each value when the object is built: a number must
-be a real number (not a string, not a bool), finite, integral where the annotation says ``int``,
-and inside its range; a string must be one of its choices. A failure is one ``UserError`` line
-naming the key (``belief.sigma_rotation must be a finite number >= 0, got nan``). Integers
-given for float fields are stored as floats, so ``1`` and ``1.0`` mean one setting.
+``validate_fields(obj, "belief")`` checks each value when built: a real number (not a string or
+bool), finite, integral for ``int``, in range; a string among its choices. A failure is one
+``UserError`` line naming the key (``belief.sigma_rotation must be a finite number >= 0, got nan``).
+Integers given for floats are stored as floats.
 """
 
 from __future__ import annotations
@@ -33,17 +30,16 @@ _BRIEF.maxlevel, _BRIEF.maxlist, _BRIEF.maxdict, _BRIEF.maxstring, _BRIEF.maxoth
 
 
 def brief(value: Any) -> str:
-    """``repr(value)`` for a message, at most 80 characters, made without walking all of
-    ``value`` (``reprlib``): a value a message quotes may be huge (a YAML alias bomb expands to
-    10⁹ items)."""
+    """``repr(value)`` for a message, at most 80 characters, without walking all of ``value`` (a
+    YAML alias bomb expands to 10⁹ items)."""
     text = _BRIEF.repr(value)
     return text if len(text) <= 80 else text[:77] + "..."
 
 
 class BoundedLoader(yaml.SafeLoader):
-    """PyYAML's safe loader, refusing a document that expands, through its aliases (``&a`` ...
-    ``*a``), to more than ``MAX_YAML_VALUES`` values, or that refers to itself: ten lines of
-    nested aliases make 10⁹ values, which every later step (a check, a digest, a message) expands."""
+    """PyYAML's safe loader refusing a document whose aliases expand to more than
+    ``MAX_YAML_VALUES`` values or refer to themselves: ten lines of nested aliases make 10⁹ values
+    that every later step would expand."""
 
     def compose_document(self):
         node = super().compose_document()
@@ -54,8 +50,8 @@ class BoundedLoader(yaml.SafeLoader):
 
 
 def _expanded_size(node: yaml.Node, memo: dict, open_nodes: set) -> int:
-    """How many values ``node`` stands for once every alias is written out (each shared node is
-    counted where it is used, computed once); ``MAX_YAML_VALUES + 1`` for a node that contains itself."""
+    """How many values ``node`` stands for with every alias written out (shared nodes counted where
+    used, computed once); ``MAX_YAML_VALUES + 1`` for a node containing itself."""
     if id(node) in memo:
         return memo[id(node)]
     if id(node) in open_nodes:
@@ -75,9 +71,9 @@ def _expanded_size(node: yaml.Node, memo: dict, open_nodes: set) -> int:
 
 def in_range(lo: Number | None = None, hi: Number | None = None, *, lo_open: bool = False,
              hi_open: bool = False, unit: str | None = None) -> dict:
-    """Field metadata: the value must lie in ``[lo, hi]`` (``(`` / ``)`` where open; None: unbounded),
-    in ``unit`` (``"m"``, ``"deg"``; ``"dimensionless"`` for a ratio or a share), which the settings
-    reference shows."""
+    """Field metadata: the value must lie in ``[lo, hi]`` (open ends with ``lo_open``/``hi_open``;
+    None: unbounded), in ``unit`` (``"dimensionless"`` for a ratio), which the settings reference
+    shows."""
     return {"range": (lo, hi, lo_open, hi_open)} | ({"unit": unit} if unit else {})
 
 
@@ -102,8 +98,8 @@ INT_LIMIT = 10**15   # an integer setting beyond this cannot be meant, and overf
 
 def check_number(value: Any, key: str, *, integer: bool = False, lo=None, hi=None, lo_open: bool = False,
                  hi_open: bool = False) -> Number:
-    """``value`` if it is a finite real number (an integer when ``integer``) inside the range, else a
-    one-line ``UserError`` naming ``key``. Bools are refused: ``frames: true`` is a mistake."""
+    """``value`` if a finite real number (an integer when ``integer``) in range, else a one-line
+    ``UserError`` naming ``key``; bools are refused (``frames: true`` is a mistake)."""
     what = "an integer" if integer else "a finite number"
     where = describe_range(lo, hi, lo_open, hi_open)
     expect = f"{key} must be {what}" + ("" if where == "finite" else f" {where}")
@@ -156,9 +152,8 @@ def check_field(value: Any, annotation, metadata, key: str) -> Any:
 
 
 def validate_fields(obj: Any, section: str) -> None:
-    """Check every field of dataclass instance ``obj`` (keys named ``section.field``); store floats
-    for integers given to float fields. Fields whose annotation cannot be resolved are checked
-    for finiteness only when they hold a number."""
+    """Check every field of dataclass instance ``obj`` (keys ``section.field``), storing floats for
+    integers given to float fields; unresolvable annotations check numbers for finiteness only."""
     try:
         hints = typing.get_type_hints(type(obj))
     except Exception:  # noqa: BLE001 - a plugin's annotations may name things we cannot import
@@ -174,8 +169,8 @@ def validate_fields(obj: Any, section: str) -> None:
 
 
 def typed_section(cls, values: dict, section: str):
-    """``cls(**values)``: a settings section built from its mapping, every field checked; a
-    one-line ``UserError`` naming ``section`` for a non-mapping or a bad value."""
+    """``cls(**values)`` with every field checked; a one-line ``UserError`` naming ``section`` for a
+    non-mapping or bad value."""
     if not isinstance(values, dict):
         raise UserError(f"{section} must be a mapping of settings, got {brief(values)}")
     try:

@@ -13,7 +13,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 
 from assocbench import make_associator
 from assocbench.associators.registry import BUILTINS
@@ -80,4 +80,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

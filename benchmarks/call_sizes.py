@@ -6,7 +6,7 @@ candidates n and of measurements m of a frame it was called on, and its failed a
     assocbench leaderboard --suite real_photos --out results/real/photos
     python benchmarks/call_sizes.py results/real/photos
 
-The argument is the folder `assocbench leaderboard --out` wrote: its jobs/ (the stored runs, which
+The argument is the folder `assocbench leaderboard --out` wrote: its runs/ (the stored runs, which
 the repository does not keep) are read through their manifests.
 """
 
@@ -18,20 +18,25 @@ import sys
 from pathlib import Path
 
 import pandas as pd
+from _util import print_markdown, run_recorded
 
 from assocbench.errors import UserError
+from assocbench.harness.runstore import FOLDER
 
 
 def stored_runs(folder: Path) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Every stored job's frames and summaries under ``folder/jobs``, the files its manifests name."""
-    manifests = sorted((folder / "jobs").glob("*.manifest.json"))
+    """Every stored run's frames and summaries under ``folder/runs``, the files its manifests name."""
+    store = folder / FOLDER
+    manifests = sorted(store.glob("*.manifest.json"))
     if not manifests:
-        raise UserError(f"{folder}/jobs holds no stored run: give the folder `assocbench leaderboard --out` wrote")
+        raise UserError(f"{store} holds no stored run: give the folder `assocbench leaderboard --out` wrote")
     frames, summaries = [], []
     for path in manifests:
-        files = json.loads(path.read_text())["files"]
-        frames.append(pd.read_csv(folder / "jobs" / files["frames"]["name"]))
-        summaries.append(pd.read_csv(folder / "jobs" / files["summary"]["name"]))
+        info = json.loads(path.read_text())
+        files = info["files"]
+        method = info["run"].split(" on ", 1)[0]   # the store names a run "<method> on <scenario> seed <seed>"
+        frames.append(pd.read_csv(store / files["frames"]["name"]).assign(method=method))
+        summaries.append(pd.read_csv(store / files["summary"]["name"]).assign(method=method))
     return pd.concat(frames, ignore_index=True), pd.concat(summaries, ignore_index=True)
 
 
@@ -47,7 +52,7 @@ def call_table(frames: pd.DataFrame, summaries: pd.DataFrame) -> pd.DataFrame:
 def markdown(table: pd.DataFrame) -> str:
     head = ["| method | calls | median ms | p95 ms | max ms | largest n | largest m | failed | timed out |",
             "|---|---|---|---|---|---|---|---|---|"]
-    rows = [f"| {r.method} | {r.calls} | {r.median_ms:.1f} | {r.p95_ms:.1f} | {r.max_ms:.1f} | {r.largest_n} | "
+    rows = [f"| {r.method} | {r.calls} | {r.median_ms:.3f} | {r.p95_ms:.3f} | {r.max_ms:.3f} | {r.largest_n} | "
             f"{r.largest_m} | {r.failures} | {r.timed_out} |" for r in table.itertuples()]
     return "\n".join(head + rows) + "\n"
 
@@ -62,9 +67,9 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"call_sizes: error: {exc}", file=sys.stderr)
         return 2
-    print(markdown(call_table(*runs)), end="")
+    print_markdown(markdown(call_table(*runs)))
     return 0
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_recorded(main)

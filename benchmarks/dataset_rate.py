@@ -14,7 +14,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 from assocbench.dataset import read_problems
 from assocbench.dataset.writer import DatasetWriter
@@ -68,4 +68,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -25,30 +25,6 @@ frame-to-model from the true pose, each frame's map size, the map points in the 
 
 Usage: python benchmarks/dense_association.py [--frames 10] [--stride 18] [--runs 5]
 (renders 2 x 164 frames into the cache on the first run, ~10 s; then about 3 min on one core)
-
-Measured (one shared core, defaults, default noise; precision / recall / ms, tree build apart;
-re-measured 2026-11-25 with the separable smoothing of the normals, ``--runs 1`` at a load of 3.3,
-where the first two lines' figures with the 13x13 window were: crates 0.996 / 0.990 / 1.1 and
-0.993 / 0.988 / 39, bays 0.988 / 0.768 / 1.3 and 0.907 / 0.794 / 63; the rest predates it):
-
-- frame-to-frame from the true pose: crates projective 0.996 / 0.995 / 1.8, kdtree 0.993 / 0.993 /
-  45 (+19 build); bays projective 0.987 / 0.860 / 1.6, kdtree 0.900 / 0.802 / 53 (+16 build).
-  Noise-free, bays agree (0.986 / 0.990 against 0.984 / 0.988): the gaps are the noise at the far
-  end of the bays (sigma 3.2 cm at 4 m, pixels 2 cm apart). The KD-tree's wrong pairs are nearly
-  all on the right surface at ~4 m, a neighbouring pixel's vertex nearer in 3-D than the one on
-  the ray but just over 3 cm off in truth; the projective method's missed partners are at ~4 m
-  too, its one candidate on the ray failing d_thr = 5 cm (two draws of the noise differ by
-  sigma sqrt 2).
-- from 1 deg / 2 cm: crates 0.34 / 0.30 (projective) against 0.44 / 0.43 (kdtree), bays 0.10 /
-  0.05 against 0.14 / 0.11 (first-iteration pairs: a 1 deg turn moves a point 3 m away by 5 cm,
-  beyond the 3 cm truth tolerance; the KD-tree finds a vertex within d_thr for more points).
-  The KD-tree's query slows as the guess worsens (crates 39 -> 54 -> 97 ms).
-- frame-to-model, maps of 63k-886k points: projective grows with the map (1.6 -> 39 ms on bays),
-  the KD-tree with the map points inside the frustum, the only ones it queries (62k -> 241k of
-  them: 71 -> 342 ms). Wrong pairs at the true pose: most projective ones are map points whose
-  truth is mixed (fused from pixels of two geoms at an edge: never true); the KD-tree adds pairs
-  for points with no partner, hidden behind a nearer surface or off the frame's measured pixels:
-  along the ray such a point meets the nearer surface and fails d_thr.
 """
 
 from __future__ import annotations
@@ -59,7 +35,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms, timed
+from _util import print_table, run_recorded, summary_ms, timed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import perturb  # noqa: E402
@@ -183,4 +159,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -27,7 +27,7 @@ for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS", "OPENBLAS_NUM_THREADS"):   
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
-from _util import print_table  # noqa: E402
+from _util import print_table, run_recorded  # noqa: E402
 from numba import njit  # noqa: E402
 
 from assocbench.harness.config import load_run_config, run_spec  # noqa: E402
@@ -257,4 +257,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -18,7 +18,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 from assocbench.associators.registry import make_dense_associator
 from assocbench.harness.config import load_run_config, run_spec
@@ -73,4 +73,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -51,7 +51,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from _util import print_table  # noqa: E402
+from _util import print_table, run_recorded  # noqa: E402
 from dense_rate import load, render_once, settings  # noqa: E402
 
 from assocbench.associators.registry import make_dense_associator  # noqa: E402
@@ -227,4 +227,4 @@ def measure(args: argparse.Namespace) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

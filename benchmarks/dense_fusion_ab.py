@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 KERNELS = ("_merge_pass", "_add_pass", "_apply_samples")
 LABELS = ("merge pass", "cell pass", "samples' merge")
@@ -118,4 +118,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

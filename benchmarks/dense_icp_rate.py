@@ -21,7 +21,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms, timed
+from _util import print_table, run_recorded, summary_ms, timed
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import ROOM, perturb, render, room_frame, source_set  # noqa: E402
@@ -82,4 +82,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -23,7 +23,7 @@ import sys
 from pathlib import Path
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from dense_synthetic import (  # noqa: E402  # noqa: E402
@@ -103,4 +103,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

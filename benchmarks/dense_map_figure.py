@@ -30,7 +30,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 from assocbench.sim.ply import read_ply
 from assocbench.tracks.dense import plots
@@ -220,4 +220,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -27,7 +27,7 @@ for _var in ("NUMBA_NUM_THREADS", "OMP_NUM_THREADS"):   # one core: before numpy
 os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
-from _util import print_table  # noqa: E402
+from _util import print_table, run_recorded  # noqa: E402
 from dense_rate import load, render_once  # noqa: E402
 
 from assocbench.tracks.dense import fusion  # noqa: E402
@@ -88,4 +88,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -55,7 +55,7 @@ os.environ.setdefault("MUJOCO_GL", "egl")
 
 import numpy as np  # noqa: E402
 import pandas as pd  # noqa: E402
-from _util import print_table  # noqa: E402
+from _util import print_table, run_recorded  # noqa: E402
 
 from assocbench.cli.main import main as cli  # noqa: E402
 from assocbench.errors import UserError  # noqa: E402
@@ -310,4 +310,4 @@ def timed_median(fn, runs: int) -> tuple[object, float]:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -44,32 +44,6 @@ timed separately ("normals ms").
 Usage (open3d is a benchmark-only extra, not a test dependency):
     pip install -e '.[bench]'            # on Debian also: apt-get install libusb-1.0-0
     python benchmarks/dense_vs_open3d.py [--runs 5] [--warmup 1] [--starts 0 20 40] [--gaps 1 5 10]
-
-Re-measured 2026-11-25 with the separable smoothing of the normals and the damped ICP of issue 27
-(``--runs 1 --warmup 0``, niced at a load of about 3.4): the control within 0.021 mm / 0.0004 deg
-on all 36 pairs; 9 of 36 agree within 1 mm / 0.1 deg (13 with Open3D's own normals, 15 with our
-kdtree associator); ours ok on 30 and closer to the truth on 26 of them (median 0.58 mm against
-1.44 mm); ours failed on 6, all bays pairs 21-23 cm apart (beyond max_step_m); Open3D up to
-6.3 mm off; ours 3.0 ms an iteration against 30 ms, a registration 23.5x faster (median).
-
-Measured before (Open3D 0.20.0, 2 shared cores, one thread, the defaults: 36 pairs, --runs 3):
-
-* Same pose within 1 mm / 0.1 deg, both converged: 8 of 36 (our normals on Open3D's target;
-  11 of 36 with Open3D's own normals). Ours "ok" on 25: failed with a reason on 11 (5 bays
-  pairs 11-23 cm apart that slid 11-21 cm off: inlier share or no convergence; 3 bays pairs
-  22 cm apart registered right but beyond max_step_m; crates: 1 degenerate 46 mm off, 2 without
-  convergence in 100 iterations); Open3D stops before 60 iterations on all 36, with no check.
-* Why: the correspondences, not the solver. The control (our ``icp`` with Open3D's pairing rule,
-  both run to tight stopping) reproduces Open3D within 0.09 mm / 0.002 deg on all 36 pairs. With
-  our kdtree associator (3-D nearest neighbour, but our 30 deg angle and field-of-view filters)
-  13 of 36 agree. Open3D pairs source points that left the view with border vertices and pairs
-  across corners and occlusion edges (no angle test). Where ours is ok it is the closer of the
-  two to the truth: median 0.25 mm against Open3D's 1.5 mm (crates noise-free 0.07-0.33 mm
-  against 0.08-4.4; crates noisy 0.07-1.2 against 0.8-2.8; bays noisy 0.18-0.94 against
-  1.3-6.1).
-* Time: ours 5-48 ms a pair when ok (median 1.8 ms an iteration), Open3D 73-925 ms (median
-  24 ms an iteration, its KD-tree search); Open3D / ours, median over pairs, 18x. Open3D's
-  normal estimation adds 114-185 ms a frame.
 """
 
 from __future__ import annotations
@@ -94,7 +68,7 @@ except (ImportError, OSError) as exc:   # OSError: libusb-1.0 missing on Debian
     sys.exit(2)
 
 import numpy as np  # noqa: E402
-from _util import print_table, summary_ms  # noqa: E402
+from _util import print_table, run_recorded, summary_ms  # noqa: E402
 from scipy.spatial import cKDTree  # noqa: E402
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
@@ -319,4 +293,4 @@ def report(table1: list, table2: list, results: list[dict], args) -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

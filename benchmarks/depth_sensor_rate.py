@@ -17,7 +17,7 @@ import argparse
 import time
 
 import numpy as np
-from _util import print_table, summary_ms
+from _util import print_table, run_recorded, summary_ms
 
 from assocbench.sim.render import FrameRenderer
 from assocbench.sim.scene import load_scene
@@ -66,4 +66,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

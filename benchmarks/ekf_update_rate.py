@@ -35,7 +35,7 @@ import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _util import print_table  # noqa: E402
+from _util import print_table, run_recorded  # noqa: E402
 from scipy.linalg import cho_factor, cho_solve  # noqa: E402
 
 from assocbench.estimators.base import FrameData, Motion  # noqa: E402
@@ -195,4 +195,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -23,7 +23,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms
+from _util import print_table, run_recorded, summary_ms
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 import dense_world as dw  # noqa: E402
@@ -104,4 +104,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

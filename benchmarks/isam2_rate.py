@@ -32,7 +32,7 @@ import argparse  # noqa: E402
 import time  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _util import print_table  # noqa: E402
+from _util import print_table, run_recorded  # noqa: E402
 
 from assocbench.estimators.base import FrameData, Motion  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
@@ -193,4 +193,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -17,7 +17,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 
 from assocbench import Problem, make_associator
 from assocbench.association.compatibility import individually_compatible, jointly_compatible
@@ -103,4 +103,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -7,7 +7,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _util import print_table, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 from textbook_jcbb import textbook_jcbb
 
 from assocbench import make_associator
@@ -37,4 +37,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -1,5 +1,6 @@
-"""Wall time of the full leaderboard (assocbench/configs/leaderboard.yaml): cold cache (every sequence
-rendered) and warm cache (sequences cached, results recomputed).
+"""Wall time of a whole leaderboard (--suite: a shipped suite's name or a suite file; default the camera
+leaderboard): cold cache (a new sequence cache: every sequence rendered, every kernel compiled unless
+NUMBA_CACHE_DIR is set) and warm cache (sequences and kernels cached, results recomputed).
 Usage: python benchmarks/leaderboard_time.py [--jobs 2] [--suite assocbench/configs/leaderboard.yaml]"""
 
 from __future__ import annotations
@@ -12,7 +13,7 @@ import tempfile
 import time
 from pathlib import Path
 
-from _util import print_table
+from _util import print_table, run_recorded
 
 ROOT = Path(__file__).resolve().parents[1]
 
@@ -39,4 +40,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -18,7 +18,7 @@ import argparse
 import time
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 from assocbench.sim.lidar import scan
 from assocbench.sim.planar_scene import load_planar_scene
@@ -79,4 +79,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

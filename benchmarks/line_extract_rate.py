@@ -16,7 +16,7 @@ import time
 from pathlib import Path
 
 import numpy as np
-from _util import print_table, summary_ms
+from _util import print_table, run_recorded, summary_ms
 
 sys.path.insert(0, str(Path(__file__).resolve().parents[1] / "tests"))
 from line_synth import room, synth_scan  # noqa: E402
@@ -55,4 +55,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -30,7 +30,7 @@ import subprocess
 import sys
 from pathlib import Path
 
-from _util import print_table, time_call
+from _util import print_table, run_recorded, time_call
 
 import numpy as np
 
@@ -154,4 +154,4 @@ def ratios(n: int, rows: list[list]) -> list:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

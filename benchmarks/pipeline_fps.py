@@ -9,7 +9,7 @@ import argparse
 import time
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 from assocbench.associators.registry import BUILTINS, make_associator
 from assocbench.belief.config import BeliefConfig
@@ -73,4 +73,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

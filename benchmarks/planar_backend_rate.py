@@ -29,7 +29,7 @@ import time  # noqa: E402
 from collections.abc import Callable  # noqa: E402
 
 import numpy as np  # noqa: E402
-from _util import print_table, summary_ms  # noqa: E402
+from _util import print_table, run_recorded, summary_ms  # noqa: E402
 
 from assocbench.estimators.base import Estimator, FrameData, Motion  # noqa: E402
 from assocbench.estimators.config import EstimatorConfig  # noqa: E402
@@ -107,4 +107,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -15,7 +15,7 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _util import print_table
+from _util import print_table, run_recorded
 
 from assocbench.sources.range_bearing_log import read_log
 from assocbench.tracks.planar_log.consistency import POSE_DOF, window_nees
@@ -68,4 +68,4 @@ def figure(windows: list[int], means: list[float], scale: float, name: str):
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

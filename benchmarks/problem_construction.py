@@ -33,7 +33,7 @@ from __future__ import annotations
 import argparse
 import os
 
-from _util import print_table, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 
 import numpy as np
 
@@ -87,4 +87,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

@@ -12,7 +12,7 @@ from __future__ import annotations
 import argparse
 
 import numpy as np
-from _util import print_table, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 
 from assocbench import make_associator
 from assocbench.models.synthetic import range_bearing_problem
@@ -64,4 +64,4 @@ def main() -> None:
 
 
 if __name__ == "__main__":
-    main()
+    run_recorded(main)

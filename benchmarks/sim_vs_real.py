@@ -22,6 +22,7 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+from _util import print_markdown, run_recorded
 from scipy.stats import spearmanr
 
 from assocbench.errors import UserError
@@ -164,7 +165,7 @@ def main(argv: list[str] | None = None) -> int:
     except UserError as exc:
         print(f"sim_vs_real: error: {exc}", file=sys.stderr)
         return 2
-    print(text, end="")
+    print_markdown(text)
     return 0
 
 
@@ -180,4 +181,4 @@ def metric_of(sim: Suite, real: Suite, key: str) -> Column:
 
 
 if __name__ == "__main__":
-    sys.exit(main())
+    run_recorded(main)

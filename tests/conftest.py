@@ -7,6 +7,10 @@ import os
 import numpy as np
 import pytest
 
+# a benchmark script a test runs never writes benchmarks/records/ (tests/docs/test_benchmark_records.py
+# turns records on for its own runs, into a temporary folder)
+os.environ["ASSOCBENCH_NO_RECORD"] = "1"
+
 
 @pytest.fixture(scope="session", autouse=True)
 def private_cache(tmp_path_factory):

@@ -1,17 +1,16 @@
 """The compatibility math, in one place: every associator and the scorer call these.
 
-Notation (lab 8, eqs. 11-17): feature ``i`` measures ``z_i`` with noise ``R_i``; candidate
-landmark ``j`` predicts ``zhat_j``; the joint predicted covariance is ``P``. For a
-hypothesis pairing landmarks ``J`` with features ``I``
+Notation (lab 8, eqs. 11-17): feature ``i`` measures ``z_i`` with noise ``R_i``; candidate ``j``
+predicts ``zhat_j``; the joint predicted covariance is ``P``. For a hypothesis pairing landmarks
+``J`` with features ``I``
 
     y_A = wrap(z_I - zhat_J),   S_A = P[J, J] + blockdiag(R_I) = L Lᵀ,   L w = y_A,
     NIS(A) = wᵀw,   log N(y_A; 0, S_A) = -½ (wᵀw + log det S_A + d|A| log 2π).
 
-Individual compatibility is ``NIS({(i, j)}) <= χ²_d(c)``, joint compatibility
-``NIS(A) <= χ²_{d|A|}(c)``; the relative (binary) constraint of two pairings tests the
-difference of their innovations against its own covariance (``difference_nis``). Total
-surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` with ``n_U = n - |A|`` candidates left
-unassociated. Cholesky factors and triangular solves throughout; no explicit inverse.
+Individual compatibility is ``NIS({(i, j)}) <= χ²_d(c)``, joint ``NIS(A) <= χ²_{d|A|}(c)``; the
+binary constraint tests the difference of two innovations (``difference_nis``). Total surprisal
+``s(A) = n_U log|Y| - log N(y_A; 0, S_A)``, ``n_U = n - |A|``. Cholesky factors and triangular
+solves throughout; no explicit inverse.
 """
 
 from __future__ import annotations
@@ -29,8 +28,8 @@ LOG_2PI = float(np.log(2 * np.pi))
 
 @lru_cache(maxsize=1024)
 def joint_gates(d: int, n: int, confidence: float) -> np.ndarray:
-    """``gate[k] = χ²_{dk}(c)`` for hypotheses of k = 0..n pairings (``gate[0] = 0``); read-only,
-    one array per (d, n, c) shared by every call."""
+    """``gate[k] = χ²_{dk}(c)`` for k = 0..n pairings (``gate[0] = 0``); read-only, cached per (d,
+    n, c)."""
     gates = np.array([chi2_threshold(d * k, confidence) for k in range(n + 1)])
     gates.flags.writeable = False
     return gates
@@ -72,10 +71,8 @@ def log_gaussian(nis: np.ndarray | float, logdet: np.ndarray | float, dim: int) 
 
 
 def pairwise_nis(problem: Problem) -> tuple[np.ndarray, np.ndarray]:
-    """Individual NIS ``y_ijᵀ S_ij⁻¹ y_ij`` with ``S_ij = P_jj + R_i`` and ``log det S_ij``; (m, n) each.
-
-    The individual test is the joint test of a one-pairing hypothesis: ``whitened_pair`` from
-    the empty hypothesis (zero moments) over every (feature, landmark) pair.
+    """Individual NIS ``y_ijᵀ S_ij⁻¹ y_ij``, ``S_ij = P_jj + R_i``, and ``log det S_ij``, (m, n)
+    each: ``whitened_pair`` from the empty hypothesis over every pair.
     """
     m, n = problem.m, problem.n
     if m == 0 or n == 0:
@@ -93,18 +90,16 @@ def pairwise_log_likelihood(problem: Problem) -> np.ndarray:
 
 def individually_compatible(problem: Problem, confidence: float = 0.99,
                             nis: np.ndarray | None = None) -> np.ndarray:
-    """Mask (m, n) of pairs passing the individual gate ``NIS_ij <= χ²_d(c)`` (eq. 12).
-
-    Without ``nis``, from ``gated_pairs``: only the pairs the exact prefilter lets through are
-    whitened, and the mask is that of ``pairwise_nis`` bit for bit."""
+    """Mask (m, n) of pairs with ``NIS_ij <= χ²_d(c)`` (eq. 12); without ``nis``, from
+    ``gated_pairs`` (the same mask bit for bit)."""
     if nis is not None:
         return nis <= chi2_threshold(problem.d, confidence)
     return gate_mask(problem, confidence)[0]
 
 
 def gate_mask(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, np.ndarray]:
-    """``individually_compatible``'s mask (m, n) and the landmarks with at least one pair inside
-    the gate (ascending), from one compiled pass (``gated_pairs``)."""
+    """``individually_compatible``'s mask and the landmarks with a pair in the gate (ascending), in
+    one compiled pass."""
     if problem.m == 0 or problem.n == 0:
         return np.zeros((problem.m, problem.n), np.bool_), np.zeros(0, np.int64)
     return gate_mask_kernel(problem.P, problem.z, problem.zhat, problem.R, wrap_mask(problem),
@@ -112,22 +107,20 @@ def gate_mask(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, n
 
 
 def gated_pairs(problem: Problem, confidence: float = 0.99) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """The pairs inside the individual gate ``NIS_ij <= χ²_d(c)``: (features, landmarks, NIS,
-    log det S_ij), by landmark then feature (``pairs_within``)."""
+    """The pairs with ``NIS_ij <= χ²_d(c)``: (features, landmarks, NIS, log det S_ij), by landmark
+    then feature."""
     return pairs_within(problem, chi2_threshold(problem.d, confidence))
 
 
 def pairs_within(problem: Problem, limit: float) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Every pair with ``NIS_ij = y_ijᵀ (P_jj + R_i)⁻¹ y_ij <= limit``: (features, landmarks, NIS,
-    log det), sorted by landmark then feature; NIS and log det are ``pairwise_nis``'s, bit for bit.
+    log det), by landmark then feature, ``pairwise_nis``'s values bit for bit.
 
-    Output-sensitive and exact (``_sweep_gate``): for any unit vector ``e``,
-    ``yᵀS⁻¹y >= (eᵀy)² / eᵀSe`` (Cauchy-Schwarz), so a pair inside the gate has
-    ``y_a² <= limit · (P_jj + R_i)_aa <= limit · (P_jj + R̄)_aa`` in every dimension ``a``, with
-    ``R̄_aa = max_i (R_i)_aa``. With the features sorted along one axis ``s`` (on the circle
-    where it wraps), each landmark's candidates are the features within that half-width of
-    ``zhat_js``: two binary searches. Those get the per-pair box in every dimension, then the
-    whitened NIS."""
+    Output-sensitive and exact (``_sweep_gate``): for a unit vector ``e``,
+    ``yᵀS⁻¹y >= (eᵀy)² / eᵀSe`` (Cauchy-Schwarz), so a pair in the gate has
+    ``y_a² <= limit · (P_jj + R̄)_aa`` in every dimension, ``R̄_aa = max_i (R_i)_aa``. With the
+    features sorted along one axis (on the circle where it wraps), each landmark's candidates are
+    found by two binary searches, then boxed in every dimension, then whitened."""
     m, n = problem.m, problem.n
     if m == 0 or n == 0:
         empty = np.zeros(0, np.int64)
@@ -136,15 +129,13 @@ def pairs_within(problem: Problem, limit: float) -> tuple[np.ndarray, np.ndarray
 
 
 def pair_innovations(problem: Problem, feats: np.ndarray, lms: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Innovations ``y_ij = wrap(z_i - zhat_j)`` (k, d) and covariances ``S_ij = P_jj + R_i``
-    (k, d, d) of the listed pairs (feature ``feats[t]``, landmark ``lms[t]``)."""
+    """``y_ij = wrap(z_i - zhat_j)`` (k, d) and ``S_ij = P_jj + R_i`` (k, d, d) of the listed pairs."""
     y = wrap_angles(problem.z[feats] - problem.zhat[lms], problem.angular)
     return y, marginal_blocks(problem)[lms] + problem.R[feats]
 
 
 def stacked_nis(y: np.ndarray, S: np.ndarray) -> np.ndarray:
-    """``yᵀ S⁻¹ y`` of a stack of vectors (k, d) and covariances (k, d, d): ``S = L Lᵀ``
-    (Cholesky), ``L w = y`` by forward substitution, ``NIS = wᵀw``; no inverse."""
+    """``yᵀ S⁻¹ y`` of stacks (k, d), (k, d, d): ``S = L Lᵀ``, ``L w = y``, ``NIS = wᵀw``."""
     L = np.linalg.cholesky(S)
     w = np.empty_like(y)
     for a in range(y.shape[1]):
@@ -166,8 +157,7 @@ def joint_nis(problem: Problem, association: np.ndarray) -> float:
 
 
 def joint_verdict(problem: Problem, association: np.ndarray, confidence: float = 0.99) -> tuple[float, bool]:
-    """Total surprisal and joint compatibility of a hypothesis from one evaluation of its joint
-    terms (see ``surprisal`` and ``jointly_compatible``)."""
+    """Total surprisal and joint compatibility from one evaluation of the joint terms."""
     nis, logdet, k = joint_terms(problem, association)
     s = (problem.n - k) * float(np.log(problem.volume)) - float(log_gaussian(nis, logdet, problem.d * k))
     return s, bool(k == 0 or nis <= chi2_threshold(problem.d * k, confidence))
@@ -179,8 +169,8 @@ def jointly_compatible(problem: Problem, association: np.ndarray, confidence: fl
 
 
 def surprisal(problem: Problem, association: np.ndarray) -> float:
-    """Total surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` (lab 8, section 2), with
-    ``n_U`` the candidates left unassociated."""
+    """``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` (lab 8, section 2), ``n_U`` the unassociated
+    candidates."""
     return joint_verdict(problem, association)[0]
 
 
@@ -197,8 +187,8 @@ def surprisal(problem: Problem, association: np.ndarray) -> float:
 
 @njit(cache=True, inline="always")
 def _dot_rows(A, ra, B, rb, length):
-    """``Σ_r<length A[ra, r] B[rb, r]`` in four interleaved partial sums: independent chains the CPU
-    can overlap, in a fixed order so results do not depend on the machine's vector width."""
+    """``Σ_r<length A[ra, r] B[rb, r]`` in four interleaved partial sums, in a fixed order
+    (machine-independent)."""
     s0, s1, s2, s3 = 0.0, 0.0, 0.0, 0.0
     top = length - length % 4
     for r in range(0, top, 4):
@@ -225,8 +215,7 @@ def _cross_block(Mt, j, l, kd, d, out):
 
 @njit(cache=True, inline="always")
 def _cross_block_2(Mt, j, l, kd):
-    """``_cross_block`` for d = 2 (most measurement models), as four scalars ``(x00, x01, x10,
-    x11)``: the four sums share their loads and run as eight interleaved chains in a fixed
+    """``_cross_block`` for d = 2 as four scalars: shared loads, eight interleaved chains, fixed
     order."""
     ja, la = 2 * j, 2 * l
     s00, s01, s10, s11 = 0.0, 0.0, 0.0, 0.0
@@ -286,9 +275,7 @@ def _on_circle(x):
 
 @njit(cache=True)
 def _sweep_axis(P, z, zhat, wrap, r_max, limit):
-    """The dimension whose gate windows hold the fewest features, estimated as
-    ``Σ_j min(1, 2 h_ja / span_a)`` (``h_ja`` the half-width of landmark j's box, ``span_a`` the
-    features' extent; 2π on a wrapped dimension)."""
+    """The dimension whose gate windows hold the fewest features, ``Σ_j min(1, 2 h_ja / span_a)``."""
     m, d = z.shape
     n = zhat.shape[0]
     best, best_cost = 0, np.inf
@@ -322,8 +309,8 @@ def _inside_box(P, z, zhat, R, wrap, i, j, limit):
 
 @njit(cache=True)
 def _window(keys, lo, hi, wrapped):
-    """Index ranges ``[(s0, e0), (s1, e1)]`` of the sorted ``keys`` in ``[lo, hi]``; on a wrapped
-    axis (keys in [0, 2π)) the window may run over 0 or 2π, and then it is two ranges."""
+    """Index ranges ``[(s0, e0), (s1, e1)]`` of sorted ``keys`` in ``[lo, hi]`` (two where a wrapped
+    window runs over 0 or 2π)."""
     if not wrapped:
         return np.searchsorted(keys, lo), np.searchsorted(keys, hi, side="right"), 0, 0
     if hi - lo >= TWO_PI:
@@ -337,16 +324,14 @@ def _window(keys, lo, hi, wrapped):
 
 @njit(cache=True, inline="always")
 def take(buffer, at, size):
-    """(the view ``buffer[at:at + size]``, where the next one starts): work arrays carved from one
-    allocation."""
+    """(``buffer[at:at + size]``, the next offset): work arrays carved from one allocation."""
     return buffer[at:at + size], at + size
 
 
 @njit(cache=True, inline="always")
 def _argsort_into(keys, order, sorted_keys):
-    """``order = argsort(keys)`` and ``sorted_keys = keys[order]``, by insertion up to 32 keys
-    (no allocation), the library's argsort beyond. Ties may come in any order (the gate sorts
-    each window's features by index)."""
+    """``order = argsort(keys)`` and ``sorted_keys``, by insertion up to 32 keys, the library's
+    beyond; ties in any order."""
     m = keys.shape[0]
     if m > 32:
         order[:] = np.argsort(keys)
@@ -364,9 +349,8 @@ def _argsort_into(keys, order, sorted_keys):
 
 @njit(cache=True, inline="always")
 def _sort_small(values, count):
-    """Sort ``values[:count]`` (integers) ascending in place: by insertion up to 32 values (a
-    window holds a handful of features, where the library's sort costs about 100-250 ns to set
-    up, several times the sorting: up to a third of the gate at n = 10-20), the library's beyond."""
+    """Sort ``values[:count]`` (integers) in place: by insertion up to 32 (a gate window holds a
+    handful, where the library sort's setup dominates), the library's beyond."""
     if count > 32:
         values[:count].sort()
         return
@@ -381,14 +365,14 @@ def _sort_small(values, count):
 
 @njit(cache=True)
 def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
-    """``pairs_within``'s pairs (log det 0 unless ``with_logdet``). The per-pair box is kept a hair loose (``limit · (1 + 1e-6)``:
-    rounding of the factorised NIS near the gate) and each window wider still (relative 1e-9,
-    plus rounding of the keys), so no pair of the box is missed; the NIS decides."""
+    """``pairs_within``'s pairs (log det 0 unless ``with_logdet``). The box is a hair loose
+    (``limit · (1 + 1e-6)``) and the windows looser still, so no pair of the box is missed; the NIS
+    decides."""
     m, d = z.shape
     n = zhat.shape[0]
     box = limit * (1.0 + 1e-6)
     # one float and one integer buffer for every work array, and one of each for the outputs
-    # (4 allocations instead of 15; with the sorts by insertion the gate at n = 20 went 4.8 -> 4.1 us)
+    # (4 allocations instead of 15)
     work = np.empty(d + 2 * m + n * d * (d + 1) + 2 * d * (d + 1))
     r_max, at = take(work, 0, d)
     keys, at = take(work, at, m)
@@ -448,8 +432,8 @@ def _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet=True):
 
 @njit(cache=True, inline="always")
 def _individual_whitened(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2):
-    """(NIS, det S) of pairing (i, j) given the moments ``C``, ``G``: ``whitened_pair``'s arithmetic,
-    the log left to the caller (only where asked), in scalars for d = 2."""
+    """(NIS, det S) of pairing (i, j) given moments ``C``, ``G``: ``whitened_pair``'s arithmetic,
+    scalars for d = 2."""
     if z.shape[1] == 2:
         return _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L, w2)
     pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
@@ -458,9 +442,8 @@ def _individual_whitened(P, z, zhat, R, wrap, i, j, C, G, S, y, L, w2):
 
 @njit(cache=True)
 def pairs_within_kernel(P, z, zhat, R, wrap, limit, with_logdet):
-    """``pairs_within`` on the problem's arrays (log det 0 unless ``with_logdet``): callable from
-    compiled code, so a method that gates and then decides in one compiled call (MNN) hands no
-    pair list back to Python (each array returned costs about a third of a microsecond)."""
+    """``pairs_within`` callable from compiled code, so a method that gates and decides in one call
+    (MNN) hands no pair list to Python."""
     return _sweep_gate(P, z, zhat, R, wrap, limit, with_logdet)
 
 
@@ -488,8 +471,8 @@ def _grown(arr, used, cap):
 
 @njit(cache=True, inline="always")
 def pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S_out, y_out):
-    """Conditional innovation of pairing (i, j) given a hypothesis whose moments of landmark ``j``
-    are ``C[j] = c_j``, ``G[j] = G_j``: ``S = P_jj + R_i - G_j`` and ``y = wrap(z_i - zhat_j) - c_j``."""
+    """Conditional innovation of (i, j) given moments ``C[j] = c_j``, ``G[j] = G_j``:
+    ``S = P_jj + R_i - G_j``, ``y = wrap(z_i - zhat_j) - c_j``."""
     d = z.shape[1]
     for a in range(d):
         y_out[a] = _residual(z, zhat, wrap, i, j, a) - C[j, a]
@@ -499,16 +482,16 @@ def pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S_out, y_out):
 
 @njit(cache=True, inline="always")
 def _whiten(S, y, L_out, w_out):
-    """Cholesky ``S = L Lᵀ`` (into ``L_out``) and ``w = L⁻¹ y`` (into ``w_out``) of one small matrix; returns
-    (wᵀw, log det S), or (inf, inf) when ``S`` is not positive definite."""
+    """Cholesky ``S = L Lᵀ`` and ``w = L⁻¹ y`` into the outputs; returns (wᵀw, log det S), (inf,
+    inf) when not definite."""
     nis, det = _whiten_det(S, y, L_out, w_out)
     return nis, np.log(det)  # det S = Π L_aa², one log instead of d
 
 
 @njit(cache=True, inline="always")
 def _whiten_det(S, y, L_out, w_out):
-    """``_whiten`` with ``det S`` in place of its log (inf, inf when not positive definite): the
-    searches, which only need the NIS, skip the log (numba keeps an unused one: ~10 % of a node)."""
+    """``_whiten`` with ``det S`` instead of its log: the searches need only the NIS and skip the
+    log."""
     d = S.shape[0]
     det = 1.0
     for a in range(d):
@@ -537,17 +520,15 @@ def _whiten_det(S, y, L_out, w_out):
 
 @njit(cache=True, inline="always")
 def whitened_pair(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
-    """(ΔNIS, Δlog det) of adding pairing (i, j): the whitened conditional innovation
-    ``|L22⁻¹ y|²`` with ``L22 L22ᵀ = S`` (``pair_innovation``, into the work arrays ``S``, ``y``);
-    ``L22`` and ``L22⁻¹ y`` into the outputs."""
+    """(ΔNIS, Δlog det) of adding (i, j): ``|L22⁻¹ y|²``, ``L22 L22ᵀ = S`` (``pair_innovation``);
+    ``L22``, ``L22⁻¹ y`` into the outputs."""
     pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
     return _whiten(S, y, L_out, w_out)
 
 
 @njit(cache=True, inline="always")
 def whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
-    """``whitened_pair``'s ΔNIS alone (the same arithmetic, bit for bit), ``L22`` and ``L22⁻¹ y``
-    into the outputs."""
+    """``whitened_pair``'s ΔNIS alone, bit for bit."""
     if z.shape[1] == 2:         # the planar, line and camera tracks' case, in scalars
         return _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L_out, w_out)[0]
     pair_innovation(P, z, zhat, R, wrap, i, j, C, G, S, y)
@@ -556,11 +537,9 @@ def whitened_nis(P, z, zhat, R, wrap, i, j, C, G, S, y, L_out, w_out):
 
 @njit(cache=True, inline="always")
 def _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L_out, w_out):
-    """``pair_innovation`` then ``_whiten_det`` for d = 2 in scalars: their arithmetic in their
-    order, so bit for bit, with the same outputs (``L_out`` and ``w_out``, written as they write
-    them, also where ``S`` is not definite) and the same (ΔNIS, det S). Their work arrays' stores
-    and reloads cost several times the arithmetic: about 70 against 10 ns a pairing, the inner
-    loop of JCBB's forward check and dives and of the individual gate."""
+    """``pair_innovation`` then ``_whiten_det`` for d = 2 in scalars, their arithmetic in their
+    order (bit for bit, same outputs): no work-array stores and reloads in the inner loop of JCBB
+    and the gate."""
     y0 = _residual(z, zhat, wrap, i, j, 0) - C[j, 0]
     y1 = _residual(z, zhat, wrap, i, j, 1) - C[j, 1]
     s00 = P[2 * j, 2 * j] + R[i, 0, 0] - G[j, 0, 0]
@@ -584,10 +563,9 @@ def _whitened_nis_2(P, z, zhat, R, wrap, i, j, C, G, L_out, w_out):
 
 @njit(cache=True, inline="always")
 def _ldl_nis(S, y):
-    """``yᵀ S⁻¹ y`` by the square-root-free Cholesky ``S = L D Lᵀ`` (``L`` unit lower triangular, in
-    the strict lower triangle of ``S``; ``D`` on its diagonal): ``u = L⁻¹ y`` (into ``y``) and
-    ``Σ u_a² / D_a``. Both arrays are overwritten; inf when ``S`` is not positive definite. What
-    a test needs when it needs no log det: no square root or log per call."""
+    """``yᵀ S⁻¹ y`` by ``S = L D Lᵀ`` (unit ``L`` in ``S``'s strict lower triangle, ``D`` on its
+    diagonal): ``u = L⁻¹ y``, ``Σ u_a² / D_a``; overwrites both, inf when not definite. No square
+    root or log."""
     d = S.shape[0]
     nis = 0.0
     for a in range(d):
@@ -611,10 +589,8 @@ def _ldl_nis(S, y):
 
 @njit(cache=True, inline="always")
 def difference_nis_kernel(P, Pd, z, zhat, R, wrap, i, j, i2, j2, S, y):
-    """``difference_nis`` of pairings (i, j) and (i2, j2), with the diagonal blocks ``Pd``
-    (``marginal_blocks``) and (d, d), (d,) work arrays ``S``, ``y``; inf when ``S`` is not positive
-    definite. ``P_j'j = P_jj'ᵀ`` is read from landmark j's rows, so a caller looping over j'
-    reads P along its rows."""
+    """``difference_nis`` of (i, j) and (i2, j2) with ``Pd`` (``marginal_blocks``) and work arrays;
+    inf when not definite. ``P_j'j = P_jj'ᵀ`` is read along landmark j's rows."""
     d = z.shape[1]
     for a in range(d):
         acc = (z[i, a] - zhat[j, a]) - (z[i2, a] - zhat[j2, a])
@@ -638,25 +614,17 @@ def _difference_terms(P, Pd, z, zhat, R, wrap, feats, lms, feats2, lms2):
 
 
 def difference_nis(problem: Problem, pairs: np.ndarray, others: np.ndarray) -> np.ndarray:
-    """NIS of the difference of two pairings' innovations (the relative, or binary, constraint).
-
-    ``pairs`` and ``others`` are (q, 2) arrays of (feature, landmark) rows; row t compares
-    pairing (i, j) = ``pairs[t]`` with (i', j') = ``others[t]``::
+    """NIS of the difference of two pairings' innovations (the binary constraint). ``pairs`` and
+    ``others`` are (q, 2) rows of (feature, landmark); row t compares (i, j) with (i', j')::
 
         Δ = wrap(y_ij - y_i'j') = wrap((z_i - z_i') - (zhat_j - zhat_j')),
         S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i' = L D Lᵀ,   NIS_Δ = Σ_a (L⁻¹ Δ)_a² / D_a
 
-    (the square-root-free Cholesky factorisation, ``_ldl_nis``; equal to ``|L⁻¹Δ|²`` with the
-    usual factor ``L D^½``).
-
-    ``Δ`` is the measured minus the predicted displacement between the two landmarks: an error
-    that moves both predictions alike in measurement space (a common shift, such as a heading
-    error in bearings) cancels from ``Δ`` and, through the cross blocks ``P_jj'``, from
-    ``S_Δ``; the part of a pose error that moves them differently (a translation changes two
-    ranges and bearings by different amounts) stays, and ``S_Δ`` accounts for it through ``P``.
-    Unlike the distance between two points, ``Δ`` is not invariant to every rigid motion. The
-    measurement noises are independent and add. Under the hypothesis that both pairings are right, ``NIS_Δ`` is
-    χ²_d-distributed (to first order). Returns (q,) values; inf where ``S_Δ`` is singular.
+    ``Δ`` is the measured minus predicted displacement between the landmarks: an error moving both
+    predictions alike (a heading error in bearings) cancels from ``Δ`` and, through ``P_jj'``, from
+    ``S_Δ``; what a pose error does differently to the two stays and ``S_Δ`` weighs it. If both
+    pairings are right ``NIS_Δ`` is χ²_d (to first order). Returns (q,); inf where ``S_Δ`` is
+    singular.
     """
     a = np.asarray(pairs, dtype=np.int64).reshape(-1, 2)
     b = np.asarray(others, dtype=np.int64).reshape(-1, 2)
@@ -685,17 +653,16 @@ def _individual_terms(P, z, zhat, R, wrap, lms, feats):
 
 @njit(cache=True)
 def empty_factor(n, d):
-    """The incremental factor of the empty hypothesis over ``n`` landmarks of dimension ``d``, and
-    ``whitened_pair``'s work arrays: ``(Mt, w, C, G, S, y, L, w2)`` (zero factor and moments)."""
+    """The empty hypothesis' factor over ``n`` landmarks of dimension ``d`` and ``whitened_pair``'s
+    work arrays: ``(Mt, w, C, G, S, y, L, w2)``."""
     return (np.zeros((n * d, n * d)), np.zeros(n * d), np.zeros((n, d)), np.zeros((n, d, d)),
             np.empty((d, d)), np.empty(d), np.empty((d, d)), np.empty(d))
 
 
 @njit(cache=True)
 def append_rows(Mt, w, kd, P, j, L, w2, cols):
-    """Append the rows of a pairing with landmark ``j`` whose ``whitened_pair`` gave ``L``, ``w2``:
-    ``M[kd:kd+d, l] = L⁻¹ (P[j, l] - Xᵀ M[:kd, l])`` for the landmarks ``l`` in ``cols`` (the only
-    columns the caller will read again) and ``w[kd:kd+d] = w2``."""
+    """Append a pairing with landmark ``j`` (``whitened_pair`` gave ``L``, ``w2``):
+    ``M[kd:kd+d, l] = L⁻¹ (P[j, l] - Xᵀ M[:kd, l])`` for ``l`` in ``cols``, ``w[kd:kd+d] = w2``."""
     d = L.shape[0]
     if d == 2:
         _append_rows_2(Mt, kd, P, j, L, cols)
@@ -723,8 +690,7 @@ def _append_rows_any(Mt, kd, P, j, L, cols):
 
 @njit(cache=True)
 def _append_rows_2(Mt, kd, P, j, L, cols):
-    """``_append_rows_any`` for d = 2 in scalars, its arithmetic in its order (bit for bit): no
-    (d, d) work array per call, the factor's three entries read once."""
+    """``_append_rows_any`` for d = 2 in scalars, bit for bit."""
     l00, l10, l11 = L[0, 0], L[1, 0], L[1, 1]
     for l in cols:
         x00, x01, x10, x11 = _cross_block_2(Mt, j, l, kd)
@@ -737,9 +703,8 @@ def _append_rows_2(Mt, kd, P, j, L, cols):
 
 @njit(cache=True)
 def advance_moments(Mt, kd, w2, cols, C, G, C_out, G_out):
-    """Moments after ``append_rows`` wrote rows ``kd:kd+d``: ``c_l + M_newᵀ w2`` and
-    ``G_l + M_newᵀ M_new`` into ``C_out[l]``, ``G_out[l]`` for the landmarks ``l`` in ``cols``
-    (the outputs may be the inputs)."""
+    """After ``append_rows``: ``c_l + M_newᵀ w2``, ``G_l + M_newᵀ M_new`` into ``C_out[l]``,
+    ``G_out[l]`` for ``l`` in ``cols``."""
     if w2.shape[0] == 2:
         _advance_moments_2(Mt, kd, w2, cols, C, G, C_out, G_out)
     else:
@@ -765,8 +730,7 @@ def _advance_moments_any(Mt, kd, w2, cols, C, G, C_out, G_out):
 
 @njit(cache=True)
 def _advance_moments_2(Mt, kd, w2, cols, C, G, C_out, G_out):
-    """``_advance_moments_any`` for d = 2 in scalars: the same sums in the same order (bit for bit),
-    each new row entry read once."""
+    """``_advance_moments_any`` for d = 2 in scalars, bit for bit."""
     w0, w1 = w2[0], w2[1]
     for l in cols:
         a0, a1, b0, b1 = Mt[2 * l, kd], Mt[2 * l, kd + 1], Mt[2 * l + 1, kd], Mt[2 * l + 1, kd + 1]
@@ -792,8 +756,7 @@ def append_pair(Mt, w, kd, P, z, zhat, R, wrap, i, j):
 
 
 def wrap_mask(problem: Problem) -> np.ndarray:
-    """Boolean (d,) mask of the angular dims, as the kernels take it (read-only: one array per
-    (d, angular), shared by every call)."""
+    """Boolean (d,) mask of the angular dims, read-only, cached per (d, angular)."""
     return _wrap_mask(problem.d, problem.angular)
 
 
@@ -807,17 +770,13 @@ def _wrap_mask(d: int, angular: tuple[int, ...]) -> np.ndarray:
 
 class JointFactor:
     """Incrementally grown Cholesky factor of a hypothesis' joint innovation covariance (the
-    scorer's ``joint_terms``).
-
-    For a hypothesis with factor ``S_A = L Lᵀ`` and whitened innovation ``L w = y_A``, the
-    factor keeps ``M = L⁻¹ P[J, :]`` (the whitened cross-covariance with every candidate; stored
-    transposed as ``Mt``). Extending by landmark ``j`` paired with feature ``i`` appends
+    scorer's ``joint_terms``). With ``S_A = L Lᵀ`` and ``L w = y_A`` it keeps ``M = L⁻¹ P[J, :]``
+    (as ``Mt``); pairing landmark ``j`` with feature ``i`` appends
 
         X = M[:, j],   L22 L22ᵀ = P_jj + R_i - XᵀX,   w2 = L22⁻¹ (y_ij - Xᵀ w),
         M_new = L22⁻¹ (P[j, :] - Xᵀ M),
 
-    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``; a push costs
-    O(kd·nd·d) instead of refactorising the joint covariance (``append_pair``).
+    so ``NIS`` grows by ``|w2|²`` and ``log det S`` by ``2 Σ log diag L22``, O(kd·nd·d) a push.
     """
 
     def __init__(self, problem: Problem) -> None:

@@ -17,11 +17,8 @@ SMALL_FACTOR = 40   # P up to this order is factorised by the compiled loop, bey
 
 
 def _as_float(name: str, value, shape: tuple) -> np.ndarray:
-    """``value`` as a C-ordered float64 array of the given shape, for the problem to mark
-    read-only: a view of the caller's array where it already is one (no copy: copying a P of
-    order 640 costs about half an MNN call; the caller's array stays writeable, and must not be
-    written while the problem is in use), a converted copy otherwise. Finiteness is
-    ``_screen_blocks``' and ``validate``'s."""
+    """``value`` as a C-ordered float64 array: a view where it already is one (no copy; the caller
+    must not write it while the problem is in use), else a converted copy."""
     arr = np.ascontiguousarray(_real_numbers(name, value), dtype=np.float64)
     if arr.shape != shape:
         raise ValueError(f"Problem.{name} has shape {arr.shape}, expected {shape}")
@@ -29,9 +26,8 @@ def _as_float(name: str, value, shape: tuple) -> np.ndarray:
 
 
 def _real_numbers(name: str, value) -> np.ndarray:
-    """``value`` as a numpy array of real numbers (any real dtype); raises ``ValueError`` naming
-    the field where it is not one: text, ``None``, objects, or complex values (whose imaginary
-    part a cast to float64 would drop with only a warning)."""
+    """``value`` as a numpy array of real numbers; ``ValueError`` naming the field for text,
+    ``None``, objects or complex values (a float cast would drop the imaginary part)."""
     if value is None:       # np.asarray(None) would become NaN, then a shape or NaN message
         raise ValueError(f"Problem.{name} must be an array of real numbers, got None")
     try:
@@ -50,13 +46,10 @@ FIELDS_SCREENED = ("zhat", "z", "R", "P")   # _screen's order: its verdict 1..4 
 
 @njit(cache=True)
 def _screen(zhat, z, R, P, small):
-    """Every check of a problem's arrays in one compiled pass, where it can decide them:
-    (verdict, ``max|P|``). Verdict 0 when every entry is finite, ``R`` passes ``_check_spd``
-    strictly and ``P`` semidefinitely, both by the compiled Cholesky (``P`` up to order
-    ``small``); ``1..4`` the first of ``FIELDS_SCREENED`` with a NaN or infinite entry; 5 when
-    ``R`` and 6 when ``P`` need ``_check_spd`` itself (asymmetric, or a failed factorisation
-    that only the eigenvalues can judge); 7 when ``P``, symmetric, is above ``small``: LAPACK's
-    factorisation (``_decide_definite``)."""
+    """Every check of the arrays in one compiled pass where it can decide: (verdict, ``max|P|``). 0:
+    all finite, ``R`` strictly and ``P`` semidefinitely pass ``_check_spd`` (``P`` up to order
+    ``small``); 1..4: the first of ``FIELDS_SCREENED`` not finite; 5 / 6: ``R`` / ``P`` need
+    ``_check_spd`` itself; 7: ``P`` above ``small`` needs LAPACK (``_decide_definite``)."""
     for code, arr in ((1, zhat.ravel()), (2, z.ravel()), (3, R.ravel()), (4, P.ravel())):
         for v in arr:
             if not np.isfinite(v):
@@ -80,17 +73,13 @@ def _screen(zhat, z, R, P, small):
 
 @njit(cache=True)
 def _screen_blocks(zhat, z, R, P):
-    """The checks construction makes at once, in one compiled pass over what every associator
-    reads: O(m d³ + n d³), not O((nd)³). True when every entry of ``zhat``, ``z``, ``R`` and of
-    the (d, d) diagonal blocks of ``P`` is finite, each ``R_i`` is symmetric and has a Cholesky
-    factor (``_check_spd``'s strict rule, scale ``max|R|``), and each diagonal block ``P_jj`` is
-    symmetric (``|A - Aᵀ| <= 1e-9 · s``) and ``P_jj + τ·I`` has one, with ``s`` the blocks'
-    ``max|·|`` and ``τ = 1e-10 · s``. Each is necessary for the whole of ``P`` to pass
-    ``_check_spd``: for a semidefinite ``P``, ``max|P|`` lies on its diagonal (``|P_ab|² <=
-    P_aa P_bb``), so ``s`` is its scale, and a principal block's least eigenvalue is at least
-    ``P``'s (Cauchy interlacing). False: construction runs the full check at once (``_screen``),
-    which decides and names the field. It reads the blocks in place (no copy, no ravel: it also
-    runs on ``_screen_plain``'s any-layout types)."""
+    """Construction's checks of what every associator reads, one compiled pass, O(m d³ + n d³):
+    every entry of ``zhat``, ``z``, ``R`` and of ``P``'s (d, d) diagonal blocks finite, each ``R_i``
+    symmetric with a Cholesky factor, each ``P_jj`` symmetric (``|A - Aᵀ| <= 1e-9 · s``) with
+    ``P_jj + τ·I`` factorisable, ``s`` the blocks' ``max|·|``, ``τ = 1e-10 · s``. Each is necessary
+    for the whole ``P`` to pass ``_check_spd`` (a semidefinite ``P`` has ``max|P|`` on its diagonal,
+    and a principal block's least eigenvalue is at least ``P``'s). False: the full check decides
+    (``_screen``)."""
     (n, d), m = zhat.shape, z.shape[0]
     for j in range(n):
         for a in range(d):
@@ -125,8 +114,8 @@ def _screen_blocks(zhat, z, R, P):
 
 @njit(inline="always")
 def _block_scale(A, o, d, scale, asymmetry):
-    """``(max(scale, max|B|), max(asymmetry, max|B - Bᵀ|))`` for the block ``B = A[o:o+d, o:o+d]``;
-    a NaN scale when an entry of ``B`` is NaN or infinite."""
+    """``(max(scale, max|B|), max(asymmetry, max|B - Bᵀ|))`` for ``B = A[o:o+d, o:o+d]``; NaN scale
+    for a non-finite entry."""
     for a in range(d):
         v = A[o + a, o + a]
         if not np.isfinite(v):
@@ -143,10 +132,8 @@ def _block_scale(A, o, d, scale, asymmetry):
 
 @njit(inline="always")
 def _block_factorisable(A, o, d, shift, L):
-    """Whether ``B + shift·I``, ``B = A[o:o+d, o:o+d]`` (lower triangle read, as ``eigvalsh``
-    does), has a Cholesky factor: every pivot ``> 0``. For d = 2 the pivots are ``a`` and
-    ``c - b·(b/a)`` (``B = [[a, ·], [b, c]]``, shifted), without the square root, which was most
-    of a construction's screen at n = 10; beyond, ``_cholesky_pivots_positive``."""
+    """Whether ``B + shift·I`` (lower triangle read) has a Cholesky factor: every pivot ``> 0``; for
+    d = 2 the pivots ``a`` and ``c - b·(b/a)`` without a square root."""
     if d == 2:
         a = A[o, o] + shift
         if not a > 0.0:
@@ -176,8 +163,8 @@ def _cholesky_pivots_positive(A, o, d, shift, L):
 
 @njit(cache=True)
 def _c_ordered(shape, strides):
-    """numpy's C-contiguity rule for float64: every axis of length above 1, read from the last,
-    steps by the product of the later lengths times 8 bytes; empty arrays are contiguous."""
+    """numpy's C-contiguity rule for float64 (strides of the later lengths times 8 bytes; empty is
+    contiguous)."""
     for length in shape:
         if length == 0:
             return True
@@ -198,9 +185,8 @@ _ANY_F64 = {rank: types.Array(types.float64, rank, "A", readonly=True) for rank 
 
 @njit(cache=True)
 def _screen_plain(zhat, z, R, P):
-    """Construction's fast path in one compiled call: -2 when an array is not C-ordered, -1 when
-    the shapes disagree (``z`` (m, d), ``R`` (m, d, d), ``zhat`` (n, d), ``P`` (nd, nd)), else
-    ``_screen_blocks``' verdict as 1 (passed) or 0 (the full check must decide)."""
+    """Construction's fast path: -2 when an array is not C-ordered, -1 when the shapes disagree,
+    else ``_screen_blocks``' verdict as 1 or 0."""
     if not (_c_ordered(zhat.shape, zhat.strides) and _c_ordered(z.shape, z.strides)
             and _c_ordered(R.shape, R.strides) and _c_ordered(P.shape, P.strides)):
         return -2
@@ -211,9 +197,8 @@ def _screen_plain(zhat, z, R, P):
 
 
 def _screen_plain_first_call(zhat, z, R, P) -> int:
-    """``_screen_plain`` for the first time: compile (or load from the cache) its one signature,
-    forbid any other (another type must raise TypeError and leave the fast path, not compile), and
-    route every later call to it directly."""
+    """``_screen_plain``'s first call: compile or load its one signature, forbid others (another
+    type raises TypeError and leaves the fast path), and route later calls to it."""
     global _screen_plain_call
     _screen_plain.compile((_ANY_F64[2], _ANY_F64[2], _ANY_F64[3], _ANY_F64[2]))
     _screen_plain.disable_compile()
@@ -225,16 +210,12 @@ _screen_plain_call = _screen_plain_first_call
 
 
 def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) -> None:
-    """Raise if any matrix of the stack is not symmetric (``|A - Aᵀ| <= 1e-9 · max|A|``) positive
-    definite (every eigenvalue ``λ > 0``: a Cholesky factor ``A = L Lᵀ`` exists, which gating and
-    the joint test need) or, with ``allow_semidefinite``, semidefinite (``λ >= -1e-10 · max|A|``).
-
-    Definite: the factorisation decides; a singular ``R`` (``λ_min = 0``, e.g. all zero: a
-    "noiseless" sensor) is refused, since ``S = P_JJ + R`` is then singular wherever ``P`` is.
-    Semidefinite: a Cholesky factorisation of ``A + τ·I`` (``τ`` the tolerance) decides almost
-    every case at a fraction of an eigendecomposition's cost: success proves ``λ_min(A) > -τ`` up
-    to the factorisation's backward error (about ``n·ε·max|A|``, far inside the tolerance). A
-    failure proves nothing, so only then do the eigenvalues decide: the refusals are theirs."""
+    """Raise if a matrix of the stack is not symmetric (``|A - Aᵀ| <= 1e-9 · max|A|``) positive
+    definite (a Cholesky factor exists, as gating needs) or, with ``allow_semidefinite``,
+    semidefinite (``λ >= -1e-10 · max|A|``). A singular ``R`` (a "noiseless" sensor) is refused:
+    ``S = P_JJ + R`` would be singular wherever ``P`` is. Semidefinite: a Cholesky factorisation of
+    ``A + τ·I`` proves ``λ_min(A) > -τ`` (up to its backward error, far inside the tolerance); only
+    a failure falls back to the eigenvalues, whose refusals these are."""
     if mats.size == 0:
         return
     stack = mats if mats.ndim == 3 else mats[None]
@@ -246,9 +227,9 @@ def _check_spd(name: str, mats: np.ndarray, allow_semidefinite: bool = False) ->
 
 
 def _decide_definite(name: str, mats: np.ndarray, tolerance: float) -> None:
-    """``_check_spd``'s verdict on a symmetric stack: a Cholesky factorisation of each
-    ``A + tolerance·I`` (compiled up to ``SMALL_FACTOR``, LAPACK in place beyond), the
-    eigenvalues (``λ >= -tolerance``) only where one fails; raises naming the matrix."""
+    """``_check_spd``'s verdict on a symmetric stack: Cholesky of each ``A + tolerance·I`` (compiled
+    up to ``SMALL_FACTOR``, LAPACK beyond), eigenvalues only where one fails; raises naming the
+    matrix."""
     stack = mats if mats.ndim == 3 else mats[None]
     if mats.shape[-1] <= SMALL_FACTOR:
         factorised = _first_unfactorised(stack, tolerance) < 0
@@ -288,8 +269,8 @@ def _scale_and_asymmetry(stack):
 
 @njit(cache=True)
 def _first_unfactorised(stack, shift):
-    """Index of the first matrix ``A`` of the stack whose ``A + shift·I`` has no Cholesky factor
-    (a pivot ``<= 0``), reading the lower triangle as ``eigvalsh`` does; -1 when all have one."""
+    """Index of the first ``A`` whose ``A + shift·I`` has no Cholesky factor (lower triangle, as
+    ``eigvalsh``), or -1."""
     d = stack.shape[1]
     L = np.empty((d, d))
     for k in range(stack.shape[0]):
@@ -305,12 +286,9 @@ ND = np.ndarray
 
 
 def _plain_views(z, R, zhat, P) -> dict | None:
-    """Read-only views of the four arrays and ``_screen_blocks``' verdict, where each already is a
-    C-ordered float64 ``ndarray`` and their shapes agree (z (m, d), R (m, d, d), zhat (n, d),
-    P (nd, nd)): what the harness and the simulators pass. The checks are eight identity tests
-    here and one compiled call (``_screen_plain``) for the layout, the shapes and the screen:
-    about 1 µs at n = 10, against 2.3 µs for numpy's flags and a separate screen. None
-    otherwise: ``_converted`` then converts, or raises naming the field."""
+    """Read-only views of the four arrays and ``_screen_blocks``' verdict where each is already a
+    C-ordered float64 ``ndarray`` of agreeing shapes (what the harness and simulators pass), by
+    identity tests and one compiled call; None otherwise (``_converted`` converts or raises)."""
     if not (type(z) is ND and type(R) is ND and type(zhat) is ND and type(P) is ND
             and z.dtype is F64 and R.dtype is F64 and zhat.dtype is F64 and P.dtype is F64):
         return None
@@ -324,9 +302,8 @@ def _plain_views(z, R, zhat, P) -> dict | None:
 
 
 def _converted(z, R, zhat, P) -> dict:
-    """The four arrays as C-ordered float64 (``_as_float``: views where they already are, copies
-    otherwise) and ``_screen_blocks``' verdict; raises ``ValueError`` naming the first field of
-    the wrong shape."""
+    """The four arrays as C-ordered float64 (views or copies) and ``_screen_blocks``' verdict;
+    ``ValueError`` naming the first mis-shaped field."""
     zhat, z = (np.asarray(_real_numbers(name, v), dtype=np.float64) for name, v in (("zhat", zhat), ("z", z)))
     for name, arr in (("zhat", zhat), ("z", z)):
         if arr.ndim != 2:
@@ -339,8 +316,7 @@ def _converted(z, R, zhat, P) -> dict:
 
 
 def _angular_dims(angular, d: int) -> tuple[int, ...]:
-    """``angular`` as a tuple of ints naming dimensions ``0..d-1``; raises otherwise. Cached per
-    (angular, d) where ``angular`` is hashable (the generator cost about 0.7 µs a construction)."""
+    """``angular`` as a tuple of ints in ``0..d-1``, or raise; cached where hashable."""
     try:
         return _angular_dims_cached(angular, d)
     except TypeError:           # unhashable (a list, an array): checked uncached
@@ -369,23 +345,16 @@ def _default_ids(n: int) -> np.ndarray:
 
 @dataclass(frozen=True, eq=False, init=False)     # __init__ below: the fields' checks in one pass
 class Problem:
-    """Measurements ``z`` (m, d) with noise ``R`` (m, d, d); predictions ``zhat`` (n, d) with
-    joint covariance ``P`` (n·d, n·d) including cross terms; ``landmark_ids`` (n,) map ids;
-    ``volume`` the measure |Y| of the measurement domain; ``angular`` the dims that wrap.
-    Optionally, appearance: ``descriptors`` (m, D) of the measurements and ``landmark_descriptors``
-    (n, D) of the candidates (both or neither; any real dtype, kept as given: SIFT's uint8 stays
-    uint8). Geometric methods ignore them; an appearance method compares them.
+    """Measurements ``z`` (m, d) with noise ``R`` (m, d, d); predictions ``zhat`` (n, d) with joint
+    covariance ``P`` (n·d, n·d), cross terms included; ``landmark_ids`` (n,); ``volume`` |Y| of the
+    measurement domain; ``angular`` the dims that wrap; optionally ``descriptors`` (m, D) and
+    ``landmark_descriptors`` (n, D), both or neither, for appearance methods.
 
-    The innovation covariance of pairing landmarks J with features I is
-    ``P[J, J] + blockdiag(R[I])``. Arrays are validated (shape, finiteness, symmetry,
-    definiteness); errors are ``ValueError`` naming the field. Construction checks the shapes
-    and what every associator reads (each ``R_i`` and each diagonal block of ``P``), in
-    O(m d³ + n d³); the whole of ``P``, O((nd)³), is checked by ``validate()``, once, which the
-    harness and every method reading ``P``'s cross terms call before using it. The arrays are
-    read-only, so an associator cannot change a problem another method will see; they are views
-    of the caller's arrays where those are already C-ordered float64 (no copy), so the caller
-    must not write to those while the problem is in use (the harness gives each call a private
-    copy).
+    Pairing landmarks J with features I has innovation covariance ``P[J, J] + blockdiag(R[I])``. Bad
+    input is a ``ValueError`` naming the field: construction checks shapes and what every associator
+    reads (each ``R_i``, each ``P_jj``), O(m d³ + n d³); the whole ``P``, O((nd)³), is
+    ``validate()``'s. The arrays are read-only views of the caller's where already C-ordered
+    float64: do not write them while the problem is in use.
     """
 
     z: np.ndarray
@@ -420,7 +389,7 @@ class Problem:
         angular = angular if type(angular) is tuple and not angular else _angular_dims(angular, d)
         for arr in arrays.values():
             # one problem is shared by every method of a sweep: none may change it for the next
-            arr.setflags(write=False)   # ~0.1 us cheaper than .flags.writeable, which builds an object
+            arr.setflags(write=False)   # cheaper than .flags.writeable, which builds an object
         if descriptors is None and landmark_descriptors is None:
             appearance = _NO_APPEARANCE
         else:
@@ -431,17 +400,10 @@ class Problem:
             self.validate()             # decides now: raises naming the field, or passes
 
     def validate(self) -> Problem:
-        """Check the whole of ``P`` (every entry finite, symmetric, positive semidefinite:
-        ``_check_spd``'s rules) and every other field, once; raise ``ValueError`` naming the
-        field. Returns the problem.
-
-        Construction checks, in O(m d³ + n d³), what every associator reads (``z``, ``zhat``,
-        each ``R_i``, each diagonal block ``P_jj``; ``_screen_blocks``); the joint test of the
-        whole ``P`` costs O((nd)³) and is this call's, made at most once per problem (copies
-        keep the verdict). The harness calls it as soon as a frame's problem exists, before any
-        method runs or is scored, and every method and score that reads ``P``'s cross terms
-        calls it first, so a ``P`` that is not positive semidefinite is refused, with the same
-        message, before any answer reads it."""
+        """Check the whole of ``P`` (finite, symmetric, positive semidefinite) and every other field
+        once, raising ``ValueError`` naming the field; returns the problem. O((nd)³), at most once
+        per problem (copies keep the verdict); the harness calls it before any method runs, and
+        every method or score reading ``P``'s cross terms calls it first."""
         if self._validated:
             return self
         verdict, scale = _screen(self.zhat, self.z, self.R, self.P, SMALL_FACTOR)
@@ -493,8 +455,8 @@ _NO_APPEARANCE = dict.fromkeys(DESCRIPTOR_FIELDS)
 
 
 def _appearance(descriptors, landmark_descriptors, m: int, n: int) -> dict:
-    """The two descriptor arrays, read-only, after the checks that cost nothing: both given, real
-    numbers, ``(m, D)`` and ``(n, D)`` with one ``D``. Finiteness is ``validate``'s (O(m D))."""
+    """The two descriptor arrays, read-only, after the free checks: both given, real, ``(m, D)`` and
+    ``(n, D)``. Finiteness is ``validate``'s."""
     if descriptors is None or landmark_descriptors is None:
         given = "descriptors" if landmark_descriptors is None else "landmark_descriptors"
         raise ValueError(f"Problem.{given} needs its partner: give descriptors (m, D) and landmark_descriptors "
@@ -523,9 +485,8 @@ def _same_or_both_none(a: np.ndarray | None, b: np.ndarray | None) -> bool:
 
 
 def validate_association(association, problem: Problem) -> np.ndarray:
-    """Return the association as an (n,) int array, or raise ``ValueError`` saying what is wrong.
-
-    Entry ``j`` is the index of the feature paired with candidate ``j``, or -1.
+    """The association as an (n,) int array (entry ``j``: the feature paired with candidate ``j``,
+    or -1), or ``ValueError`` saying what is wrong.
     """
     a = np.asarray(association)
     if a.shape != (problem.n,):

@@ -1,6 +1,6 @@
 """The truth of one association problem, the same for every track: which map landmark each
-measurement images (or -1 for clutter and look-alikes), the true pairing of each candidate and
-which candidates were really visible. Scoring compares an ``Association`` with it."""
+measurement images (-1: clutter, look-alikes), each candidate's true pairing, and which candidates
+were really visible."""
 
 from __future__ import annotations
 
@@ -13,21 +13,19 @@ from .problem import NO_MATCH, Problem
 
 @dataclass(frozen=True)
 class FrameTruth:
-    """Truth of one problem: ``feature_labels`` (m,) map id or -1; ``association`` (n,) the true
-    feature of each candidate or -1; ``visible`` (n,) whether each candidate is really visible."""
+    """Truth of one problem: ``feature_labels`` (m,) map id or -1; ``association`` (n,) each
+    candidate's true feature or -1; ``visible`` (n,)."""
 
     feature_labels: np.ndarray
     association: np.ndarray
     visible: np.ndarray
 
     def validate(self, problem: Problem) -> FrameTruth:
-        """Check the truth against ``problem``; raise ``ValueError`` naming the field, else return it.
-
-        Shapes (m,), (n,), (n,) with integer labels and association, boolean ``visible``; labels
-        ≥ -1; ``association`` in -1..m-1 and one-to-one; and the two agree with the problem's
-        ``landmark_ids``: ``t_j = i ≥ 0 ⇒ feature_labels[i] = landmark_ids[j]`` and ``t_j = -1 ⇒``
-        no feature is labelled ``landmark_ids[j]``. A truth that breaks these scores every
-        method against pairs that cannot exist, so no number made with it means anything."""
+        """Check the truth against ``problem``, raising ``ValueError`` naming the field; returns it.
+        Shapes (m,), (n,), (n,); labels ≥ -1; ``association`` in -1..m-1, one-to-one, and agreeing
+        with the labels: ``t_j = i ≥ 0 ⇒ feature_labels[i] = landmark_ids[j]``, ``t_j = -1 ⇒`` no
+        feature labelled ``landmark_ids[j]``. A truth that breaks these would score every method
+        against impossible pairs."""
         labels, t, visible = (np.asarray(a) for a in (self.feature_labels, self.association, self.visible))
         for name, arr, size, kind in (("feature_labels", labels, problem.m, "integer"),
                                       ("association", t, problem.n, "integer"), ("visible", visible, problem.n, "bool")):

@@ -1,8 +1,5 @@
-"""The anytime JCBB engine (``JCBB``'s steps, class docstring there): the classic dive, a quick
-exact search, more starts while the budget lasts, then branch and bound from the best of them.
-
-Its own module so that both ``jcbb`` (the associator, whose restarts are RJC's hypotheses) and
-``rjc`` (whose samples it searches) import it without importing each other's module first.
+"""The anytime JCBB engine (``JCBB``'s steps, class docstring there), in its own module so both
+``jcbb`` and ``rjc`` import it without importing each other.
 """
 
 from __future__ import annotations
@@ -18,22 +15,15 @@ REORDERED_DIVES = 3   # each ordered by the previous dive's answer; JCBB's docst
 FAIL_FIRST_REORDERED = 1   # dives after the fail-first one, ordered by its answer (JCBB's docstring)
 BUDGET_WORK, START_NODES, MAX_BUDGET = 320_000, 12, 20_000   # default_budget
 QUICK_NODES, QUICK_PER_CANDIDATE, QUICK_SHARE = 200, 30, 3   # quick_budget
-QUICK_MAX_CANDIDATES = 100   # beyond, a quick search proves none (0 of 20 at n = 160) and costs ~5 ms there
+QUICK_MAX_CANDIDATES = 100   # beyond, a quick search almost never proves the problem and only costs time
 
 
 def default_budget(candidates: int) -> int:
-    """Default node budget for ``candidates`` landmarks with an individually compatible feature:
-    the quick search's nodes (``quick_budget``) on top of the budget of the later steps,
-    ``BUDGET_WORK / candidates``, but room for every start of step 2 at least
-    (``START_NODES × candidates``: five dives and about seven RANSAC iterations at one node
-    per landmark or feature), and at most ``MAX_BUDGET``. A node's cost grows about linearly
-    with the candidates (forward checking, the factor's columns), so this keeps the budget's
-    time roughly level: about 2100 nodes at n = 160 (medians 31-48 ms over runs of
-    ``benchmarks/jcbb_anytime.py``, within the 50 ms target; 400 000 / n gave 51 ms), 8000 at
-    n = 40, 3600 at n = 320 (where fewer left the restarts too few iterations: 2 problems fell
-    short of SNN's or RJC's answer). On the camera leaderboard it proves 98 % of the
-    corridor/hard frames, where a fixed 2500 proved 6 %. A problem the quick search cannot
-    prove so keeps the whole budget of the later steps."""
+    """Default node budget for ``candidates`` landmarks with a compatible feature: the quick
+    search's nodes (``quick_budget``) plus ``BUDGET_WORK / candidates`` for the later steps, at
+    least ``START_NODES × candidates`` (room for every start of step 2) and at most ``MAX_BUDGET``.
+    A node's cost grows about linearly with the candidates, so this keeps the budget's time roughly
+    level across problem sizes (``benchmarks/jcbb_anytime.py``)."""
     return sum(default_budgets(candidates))
 
 
@@ -45,9 +35,8 @@ def default_budgets(candidates: int) -> tuple[int, int]:
 
 @lru_cache(maxsize=1024)
 def budget_tables(n: int, max_nodes: int | None) -> tuple[np.ndarray, np.ndarray]:
-    """(quick search's nodes, whole budget) for each count 0..n of candidate landmarks, as
-    ``anytime_jcbb`` reckons them: ``default_budgets`` when ``max_nodes`` is None, else
-    ``max_nodes`` with ``quick_budget``'s share of it. Read-only, one pair per (n, max_nodes)."""
+    """(quick search's nodes, whole budget) per count 0..n of candidates: ``default_budgets``, or
+    ``max_nodes`` with ``quick_budget``'s share. Read-only, cached."""
     counts = range(n + 1)
     if max_nodes is None:
         later, quick = (np.array(col, np.int64) for col in zip(*(default_budgets(c) for c in counts)))
@@ -60,13 +49,10 @@ def budget_tables(n: int, max_nodes: int | None) -> tuple[np.ndarray, np.ndarray
 
 
 def quick_budget(candidates: int, room: int) -> int:
-    """Nodes of the quick exact search from the classic dive: ``QUICK_PER_CANDIDATE`` per candidate
-    (at least ``QUICK_NODES``) but at most ``room / QUICK_SHARE``; none past
-    ``QUICK_MAX_CANDIDATES`` candidates. On 40 range-bearing problems at n = 40 (about 35
-    candidates) the plain search from the classic dive proves every one within 1400 nodes, most
-    within 200; the restarts cost more than that search needed (up to several times its time),
-    so the quick search gets about a thousand nodes there. A problem it cannot prove wastes
-    them (at n = 80 about half, where the restarts' better incumbent then saves more)."""
+    """Nodes of the quick exact search: ``QUICK_PER_CANDIDATE`` per candidate (at least
+    ``QUICK_NODES``), at most ``room / QUICK_SHARE``; none past ``QUICK_MAX_CANDIDATES``. Enough to
+    prove most problems of a few dozen candidates, which then skip the costlier restarts; a problem
+    it cannot prove wastes them."""
     if candidates > QUICK_MAX_CANDIDATES:
         return 0
     return int(min(max(QUICK_NODES, QUICK_PER_CANDIDATE * candidates), room // QUICK_SHARE))
@@ -75,14 +61,11 @@ def quick_budget(candidates: int, room: int) -> int:
 def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False, restarts=None,
                  quick_nodes: int | None = None, candidates: np.ndarray | None = None
                  ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """The steps of ``JCBB`` on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``:
-    (features, landmarks of the answer, ``info``). ``restarts(budget, args, candidates)``, when
-    given, returns more jointly compatible hypotheses ``(features, landmarks, NIS, nodes)`` to
-    start from, found within about ``budget`` nodes (possibly none). ``quick_nodes``: the quick search's nodes,
-    charged to ``max_nodes`` (None: ``quick_budget(candidates, max_nodes)``; 0 skips it, so every
-    step runs: ``JCBB.warm_up``). ``candidates``: the landmarks with an individually compatible
-    feature, ascending, when the caller has them (``gate_mask``). RJC calls this on its samples'
-    sub-problems (without restarts)."""
+    """``JCBB``'s steps on the kernels' arguments ``(ic, P, z, zhat, R, wrap, gate)``: (features,
+    landmarks, ``info``). ``restarts(budget, args, candidates)`` returns more jointly compatible
+    starts ``(features, landmarks, NIS, nodes)``; ``quick_nodes``: the quick search's nodes (None:
+    ``quick_budget``; 0 skips it, so every step runs); ``candidates``: the landmarks with a
+    compatible feature, when known. RJC calls it on its samples without restarts."""
     if candidates is None:
         candidates = np.flatnonzero(args[0].any(axis=0))
     if quick_nodes is None:
@@ -98,9 +81,8 @@ def anytime_jcbb(args: tuple, max_nodes: int, prefix_test: bool = False, restart
 def later_steps(args: tuple, candidates: np.ndarray, best: Incumbent, timed_out: bool, max_nodes: int,
                 prefix_test: bool, restarts=None, surest: np.ndarray | None = None
                 ) -> tuple[np.ndarray, np.ndarray, dict]:
-    """Steps 2 and 3 after the quick search left ``best`` (``timed_out``: it did not prove it):
-    more starts, then branch and bound with the nodes left; (features, landmarks, ``info``) as
-    ``anytime_jcbb``. ``surest``: the first dive's ranking, when it was computed."""
+    """Steps 2 and 3 after the quick search left ``best`` unproven: more starts, then branch and
+    bound; ``surest``: the first dive's ranking when computed."""
     if timed_out:
         if surest is None:      # the ranking of the first dive, again (the same hypothesis): uncounted
             surest = classic_dive(*args, candidates)[3]
@@ -125,8 +107,7 @@ class Incumbent:
 
     @classmethod
     def resumed(cls, feats: np.ndarray, lms: np.ndarray, nodes: int, history: list[tuple]) -> Incumbent:
-        """The incumbent a compiled step left (``jcbb_quick.quick_jcbb_into``): its hypothesis, the
-        nodes spent and its history, a list of ``(nodes, pairings, NIS)``."""
+        """The incumbent ``jcbb_quick.quick_jcbb_into`` left: hypothesis, nodes and history."""
         best = cls(feats, lms, float(history[-1][2]), int(nodes))
         best.history = list(history)
         return best
@@ -151,8 +132,8 @@ class Incumbent:
 
 def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: Incumbent, max_nodes: int,
                  restarts) -> None:
-    """Step 2: the greedy dive, the reordered dives, the fail-first dive and one reordered by its
-    answer, then the restarts, each while the budget lasts."""
+    """Step 2: the greedy, reordered and fail-first dives, then the restarts, while the budget
+    lasts."""
     if best.nodes + len(candidates) <= max_nodes:
         best.offer(*greedy_dive(*args, candidates), len(candidates))
     surest = _reordered_dives(args, candidates, surest, best, max_nodes, REORDERED_DIVES)
@@ -167,8 +148,8 @@ def _more_starts(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: 
 
 def _reordered_dives(args: tuple, candidates: np.ndarray, surest: np.ndarray, best: Incumbent, max_nodes: int,
                      count: int) -> np.ndarray:
-    """Up to ``count`` classic dives, each in the order of the previous one's ranking ``surest``
-    (surest pairing first), while the budget lasts; returns the last ranking."""
+    """Up to ``count`` classic dives, each ordered by the previous one's ``surest``; returns the
+    last ranking."""
     for _ in range(count):
         if best.nodes + len(candidates) > max_nodes:
             break

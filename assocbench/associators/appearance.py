@@ -1,8 +1,7 @@
-"""Appearance: descriptors matched with Lowe's ratio test inside the Mahalanobis gate, greedy one-to-one.
-
-The baseline that shows what appearance adds to geometry where a track gives descriptors
-(``Problem.descriptors`` (m, D), ``Problem.landmark_descriptors`` (n, D); the photos track's SIFT).
-Geometry only gates: within the gate the choice is the descriptors'.
+"""Appearance: descriptors matched with Lowe's ratio test inside the Mahalanobis gate, greedy
+    one-to-one: the baseline showing what appearance adds to geometry where a track gives
+    descriptors (the photos track's SIFT). Geometry only gates; within the gate the descriptors
+    choose.
 """
 
 from __future__ import annotations
@@ -20,16 +19,14 @@ from .base import CONFIDENCE, Associator, greedy_pairs
 
 @dataclass
 class Appearance(Associator):
-    """For each candidate ``j``: the measurement inside its individual-compatibility gate (NIS
-    ``<= χ²_d(confidence)``) whose descriptor is nearest to ``j``'s (Euclidean distance ``d₁``), and
-    the nearest descriptor among all the image's other measurements at another position (``d₂``:
-    keypoints at one position with several orientations count as one). The pair is kept when
-    ``d₁ <= ratio · d₂`` (Lowe 2004: the match is distinctly better than anything else the image
-    offers), and kept pairs are taken greedily, smallest ``d₁`` first, each measurement once.
-    A problem without descriptors is refused (``ValueError``): there is nothing to compare.
+    """For each candidate ``j``: the measurement inside its gate (NIS ``<= χ²_d(confidence)``) with
+    the nearest descriptor (distance ``d₁``), and the nearest descriptor among the image's other
+    measurements at another position (``d₂``; one position's several orientations count once). Kept
+    when ``d₁ <= ratio · d₂`` (Lowe 2004: distinctly better than anything else in the image); kept
+    pairs go greedily, smallest ``d₁`` first. A problem without descriptors is a ``ValueError``.
 
     confidence: gate ``χ²_d(confidence)`` on the individual NIS.
-    ratio: Lowe's ratio; 0.8 is his (it rejected 90 % of false matches, 5 % of right ones).
+    ratio: Lowe's ratio; his 0.8 rejected 90 % of false matches and 5 % of right ones.
     """
 
     name = "appearance"
@@ -60,8 +57,8 @@ class Appearance(Associator):
 
 
     def warm_up(self, problem: Problem) -> None:
-        """``associate`` on ``problem`` given descriptors if it has none (the harness's tiny problem
-        has none): the gate's kernels load before any frame is timed."""
+        """``associate`` on ``problem`` given descriptors if it has none, so the gate's kernels load
+        before timing."""
         if problem.descriptors is None:
             problem = Problem(problem.z, problem.R, problem.zhat, problem.P, problem.landmark_ids, problem.volume,
                               problem.angular, descriptors=np.eye(problem.m), landmark_descriptors=np.eye(problem.n, problem.m))
@@ -69,9 +66,8 @@ class Appearance(Associator):
 
 
 def descriptor_distances(a: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """Euclidean distances (k, l) between the rows of ``a`` (k, D) and ``b`` (l, D), as
-    ``sqrt(‖a‖² + ‖b‖² − 2 a·b)`` in float64 (the squares exact between integer descriptors such as
-    SIFT's bytes)."""
+    """Euclidean distances (k, l) between the rows of ``a`` and ``b``: ``sqrt(‖a‖² + ‖b‖² − 2 a·b)``
+    in float64 (exact squares for integer descriptors)."""
     a, b = np.asarray(a, np.float64), np.asarray(b, np.float64)
     sq = np.einsum("ij,ij->i", a, a)[:, None] + np.einsum("ij,ij->i", b, b)[None, :] - 2.0 * (a @ b.T)
     return np.sqrt(np.maximum(sq, 0.0))

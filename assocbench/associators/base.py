@@ -19,18 +19,16 @@ class Associator:
     """Base class. Subclasses are dataclasses whose fields are their parameters (with defaults).
 
     ``associate(problem)`` returns an (n,) int array: the feature paired with each candidate
-    landmark, or -1. It may set ``self.info`` (a dict of diagnostics, e.g. ``timed_out``).
+    landmark, or -1; it may set ``self.info`` (diagnostics, e.g. ``timed_out``).
 
-    Parameters are checked when the associator is built (``validate_fields``): the type from
-    each field's annotation (a number must be finite), the range from its metadata, e.g.
-    ``confidence: float = field(default=0.99, metadata=CONFIDENCE)``; a bad value is a one-line
-    ``UserError`` naming ``params.<field>``. A subclass that defines ``__post_init__`` calls
+    Parameters are checked when built (``validate_fields``): the type from the annotation, the range
+    from metadata (``confidence: float = field(default=0.99, metadata=CONFIDENCE)``); a bad value is
+    a one-line ``UserError`` naming ``params.<field>``. A subclass's ``__post_init__`` calls
     ``super().__post_init__()``.
 
-    ``soft``: a soft associator (``soft = True``) also reports, after each ``associate``, its
-    marginal association probabilities in ``info["marginals"]``: an (n, m + 1) array whose row
-    ``j`` gives ``P(landmark j ↔ feature i)`` in column ``i`` and ``P(j unassociated)`` in the
-    last column, each row summing to 1 (``scoring.metrics.true_mass`` scores it).
+    ``soft``: a soft associator reports marginals in ``info["marginals"]`` (n, m + 1): row ``j``
+    holds ``P(j ↔ feature i)`` in column ``i`` and ``P(j unassociated)`` last, each row summing to
+    1.
     """
 
     name: ClassVar[str] = "base"
@@ -45,27 +43,23 @@ class Associator:
         raise NotImplementedError
 
     def warm_up(self, problem: Problem) -> None:
-        """Load every compiled kernel ``associate`` may use, on a tiny ``problem``, so that no
-        frame's runtime includes a compile. The default calls ``associate`` once; a method with
-        paths a tiny problem does not take (a budget's later steps, an approximation past a
-        size limit) overrides it to take them too."""
+        """Load every compiled kernel ``associate`` may use on a tiny ``problem``, so no frame's
+        runtime includes a compile. The default calls ``associate`` once; a method whose paths a
+        tiny problem skips overrides it."""
         self.associate(problem)
 
     @staticmethod
     def empty(problem: Problem) -> np.ndarray:
-        out = np.empty(problem.n, dtype=np.int64)     # np.full: ~1.5 us a call; this ~0.5
+        out = np.empty(problem.n, dtype=np.int64)     # cheaper than np.full
         out.fill(NO_MATCH)
         return out
 
 
 def greedy_one_to_one(cost: np.ndarray, allowed: np.ndarray) -> np.ndarray:
-    """Greedy matching: take allowed (feature, landmark) pairs cheapest first, each feature and
-    landmark at most once. ``cost`` and ``allowed`` are (m, n).
-
-    Done in rounds: a pair that is the cheapest of both its row and its column is taken by the
-    greedy whatever else happens (every pair it excludes costs at least as much), so all such
-    mutual-best pairs are taken at once, their rows and columns closed, and the rest redone
-    (compiled, ``_mutual_best_rounds``; ties go to the lowest index, as ``argmin``).
+    """Greedy matching: allowed (feature, landmark) pairs cheapest first, each feature and landmark
+    once; ``cost``, ``allowed`` (m, n). In rounds: a pair cheapest in both its row and column is
+    taken whatever else happens, so all such mutual-best pairs are taken at once and the rest redone
+    (``_mutual_best_rounds``; ties to the lowest index).
     """
     m, n = cost.shape
     c = np.where(allowed, cost, np.inf).astype(np.float64)
@@ -73,11 +67,9 @@ def greedy_one_to_one(cost: np.ndarray, allowed: np.ndarray) -> np.ndarray:
 
 
 def greedy_pairs(feats: np.ndarray, lms: np.ndarray, cost: np.ndarray, m: int, n: int) -> np.ndarray:
-    """``greedy_one_to_one`` on a sparse list of allowed pairs (feature ``feats[t]``, landmark
-    ``lms[t]``, ``cost[t]``), listed by landmark then feature: the pairs cheapest first (a stable
-    sort, so equal costs go in list order), each taken when its feature and landmark are both
-    free. The same matching as the rounds of ``greedy_one_to_one`` where costs differ, at
-    O(q log q) for q pairs instead of O(m·n) a round. Returns (n,) features, -1 for none."""
+    """``greedy_one_to_one`` on a sparse pair list (``feats[t]``, ``lms[t]``, ``cost[t]``, by
+    landmark then feature): stable sort, each pair taken while both ends are free; the same matching
+    where costs differ, at O(q log q). Returns (n,) features, -1 for none."""
     return sorted_greedy(feats, lms, cost, m, n)
 
 

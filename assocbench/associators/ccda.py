@@ -1,26 +1,16 @@
-"""CCDA: combined constraint data association, a maximum clique of the correspondence graph.
+"""CCDA: combined constraint data association (Bailey, Nebot, Rosenblatt & Durrant-Whyte, ICRA 2000;
+Bailey's thesis, 2002). A vertex per pairing (i, j) passing the unary constraint, an edge between
+(i, j) and (i', j'), i ≠ i', j ≠ j', passing the binary one; the answer is a maximum clique. In
+measurement space:
 
-Bailey, Nebot, Rosenblatt and Durrant-Whyte, "Data association for mobile robot navigation:
-a graph theoretic approach", ICRA 2000; T. Bailey, "Mobile robot localisation and mapping in
-extensive outdoor environments", PhD thesis, University of Sydney, 2002.
+* unary: ``NIS_ij <= χ²_d(c)``;
+* binary: ``Δ = wrap((z_i - z_i') - (zhat_j - zhat_j'))``,
+  ``S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i'``, ``NIS_Δ = |L⁻¹Δ|² <= χ²_d(c)``
+  (``difference_nis``): blind to an error shifting both predictions alike, but what a pose error
+  does differently to the two is weighed by ``S_Δ``.
 
-The correspondence graph has a vertex for every candidate pairing (feature i, landmark j) that
-passes the unary constraint and an edge between (i, j) and (i', j'), i ≠ i', j ≠ j', when the
-two pairings satisfy the binary constraint. A clique is a set of mutually consistent pairings;
-CCDA answers with a maximum clique. Our problems know only z, R, zhat and P, so both
-constraints are stated in measurement space (``association.compatibility``):
-
-* unary: the individual gate ``NIS_ij <= χ²_d(c)``;
-* binary (relative): the difference of the two innovations,
-  ``Δ = wrap((z_i - z_i') - (zhat_j - zhat_j'))`` with covariance
-  ``S_Δ = P_jj + P_j'j' - P_jj' - P_j'j + R_i + R_i'``, passes ``NIS_Δ = |L⁻¹Δ|² <= χ²_d(c)``
-  (``difference_nis``). Like Bailey's test of the distance between two points, it is blind to
-  an error that shifts both predictions alike (in bearings, a heading error); unlike it, not
-  to every rigid motion: what a pose error does differently to the two predictions stays in
-  ``Δ`` and is weighed by ``S_Δ``, which carries it through ``P``.
-
-The binary constraint needs no pose, so the unary gate may be dropped (``unary=False``: every
-pair is a vertex): Bailey's point that CCDA associates with no pose prior at all.
+The binary constraint needs no pose, so ``unary=False`` associates without a pose prior, Bailey's
+point.
 """
 
 from __future__ import annotations
@@ -113,9 +103,8 @@ def _union2(m1, m2):
 
 @njit(cache=True)
 def _best_swap(adj, prob, work, C, D, verts, miss):
-    """The swap that lowers the clique's total binary NIS most: (delta, members out a, b (b = -1: a
-    one-for-one swap), vertices in u1, u2); delta 0 and a = -1 when none lowers it. ``D`` holds
-    NIS_Δ between the members of the clique ``C``; ``verts``, ``miss`` are its ``_outsiders``."""
+    """The swap lowering the clique's total binary NIS most: (delta, members out a, b (b = -1:
+    one-for-one), vertices in u1, u2); delta 0 and a = -1 when none does."""
     q, k = verts.shape[0], D.shape[0]
     E = np.zeros((q, k))             # NIS_Δ of each outsider with each member it is adjacent to
     for t in range(q):
@@ -142,11 +131,10 @@ def _best_swap(adj, prob, work, C, D, verts, miss):
 
 @njit(cache=True)
 def swap_descent(adj, clique, P, Pd, z, zhat, R, wrap, feats, lms):
-    """The tie rule: lower the clique's total binary NIS ``Σ_{u, v in C} NIS_Δ(u, v)`` by swaps that
-    keep it a clique of the same size, one member for an outside vertex adjacent to all the others,
-    or two members for two such vertices (two landmarks trading their features, the usual
-    ambiguity). Each round makes the swap of largest decrease (the first met on equal ones) until
-    none decreases the total. Returns (clique, swaps made)."""
+    """The tie rule: lower the clique's total binary NIS ``Σ_{u, v in C} NIS_Δ(u, v)`` by swaps
+    keeping a clique of the same size (one member for an outside vertex adjacent to the others, or
+    two for two: two landmarks trading features), largest decrease first, until none decreases it.
+    Returns (clique, swaps made)."""
     d, k, V = z.shape[1], clique.shape[0], adj.shape[0]
     C = clique.copy()
     prob = (P, Pd, z, zhat, R, wrap, feats, lms)
@@ -177,37 +165,18 @@ def swap_descent(adj, clique, P, Pd, z, zhat, R, wrap, feats, lms):
 
 @dataclass
 class CCDA(Associator):
-    """Largest set of pairwise consistent pairings: a maximum clique of the correspondence graph.
+    """A maximum clique of the correspondence graph, found exactly (``max_clique``). Maximum cliques
+    are seldom unique and enumerating them is dear, so ties are broken by swaps lowering the total
+    binary NIS (``swap_descent``); deterministic. As in Bailey's CCDA the clique is not put to the
+    joint test.
 
-    The clique is found exactly by branch and bound with a greedy colouring bound (Tomita's MCQ
-    on bitsets, compiled, ``max_clique``). Maximum cliques are seldom unique (a landmark with
-    two features that both agree with all the others, two landmarks trading close features),
-    and enumerating them all to compare their joint NIS costs far more than the search: on
-    range-bearing problems there were hundreds to tens of thousands of them at n = 160-320,
-    each its own branch. So the tie rule is local and cheap: from the clique found, swap one
-    pairing (or two) for pairings consistent with all the others while that lowers the
-    clique's total binary NIS (``swap_descent``). The total is, like the binary test, blind to a
-    common shift, so the rule holds with ``unary=False`` too. Deterministic.
+    confidence: the gate ``c`` of both tests (higher raises recall but slows large problems,
+        ``benchmarks/ccda_scale.py``).
+    unary: apply the individual gate; False makes every pair a vertex (at most ``MAX_VERTICES``).
+    max_nodes: node budget of the clique search; when spent, the largest clique so far with
+        ``info["timed_out"]``.
 
-    The clique is returned as it is, as in Bailey's CCDA: it is not put to the joint
-    compatibility test, and a pairwise consistent set need not be jointly compatible. (Nor is
-    the true association always a clique: a right pair fails each of its binary tests with
-    probability ``1 - c``, and k right pairings face ``k(k-1)/2`` of them.)
-
-    confidence: the gate ``c`` of both tests, χ²_d. 0.99, the house default, so that methods
-        compare at one gate: Bailey's own gates were on scalar distances between his laser
-        features and we could not confirm their values. Because of the ``k(k-1)/2`` tests,
-        0.999 raises recall on range-bearing problems (0.92 to 0.99 at n = 20, 0.90 to 0.96 at
-        n = 80, precision as good or better) but makes n = 320 three times slower.
-    unary: apply the individual gate; False makes every (feature, landmark) pair a vertex, so no
-        pose prior is needed (``m·n`` vertices, at most ``MAX_VERTICES``; O((mn)²) tests).
-    max_nodes: node budget of the clique search; when spent the largest clique so far is
-        returned and ``info["timed_out"]`` is True. 100 000: range-bearing problems up to
-        n = 320 needed at most 2 700 nodes (``benchmarks/ccda_scale.py``); a node costs about
-        a microsecond there, so the budget caps a pathological frame near 0.1-0.3 s.
-
-    ``info``: ``timed_out``; ``proven_optimal`` (the search ended within the budget, so the
-    clique is maximum); ``nodes``; ``vertices`` of the graph; ``swaps`` of the tie rule.
+    ``info``: ``timed_out``, ``proven_optimal``, ``nodes``, ``vertices``, ``swaps``.
     """
 
     name = "ccda"

@@ -1,18 +1,11 @@
 """The classic JCBB first dive, compiled: the incumbent the exact search starts from.
 
-Neira & Tardós (2001) walk the landmarks in a fixed order (here: index order) and, at each,
-take the individually compatible pairing with the smallest joint NIS increase among those that
-keep the hypothesis jointly compatible (the prefix test ``NIS(H + p) <= χ²_{d(k+1)}(c)``), or
-leave the landmark unassociated when none does. It costs one pass over the landmarks, so it is
-always run in full, whatever the node budget: a budgeted search that starts from it can never
-return fewer pairings than it.
-
-The incremental joint factor is the one of ``association.compatibility``: after each pairing
-the rows of ``M = L⁻¹ P[J, :]`` are appended for every landmark of the dive, and a landmark's
-conditional moments are computed when its turn comes. Keeping every column (about twice the
-work of keeping the landmarks still to visit) gives, at the end, each landmark's conditional
-moments given the whole hypothesis, so how sure its best pairing is given the dive's answer
-comes for free: the next dive's order.
+Neira & Tardós (2001) walk the landmarks in a fixed order and at each take the compatible pairing
+with the smallest joint NIS increase that keeps the hypothesis jointly compatible
+(``NIS(H + p) <= χ²_{d(k+1)}(c)``), or none. One pass, so always run in full: a budgeted search from
+it never returns fewer pairings. The factor keeps every landmark's column (about twice the work of
+keeping those still to visit), so at the end each landmark's conditional moments given the whole
+hypothesis give the next dive's order for free.
 """
 
 from __future__ import annotations
@@ -25,15 +18,11 @@ from ..association.compatibility import append_rows, conditional_moments, empty_
 
 @njit(cache=True)
 def classic_dive(ic, P, z, zhat, R, wrap, gate, order, rank=True):
-    """First dive of classic JCBB over the landmarks in ``order``: (features, landmarks, NIS) of
-    the hypothesis, pairings in the order they were made, and ``surest`` (n,): for each landmark
-    of ``order``, the least NIS increase ``NIS(H + (i, j)) - NIS(H)`` of its individually
-    compatible pairings given the final hypothesis ``H`` (inf elsewhere; a landmark already in
-    ``H`` is measured as if observed twice: a ranking, not a test). Without ``rank`` the factor
-    keeps only the landmarks still to visit (about half the work; the same hypothesis, bit for
-    bit) and ``surest`` is all inf.
-
-    ``ic`` (m, n) is the individual-compatibility mask, ``gate[k] = χ²_{dk}(c)``."""
+    """First dive of classic JCBB over the landmarks in ``order``: (features, landmarks, NIS) in the
+    order made, and ``surest`` (n,): each landmark's least ``NIS(H + (i, j)) - NIS(H)`` given the
+    final ``H`` (inf elsewhere; a landmark in ``H`` is measured as if observed twice: a ranking, not
+    a test). Without ``rank`` only landmarks still to visit are kept (same hypothesis) and
+    ``surest`` is inf. ``ic``: the individual mask, ``gate[k] = χ²_{dk}(c)``."""
     m, n = ic.shape
     d = z.shape[1]
     Mt, w, C, G, S, y, L, w2 = empty_factor(n, d)
@@ -69,10 +58,9 @@ def classic_dive(ic, P, z, zhat, R, wrap, gate, order, rank=True):
 
 @njit(cache=True)
 def greedy_dive(ic, P, z, zhat, R, wrap, gate, candidates):
-    """Global greedy dive: at each step, of all free individually compatible pairings of the
-    ``candidates``, add the one with the smallest joint NIS increase that passes the prefix test;
-    stop when none does. (features, landmarks, NIS) as ``classic_dive``. Unlike a dive in a fixed
-    order it never commits a landmark before a surer pairing elsewhere has pinned the pose."""
+    """Global greedy dive: of all free compatible pairings, add the smallest joint NIS increase that
+    passes the prefix test, until none does; it never commits a landmark before a surer pairing
+    elsewhere has pinned the pose."""
     m, n = ic.shape
     d = z.shape[1]
     Mt, w, C, G, S, y, L, w2 = empty_factor(n, d)
@@ -108,9 +96,8 @@ def greedy_dive(ic, P, z, zhat, R, wrap, gate, candidates):
 
 @njit(cache=True)
 def fail_first_order(ic, P, z, zhat, R, wrap, candidates):
-    """The ``candidates`` ordered fail first: fewest individually compatible features, ties by the
-    smallest individual NIS among them (a stable order). The order the search's own first dive
-    takes, fixed once: a dive in it places the pose with the landmarks that have no choice."""
+    """``candidates`` fail first: fewest compatible features, ties by the smallest individual NIS
+    (stable), so a dive places the pose with the landmarks that have no choice."""
     m = ic.shape[0]
     d = z.shape[1]
     n = zhat.shape[0]

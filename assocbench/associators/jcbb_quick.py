@@ -1,11 +1,7 @@
-"""JCBB's first step in one compiled call: the individual gate, the classic first dive and the
-quick exact search from it (``anytime_search``'s step 1).
-
-Most frames of a run are small problems that this step proves on its own, so their whole cost
-is this call: one entry into compiled code instead of three, and no intermediate array returned
-to Python (each dispatch and each array handed back costs about a microsecond, as much as a
-search node at n = 10). The arithmetic is that of the separate kernels, so the answer and the
-nodes counted are theirs, bit for bit.
+"""JCBB's first step in one compiled call: the individual gate, the quick exact search and the
+classic first dive (``anytime_search``'s step 1). Most frames are small problems this step proves
+alone, so one entry into compiled code with no intermediate array returned to Python is their whole
+cost. The arithmetic is the separate kernels', so answers and node counts are theirs bit for bit.
 """
 
 from __future__ import annotations
@@ -20,22 +16,12 @@ from .jcbb_search import is_matching, jcbb_search
 
 @njit(cache=True)
 def quick_jcbb(P, z, zhat, R, wrap, limit, gate, quick_by_count, budget_by_count, prefix_test):
-    """Step 1 of the anytime JCBB on a problem's arrays: the individual gate ``χ²_d(c) = limit``
-    (``gate_mask_kernel``, ``gate[k] = χ²_{dk}(c)``), then, for ``c`` landmarks with a
-    compatible feature and ``q = min(quick_by_count[c], budget_by_count[c] - c)``
-    (``anytime_search.budget_tables``):
-
-    * where the compatible pairs form a matching, the classic dive, from which the search proves
-      at its root a dive that took them all;
-    * elsewhere, the plain exact search (from the empty hypothesis) with ``q`` nodes: what a
-      proof costs at least, since its first path is a dive of its own. Only where it runs out
-      does the classic dive follow (``c`` nodes), and the better of the two is the incumbent.
-
-    Returns (features, landmarks, NIS of the best hypothesis, nodes spent, timed out, the classic
-    dive's pairings (-1 where it did not run), history (h, 3) of ``(nodes, pairings, NIS)`` per
-    improvement, the mask ``ic`` (m, n) and the candidate landmarks). A call that did not time
-    out has proven its answer (unless ``prefix_test``); one that did hands ``ic`` and the
-    candidates to the later steps."""
+    """Step 1 of the anytime JCBB: the gate ``χ²_d(c) = limit``, then, for ``c`` candidates and
+    ``q = min(quick_by_count[c], budget_by_count[c] - c)``: where the compatible pairs form a
+    matching, the classic dive, proven at the search's root; else the exact search with ``q`` nodes
+    and, where it runs out, the classic dive (``c`` nodes). Returns (features, landmarks, NIS,
+    nodes, timed out, the dive's pairings (-1: none), history (h, 3), ``ic`` (m, n), the
+    candidates); not timed out: proven (unless ``prefix_test``)."""
     ic, candidates = gate_mask_kernel(P, z, zhat, R, wrap, limit)
     c = candidates.shape[0]
     budget = min(quick_by_count[c], budget_by_count[c] - c)
@@ -83,13 +69,10 @@ def _history(h_nodes, h_k, h_nis, offset):
 
 @njit(cache=True)
 def quick_jcbb_into(out, P, z, zhat, R, wrap, limit, gate, quick_by_count, budget_by_count, prefix_test):
-    """``quick_jcbb`` that writes the hypothesis into ``out`` (n,) (the feature of each landmark,
-    -1 for none; ``out`` arrives all -1) and returns only (NIS, nodes, timed out, the dive's
-    pairings, history as a list of ``(nodes, pairings, NIS)`` tuples, what ``JCBB.info`` shows):
-    each array handed back to Python costs about half a microsecond, as much as the rest of a
-    proven small problem's Python side, and the list built here costs about 60 ns a row against
-    about 230 for converting the (h, 3) array in Python (a proof at n = 20 records about 15
-    improvements). The later steps, when needed, take the mask and the candidates again from
+    """``quick_jcbb`` writing the hypothesis into ``out`` (n,) (each landmark's feature, -1 for
+    none; arrives all -1) and returning only (NIS, nodes, timed out, the dive's pairings, history as
+    ``(nodes, pairings, NIS)`` tuples): each array handed back to Python costs as much as the rest
+    of a small problem's Python side. Later steps recompute the mask with
     ``compatibility.gate_mask``."""
     feats, lms, nis, nodes, timed_out, dive_k, history, _, _ = quick_jcbb(P, z, zhat, R, wrap, limit, gate,
                                                                           quick_by_count, budget_by_count,

@@ -1,21 +1,8 @@
-"""The JCBB search, compiled: depth-first branch and bound with forward checking.
-
-Iterative (an explicit stack of levels) so numba compiles it. The joint test is the
-incremental one of ``association.compatibility``: the hypothesis keeps ``M = L⁻¹ P[J, :]``
-(transposed, and only for the landmarks still in play) and, for every landmark in play, its
-conditional moments ``c_j = Xᵀw``, ``G_j = XᵀX`` (``advance_moments``), stored per
-hypothesis size ``k``. Testing a pairing then costs O(d³) whatever ``k``, and appending one
-O(kd·d·r) for ``r`` landmarks in play; backtracking just lowers ``k``.
-
-Each level holds one node: the landmark it branches on, its candidate features sorted by
-joint NIS increase, and which child comes next.
-
-The per-node helpers are inlined into the search (``inline="always"``): as separate compiled
-functions, each call counted every array it was passed in and out (numba's reference counts,
-``NRT_incref``/``NRT_decref``: about a third of the search's compiled time at n = 20 under
-``perf``; the bound's work tuple alone holds fifteen arrays). Inlined, the search at n = 20 took
-about 23 µs instead of 30 (load 7, noisy), for a few seconds more compilation, once per
-environment.
+"""The JCBB search, compiled: depth-first branch and bound with forward checking, iterative (a stack
+of levels, one node each). The hypothesis keeps ``M = L⁻¹ P[J, :]`` for the landmarks in play and
+their conditional moments ``c_j = Xᵀw``, ``G_j = XᵀX`` per hypothesis size ``k``
+(``association.compatibility``), so a pairing's test is O(d³) whatever ``k`` and backtracking lowers
+``k``. Per-node helpers are inlined: separate calls would count every array's references.
 """
 
 from __future__ import annotations
@@ -28,13 +15,10 @@ from ..association.compatibility import advance_moments, append_rows, take, whit
 
 @njit(cache=True)
 def make_work(n, m):
-    """The bound's work arrays, allocated once per search so no node allocates: (tag, seg, lm_min,
-    f_min, f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l, visit_f, queue,
-    group_min) for ``n`` landmarks and ``m`` features, views of one integer and one float buffer
-    (two allocations instead of fifteen: about 1 µs of a small problem's call). Stamps replace
-    clearing: an entry counts as set only where its stamp equals the current tag, and the tag
-    only grows; the integer buffer starts at zero (the tag and the stamps need it), the float
-    one is written before it is read."""
+    """The bound's work arrays, once per search so no node allocates: (tag, seg, lm_min, f_min,
+    f_val, f_stamp, f_list, match_l, match_f, match_stamp, parent, visit_l, visit_f, queue,
+    group_min), views of one integer and one float buffer. Stamps replace clearing: an entry is set
+    only where its stamp equals the current tag, which only grows."""
     ints = np.zeros(2 + 4 * n + 6 * m, np.int64)
     floats = np.empty(2 * n + 2 * m)
     tag, seg, f_stamp, f_list = ints[0:1], ints[1:n + 2], ints[n + 2:n + 2 + m], ints[n + 2 + m:n + 2 + 2 * m]
@@ -161,7 +145,7 @@ def _least_increments(feats, dnis, q, nl, work):
     return nf
 
 
-SMALL_SORT = 32     # up to this length an insertion sort; numba's sort costs ~250 ns even on 13 values
+SMALL_SORT = 32     # up to this length an insertion sort: numba's sort has a fixed setup cost
 
 
 @njit(cache=True)
@@ -172,9 +156,9 @@ def _after(a, b):
 
 @njit(cache=True, inline="always")
 def _sort_prefix(values, count):
-    """Sort ``values[:count]`` in place, ascending, NaN last (as ``ndarray.sort``): an insertion
-    sort up to ``SMALL_SORT`` values (a node's bound sorts a handful, where numba's sort spends
-    more time setting up than sorting), the library's sort beyond."""
+    """Sort ``values[:count]`` ascending, NaN last (as ``ndarray.sort``): insertion sort up to
+    ``SMALL_SORT`` values (numba's sort has a setup cost a handful of values does not repay), the
+    library's beyond."""
     if count > SMALL_SORT:
         values[:count].sort()
         return
@@ -218,10 +202,10 @@ def _compact(lms, feats, dnis, q, nis, limit):
 
 @njit(cache=True, inline="always")
 def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
-    """(q, b, floor, nl): the first ``q`` pairings (compacted in place, in ``nl`` landmark groups,
-    ``work[1]``) can still be part of a jointly compatible completion, at most ``b`` more
-    pairings can join, the final NIS is at least ``floor``. Where ``b > 0`` and ``k + b`` reaches
-    ``best_k``, ``work[14][:nl]`` holds each group's least increment."""
+    """(q, b, floor, nl): the first ``q`` pairings (compacted in place, in ``nl`` landmark groups)
+    can still join a jointly compatible completion, at most ``b`` more pairings can, and the final
+    NIS is at least ``floor``; ``work[14][:nl]`` holds each group's least increment where ``b > 0``
+    and ``k + b`` reaches ``best_k``."""
     seg = work[1]
     bound = -1
     while True:     # a pairing that breaks the loosest gate it could still face leaves the subtree
@@ -252,12 +236,10 @@ def _bound(lms, feats, dnis, q, nis, k, gate, best_k, work):
 
 @njit(cache=True, inline="always")
 def _open_node(level, lms, feats, dnis, nl, nis, gate_next, work, remaining, lvl_cand, lvl_dnis, lvl_cols):
-    """Set up a node's children: branch on the landmark with the fewest pairings (fail first, a
-    narrow tree), ties to the smallest least NIS increase (the surest pairing first, so a dive
-    that must stop early has pinned the pose with its most certain pairings); its candidates go to
-    ``lvl_cand[level]`` sorted by NIS increase (stable), the other landmarks stay in play below.
-    The ``nl`` landmark groups and their least increments are ``_bound``'s (``work[1]``, ``work[14]``).
-    Returns (landmark, candidates, candidates keeping NIS ≤ ``gate_next``, landmarks in play)."""
+    """Set up a node's children: branch on the landmark with the fewest pairings (fail first), ties
+    to the smallest least NIS increase (a dive stopped early has pinned the pose with its surest
+    pairings); its candidates go to ``lvl_cand[level]`` by NIS increase. Returns (landmark,
+    candidates, candidates keeping NIS ≤ ``gate_next``, landmarks in play)."""
     seg, group_min = work[1], work[14]
     pick, fewest, surest = -1, lms.shape[0] + 1, np.inf
     for u in range(nl):
@@ -313,8 +295,8 @@ def is_matching(ic):
 
 @njit(cache=True)
 def _adjacency(ic):
-    """(start (n + 1,), features): the individually compatible features of landmark ``j``, ascending,
-    are ``features[start[j]:start[j + 1]]`` (loops: a ``flatnonzero`` per landmark allocated n arrays)."""
+    """(start (n + 1,), features): landmark ``j``'s compatible features, ascending, are
+    ``features[start[j]:start[j + 1]]``."""
     m, n = ic.shape
     start = np.zeros(n + 1, np.int64)
     for j in range(n):
@@ -334,22 +316,11 @@ def _adjacency(ic):
 
 @njit(cache=True)
 def _search_state(n, m, d, q):
-    """Every array of ``jcbb_search`` for ``n`` landmarks, ``m`` features, dimension ``d`` and ``q``
-    individually compatible pairs, as views of one float, one integer and one boolean buffer
-    (three allocations instead of about thirty: each cost tens of nanoseconds, and a proof at
-    n = 20 visits about 18 nodes of about a microsecond):
-
-    * the factor ``Mt`` (nd, nd) (``L⁻¹ P[J, :]`` transposed) and ``w`` (nd,), the conditional
-      moments ``C`` (n + 1, n, d) and ``G`` (n + 1, n, d, d) at each hypothesis size, ``nis_at``
-      (n + 1,) the NIS with k pairings: not cleared (a search reads only what its pushes wrote:
-      the landmarks in play shrink along a path, and every push writes the rows and moments of
-      all of them) except the empty hypothesis' moments ``C[0]``, ``G[0]`` and ``nis_at[0]``;
-    * per level (``n + 2``): the branching landmark, its candidates and their NIS increases, the
-      landmarks in play below (``lvl_cols``, ``remaining``), the bound and floor, which child
-      comes next, whether it is done and whether its child pushed a pairing (integers and flags
-      cleared);
-    * the current and best pairings (-1), the history (cleared), the forward check's pair lists
-      (q,), ``whitened_pair``'s work arrays and the bound's (``make_work``)."""
+    """Every array of ``jcbb_search`` from one float, one integer and one boolean buffer: the factor
+    ``Mt``, ``w``, moments ``C``, ``G`` and ``nis_at`` per size (not cleared: a search reads only
+    what it wrote, but for size 0); per level (``n + 2``) the landmark, candidates, increments,
+    landmarks in play, bound, floor, next child and flags (cleared); current and best pairings,
+    history, the forward check's pair lists and the work arrays."""
     levels, nd = n + 2, n * d
     f = np.empty(nd * nd + nd + (n + 1) * n * d * (1 + d) + n + 1 + levels * (m + 1) + 2 * n + 2 + q + 2 * d * (d + 1))
     Mt, at = take(f, 0, nd * nd)
@@ -400,12 +371,10 @@ def _search_state(n, m, d, q):
 
 @njit(cache=True)
 def jcbb_search(ic, P, z, zhat, R, wrap, gate, max_nodes, prefix_test, init_i, init_j, init_nis):
-    """Depth-first branch and bound from the incumbent ``(init_i, init_j)`` (features, landmarks;
-    joint NIS ``init_nis``; it must be jointly compatible and individually compatible).
-
-    Returns (features, landmarks of the best hypothesis, nodes visited, timed out, and the
-    incumbent's history: nodes, pairings and NIS at each improvement, the first entry being the
-    incumbent given). A search that did not time out has proven its answer optimal."""
+    """Depth-first branch and bound from the jointly compatible incumbent ``(init_i, init_j)``
+    (joint NIS ``init_nis``). Returns (features, landmarks, nodes visited, timed out, history of
+    ``(nodes, pairings, NIS)`` per improvement, the incumbent first). A search that did not time out
+    has proven its answer optimal."""
     m, n = ic.shape
     d = z.shape[1]
     adj_start, adj_feat = _adjacency(ic)

@@ -1,12 +1,8 @@
-"""JPDA's compiled kernels: clusters of the gating graph, exact event enumeration, loopy BP.
-
-Every kernel works on the pair log-weights ``logr[i, j] = log(P_D N_ij / (λ (1 - P_D P_G)))``
-of the gated pairs (``gated[i, j]``), (m, n) like the rest of the package: a joint event's
-probability is proportional to ``exp(Σ_{(i,j)∈θ} logr[i, j])`` (the factor
-``(1 - P_D P_G)^n`` shared by every event divided out). A cluster is a connected component of
-the gated bipartite graph; clusters are independent, so the marginals of a landmark need only
-its own cluster's events. Each cluster is kept as a compressed adjacency by landmark (``off``,
-``nbr`` local feature indices, ``lw`` log-weights), landmarks and features in index order.
+"""JPDA's compiled kernels: clusters of the gating graph, exact event enumeration, loopy BP. All
+work on the gated pairs' log-weights ``logr[i, j] = log(P_D N_ij / (λ (1 - P_D P_G)))``: an event's
+probability is ``∝ exp(Σ_{(i,j)∈θ} logr[i, j])``. Clusters (connected components of the gated
+bipartite graph) are independent; each is a compressed adjacency by landmark (``off``, ``nbr``,
+``lw``), in index order.
 """
 
 from __future__ import annotations
@@ -19,9 +15,8 @@ LOG_CLIP = 300.0   # BP works on exp(logr); |logr| is clipped here so no sum ove
 
 @njit(cache=True)
 def _components(gated):
-    """Connected component of every landmark (0..n-1) and feature (n..n+m-1) of the gated
-    bipartite graph, labelled in order of their lowest landmark (breadth first); a landmark or
-    feature with no gated pair gets -1. Returns (labels, count)."""
+    """Component labels of every landmark (0..n-1) and feature (n..n+m-1), numbered by their lowest
+    landmark, -1 without a gated pair; returns (labels, count)."""
     m, n = gated.shape
     label = np.full(n + m, -1, np.int64)
     queue = np.empty(n + m, np.int64)
@@ -77,11 +72,10 @@ def _cluster(gated, logr, label, c):
 
 @njit(cache=True)
 def events_lower_bound(off, nbr, mf):
-    """A lower bound on the number of joint events of a cluster, in O(|E|): give each feature
-    to one of its landmarks (the one holding fewest so far); choosing, for every landmark
-    independently, undetected or one of the features it was given is always an event, so
-    there are at least ``Π_q (1 + given_q)`` events; and at least ``1 + |E|`` (none or one
-    pairing). Capped at 2^62."""
+    """A lower bound on a cluster's joint events in O(|E|): give each feature to one of its
+    landmarks (the least loaded); each landmark choosing independently between undetected and its
+    given features is an event, so at least ``Π_q (1 + given_q)``, and at least ``1 + |E|``. Capped
+    at 2^62."""
     nl = off.shape[0] - 1
     given = np.zeros(nl, np.int64)
     owner = np.full(mf, -1, np.int64)
@@ -102,9 +96,8 @@ def events_lower_bound(off, nbr, mf):
 
 @njit(cache=True)
 def count_events(off, nbr, mf, budget):
-    """The number of joint events of a cluster, or -1 as soon as it exceeds ``budget``: the
-    enumeration's depth-first walk without weights, the last landmark's options counted at once
-    (undetected plus its features still free), several times cheaper than ``enumerate_events``."""
+    """A cluster's number of joint events, or -1 past ``budget``: the enumeration's walk without
+    weights, the last landmark's options counted at once."""
     nl = off.shape[0] - 1
     used = np.zeros(mf, np.bool_)
     nxt = np.empty(nl, np.int64)
@@ -143,14 +136,10 @@ def count_events(off, nbr, mf, budget):
 
 @njit(cache=True)
 def enumerate_events(off, nbr, lw, mf, budget, beta):
-    """Exact marginals of one cluster by enumerating its joint events depth first (each landmark
-    in turn: undetected, or one of its gated features not yet taken), into ``beta`` (nl, mf + 1),
-    the last column undetected. Sums are kept relative to the largest event weight seen so far
-    (rescaled when a larger one appears: log-sum-exp without a second pass). Returns the number
-    of events, or -1 (``beta`` undefined) as soon as it would exceed ``budget``.
-
-    Each event adds its weight to the nl columns it chose. (Crediting subtree sums per level
-    instead, O(1) per event, measured slower: about 50 against 30 ns an event at nl = 10.)"""
+    """Exact marginals of one cluster by enumerating its events depth first (each landmark
+    undetected or one free gated feature) into ``beta`` (nl, mf + 1), last column undetected. Sums
+    are kept relative to the largest weight so far (log-sum-exp in one pass). Returns the events, or
+    -1 past ``budget``."""
     nl = off.shape[0] - 1
     used = np.zeros(mf, np.bool_)
     nxt = np.empty(nl + 1, np.int64)      # next option of each level: -1 undetected, else an edge
@@ -233,15 +222,13 @@ def _leave_one_out(vals, ids, start, stop, out):
 
 @njit(cache=True)
 def belief_propagation(off, nbr, lw, mf, tol, max_iter, beta):
-    """Approximate marginals of one cluster by loopy belief propagation on the assignment
-    problem (Williams & Lau 2014, IEEE TAES 50(4)), into ``beta`` (nl, mf + 1). With pair weights
-    ``w_e = exp(lw_e)`` (undetected and false-alarm weights 1), per gated edge ``e = (q, a)``:
+    """Approximate marginals of one cluster by loopy BP on the assignment problem (Williams & Lau
+    2014) into ``beta`` (nl, mf + 1). With ``w_e = exp(lw_e)`` per gated edge ``e = (q, a)``:
 
         μ_e = w_e / (1 + Σ_{e'∋q, e'≠e} w_e' ν_e'),   ν_e = 1 / (1 + Σ_{e'∋a, e'≠e} μ_e'),
 
-    from ``ν = 1``, until ``max |Δν| <= tol`` (or ``max_iter`` sweeps); then
-    ``β_qa = w_e ν_e / D_q``, ``β_q∅ = 1 / D_q``, ``D_q = 1 + Σ_{e∋q} w_e ν_e``. Exact when the
-    cluster's gating graph is a tree. Returns the sweeps used."""
+    from ``ν = 1`` until ``max |Δν| <= tol`` (or ``max_iter``); then ``β_qa = w_e ν_e / D_q``,
+    ``β_q∅ = 1 / D_q``, ``D_q = 1 + Σ_{e∋q} w_e ν_e``. Exact on a tree. Returns the sweeps."""
     nl = off.shape[0] - 1
     ne = nbr.shape[0]
     w = np.exp(np.minimum(np.maximum(lw, -LOG_CLIP), LOG_CLIP))
@@ -281,10 +268,9 @@ def belief_propagation(off, nbr, lw, mf, tol, max_iter, beta):
 
 @njit(cache=True)
 def jpda_marginals(gated, logr, max_events, tol, max_iter):
-    """Marginal association probabilities ``β`` (n, m + 1) (last column: undetected) of all
-    landmarks, cluster by cluster: exact enumeration when the cluster has at most
-    ``max_events`` joint events, loopy BP otherwise. Returns (β, events enumerated, clusters,
-    approximate clusters, landmarks in the largest cluster, most BP sweeps of a cluster)."""
+    """``β`` (n, m + 1) (last column undetected), per cluster: enumerated up to ``max_events``
+    events, loopy BP beyond. Returns (β, events, clusters, approximate clusters, largest cluster,
+    most BP sweeps)."""
     m, n = gated.shape
     beta = np.zeros((n, m + 1))
     beta[:, m] = 1.0                      # a landmark with no gated feature is surely undetected

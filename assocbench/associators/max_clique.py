@@ -1,17 +1,8 @@
-"""Exact maximum clique, compiled: branch and bound with a greedy colouring bound.
-
-Tomita and Seki's MCQ (2003: the Carraghan-Pardalos search with a colouring bound) on bitsets,
-as in San Segundo's BBMC (2011). The graph is an adjacency matrix of bits, row ``v`` holding
-``W = ⌈V/64⌉`` 64-bit words. Vertices are renumbered in smallest-last (degeneracy) order
-first, as in Tomita's MCS and BBMC. A node holds the current clique ``C`` and its candidates
-``P`` (the vertices adjacent to all of ``C``); it colours ``P`` greedily (each colour class an
-independent set, vertices in index order) and branches on the candidates from the highest
-colour down: a clique inside ``P`` has at most as many vertices as there are colours, so a
-candidate of colour ``k`` cannot lead past ``|C| + k`` vertices and, as colours only fall
-further down the list, ends the node once that is no more than the best size. Candidates whose
-colour is too low to matter are not listed at all, but stay in ``P`` (BBMC).
-
-Iterative (an explicit stack of levels) so numba compiles it; nothing is allocated per node.
+"""Exact maximum clique, compiled: Tomita and Seki's MCQ (2003) on bitsets as in San Segundo's BBMC
+(2011), vertices in smallest-last order. A node holds the clique ``C`` and its candidates ``P``,
+colours ``P`` greedily and branches from the highest colour down: a clique in ``P`` has at most as
+many vertices as colours, so colour ``k`` ends the node once ``|C| + k`` cannot beat the best (too
+low colours stay in ``P`` unlisted). Iterative; nothing is allocated per node.
 """
 
 from __future__ import annotations
@@ -143,11 +134,9 @@ def _grow(buf, need):
 
 @njit(cache=True)
 def _search(adj, levels, max_nodes):
-    """The MCQ search on a renumbered graph: (best clique, nodes, timed out).
-
-    The coloured candidate lists live on one stack (``order``, ``col``): level L's list starts at
-    ``start[L]`` and its untried entries are the first ``pos[L]``; a child's list goes right after
-    them, over the entries already tried, so memory follows the current path, not levels × V."""
+    """The MCQ search on a renumbered graph: (best clique, nodes, timed out). The coloured candidate
+    lists share one stack (``order``, ``col``), a child's list over its parent's tried entries, so
+    memory follows the current path."""
     V, W = adj.shape
     P = np.zeros((levels + 1, W), np.uint64)      # candidates at each depth
     order = np.empty(2 * V, np.int32)             # coloured candidates to branch on, by colour
@@ -199,18 +188,11 @@ def _search(adj, levels, max_nodes):
 
 def max_clique(adj: np.ndarray, size_bound: int, max_nodes: int) -> tuple[np.ndarray, int, bool]:
     """A maximum clique of the graph with bit adjacency ``adj`` (V, ⌈V/64⌉ uint64, symmetric, no
-    loops; ``set_edge`` fills it).
-
-    ``size_bound`` bounds the clique size (it sizes the search stack; the search stops
-    deepening there). The vertices are searched in smallest-last order (``_degeneracy_order``;
-    on the correspondence graphs of range-bearing problems with n = 160-320 it made the search
-    35-50 times smaller than MCQ's order by degree). The search visits at most ``max_nodes``
-    nodes (the root included).
-
-    Returns (the clique's vertices, sorted; nodes visited; timed out). When not timed out the
-    clique is maximum; otherwise it is the largest met so far (not even maximal if the budget
-    ran out in the first dive). Among several maximum cliques the first one the search meets
-    is returned (deterministic).
+    loops; ``set_edge``). ``size_bound`` bounds the clique size (the stack's depth). Vertices go in
+    smallest-last order (``_degeneracy_order``: a far smaller search than MCQ's degree order on
+    correspondence graphs). At most ``max_nodes`` nodes. Returns (the clique's vertices, sorted;
+    nodes; timed out): maximum when not timed out, else the largest met; the first maximum met
+    (deterministic).
     """
     V = adj.shape[0]
     if V == 0:

@@ -1,5 +1,5 @@
-"""Naive: the GMU landmark-SLAM project's data association (seed 004, "Naive (Gaussian) Data
-Association"), each feature on its own, in the order the sensor gave them."""
+"""Naive: the GMU landmark-SLAM project's data association (seed 004), each feature on its own, in
+    sensor order."""
 
 from __future__ import annotations
 
@@ -16,14 +16,10 @@ from .base import Associator
 @dataclass
 class Naive(Associator):
     """Feature by feature, in order: pair with the free landmark of smallest Mahalanobis distance
-    ``d_ij = √(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)`` when ``d_ij < threshold``, else leave the feature
-    unassociated (in SLAM: a new landmark).
-
-    The project accepts an observation when its Gaussian probability ``exp(−d²/2)`` exceeds
-    ``exp(−threshold²/2)``, with thresholds 4 and 16 (its two runs; 16 is the ``naive16`` preset of
-    ``configs/planar.yaml``). Unlike the project, where two observations of one frame may land on
-    one landmark, a landmark taken by an earlier feature is not offered again: the association
-    contract is one-to-one. No joint test, no global order: the first feature wins.
+    ``d_ij = √(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)`` when ``d_ij < threshold``, else leave it unassociated
+    (in SLAM: a new landmark). The project's thresholds are 4 and 16 (``naive16`` in
+    ``configs/planar.yaml``). Unlike the project, a landmark taken by an earlier feature is not
+    offered again (the contract is one-to-one). No joint test: the first feature wins.
 
     threshold: the Mahalanobis distance (σ units, not squared) below which a feature is paired.
     """

@@ -1,9 +1,6 @@
 """Registry of associators: the built-ins, entry-point plugins and ``pkg.module:Class`` specs.
-
-Two kinds share it: feature associators (``Associator``: candidates paired with measurements of a
-``Problem``) and dense ones (``dense.DenseAssociator``: source points paired with pixels of a depth
-frame). A method's kind implies its track (``tracks.dense`` claims the dense ones), so a user's
-dense associator plugs in exactly as a feature associator does."""
+Feature associators (``Associator``) and dense ones (``dense.DenseAssociator``) share it; a method's
+kind implies its track, so a user's dense associator plugs in like a feature one."""
 
 from __future__ import annotations
 
@@ -90,9 +87,8 @@ def associator_class(method: str) -> type[Associator]:
 
 def make_associator(method: str, **params) -> Associator:
     """An associator instance: ``make_associator("jcbb", confidence=0.95).associate(problem)``.
-
-    Parameters are checked here, before anything runs: unknown names, and for dataclass
-    associators the type and range of each field (``validation.validate_fields``)."""
+    Parameters are checked here, before anything runs: unknown names, and each dataclass field's
+    type and range (``validation.validate_fields``)."""
     cls = associator_class(method)
     allowed = [f.name for f in fields(cls)] if is_dataclass(cls) else None
     unknown = sorted(set(params) - set(allowed)) if allowed is not None else []
@@ -113,8 +109,7 @@ def make_associator(method: str, **params) -> Associator:
 
 
 def is_dense(method: str) -> bool:
-    """Whether ``method`` resolves to a dense associator (False for a name that does not resolve:
-    building it reports that)."""
+    """Whether ``method`` resolves to a dense associator (False when it does not resolve)."""
     try:
         return issubclass(associator_class(method), DenseAssociator)
     except UserError:

@@ -1,27 +1,14 @@
-"""RJC: randomised joint compatibility (Paz, Guivant, Tardós & Neira, "Data association in O(n)
-for divide and conquer SLAM", RSS 2007).
-
-RANSAC over the features. Each iteration draws ``b`` features at random, finds the best jointly
-compatible hypothesis of that sample alone with JCBB (a tree over ``b`` features, whatever the
-problem's size), then completes it in one linear pass over the other features; the hypothesis
-with the most pairings is kept. With ``P_good`` the probability that a feature is good (not
-spurious, not mismatched), a sample is clean with probability ``P_good^b``, so after
+"""RJC: randomised joint compatibility (Paz, Guivant, Tardós & Neira, RSS 2007). RANSAC over the
+features: JCBB on a sample of ``b`` features (a tree of ``b`` levels whatever the size), then a
+one-pass completion; the largest hypothesis is kept. A sample is clean with probability
+``P_good^b``, so after
 
     t = ceil( log(1 - P_success) / log(1 - P_good^b) )
 
-iterations some sample was clean with probability ``P_success``. As in the paper, ``t`` adapts
-to the best hypothesis found: after each iteration ``P_good = max(P_good, k_best / N)``.
-
-Where this differs from the paper, and why:
-
-* completion: the paper pairs each remaining feature with its nearest neighbour; here each
-  feature takes the pairing with the smallest increase of the joint NIS that keeps the whole
-  hypothesis jointly compatible (the incremental joint factor of ``association.compatibility``),
-  so the result always passes the joint test, and is conditioned on every pairing made so far;
-* only features with an individually compatible landmark are drawn and counted in
-  ``N`` (the paper divides by all measurements): a feature that can pair with nothing is never
-  part of a sample's hypothesis, so drawing it would only waste the sample;
-* hypotheses with as many pairings are compared by joint NIS (the paper keeps the first).
+iterations one was clean with probability ``P_success``; ``P_good = max(P_good, k_best / N)`` adapts
+``t``. Unlike the paper: the completion keeps the hypothesis jointly compatible (smallest joint NIS
+increase, not the nearest neighbour); only features with a compatible landmark are drawn and counted
+in ``N``; ties go to the lower joint NIS.
 """
 
 from __future__ import annotations
@@ -40,9 +27,8 @@ from .rjc_kernels import adjacency, complete, make_work
 
 
 def ransac_iterations(p_fail: float, p_good: float, sample_size: int) -> int:
-    """``ceil(log(P_fail) / log(1 - P_good^b))``: iterations after which a sample of ``b`` good
-    features has been drawn with probability ``1 - P_fail`` (at least 1; a huge number when
-    ``p_good^b`` underflows, to be capped by the caller)."""
+    """``ceil(log(P_fail) / log(1 - P_good^b))``, at least 1 (huge when ``p_good^b`` underflows; the
+    caller caps it)."""
     clean = p_good ** sample_size
     if clean >= 1.0:
         return 1
@@ -53,45 +39,25 @@ def ransac_iterations(p_fail: float, p_good: float, sample_size: int) -> int:
 
 @dataclass
 class RJC(Associator):
-    """Randomised joint compatibility: RANSAC samples of features, JCBB on each sample, then a
-    jointly compatible nearest-neighbour completion; the largest hypothesis wins.
-
-    Only the ``N`` features with an individually compatible landmark (gate ``χ²_d(c)``) take
-    part. Each iteration:
-
-    1. draws ``b = min(sample_size, N)`` of them (``np.random.default_rng(seed)``, made afresh by
-       every ``associate`` call, so an answer never depends on earlier calls);
-    2. finds the sample's hypothesis: JCBB over the sampled features only (``anytime_search.anytime_jcbb``);
-    3. completes it: the other features in a fixed order, fewest individually compatible
-       landmarks first (as JCBB branches; ties by index), each take the open compatible
-       landmark with the smallest joint NIS increase among those keeping
-       ``NIS ≤ χ²_{d(k+1)}(c)``, or stay unpaired.
-
-    The hypothesis with the most pairings is kept, ties to the lower joint NIS (then the earlier
-    iteration). A completion that can no longer beat it (too few features left, or as many
-    pairings at best with a NIS already no lower) is abandoned: it would not be kept. When
-    ``N ≤ sample_size`` the one sample is every feature and the answer is JCBB's.
-
-    Shipped values are the paper's, as we recall them, under the paper's names: acceptable
-    failure probability ``p_fail = 0.01``, initial good-feature probability ``p_good = 0.8`` and
-    ``b = 4``, so ``t = 9`` before adapting; on range-bearing problems with 20 % clutter the
-    adapted count is about 4 (``benchmarks/rjc_scale.py``). ``max_iterations = 100`` only binds
-    when ``p_good`` is lowered (``t`` ≤ 9 with the shipped values).
+    """Randomised joint compatibility. Each iteration draws ``b = min(sample_size, N)`` of the ``N``
+    features with a compatible landmark (``default_rng(seed)`` made afresh by every call), runs JCBB
+    on them (``anytime_search.anytime_jcbb``) and completes it: the other features, fewest
+    compatible landmarks first, each take the open landmark with the smallest joint NIS increase
+    keeping ``NIS ≤ χ²_{d(k+1)}(c)``. Most pairings win, ties to the lower NIS; a completion that
+    cannot win is abandoned; ``N ≤ sample_size`` gives JCBB's answer. Defaults are the paper's
+    (``t = 9`` before adapting; ``benchmarks/rjc_scale.py``).
 
     confidence: individual and joint gates ``χ²_{dk}(c)``.
     sample_size: features per sample ``b``.
-    p_fail: acceptable probability that no sample was clean (the paper's ``P_fail``).
-    p_good: prior probability that a feature is good, neither spurious nor mismatched (the
-        paper's ``P_good``; raised to the best hypothesis' share as the loop runs).
-    iterations: a fixed number of iterations; None adapts ``t`` as above.
-    max_iterations: cap on the adaptive count (a fixed ``iterations`` is not capped).
+    p_fail: acceptable probability that no sample was clean.
+    p_good: prior probability that a feature is good (raised to the best hypothesis' share as the
+        loop runs).
+    iterations: a fixed number of iterations; None adapts ``t``.
+    max_iterations: cap on the adaptive count.
     max_nodes: node budget of each sample's JCBB.
     seed: seed of the sampling.
 
-    ``info``: ``iterations`` run, ``required`` (the final adaptive count, before the cap),
-    ``nodes`` (JCBB nodes over all samples), ``timed_out`` (a sample's JCBB spent its budget, or
-    the cap stopped the loop short of ``required``), ``nis`` (the answer's joint NIS, summed as
-    its completion grew it).
+    ``info``: ``iterations``, ``required`` (the adaptive count), ``nodes``, ``timed_out``, ``nis``.
     """
 
     name = "rjc"
@@ -106,8 +72,7 @@ class RJC(Associator):
     seed: int = field(default=0, metadata=in_range(0))
 
     def warm_up(self, problem: Problem) -> None:
-        """``associate``, then once with samples of one feature, so that the completion (which a
-        tiny problem's whole-problem sample skips) is compiled too."""
+        """``associate``, then once with one-feature samples, so the completion compiles too."""
         self.associate(problem)
         replace(self, sample_size=1).associate(problem)
 
@@ -165,13 +130,10 @@ class RJC(Associator):
 
 def sample_hypothesis(problem: Problem, ic: np.ndarray, sample: np.ndarray, wrap: np.ndarray, gate: np.ndarray,
                       max_nodes: int) -> tuple[np.ndarray, np.ndarray, int, bool]:
-    """JCBB on the features ``sample`` (ascending) alone: (features, landmarks, nodes, out of budget).
-
-    The search runs on the sub-problem of those features and the landmarks individually
-    compatible with one of them, both in ascending order, so it visits the tree ``anytime_jcbb``
-    visits on the whole problem with the other features' rows of ``ic`` cleared (landmarks with
-    no compatible feature never enter it). Its arrays are made read-only, as a ``Problem``'s
-    are, so the search is the one compiled for JCBB."""
+    """JCBB on the features ``sample`` (ascending) alone: (features, landmarks, nodes, out of
+    budget). The sub-problem keeps the landmarks compatible with one of them, in order, so the
+    search visits the tree ``anytime_jcbb`` would with the other features' ``ic`` rows cleared; its
+    arrays are read-only so JCBB's compiled search serves."""
     lms = np.flatnonzero(ic[sample].any(axis=0))
     rows = (lms[:, None] * problem.d + np.arange(problem.d)).ravel()
     sub = (problem.P[np.ix_(rows, rows)], problem.z[sample], problem.zhat[lms], problem.R[sample])

@@ -1,9 +1,7 @@
-"""RJC's compiled part: the joint nearest-neighbour completion of a sample's hypothesis.
-
-The completion grows the joint factor of ``association.compatibility`` pairing by pairing
-(``whitened_pair``, ``append_rows``, ``advance_moments``). Its work arrays (``make_work``) are
-allocated once per ``associate`` call and reused by every iteration: a completion only reads
-rows of ``Mt`` it has written itself, and it clears the moments it starts from.
+"""RJC's compiled part: the joint nearest-neighbour completion of a sample's hypothesis, growing the
+joint factor of ``association.compatibility`` pairing by pairing. Its work arrays (``make_work``)
+serve every iteration of a call: a completion reads only rows it wrote and clears the moments it
+starts from.
 """
 
 from __future__ import annotations
@@ -23,16 +21,14 @@ def adjacency(ic: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def make_work(n: int, d: int) -> tuple[np.ndarray, ...]:
-    """Work arrays of one completion, reused across iterations: ``(Mt, w, C, G, S, y, L, w2)``
-    (the joint factor, the landmarks' conditional moments, ``whitened_pair``'s small arrays;
-    ``compatibility.empty_factor``)."""
+    """One completion's work arrays ``(Mt, w, C, G, S, y, L, w2)`` (``compatibility.empty_factor``)."""
     return empty_factor(n, d)
 
 
 @njit(cache=True)
 def _open_columns(is_open, demand, cols):
-    """Landmarks some later pairing may still involve (open and wanted by a feature not yet
-    visited) into ``cols``; returns how many. The only columns of ``Mt`` anyone reads again."""
+    """Landmarks a later pairing may still involve, into ``cols``; returns how many (the only
+    columns read again)."""
     nc = 0
     for l in range(is_open.shape[0]):
         if is_open[l] and demand[l] > 0:
@@ -57,11 +53,10 @@ def _append(k, nis, i, j, P, z, zhat, R, wrap, work, cols, pair_i, pair_j):
 @njit(cache=True)
 def complete(seed_i, seed_j, order, in_sample, start, adj, P, z, zhat, R, wrap, gate, best_k, best_nis, work,
              pair_i, pair_j):
-    """Grow the sample's hypothesis (``seed_i``, ``seed_j``) over the features of ``order`` not in
-    the sample: each, in turn, takes the open individually compatible landmark with the smallest
-    joint NIS increase among those keeping ``NIS ≤ χ²_{d(k+1)}``, or stays unpaired. The pairings
-    go to ``pair_i``, ``pair_j``; returns (k, NIS), or k = -1 once the hypothesis can no longer
-    beat (``best_k``, ``best_nis``): more pairings, or as many with a lower NIS (NIS never drops)."""
+    """Grow the sample's hypothesis over the other features of ``order``: each takes the open
+    compatible landmark with the smallest joint NIS increase keeping ``NIS ≤ χ²_{d(k+1)}``, or none;
+    pairings into ``pair_i``, ``pair_j``. Returns (k, NIS), k = -1 once it can no longer beat
+    (``best_k``, ``best_nis``)."""
     Mt, w, C, G, S, y, L, w2 = work
     n = zhat.shape[0]
     C[:] = 0.0                                  # the empty hypothesis

@@ -23,13 +23,11 @@ from .base import CONFIDENCE, Associator
 
 @dataclass
 class SNN(Associator):
-    """Grow the association one pairing at a time, always adding the individually compatible
-    pairing that lowers the total surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` most while
-    keeping the hypothesis jointly compatible; stop when no pairing lowers it.
-
-    Adding a pairing changes the surprisal by ``Δs = -log|Y| + ½ (ΔNIS + Δlog det + d log 2π)``.
-    The greedy loop is compiled (``snn_greedy``) and tests every pairing against the growing
-    joint factor through the landmarks' conditional moments (``association.compatibility``).
+    """Grow the association one pairing at a time, adding the compatible pairing that lowers the
+    total surprisal ``s(A) = n_U log|Y| - log N(y_A; 0, S_A)`` most while the hypothesis stays
+    jointly compatible; stop when none lowers it. A pairing changes it by
+    ``Δs = -log|Y| + ½ (ΔNIS + Δlog det + d log 2π)``, tested against the growing joint factor
+    (``snn_greedy``, compiled).
 
     confidence: individual and joint gates ``χ²_{d k}(confidence)``.
     """
@@ -53,10 +51,9 @@ class SNN(Associator):
 
 @njit(cache=True)
 def snn_greedy(ic, P, z, zhat, R, wrap, gate, new_cost):
-    """Pairings (features, landmarks) of the greedy surprisal descent. Each step scans the open
-    individually compatible pairs in (feature, landmark) order and takes the first with the lowest
-    ``Δs = new_cost + ½ (ΔNIS + Δlog det)`` among those keeping ``NIS ≤ gate[k + 1]``; it stops when
-    no ``Δs`` is negative."""
+    """Pairings (features, landmarks) of the greedy descent: each step takes, in (feature, landmark)
+    order, the first pair with the lowest ``Δs = new_cost + ½ (ΔNIS + Δlog det)`` keeping
+    ``NIS ≤ gate[k + 1]``; stops when no ``Δs`` is negative."""
     m, n = ic.shape
     d = z.shape[1]
     Mt, w, C, G, S, y, L, w2 = empty_factor(n, d)

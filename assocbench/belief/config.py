@@ -1,9 +1,6 @@
-"""The open-loop belief's difficulty knobs and the sampling every track shares.
-
-The estimate is the truth plus an error drawn from ``k² Σ`` while Σ is reported (``k =
-miscalibration``), so gating theory holds at ``k = 1``. ``prediction_covariance`` forms
-``P = J Σ Jᵀ`` for any measurement dimension; ``map_mask`` picks the landmarks in the map
-(fixed per seed); ``true_association`` turns feature labels into the true pairing."""
+"""The open-loop belief's difficulty knobs and sampling: the estimate is the truth plus an error
+drawn from ``k² Σ`` while Σ is reported (``k = miscalibration``), so gating theory holds at
+``k = 1``."""
 
 from __future__ import annotations
 
@@ -24,7 +21,8 @@ MAX_MISCALIBRATION = 1000.0
 class BeliefConfig:
     """Difficulty knobs of the belief.
 
-    sigma_position: camera position std (m).    sigma_rotation: camera orientation std (deg).
+    sigma_position: camera position std (m).
+    sigma_rotation: camera orientation std (deg).
     sigma_landmark: independent landmark position std (m).
     sigma_common: std of an error shared by all landmarks (m): correlated map error.
     sigma_pixel: reported measurement noise std (px); R_i = σ² I.
@@ -59,9 +57,8 @@ class BeliefConfig:
 
 def sample_estimate(R: np.ndarray, p: np.ndarray, landmarks: np.ndarray, cfg: BeliefConfig,
                     rng: np.random.Generator) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Estimated ``(R̂, p̂, l̂)`` of a camera (orientation ``R``, camera to world; centre ``p``) and
-    ``landmarks`` (n, 3): the truth perturbed by an error drawn from ``k² Σ`` (the pose's
-    ``[δp, δθ]`` as ``pinhole.perturb_pose`` applies it)."""
+    """Estimated ``(R̂, p̂, l̂)`` of a camera and ``landmarks`` (n, 3): the truth plus an error
+    drawn from ``k² Σ`` (pose ``[δp, δθ]`` as ``pinhole.perturb_pose`` applies it)."""
     k = cfg.miscalibration
     e_pose = rng.normal(0.0, 1.0, 6) * np.sqrt(np.diag(cfg.pose_covariance)) * k
     e_lm = rng.normal(0.0, cfg.sigma_landmark * k, landmarks.shape)
@@ -79,9 +76,8 @@ def map_mask(n_landmarks: int, cfg: BeliefConfig, seed: int) -> np.ndarray:
 
 
 def prediction_covariance(J_pose: np.ndarray, J_l: np.ndarray, Sigma_pose: np.ndarray, cfg: BeliefConfig) -> np.ndarray:
-    """``P = J Σ Jᵀ`` (nd, nd) for ``J_pose`` (n, d, q) and ``J_l`` (n, d, s), exploiting Σ's
-    structure: the pose block ``Sigma_pose`` (q, q), independent landmarks ``σ_l² I`` and the
-    common-mode term ``σ_c² (11ᵀ ⊗ I_s)``; any track's dimensions."""
+    """``P = J Σ Jᵀ`` (nd, nd) for ``J_pose`` (n, d, q) and ``J_l`` (n, d, s), using Σ's structure:
+    pose block ``Sigma_pose``, independent ``σ_l² I`` and common-mode ``σ_c² (11ᵀ ⊗ I_s)``."""
     n, d, s = J_l.shape
     Jp = J_pose.reshape(d * n, J_pose.shape[2])
     P = Jp @ Sigma_pose @ Jp.T
@@ -104,8 +100,8 @@ def true_association(feature_labels: np.ndarray, candidates: np.ndarray) -> np.n
 
 
 def with_clutter_labels(labels: np.ndarray, clutter: int, in_map: np.ndarray | None) -> np.ndarray:
-    """Feature labels of a frame's truth (open and closed loop, every track): the sensor's label (-1 for look-alikes), -1 for a
-    landmark outside the map in localisation, then -1 for each clutter feature."""
+    """A frame's feature labels: the sensor's (-1 for look-alikes), -1 for a landmark outside the
+    map in localisation, then -1 per clutter feature."""
     if in_map is not None:
         labels = np.where((labels >= 0) & in_map[np.maximum(labels, 0)], labels, NO_MATCH)
     return np.concatenate([labels, np.full(clutter, NO_MATCH)]).astype(np.int64)

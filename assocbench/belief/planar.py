@@ -1,12 +1,8 @@
-"""Belief of the planar track (open loop): estimate = truth + error drawn from the reported Σ.
-
-The same knobs as the camera track's ``BeliefConfig``, read in the plane: the robot pose
-``(x, y, θ)`` has Σ_pose = diag(σ_p², σ_p², σ_θ²); the posts' map has
-``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₂)``; the actual error is drawn from ``k² Σ``. Candidates are the
-mapped posts the estimate predicts within the lidar's range and field of view; the joint
-prediction covariance is ``P = H Σ Hᵀ`` with the range-bearing Jacobians
-(``models.range_bearing``). Measurements are the frame's post detections (with the noise the
-detector reports) plus ``clutter`` detections drawn uniformly over range × bearing.
+"""Belief of the planar track (open loop): the camera track's knobs read in the plane. Pose
+``(x, y, θ)`` with Σ_pose = diag(σ_p², σ_p², σ_θ²), map ``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₂)``, error
+drawn from ``k² Σ``; candidates are the mapped posts predicted in the lidar's range and field of
+view, ``P = H Σ Hᵀ`` with the range-bearing Jacobians; measurements are the frame's detections plus
+``clutter`` uniform over range × bearing.
 """
 
 from __future__ import annotations
@@ -25,8 +21,7 @@ def planar_pose_covariance(cfg: BeliefConfig) -> np.ndarray:
 
 
 def map_covariance(n: int, cfg: BeliefConfig, dim: int = 2) -> np.ndarray:
-    """Σ_L (dim·n, dim·n) = σ_l² I + σ_c² (11ᵀ ⊗ I_dim): the map covariance the sampled belief
-    reports (dim 2 for posts, 3 for the camera track's landmarks)."""
+    """Σ_L (dim·n, dim·n) = σ_l² I + σ_c² (11ᵀ ⊗ I_dim), the map covariance the belief reports."""
     cov = cfg.sigma_landmark ** 2 * np.eye(dim * n)
     if cfg.sigma_common > 0:
         cov += cfg.sigma_common ** 2 * np.kron(np.ones((n, n)), np.eye(dim))
@@ -45,9 +40,9 @@ def sample_planar_estimate(pose: np.ndarray, posts: np.ndarray, cfg: BeliefConfi
 
 
 def open_loop_pose(pose: np.ndarray, cfg: BeliefConfig, seed: int, frame: int) -> np.ndarray:
-    """The open loop's pose estimate (3,) of ``frame``: the first draw of the frame's generator
-    ``default_rng([seed, frame, 101])``, which the planar and lines problems make first
-    (``sample_planar_estimate``), so the pictures show the pose the problem was predicted from."""
+    """The open loop's pose estimate (3,) of ``frame``: the first draw of
+    ``default_rng([seed, frame, 101])``, as the planar and lines problems make it, so pictures show
+    the pose the problem was predicted from."""
     rng = np.random.default_rng([seed, frame, 101])
     return sample_planar_estimate(pose, np.zeros((0, 2)), cfg, rng)[0]
 
@@ -66,9 +61,9 @@ def clutter_detections(rng: np.random.Generator, count: int, R: np.ndarray, max_
 
 
 def nominal_noise(R_frame: np.ndarray, fallback: np.ndarray) -> np.ndarray:
-    """The noise a clutter detection reports: the median of the frame's (element-wise), else
-    ``fallback``. An element-wise median of correlated covariances (a line's α and r) need not be
-    positive definite; then the frame's own covariance of median log-determinant is used."""
+    """The noise a clutter detection reports: the frame's element-wise median, else ``fallback``;
+    where that median is not positive definite (correlated α, r), the frame's covariance of median
+    log-determinant."""
     if not len(R_frame):
         return fallback
     median = np.median(R_frame, axis=0)

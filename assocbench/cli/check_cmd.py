@@ -131,9 +131,8 @@ def check_suite(suite: Suite, baseline_path: Path, baseline: pd.DataFrame | None
 
 
 def tolerance_text(guards: tuple[GuardedMetric, ...], tolerances: dict[str, float]) -> str:
-    """What each guarded column may do, with the tolerance in its unit: ``tolerance`` on shares
-    as given, ``ate_tolerance`` (m) times the column's ``scale`` (1000: mm). One figure printed
-    for several columns would read as the ATE's tolerance too."""
+    """What each guarded column may do, in its unit: ``tolerance`` on shares, ``ate_tolerance`` (m)
+    times the column's ``scale`` (1000: mm), so no figure reads as another column's."""
     parts: dict[str, list[str]] = {}
     for g in guards:
         value = tolerances[g.tolerance] * g.scale

@@ -1,7 +1,6 @@
-"""``assocbench render``: a video of a run, one picture per frame drawn by the run's track
-(``Pictures.run_pictures``): rendered frames with the lab-8 association overlay (with ``--loop``,
-beside a top view of the trajectories and the map), or a top view with the scan and each feature
-coloured by the method's decision."""
+"""``assocbench render``: a video of a run, a picture per frame drawn by its track
+(``Pictures.run_pictures``): rendered frames with the lab-8 overlay (closed loop: beside a top
+view), or a top view with the scan and each feature coloured by the method's decision."""
 
 from __future__ import annotations
 
@@ -32,11 +31,9 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
 
 
 def main(args: argparse.Namespace) -> int:
-    """Render the run; exit 1 (after writing the video) when the method failed on any frame.
-    The method runs as in ``run`` (``execute``: a worker process, ``time_limit_s`` per call, a
-    private copy of each problem, every answer validated); this process only draws (``replay_run``
-    rebuilds each frame's problem, and a closed loop's filter from the recorded associations: the
-    method is not called again)."""
+    """Render the run; exit 1 (after writing the video) when the method failed on any frame. The
+    method runs as in ``run`` (a worker, ``time_limit_s``, private copies, answers validated); this
+    process only draws, replaying each frame from the recorded associations."""
     output = check_output_file(Path(args.output), check_video_path)
     fps = check_fps(args.fps)
     cfg = load_run_config(args.config, args.sets, track=args.track, method=args.method, scene=args.scene,

@@ -43,10 +43,9 @@ def default_out(cfg: dict, scene: str, method: str, seed: int) -> Path:
 
 
 def tum_writers(frames: pd.DataFrame, out: Path, truth: str = "truth") -> dict:
-    """Writers of ``truth.txt`` and ``estimate.txt`` (TUM: ``t x y z qx qy qz qw``, one line per
-    frame with a pose, t = frame index in seconds), for ``evo_ape tum truth.txt estimate.txt``. A
-    frame with no pose (its estimator had failed: NaN) has no line in either file. ``truth``: the
-    first file's name, a recorded track's ``reference`` (``Columns.scored_against``)."""
+    """Writers of ``truth.txt`` and ``estimate.txt`` (TUM, t = frame index in seconds) for
+    ``evo_ape tum truth.txt estimate.txt``; a frame without a pose has no line in either. ``truth``:
+    the first file's name (a recorded track's ``reference``)."""
     columns = [f"{p}{c}" for p in ("true_", "est_") for c in ("x", "y", "z", "qx", "qy", "qz", "qw")]
     frames = frames[np.isfinite(frames[columns].to_numpy(dtype=float)).all(axis=1)]
 

@@ -1,7 +1,6 @@
-"""Write labelled problems as the dataset's Parquet table, reproducibly byte for byte: rows are
-buffered into row groups of a fixed size (``ROW_GROUP``), the writer's options are pinned
-(compression and level, no dictionary, statistics on) and nothing time- or host-dependent
-enters the file or the card. Both land only when every row is written (``atomic_paths``)."""
+"""Write labelled problems as the dataset's Parquet table, byte for byte reproducibly: fixed-size
+row groups (``ROW_GROUP``), pinned writer options, nothing time- or host-dependent in the file or
+card; both land only when every row is written (``atomic_paths``)."""
 
 from __future__ import annotations
 

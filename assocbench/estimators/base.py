@@ -1,15 +1,13 @@
-"""The estimator interface of the closed loop, shared by every track.
-
-Each frame the harness calls, in this order::
+"""The estimator interface of the closed loop, shared by every track. Each frame the harness calls::
 
     estimator.predict(motion)            # k > 0: odometry increment and its covariance
     problem = estimator.problem(frame)   # candidates predicted from the estimator's own mean and P
     estimator.update(association)        # the method's pairings (n,) against problem's candidates
     estimator.initialise(frame, unused)  # slam mode: unassociated features become landmarks
 
-and reads ``pose``, ``pose_covariance``, ``landmarks``, ``covariance`` and ``book`` (the map's
-bookkeeping). The estimator never sees the truth: the harness ties map entries to true
-landmarks on the side (``harness.loop_truth``).
+and reads ``pose``, ``pose_covariance``, ``landmarks``, ``covariance`` and ``book``. The estimator
+never sees the truth: the harness ties map entries to true landmarks on the side
+(``harness.loop_truth``).
 """
 
 from __future__ import annotations
@@ -27,8 +25,8 @@ TENTATIVE, CONFIRMED = 0, 1
 
 @dataclass(frozen=True)
 class Motion:
-    """An odometry increment in the previous pose's frame and the covariance the filter is told.
-    Camera track: ``increment = [Δp (3), Δθ (3)]`` with ``p' = p + R Δp``, ``R' = R Exp(Δθ)``."""
+    """An odometry increment in the previous pose's frame and the covariance the filter is told;
+    camera track: ``[Δp, Δθ]`` with ``p' = p + R Δp``, ``R' = R Exp(Δθ)``."""
 
     increment: np.ndarray
     covariance: np.ndarray
@@ -36,8 +34,8 @@ class Motion:
 
 @dataclass(frozen=True)
 class FrameData:
-    """One frame's measurements: ``z`` (m, d), their noise ``R`` (m, d, d) and, for an RGB-D
-    camera, the measured depth at each feature (m,) (NaN where the sensor has none)."""
+    """One frame's measurements ``z`` (m, d), their noise ``R`` (m, d, d) and, for an RGB-D camera,
+    each feature's measured depth (m,) (NaN: none)."""
 
     z: np.ndarray
     R: np.ndarray
@@ -46,10 +44,9 @@ class FrameData:
 
 @dataclass
 class LandmarkBook:
-    """Bookkeeping of the map, one entry per landmark in state order: a stable ``ids`` (map id,
-    what ``Problem.landmark_ids`` names), ``status`` (tentative or confirmed), how often each was
-    ``observed`` (associated; its creation counts once) and ``missed`` (predicted in view,
-    left unassociated), and the frame it was ``born``."""
+    """The map's bookkeeping, one entry per landmark in state order: stable map ``ids``
+    (``Problem.landmark_ids``), ``status`` (tentative or confirmed), counts ``observed`` (creation
+    included) and ``missed`` (predicted in view, unassociated), and the frame it was ``born``."""
 
     ids: list[int] = field(default_factory=list)
     status: list[int] = field(default_factory=list)
@@ -75,8 +72,8 @@ class LandmarkBook:
             setattr(self, name, [values[r] for r in rows])
 
     def observe(self, rows: np.ndarray, association: np.ndarray, confirm_after: int) -> tuple[int, ...]:
-        """Count an observation of each entry ``rows[j]`` paired (``association[j] ≥ 0``); a
-        tentative one observed ``confirm_after`` times is confirmed. Returns the confirmed map ids."""
+        """Count an observation of each ``rows[j]`` paired; a tentative one observed
+        ``confirm_after`` times is confirmed. Returns the confirmed map ids."""
         confirmed = []
         for r, f in zip(rows, association):
             if f < 0:
@@ -88,8 +85,8 @@ class LandmarkBook:
         return tuple(confirmed)
 
     def miss(self, rows: np.ndarray, association: np.ndarray, drop_after: int) -> list[int]:
-        """Count a miss of each tentative entry ``rows[j]`` left unassociated; return the entries
-        missed ``drop_after`` times (the caller removes them from its state, then calls ``keep``)."""
+        """Count a miss of each tentative ``rows[j]`` left unassociated; returns those missed
+        ``drop_after`` times (the caller removes them, then calls ``keep``)."""
         gone = []
         for r, f in zip(rows, association):
             if f < 0 and self.status[r] != CONFIRMED:
@@ -106,8 +103,8 @@ class LandmarkBook:
 
 def creation_room(cfg: EstimatorConfig, measured: int, unassociated: int, map_size: int) -> int:
     """How many landmarks a frame may make (slam): the shortfall against ``cfg.target_paired``
-    (``measured − unassociated`` features were paired), at most ``cfg.max_new_per_frame`` and the
-    room left under ``cfg.max_landmarks``; zero or negative means none."""
+    pairings, capped by ``cfg.max_new_per_frame`` and the room under ``cfg.max_landmarks``; ≤ 0:
+    none."""
     shortfall = cfg.target_paired - (measured - unassociated)
     return min(shortfall, cfg.max_new_per_frame, cfg.max_landmarks - map_size)
 
@@ -132,17 +129,17 @@ class Estimator(ABC):
 
     @abstractmethod
     def problem(self, frame: FrameData) -> Problem:
-        """The frame's association problem: candidates are the map landmarks the estimate expects
-        to see, ``zhat`` and the joint ``P = H Σ Hᵀ`` from the estimator's own mean and covariance."""
+        """The frame's problem: the landmarks the estimate expects to see, ``zhat`` and
+        ``P = H Σ Hᵀ`` from the estimator's own mean and covariance."""
 
     @abstractmethod
     def update(self, association: np.ndarray) -> UpdateReport:
-        """Update with ``association`` (n,) (feature index per candidate of the last ``problem``,
-        or -1), exactly as given: the estimator does not second-guess the associator."""
+        """Update with ``association`` (n,) against the last ``problem``'s candidates, exactly as
+        given."""
 
     def initialise(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
-        """Make landmarks from ``features`` (indices of unassociated features); return
-        ``(map id, feature index)`` of each new one. Localisation makes none."""
+        """Make landmarks from ``features`` (unassociated feature indices); returns
+        ``(map id, feature index)`` of each. Localisation makes none."""
         return []
 
     @property

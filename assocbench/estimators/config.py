@@ -17,31 +17,27 @@ INITIALISERS = ("depth", "triangulation")
 class EstimatorConfig:
     """How the closed loop estimates.
 
-    name: the estimator: ``ekf`` (the EKF of the scene's track: camera or planar EKF-SLAM) or
-        ``isam2`` (planar track: a GTSAM iSAM2 factor graph; needs the ``gtsam`` extra).
-    mode: ``localisation`` (the map's landmarks start at the belief's sampled estimate and are
-        refined) or ``slam`` (the map starts empty; unassociated features become landmarks).
-    odometry_sigma_translation / odometry_sigma_rotation: σ per axis of the odometry increment's
-        noise per frame (m, deg); the filter reports Q = diag(σ_t² I₃, σ_r² I₃).
+    name: ``ekf`` (the track's EKF-SLAM) or ``isam2`` (planar track: GTSAM iSAM2; the ``gtsam``
+        extra).
+    mode: ``localisation`` (the map starts at the belief's estimate) or ``slam`` (the map starts
+        empty; unassociated features become landmarks).
+    odometry_sigma_translation / odometry_sigma_rotation: σ per axis of the odometry noise per frame
+        (m, deg); Q = diag(σ_t² I₃, σ_r² I₃).
     odometry_miscalibration: k; the actual odometry noise is drawn with k σ while σ is reported.
-    init: how ``slam`` makes a landmark: ``depth`` (RGB-D: the rendered depth at the feature plus
-        noise) or ``triangulation`` (two views, DLT, the first view's pose cloned in the state
-        while it waits: ``two_view_init``; the depth is not used).
+    init: how ``slam`` makes a landmark: ``depth`` (RGB-D depth plus noise) or ``triangulation``
+        (two views by DLT, ``two_view_init``).
     depth_sigma / depth_sigma_quadratic: RGB-D depth noise σ_z(z) = σ₀ + k z² (m, 1/m).
     confirm_after: a new landmark is tentative until observed this many times (its first included).
-    drop_after: a tentative landmark predicted in view and left unassociated this many times is removed.
-    target_paired: slam makes landmarks only while fewer than this many features were paired in
-        the frame (and at most the shortfall): the common "keep N features tracked" policy.
-    max_new_per_frame / max_landmarks: caps on landmark creation, so the state stays tractable.
-    new_landmark_gate: a feature left unassociated makes a landmark only when its Mahalanobis
-        distance (σ units, ``√NIS`` against ``P_jj + R_i``) to every candidate of the frame exceeds
-        this; 0 makes one of every unassociated feature; null (the default) is the track's choice:
-        0 for the camera track, 4 for the planar one. A feature near a landmark that the method
-        did not pair is more likely that landmark than a new one (the usual SLAM practice; without
-        it a strict gate turns its misses into duplicates).
-    pixel_noise: add N(0, σ_pixel² I) to every feature after its truth is labelled, so the R the
-        filter is told is the noise it gets (the detector's own sub-pixel error comes on top);
-        false leaves the detector's error alone (the filter is then conservative).
+    drop_after: a tentative landmark predicted in view and left unassociated this many times is
+        removed.
+    target_paired: slam makes landmarks only while fewer features than this were paired in the frame
+        (at most the shortfall).
+    max_new_per_frame / max_landmarks: caps on landmark creation, keeping the state tractable.
+    new_landmark_gate: an unassociated feature makes a landmark only when its Mahalanobis distance
+        (σ units) to every candidate exceeds this; 0: all; null: the track's (camera 0, planar 4).
+        Without it a strict method's misses become duplicates.
+    pixel_noise: add N(0, σ_pixel² I) to every feature after labelling, so the filter's R is the
+        noise it gets; false leaves the detector's own error (the filter is then conservative).
     """
 
     name: str = field(default="ekf", metadata=one_of(*ESTIMATOR_NAMES))

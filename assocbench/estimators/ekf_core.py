@@ -1,8 +1,6 @@
-"""The EKF's covariance algebra, shared by every track's filter.
-
-The state is a pose block (``q`` error-state coordinates) followed by the map's landmarks
-(``s`` coordinates each): ``x = [ξ, l₁, …, l_N]``, covariance ``P`` of size q + sN. Only the
-algebra lives here; each track's filter supplies its motion and measurement Jacobians.
+"""The EKF's covariance algebra, shared by every track's filter: the state is a pose block (``q``
+error-state coordinates) then the landmarks (``s`` each), ``x = [ξ, l₁, …, l_N]``, covariance ``P``
+(q + sN). Each track's filter supplies its Jacobians.
 """
 
 from __future__ import annotations
@@ -19,9 +17,9 @@ from ..models.range_bearing import wrap
 
 def paired_innovations(association: np.ndarray, n: int, z: np.ndarray, zhat: np.ndarray,
                        angular: tuple[int, ...]) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(a, paired, ν)`` of an association (n,) against its problem's candidates: the candidates
-    paired (``a_j ≥ 0``) and their innovations ``ν_j = z_{a_j} − ẑ_j`` (k, d), angular dims wrapped
-    to [−π, π). A shape other than (n,) is a one-line ``UserError``."""
+    """``(a, paired, ν)``: the candidates paired (``a_j ≥ 0``) and their innovations
+    ``ν_j = z_{a_j} − ẑ_j`` (k, d), angular dims wrapped; a shape other than (n,) is a one-line
+    ``UserError``."""
     a = np.asarray(association, dtype=np.int64)
     if a.shape != (n,):
         raise UserError(f"association has shape {a.shape}, expected ({n},): one entry per candidate")
@@ -37,13 +35,12 @@ class NotPositiveDefinite(ArithmeticError):
 
 
 def propagate_pose(P: np.ndarray, F: np.ndarray, GQG: np.ndarray, overwrite: bool = False) -> np.ndarray:
-    """Prediction of a static map: with ``ξ' = f(ξ, u)`` and ``F = ∂f/∂ξ``,
+    """Prediction of a static map, with ``ξ' = f(ξ, u)`` and ``F = ∂f/∂ξ``:
 
         P_ξξ' = F P_ξξ Fᵀ + G Q Gᵀ,   P_ξL' = F P_ξL,   P_LL' = P_LL
 
-    (landmarks do not move). ``GQG`` is the motion noise already mapped into the pose's
-    coordinates. Works on a copy, or on ``P`` itself with ``overwrite`` (a filter that replaces
-    its P saves the O(N²) copy; the rest costs O(q² N))."""
+    ``GQG``: the motion noise in the pose's coordinates. ``overwrite`` works on ``P`` itself (saves
+    an O(N²) copy; the rest is O(q² N))."""
     q = len(F)
     out = P if overwrite else P.copy()
     out[:q, :q] = F @ P[:q, :q] @ F.T + GQG
@@ -54,25 +51,19 @@ def propagate_pose(P: np.ndarray, F: np.ndarray, GQG: np.ndarray, overwrite: boo
 
 def joseph_update(P: np.ndarray, H: np.ndarray, cols: np.ndarray, innovation: np.ndarray,
                   R: np.ndarray, overwrite: bool = False) -> tuple[np.ndarray, np.ndarray]:
-    """EKF update in Joseph form with a sparse measurement Jacobian.
-
-    ``H`` (k, c) holds the nonzero columns ``cols`` of the full Jacobian (pose and the paired
-    landmarks only). With ``U = P Hᵀ`` (n, k), ``S = H P Hᵀ + R = L Lᵀ`` and ``K = U S⁻¹``
-    (two triangular solves with L, never an inverse):
+    """EKF update in Joseph form with a sparse measurement Jacobian ``H`` (k, c), the nonzero
+    columns ``cols`` (pose and paired landmarks). With ``U = P Hᵀ``, ``S = H P Hᵀ + R = L Lᵀ`` and
+    ``K = U S⁻¹`` (two triangular solves, no inverse):
 
         δx = K ν,   P' = (I − KH) P (I − KH)ᵀ + K R Kᵀ = P − K Uᵀ − U Kᵀ + K S Kᵀ
                                                      = P + K Mᵀ + M Kᵀ,   M = ½ K S − U.
 
-    The Joseph form is the sum of two positive semidefinite terms, and its error is second order
-    in an error of K (the short form P − KUᵀ is first order), which matters when the gain comes
-    from a covariance that rounding has already touched. Both expansions above are that same
-    polynomial in the computed K (``K S`` is not replaced by ``U``), so the property is kept.
-    The last one is a symmetric rank-2k update (BLAS ``syr2k``): it avoids the dense n × n
-    product with (I − KH) (O(n³)), computes one triangle only (n²k multiply-adds, half of what
-    the products K Uᵀ and K (S Kᵀ) cost) and leaves P' exactly symmetric, with one n × n copy and
-    no other n × n temporary; with ``overwrite`` (and a C-ordered float64 P) P' is written over
-    P, with none (P need not be C-ordered: another layout is copied, and the result is right).
-    Returns ``(δx, P')``; raises ``NotPositiveDefinite`` when S is not (P untouched)."""
+    The Joseph form is a sum of positive semidefinite terms and its error is second order in an
+    error of K (the short form P − KUᵀ is first order); both expansions are the same polynomial in
+    the computed K, so that holds. The last is a symmetric rank-2k update (BLAS ``syr2k``): no O(n³)
+    product with (I − KH), one triangle (n²k multiply-adds), P' exactly symmetric, one n × n copy
+    (none with ``overwrite`` and a C-ordered float64 P). Returns ``(δx, P')``; raises
+    ``NotPositiveDefinite`` when S is not (P untouched)."""
     U = P[:, cols] @ H.T
     S = H @ U[cols] + R
     S = 0.5 * (S + S.T)
@@ -94,9 +85,8 @@ def joseph_update(P: np.ndarray, H: np.ndarray, cols: np.ndarray, innovation: np
 
 
 def mirror_upper(C: np.ndarray, block: int = 64) -> np.ndarray:
-    """Copy the upper triangle of square ``C`` onto its lower one, in place, by blocks of
-    ``block`` rows (a transposed read of a whole matrix strides through memory; a block stays in
-    cache). Returns ``C``."""
+    """Copy the upper triangle of square ``C`` onto its lower one in place, ``block`` rows at a time
+    (a block's transposed read stays in cache). Returns ``C``."""
     n = len(C)
     for i in range(0, n, block):
         C[i:i + block, :i] = C[:i, i:i + block].T
@@ -114,11 +104,11 @@ def _strict_lower(b: int) -> tuple[np.ndarray, np.ndarray]:
 
 def augment(P: np.ndarray, J_state: np.ndarray, state_cols: np.ndarray, J_meas: np.ndarray,
             M: np.ndarray) -> np.ndarray:
-    """Append a landmark ``l = g(x, m)`` initialised from the state and a measurement ``m ~ (m̂, M)``:
+    """Append a landmark ``l = g(x, m)`` from the state and a measurement ``m ~ (m̂, M)``:
 
         P_ll = J_x P_xx J_xᵀ + J_m M J_mᵀ,   P_lx = J_x P_x·,
 
-    with ``J_state`` the nonzero columns ``state_cols`` of ``J_x = ∂g/∂x``. Returns the grown P."""
+    ``J_state``: the nonzero columns ``state_cols`` of ``J_x``. Returns the grown P."""
     n, s = len(P), len(J_state)
     cross = J_state @ P[state_cols, :]
     out = np.zeros((n + s, n + s))
@@ -131,9 +121,8 @@ def augment(P: np.ndarray, J_state: np.ndarray, state_cols: np.ndarray, J_meas: 
 
 
 def bundle_jacobian(J_pose: np.ndarray, J_l: np.ndarray) -> np.ndarray:
-    """H (d·k, q + s·k) of k predictions over ``[pose, their landmarks]``: ``J_pose`` (k, d, q)
-    stacked in the pose columns, ``J_l`` (k, d, s) on the block diagonal of the landmark columns
-    (prediction j depends on landmark j only)."""
+    """H (d·k, q + s·k) of k predictions over ``[pose, their landmarks]``: ``J_pose`` (k, d, q) in
+    the pose columns, ``J_l`` (k, d, s) block-diagonal."""
     k, d, q = J_pose.shape
     s = J_l.shape[2]
     H = np.zeros((d * k, q + s * k))

@@ -1,22 +1,14 @@
 """Planar EKF-SLAM with range-bearing landmarks (the data association lecture's filter).
 
-State ``x = [x, y, θ, l₁x, l₁y, …, l_Nx, l_Ny]`` with additive world-frame errors, θ wrapped to
-[−π, π) after every step; the covariance algebra is ``ekf_core``'s.
+State ``x = [x, y, θ, l₁x, l₁y, …]`` with additive world-frame errors, θ wrapped after every step.
+Motion: ``planar_pose.motion_step``; measurement ``z = (r, φ) = h(x, l)``
+(``models.range_bearing``), bearing innovation wrapped, Joseph update (``ekf_core.joseph_update``);
+new landmark ``l = g(x, z)`` with ``P_ll = G_x P_xx G_xᵀ + G_z R G_zᵀ`` (``ekf_core.augment``).
 
-* Motion (increment ``Δ = (Δx, Δy, Δθ)`` in the previous pose's frame, covariance Q):
-  ``x' = x + c Δx − s Δy``, ``y' = y + s Δx + c Δy``, ``θ' = wrap(θ + Δθ)`` (c, s of θ);
-  ``F = ∂x'/∂pose = [[1, 0, −s Δx − c Δy], [0, 1, c Δx − s Δy], [0, 0, 1]]``,
-  ``G = ∂x'/∂Δ = blockdiag(R(θ), 1)``; ``P' = F P Fᵀ + G Q Gᵀ`` on the pose block, ``F P`` on
-  the pose-landmark cross terms (``planar_pose.motion_step``, shared with ``LineEKF``).
-* Measurement ``z = (r, φ) = h(x, l)`` (``models.range_bearing``), the bearing's innovation
-  wrapped, Joseph update (``ekf_core.joseph_update``).
-* New landmark ``l = g(x, z)`` with ``P_ll = G_x P_xx G_xᵀ + G_z R G_zᵀ`` (``ekf_core.augment``).
-
-Candidates of a frame's problem are the landmarks predicted within ``max_range`` and ``fov/2``
-of the heading, each bound widened by ``MARGIN_SIGMAS`` σ of that landmark's predicted range or
-bearing (a landmark just outside on the estimate may be inside in truth). Misses of tentative
-landmarks are counted only for candidates predicted inside the nominal bounds, so the margin
-never drops a landmark the sensor could not have seen.
+Candidates are the landmarks predicted within ``max_range`` and ``fov/2``, each bound widened by
+``MARGIN_SIGMAS`` σ of the landmark's predicted range or bearing (just outside on the estimate may
+be inside in truth); misses count only inside the nominal bounds, so the margin never drops a
+landmark the sensor could not have seen.
 """
 
 from __future__ import annotations
@@ -69,7 +61,7 @@ class PlanarEKF(PlanarPoseViews, Estimator):
         self.frame += 1
 
     def problem(self, frame: FrameData) -> Problem:
-        """Candidates: landmarks predicted in range and field of view (with a margin); ``zhat`` and
+        """Candidates predicted in range and field of view (with the margin); ``zhat`` and
         ``P = H Σ Hᵀ`` over the pose and the candidates, cross terms kept."""
         _check_frame(frame)
         zhat = predict(self._x, self._L)
@@ -88,8 +80,8 @@ class PlanarEKF(PlanarPoseViews, Estimator):
                        volume=self.max_range * self.fov, angular=ANGULAR)
 
     def update(self, association: np.ndarray) -> UpdateReport:
-        """Joseph update with exactly the pairs of ``association`` (bearing innovation wrapped);
-        then confirm observed tentative landmarks and drop those missed ``drop_after`` times."""
+        """Joseph update with exactly ``association``'s pairs (bearing wrapped); then confirm and
+        drop tentative landmarks."""
         rows, zhat, J_pose, J_l, inside, frame = self._require_problem()
         a, paired, nu = paired_innovations(association, len(rows), frame.z, zhat, ANGULAR)
         if len(paired):
@@ -105,10 +97,8 @@ class PlanarEKF(PlanarPoseViews, Estimator):
         return UpdateReport(len(paired), confirmed, removed)
 
     def initialise(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
-        """slam: a landmark ``g(x, z_i)`` from each feature i in the given order while the frame
-        paired fewer than ``target_paired`` features (at most the shortfall), at most
-        ``max_new_per_frame`` per frame and ``max_landmarks`` in the map. A feature without a
-        positive finite range is skipped. Localisation makes none."""
+        """slam: a landmark ``g(x, z_i)`` per given feature in order, within ``creation_room``; a
+            feature without a positive finite range is skipped. Localisation makes none."""
         if self.cfg.mode != "slam":
             return []
         _check_frame(frame)
@@ -148,8 +138,8 @@ class PlanarEKF(PlanarPoseViews, Estimator):
         return np.abs(bearing) <= 0.5 * self.fov + margin
 
     def _marginal_blocks(self, J_pose: np.ndarray, J_l: np.ndarray) -> np.ndarray:
-        """Each landmark's own predicted covariance (N, 2, 2), ``H_j Σ_[pose, l_j] H_jᵀ`` with
-        ``H_j = [J_pose_j, J_l_j]``, from the diagonal 5 × 5 blocks of P only (O(N))."""
+        """Each landmark's predicted covariance (N, 2, 2), ``H_j Σ_[pose, l_j] H_jᵀ``, from P's
+        diagonal 5 × 5 blocks (O(N))."""
         n = len(self._L)
         i = 3 + 2 * np.arange(n)[:, None] + np.arange(2)                       # (N, 2) state indices
         P_pl = self.P[:3, 3:].reshape(3, n, 2).transpose(1, 0, 2)               # (N, 3, 2)

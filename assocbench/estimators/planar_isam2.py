@@ -1,46 +1,22 @@
 """Planar landmark SLAM on a GTSAM factor graph, solved incrementally with iSAM2 (the GMU project's
 back end). Poses ``X(k)`` (``Pose2``), landmarks ``L(map id)`` (``Point2``):
 
-* start: a prior on ``X(0)`` from the given pose and P's pose block (slam mode passes P = 0, the
-  gauge: the prior gets σ = 1e-6 m / rad, tiny but positive, so the graph stays solvable); in
-  localisation a **joint** Gaussian prior over ``X(0)`` and the given landmarks with P's full
-  covariance (a common-mode map error correlates every landmark: per-landmark blocks would
-  throw that away and make the smoother overconfident). GTSAM has no n-ary prior, so it enters
-  as a linear factor ``U δ`` (``UᵀU = Σ_t⁻¹``, upper triangular) wrapped in a
-  ``LinearContainerFactor`` at the prior mean, which relinearises it exactly (it is linear in
-  GTSAM's local coordinates).
-* motion: ``BetweenFactorPose2(X(k−1), X(k), Δ)`` (the contract's increment is ``Pose2.between``),
-  initial value ``x̂_{k−1} ⊕ Δ``.
-* measurement: ``BearingRangeFactor2D(X(k), L(id), φ, r)``, noise R with its rows and columns
-  swapped (GTSAM's order is bearing, range).
+* start: a prior on ``X(0)`` (slam: the gauge, σ = 1e-6); localisation: a **joint** Gaussian prior
+  over ``X(0)`` and the landmarks with P's full covariance (a common map error correlates them;
+  per-landmark priors would be overconfident), a linear factor ``U δ`` (``UᵀU = Σ_t⁻¹``) in a
+  ``LinearContainerFactor``;
+* motion: ``BetweenFactorPose2(X(k−1), X(k), Δ)``, initial value ``x̂_{k−1} ⊕ Δ``;
+* measurement: ``BearingRangeFactor2D(X(k), L(id), φ, r)``, R in GTSAM's (bearing, range) order.
 
-Coordinates. GTSAM's ``Pose2`` tangent is body-frame, ``x ⊕ ξ = x·Exp(ξ)``, so to first order a
-world-frame error is ``[δx, δy, δθ] = [R(θ) ξ_xy, ξ_θ]``: every covariance read from GTSAM is
-mapped by ``T = blockdiag(R(θ), 1, I₂…)`` (``Σ_w = T Σ_t Tᵀ``, θ of iSAM2's linearisation point of
-``X(k)``, the tangent Σ_t lives on) before ``range_bearing.jacobians``
-meet it, and every covariance given to GTSAM by ``Tᵀ``. An increment's covariance Q (additive on
-``(Δx, Δy, Δθ)``) becomes ``blockdiag(R(Δθ)ᵀ, 1) Q blockdiag(R(Δθ), 1)`` on the increment's tangent.
+``Pose2``'s tangent is body-frame, so covariances from GTSAM are mapped to world ``[δx, δy, δθ]`` by
+``T = blockdiag(R(θ), 1, I₂…)`` (θ of the linearisation point), those given to it by ``Tᵀ``; an
+increment's Q by ``blockdiag(R(Δθ)ᵀ, 1)``. Factors wait in a batch until the estimate is read. A
+dropped tentative landmark's factors are removed: a smoother can undo a wrong association.
 
-Factors and values wait in a pending batch and reach iSAM2 (one ``update``) when something reads
-the estimate (``problem``, a property), so a frame costs one or two iSAM2 updates. A dropped
-tentative landmark's factors are removed from the graph (``removeFactorIndices``; iSAM2 then
-forgets the variable): a smoother can undo a wrong association, where an EKF can only marginalise.
-
-No landmark is born closer than ``MIN_INIT_RANGE`` (0.1 m, the shipped posts' radius: no post's
-centre can be nearer the lidar). A bearing at range r pins the landmark to r σ_φ across the ray
-and swings by δp / r for a pose error δp: a clutter feature at 3 cm (post_grid, hard, seed 1,
-frame 204) made a landmark whose bearing factors iSAM2's one Gauss–Newton step per update never
-converged on. It jumped metres a frame with no new factor, and that chaos grew any last-bit
-difference tenfold a frame (1e-14 at frame 206, 2 m at frame 227) until associations differed:
-the committed leaderboard's iSAM2 rows did not reproduce on another machine, because the system
-libm (GTSAM's sin, cos, atan2; glibc picks FMA code per CPU) and OpenBLAS (numpy's products,
-kernels picked per CPU) round differently there (OPENBLAS_CORETYPE=Prescott or
-GLIBC_TUNABLES=glibc.cpu.hwcaps=-AVX2,-FMA reproduce it on one machine). Bit for bit across CPUs
-is out of reach for that reason alone, for the EKF too (its estimates differ by 6e-15 m, its
-decisions never). With this rule 6 of 7 iSAM2 runs that differed or could have agree to every
-printed digit across those three arithmetics; park/hard naive16 (ANEES > 800: a smoother swamped
-by wrong pairings) still does not. ``check`` guards iSAM2 with tolerances
-(configs/planar_isam2_ci.yaml).
+No landmark is born closer than ``MIN_INIT_RANGE``: a bearing swings by δp / r with a pose error, so
+a landmark a few cm away never converges under iSAM2's one Gauss–Newton step per update, and its
+chaos magnifies CPUs' last-bit rounding differences into different associations; ``check`` guards
+iSAM2 with tolerances (configs/planar_isam2_ci.yaml).
 """
 
 from __future__ import annotations
@@ -132,9 +108,9 @@ class PlanarISAM2(Estimator):
         self.frame += 1
 
     def problem(self, frame: FrameData) -> Problem:
-        """Candidates predicted within ``(1 + RANGE_MARGIN)·max_range`` and ``fov/2 + BEARING_MARGIN``;
-        ``P = H Σ_w Hᵀ`` with ``Σ_w = T Σ_t Tᵀ`` and ``Σ_t`` the joint marginal of ``X(k)`` and the
-        candidates' ``L`` (``joint_covariance``)."""
+        """Candidates within ``(1 + RANGE_MARGIN)·max_range`` and ``fov/2 + BEARING_MARGIN``;
+        ``P = H Σ_w Hᵀ``, ``Σ_w = T Σ_t Tᵀ`` from the joint marginal of ``X(k)`` and the candidates
+        (``joint_covariance``)."""
         z, R = _checked_frame(frame)
         pose, L = self.pose, self._L   # flushes
         zhat = predict(pose, L)
@@ -154,8 +130,8 @@ class PlanarISAM2(Estimator):
                        volume=self.max_range * self.fov, angular=ANGULAR)
 
     def update(self, association: np.ndarray) -> UpdateReport:
-        """A ``BearingRangeFactor2D`` per pairing; confirms and drops tentative landmarks as
-        ``CameraEKF`` does (a miss counts only for a candidate predicted strictly in view)."""
+        """A ``BearingRangeFactor2D`` per pairing; tentative landmarks confirmed and dropped as
+        ``PlanarEKF`` does (a miss only strictly in view)."""
         rows, frame, strict = self._require_problem()
         a = np.asarray(association)
         if a.shape != (len(rows),) or (a.size and not np.issubdtype(a.dtype, np.integer)):
@@ -171,10 +147,8 @@ class PlanarISAM2(Estimator):
         return UpdateReport(len(paired), confirmed, removed)
 
     def initialise(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
-        """Slam mode: ``L(id)`` at ``range_bearing.inverse(x̂_k, z_i)`` with its bearing-range
-        factor, for the given features in order, while the frame paired fewer than
-        ``target_paired`` (at most the shortfall), ``max_new_per_frame`` and ``max_landmarks``;
-        a feature closer than ``MIN_INIT_RANGE`` makes none (module docstring)."""
+        """Slam: ``L(id)`` at ``range_bearing.inverse(x̂_k, z_i)`` with its factor, per given
+            feature within ``creation_room``; none closer than ``MIN_INIT_RANGE``."""
         if self.cfg.mode != "slam":
             return []
         z, R = _checked_frame(frame)
@@ -236,18 +210,12 @@ class PlanarISAM2(Estimator):
         return np.array([_pose_array(est.atPose2(self._key_x(k))) for k in range(self.frame + 1)])
 
     def joint_covariance(self, rows: np.ndarray) -> np.ndarray:
-        """``T Σ_t Tᵀ`` (3 + 2n)²: the joint marginal of ``X(k)`` and the landmarks ``rows`` (book
-        order) at iSAM2's linearisation point, mapped to world coordinates.
-
-        ``joint = "isam2"`` asks ``ISAM2.jointMarginalCovariance`` (Bayes-tree shortcuts): 0.1 ms
-        on the test world's 500-pose graph, 0.5 and 17 ms at 50 and 500 landmarks in
-        benchmarks/isam2_rate.py, but 59 ms (median) at 200, 185 ms on one state (even a query of
-        two poses: its slow path is the Bayes tree's, not the number of keys). ``joint =
-        "elimination"`` eliminates the graph linearised there with those keys last
-        (``marginalMultifrontalBayesNet``), leaving ``R`` (upper triangular, ``Σ_t⁻¹ = RᵀR``) over
-        them, so ``Σ_t = R⁻¹R⁻ᵀ`` by one triangular solve: O(graph) every call (2.4, 16, 59 ms
-        at 50, 200, 500 landmarks), never pathological. Both give the
-        same matrix to rounding; ``marginalCovariance`` per key is cheap but not joint."""
+        """``T Σ_t Tᵀ`` (3 + 2n)²: the joint marginal of ``X(k)`` and the landmarks ``rows`` at
+        iSAM2's linearisation point, in world coordinates. ``joint = "isam2"`` asks
+        ``ISAM2.jointMarginalCovariance`` (Bayes-tree shortcuts: usually fast, pathologically slow
+        on some states); ``"elimination"`` eliminates the linearised graph with those keys last
+        (``marginalMultifrontalBayesNet``), ``Σ_t = R⁻¹R⁻ᵀ``: O(graph) every call, never
+        pathological (``benchmarks/isam2_rate.py``). Both agree to rounding."""
         self._flush()
         keys = [self._key_x(self.frame)] + [self._key_l(self.book.ids[r]) for r in rows]
         if self.joint == "isam2":
@@ -266,8 +234,8 @@ class PlanarISAM2(Estimator):
         return R_inv @ R_inv.T
 
     def _theta_lin(self) -> float:
-        """Heading of ``X(k)``'s linearisation point: iSAM2's Σ_t is over the tangent there
-        (``x = x_lin ⊕ ξ``), which can lag the estimate by up to ``RELINEARIZE_THRESHOLD``."""
+        """Heading of ``X(k)``'s linearisation point, which Σ_t's tangent is at (it lags the
+        estimate by up to ``RELINEARIZE_THRESHOLD``)."""
         return self.isam.getLinearizationPoint().atPose2(self._key_x(self.frame)).theta()
 
     # ---------------------------------------------------------------- helpers
@@ -305,13 +273,10 @@ class PlanarISAM2(Estimator):
         owners.append(None)
 
     def _noise(self, S: np.ndarray):
-        """GTSAM's Gaussian noise model of covariance ``S`` with every eigenvalue below
-        ``NOISE_FLOOR²`` raised to it: ``S' = V max(Λ, σ_min² I) Vᵀ`` (``S = V Λ Vᵀ``). Without it an
-        exact odometry or a precise lidar (σ = 0: GTSAM makes a hard constraint, which iSAM2's
-        Cholesky cannot eliminate; σ = 1e-9: an information 10¹⁸ that swamps the rest of the
-        Hessian) ends in GTSAM's "Indeterminant linear system"; 1e-6 still failed on park with exact
-        odometry, 1e-5 held over 200 frames. ``S`` at or above the floor, every shipped setting, is
-        passed unchanged (bit for bit)."""
+        """GTSAM's Gaussian noise model of ``S`` with every eigenvalue raised to at least
+        ``NOISE_FLOOR²`` (``S' = V max(Λ, σ_min² I) Vᵀ``): σ = 0 is a hard constraint iSAM2's
+        Cholesky cannot eliminate, and a tiny σ swamps the Hessian ("Indeterminant linear system").
+        ``S`` at or above the floor (every shipped setting) passes unchanged."""
         S = 0.5 * (S + S.T)
         w, V = np.linalg.eigh(S)
         if w[0] < NOISE_FLOOR ** 2:
@@ -355,8 +320,8 @@ class PlanarISAM2(Estimator):
         return tuple(confirmed)
 
     def _drop_tentative(self, rows: np.ndarray, a: np.ndarray, strict: np.ndarray) -> tuple[int, ...]:
-        """Count misses of tentative candidates predicted strictly in view and left unassociated;
-        remove those missed ``drop_after`` times, with their factors."""
+        """Count misses of tentative candidates strictly in view and unassociated; remove those
+        missed ``drop_after`` times, with their factors."""
         gone = []
         for r, f, inside in zip(rows, a, strict):
             if f < 0 and inside and self.book.status[r] != CONFIRMED:
@@ -379,8 +344,8 @@ def _pose_array(p) -> np.ndarray:
 
 
 def _upper_information_factor(Sigma: np.ndarray) -> np.ndarray:
-    """Upper-triangular U with ``UᵀU = Σ⁻¹``, from the Cholesky factor of the reversed matrix:
-    ``JΣJ = L Lᵀ`` (J the reversal) gives ``U = J L⁻¹ J`` by one triangular solve, no inverse of Σ."""
+    """Upper-triangular U with ``UᵀU = Σ⁻¹``: ``JΣJ = L Lᵀ`` (J the reversal) gives ``U = J L⁻¹ J``
+    by one triangular solve."""
     from scipy.linalg import cholesky, solve_triangular
     n = len(Sigma)
     L = cholesky(Sigma[::-1, ::-1], lower=True)

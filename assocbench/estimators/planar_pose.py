@@ -1,11 +1,12 @@
-"""The planar robot pose in an EKF, shared by every planar filter (posts: ``PlanarEKF``, lines:
-``LineEKF``): the odometry prediction step and the pose views the closed loop reads.
+"""The planar robot pose in an EKF, shared by the planar filters (``PlanarEKF``, ``LineEKF``): the
+odometry prediction and the pose views. For ``Δ = (Δx, Δy, Δθ)`` in the previous pose's frame,
+covariance Q (c, s of θ):
 
-Motion (increment ``Δ = (Δx, Δy, Δθ)`` in the previous pose's frame, covariance Q):
-``x' = x + c Δx − s Δy``, ``y' = y + s Δx + c Δy``, ``θ' = wrap(θ + Δθ)`` (c, s of θ);
-``F = ∂x'/∂pose = [[1, 0, −s Δx − c Δy], [0, 1, c Δx − s Δy], [0, 0, 1]]``,
-``G = ∂x'/∂Δ = blockdiag(R(θ), 1)``; ``P' = F P Fᵀ + G Q Gᵀ`` on the pose block (the first three
-state coordinates), ``F P`` on the pose-map cross terms (``ekf_core.propagate_pose``).
+    x' = x + c Δx − s Δy,   y' = y + s Δx + c Δy,   θ' = wrap(θ + Δθ)
+    F = [[1, 0, −s Δx − c Δy], [0, 1, c Δx − s Δy], [0, 0, 1]],   G = blockdiag(R(θ), 1)
+
+``P' = F P Fᵀ + G Q Gᵀ`` on the pose block, ``F P`` on the cross terms
+(``ekf_core.propagate_pose``).
 """
 
 from __future__ import annotations
@@ -36,8 +37,7 @@ def motion_step(pose: np.ndarray, P: np.ndarray, motion: Motion) -> tuple[np.nda
 
 
 class PlanarPoseViews:
-    """The pose views of a filter whose state starts with ``self._x[:3] = (x, y, θ)`` and whose
-    covariance ``self.P`` starts with the pose block."""
+    """Pose views of a filter whose state and covariance start with ``(x, y, θ)``."""
 
     _x: np.ndarray
     P: np.ndarray

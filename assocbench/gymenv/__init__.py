@@ -1,12 +1,9 @@
-"""Gymnasium environments: the ids come from the track registry (each track's ``GymEnvs``
-capability). A track with association problems offers, per shipped scene, ``assocbench/<Scene>-v0`` (open loop:
-the belief is sampled around the truth) and ``assocbench/<Scene>Loop-v0`` (closed loop: the
-belief is the track's estimator updated with the agent's own actions): ``assocbench/Room-v0``,
-``assocbench/ParkLoop-v0``, ``assocbench/Hallway-v0``, ... ``env_ids()`` lists them.
-
-Importing this package registers them: ``import assocbench.gymenv``, or name the module in the
-id, ``gymnasium.make("assocbench.gymenv:assocbench/Room-v0")``. A track registered later (a
-module named in ``ASSOCBENCH_TRACKS`` imported afterwards) gets its ids from ``register_envs()``."""
+"""Gymnasium environments, their ids from the track registry (``GymEnvs``): per shipped scene
+``assocbench/<Scene>-v0`` (open loop) and ``assocbench/<Scene>Loop-v0`` (closed loop: the track's
+estimator updated with the agent's actions), e.g. ``assocbench/Room-v0``,
+``assocbench/ParkLoop-v0``; ``env_ids()`` lists them. Importing this package registers them (or
+``gymnasium.make("assocbench.gymenv:assocbench/Room-v0")``); a track registered later gets its ids
+from ``register_envs()``."""
 
 from __future__ import annotations
 
@@ -23,8 +20,8 @@ ENTRY_POINTS = {False: "assocbench.gymenv.env:AssociationEnv", True: "assocbench
 
 
 def env_ids() -> dict[str, tuple[str, GymEnv]]:
-    """Every registered track's Gymnasium envs (``GymEnvs``): id -> (track name, ``GymEnv``), in the
-    registry's order; an id two tracks declare is a one-line ``UserError`` naming both."""
+    """Every registered track's envs: id -> (track name, ``GymEnv``), in registry order; an id two
+    tracks declare is a one-line ``UserError``."""
     out: dict[str, tuple[str, GymEnv]] = {}
     for track in iter_tracks():
         for env in (track.gym_envs() if has(track, GymEnvs) else ()):

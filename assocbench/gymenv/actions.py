@@ -1,15 +1,9 @@
-"""Valid actions for ``AssociationEnv``: the action mask it publishes and two ways to sample with it.
-
-The action is a ``MultiDiscrete`` of N slots taking values -1..M-1 (``start=-1``), so value
-``v`` of slot ``j`` is column ``v + 1`` of row ``j`` of ``info["action_mask"]`` (N, M+1), int8:
-
-* a real candidate slot (``j < n``) may take -1 or any real feature ``0..m-1``;
-* a padded slot (``j >= n``) may take only -1.
-
-``env.action_space.sample(mask=sample_mask(info["action_mask"]))`` (Gymnasium's masked
-sampling for ``MultiDiscrete``; in a vector env, per env from ``envs.single_action_space``) therefore never uses a padded slot or a feature index beyond
-the frame, but it draws each slot independently, so two candidates can still pick the same
-feature (an invalid action). ``sample_valid_action`` draws a fully valid, one-to-one action.
+"""Valid actions for ``AssociationEnv``. The action is a ``MultiDiscrete`` of N slots in -1..M-1
+(``start=-1``), so value ``v`` of slot ``j`` is column ``v + 1`` of row ``j`` of
+``info["action_mask"]`` (N, M+1, int8): a real candidate slot (``j < n``) may take -1 or a real
+feature, a padded one only -1. ``env.action_space.sample(mask=sample_mask(info["action_mask"]))``
+never uses a padded slot or a missing feature, but two candidates may pick one feature;
+``sample_valid_action`` draws a valid one-to-one action.
 """
 
 from __future__ import annotations
@@ -28,9 +22,8 @@ def action_mask(n: int, m: int, max_landmarks: int, max_features: int) -> np.nda
 
 
 def sample_mask(mask: np.ndarray) -> tuple[np.ndarray, ...]:
-    """One env's (N, M+1) ``mask`` as the tuple of int8 rows that ``MultiDiscrete.sample(mask=...)``
-    takes. A vector env's action space is a ``Box`` with no masked sampling: sample each env from
-    ``envs.single_action_space`` with its own row of the stacked ``info["action_mask"]``."""
+    """One env's ``mask`` as the tuple of int8 rows ``MultiDiscrete.sample(mask=...)`` takes (a
+    vector env samples each env from ``envs.single_action_space`` with its row)."""
     mask = np.asarray(mask, dtype=np.int8)
     if mask.ndim != 2:
         raise ValueError(f"one env's action mask is (N, M+1), got shape {mask.shape}")
@@ -38,10 +31,8 @@ def sample_mask(mask: np.ndarray) -> tuple[np.ndarray, ...]:
 
 
 def sample_valid_action(mask: np.ndarray, rng: np.random.Generator) -> np.ndarray:
-    """A random action that the env accepts: every slot takes an allowed value and no feature
-    is used twice. Slots are visited in random order; each takes -1 or a feature not yet
-    taken, uniformly among those (so the draw is valid but not uniform over all matchings).
-    A (num_envs, N, M+1) stack gives one action per env."""
+    """A random action the env accepts: slots in random order, each taking -1 or a free feature
+    uniformly (valid, not uniform over matchings). A (num_envs, N, M+1) stack gives one per env."""
     mask = np.asarray(mask)
     if mask.ndim == 3:
         return np.stack([sample_valid_action(rows, rng) for rows in mask])

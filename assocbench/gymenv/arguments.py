@@ -1,6 +1,5 @@
-"""The constructor arguments of ``AssociationEnv``, checked up front: a bad one is a one-line
-``UserError`` from the constructor (so ``make_vec`` refuses it in the parent process), never a
-``ZeroDivisionError`` or a broken worker at the first ``reset``."""
+"""``AssociationEnv``'s constructor arguments, checked up front: a bad one is a one-line
+``UserError`` in the parent process (``make_vec``), never a broken worker at the first ``reset``."""
 
 from __future__ import annotations
 
@@ -35,8 +34,7 @@ def _resolution(resolution: Any) -> list[int]:
 
 
 def _difficulty(difficulty: Any) -> dict:
-    """The run-config override a difficulty stands for: a shipped level, or belief settings (a
-    shipped level's settings of another section than ``belief`` are left to the suites)."""
+    """The run-config override of a difficulty: a shipped level, or belief settings."""
     levels = shipped_difficulties()
     if isinstance(difficulty, str):
         if difficulty not in levels:
@@ -53,10 +51,9 @@ def _difficulty(difficulty: Any) -> dict:
 
 def env_config(scene: Any, trajectory: Any, frames: Any, difficulty: Any, resolution: Any,
                config: Any, track: Any = None) -> tuple[dict, RunSpec]:
-    """The merged run config of an env and its resolved ``RunSpec`` (every value checked by
-    ``run_spec``); a bad argument raises a one-line ``UserError`` naming it. The env's track is
-    ``track`` (or ``config["track"]``), else the scene's; ``trajectory`` and ``resolution`` apply
-    where the track has them (a trajectory given to a track without one is refused)."""
+    """The env's merged run config and ``RunSpec`` (every value checked); a bad argument is a
+    one-line ``UserError`` naming it. The track is ``track`` (or ``config["track"]``), else the
+    scene's; ``trajectory`` and ``resolution`` apply where the track has them."""
     if not isinstance(scene, (str, os.PathLike)) or not str(scene):
         raise UserError(f"scene must be a scene's name or the path of a file of the track's kind, got {scene!r}")
     if trajectory is not None and not isinstance(trajectory, str):
@@ -83,8 +80,8 @@ def env_config(scene: Any, trajectory: Any, frames: Any, difficulty: Any, resolu
 
 
 def env_track(spec: RunSpec) -> Track:
-    """The track of the env's run, if it offers this kind of env (one of its ``gym_envs`` is open or
-    closed loop as the run is); else a one-line ``UserError`` saying why."""
+    """The run's track if it offers this kind of env (open or closed loop), else a one-line
+    ``UserError`` saying why."""
     track = spec.track_impl
     where = f"scene {spec.source.name!r}"
     if not has(track, GymEnvs) or has(track, OwnFrames):

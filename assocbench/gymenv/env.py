@@ -1,44 +1,22 @@
-"""Gymnasium environment: one episode is one pass along a track's trajectory; each step is
-one frame's association problem. One class serves every track whose frames are ``Problem``s
-and that offers envs (``GymEnvs``): the id names the track and its scene, and the track says what
-differs (``Track.source``, ``Track.problem``, ``GymEnvs.env_slots``, its ``Pictures``).
+"""Gymnasium environment: an episode is one pass along a track's trajectory, a step one frame's
+association problem; one class serves every track offering envs (``GymEnvs``).
 
-Observation (``Dict``, padded to fixed maxima so ``gymnasium.make_vec`` works in both modes;
-d is the measurement's dimension, 2 on every built-in track):
+Observation (``Dict``, padded to fixed maxima for ``gymnasium.make_vec``): ``features`` (M, d) in
+the track's units, ``feature_cov`` (M, d, d), ``feature_mask`` (M,); ``predictions`` (N, d),
+``prediction_cov`` (N, d, d) the marginal blocks of P, ``landmark_mask`` (N,); the joint covariance
+and angular dims in ``info["problem"]``. A terminating step observes nothing.
 
-* ``features`` (M, d) the measurements in the track's units (pixels; range m and bearing rad;
-  α rad and r m; each track's page says), ``feature_cov`` (M, d, d) their noise R, ``feature_mask`` (M,);
-* ``predictions`` (N, d), ``prediction_cov`` (N, d, d) the marginal blocks of P,
-  ``landmark_mask`` (N,). The full joint covariance with cross terms, and which dimensions are
-  angles that wrap (``angular``), are in ``info["problem"]``.
+Action: ``MultiDiscrete`` of N entries in [-1, M-1], each candidate's feature (padded slots -1;
+``info["action_mask"]``, ``actions.py``). An invalid action is never scored silently:
+``invalid_action="penalize"`` (default) rewards ``-n``, counts nothing found, sets
+``jointly_compatible`` False and says why in ``info["invalid_action"]``; ``"raise"`` raises
+``ValueError``. Reward: TP − FP.
 
-The observation a terminating step returns is empty (both masks zero): no frame is left.
-
-Action: ``MultiDiscrete`` of N entries in [-1, M-1]: the feature paired with each candidate,
--1 for none; padded candidates must be -1. ``info["action_mask"]`` (N, M+1) says which values
-each slot may take (see ``actions.py`` for masked sampling and a valid random action). An
-invalid action (wrong shape, a padded slot used, an index beyond the frame's features, a
-feature used twice) is never scored silently: with ``invalid_action="penalize"`` (default)
-the step's reward is ``-n`` (as if every candidate were paired wrongly), nothing is counted as
-found (``step_metrics`` are the empty answer's, with ``jointly_compatible`` False: the action
-was not a compatible association), and ``info["invalid_action"]`` says what was wrong; with ``invalid_action="raise"`` the
-step raises ``ValueError``.
-
-Reward: TP − FP of the step (a wrong pairing costs as much as a right one earns).
-
-``info`` holds only fixed-size entries, so a vector env can stack them: ``problem`` (the
-``Problem``, so classical associators can act; absent once the episode is over), ``truth``
-(N,) the true association padded with -1 (itself a valid action), ``action_mask`` (N, M+1),
-``frame`` (the index of the frame observed), and after a step ``scored_frame`` and the step's
-metrics ``step_metrics`` (``tp``, ``fp``, ``fn``, ...).
-
-After the step that returns ``terminated=True``, ``step()`` raises ``gymnasium.error.ResetNeeded``
-until ``reset()``: there is no frame left to score (vector envs reset on the next step
-themselves). ``render_mode="rgb_array"`` serves tracks with pictures (``Pictures``): the frame as
-``assocbench render`` draws it, with the last step's association. A process forked from one that
-had already rendered with MuJoCo's GL cannot render (the driver does not survive ``fork``):
-``reset`` of an env whose track renders its frames (``renders_frames``) there raises a one-line
-``UserError`` instead of hanging.
+``info`` (fixed-size, vector envs stack it): ``problem`` (absent once over), ``truth`` (N,),
+``action_mask``, ``frame``, after a step ``scored_frame`` and ``step_metrics``. After
+``terminated``, ``step()`` raises ``ResetNeeded``. ``render_mode="rgb_array"`` draws as
+``assocbench render`` does; a process forked after MuJoCo rendered cannot render (GL does not
+survive ``fork``), so ``reset`` there raises a one-line ``UserError`` instead of hanging.
 """
 
 from __future__ import annotations
@@ -67,16 +45,14 @@ _FORKED_AFTER_EGL = False   # this process was forked from one that had already 
 
 
 def invalid_action_metrics(problem: Problem, truth) -> dict:
-    """``step_metrics`` of an invalid action: the empty answer's counts (every true pair an FN), and
-    ``jointly_compatible`` False, not the empty answer's trivial True. Not NaN, as the harness's
-    failed frame has it: Gymnasium's env checker compares infos with ``==``, and NaN != NaN."""
+    """``step_metrics`` of an invalid action: the empty answer's counts with ``jointly_compatible``
+    False (not NaN: Gymnasium's checker compares infos with ``==``)."""
     return score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64)) | {"jointly_compatible": False}
 
 
 def _note_fork() -> None:
-    """Runs in every forked child: remember whether the parent had made an EGL context. The GL
-    driver's threads do not survive ``fork``, and the child's first render would wait for them
-    forever (Mesa's llvmpipe hangs in ``mjr_makeContext``), so such a child must not render."""
+    """In every forked child: remember whether the parent made an EGL context, since the child's
+    first render would wait forever on the driver's lost threads."""
     global _FORKED_AFTER_EGL
     egl = sys.modules.get("mujoco.egl")
     _FORKED_AFTER_EGL = _FORKED_AFTER_EGL or getattr(egl, "EGL_DISPLAY", None) is not None
@@ -138,8 +114,8 @@ class AssociationEnv(gym.Env):
 
     # -- episode -------------------------------------------------------------------------
     def reset(self, *, seed: int | None = None, options: dict | None = None):
-        """Start the episode of ``seed`` (drawn from the env's generator when None). The env has
-        no reset options; any given are refused rather than silently ignored."""
+        """Start the episode of ``seed`` (from the env's generator when None); reset options are
+        refused, not ignored."""
         if options:
             raise UserError(f"AssociationEnv.reset takes no options, got {sorted(options)}; "
                             "pass settings to the constructor (gymnasium.make kwargs)")
@@ -200,8 +176,8 @@ class AssociationEnv(gym.Env):
         self._take(*self._problems[self._frame])
 
     def _take(self, problem: Problem, truth) -> None:
-        """Make ``problem`` the current frame, refusing one larger than the padded spaces (a track
-        whose ``env_slots`` is not a bound: its bug, said in one line, never a broadcasting error)."""
+        """Make ``problem`` the current frame, refusing one larger than the padded spaces in one
+        line (a track bug, not a broadcasting error)."""
         problem.validate()          # the whole P, as the harness checks it, before the agent sees it
         checked_truth(self._track.name, self._frame, problem, truth)   # and the truth it is scored against
         if problem.n > self.max_landmarks or problem.m > self.max_features or problem.d != self.dim:
@@ -211,8 +187,8 @@ class AssociationEnv(gym.Env):
         self._problem, self._truth = problem, truth
 
     def _apply(self, association: np.ndarray | None, error: str) -> dict[str, Any]:
-        """Act on the current frame's answer (None: refused with ``error``) before the next frame
-        loads; the open loop's frames do not depend on it. Returns extra step ``info``."""
+        """Act on the frame's answer (None: refused with ``error``) before the next frame loads;
+        returns extra ``info``."""
         return {}
 
     def _check_action(self, action) -> np.ndarray:
@@ -258,8 +234,7 @@ class AssociationEnv(gym.Env):
 
     # -- pictures ------------------------------------------------------------------------
     def _run_frame(self, association: np.ndarray, record: dict, error: str = "") -> RunFrame | None:
-        """The current frame as its picture draws it (None when nothing is drawn): the problem,
-        truth, answer, the step's ``record`` and, in the closed loop, the estimator after it."""
+        """The current frame as its picture draws it (None: nothing drawn)."""
         if self.render_mode != "rgb_array":
             return None
         return RunFrame(self._frame, self._problem, self._truth, association, error, record, self._picture_estimator())
@@ -269,10 +244,9 @@ class AssociationEnv(gym.Env):
         return None
 
     def render(self) -> np.ndarray | None:
-        """The frame of the last step with that step's association drawn, as ``assocbench render``
-        draws a run of the track (``Pictures.run_pictures``, the agent in the method's place); right
-        after ``reset``, the first frame with no association. One drawing per episode, fed frame by
-        frame, so what it makes once (a renderer, the map, the view's box, the path) is made once."""
+        """The last step's frame with its association drawn as ``assocbench render`` draws a run
+        (the agent in the method's place); after ``reset``, the first frame with no association.
+        One drawing per episode, fed frame by frame."""
         if self.render_mode != "rgb_array" or self._problem is None:
             return None
         empty = np.full(self._problem.n, NO_MATCH)
@@ -290,8 +264,8 @@ class AssociationEnv(gym.Env):
 
 
 class _Feed:
-    """An endless iterator of the frame to draw next (``item``): what a track's ``run_pictures``
-    reads its frames from, so that one drawing serves a whole episode."""
+    """An endless iterator of the next frame to draw, so one ``run_pictures`` drawing serves an
+    episode."""
 
     item: RunFrame | None = None
 

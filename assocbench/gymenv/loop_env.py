@@ -1,27 +1,13 @@
-"""Closed-loop Gymnasium environments: ``assocbench/RoomLoop-v0`` and one id per shipped scene of
-every track with a closed loop (``ClosedLoop``) that offers envs.
+"""Closed-loop Gymnasium environments: ``assocbench/<Scene>Loop-v0`` per shipped scene of each track
+with a closed loop and envs. Each frame's belief is the track's estimator after the agent's own
+earlier actions (``harness.loop.ClosedLoop``): ``step(action)`` scores it, updates the filter (slam:
+unpaired features become landmarks), predicts by odometry and observes the next problem, so a wrong
+pairing corrupts the next observations.
 
-The belief of each frame is the track's estimator's posterior (an EKF, an iSAM2 factor graph:
-the track's ``ClosedLoop``) after the agent's own earlier actions
-(``harness.loop.ClosedLoop``): ``reset`` starts the filter at frame 0 and observes frame 0's
-problem; ``step(action)`` scores the action, updates the filter with it (in ``slam`` mode the
-features it left unpaired become landmarks), predicts to the next frame with odometry and
-observes that frame's problem, predicted from the updated filter. A wrong pairing therefore
-corrupts the estimate, and the next observations with it.
-
-Observation, action, reward (TP − FP), ``info`` and the end of an episode are the open env's
-(``env.py``), with two differences:
-
-* candidate slots N: the scene's map (``Track.env_slots``) in ``localisation``; in ``slam`` the
-  map grows from the features up to ``estimator.max_landmarks`` entries (texture corners
-  included), so N = max(scene landmarks, ``estimator.max_landmarks``);
-* an invalid action (with ``invalid_action="penalize"``) is a failed frame, as in ``--loop``
-  runs: the filter is not updated, it only predicts through the frame.
-
-After each step ``info`` also holds the filter's state at ``scored_frame`` after the update
-(the per-frame columns of ``assocbench run --loop``), all scalars: ``pos_err`` (m),
-``rot_err_deg``, ``nees`` (pose NEES: 6 dof in space, 3 in the plane; NaN while the pose covariance is zero, as at
-slam's first frame) and ``map_size`` (confirmed landmarks).
+As the open env (``env.py``), except: N is the scene's map in ``localisation``, max(scene landmarks,
+``estimator.max_landmarks``) in ``slam``; an invalid action (``"penalize"``) is a failed frame (no
+update). ``info`` also holds the filter's state after the update: ``pos_err`` (m), ``rot_err_deg``,
+``nees`` (NaN while the covariance is zero) and ``map_size``.
 """
 
 from __future__ import annotations
@@ -46,9 +32,8 @@ LOOP_INFO = ("pos_err", "rot_err_deg", "nees", "map_size")
 
 
 def loop_config(config: Any, mode: Any, estimator: Any) -> dict:
-    """The run-config override of a closed-loop env: ``config``, then ``estimator`` (a mapping of
-    ``estimator.*`` settings), then ``mode``; ``loop`` is always true. Values are checked later
-    by ``run_spec``; this refuses what it cannot merge, in one line."""
+    """The override of a closed-loop env: ``config``, then ``estimator`` settings, then ``mode``;
+    ``loop`` true. Values are checked later (``run_spec``); this refuses what it cannot merge."""
     if config is not None and not isinstance(config, Mapping):
         raise UserError(f"config must be a mapping of run-config overrides, got {config!r}")
     if estimator is not None and not isinstance(estimator, Mapping):
@@ -68,11 +53,9 @@ def loop_config(config: Any, mode: Any, estimator: Any) -> dict:
 
 
 class LoopAssociationEnv(AssociationEnv):
-    """Data association in the closed loop as a Gymnasium environment (see module docstring).
-
-    Arguments are the open env's plus ``mode`` (``localisation`` or ``slam``; None keeps
-    ``estimator.mode``, default localisation) and ``estimator`` (``estimator.*`` overrides such as
-    ``{"odometry_sigma_rotation": 0.5}``); ``config`` may hold an ``estimator`` section too."""
+    """Data association in the closed loop as a Gymnasium environment: the open env's arguments plus
+    ``mode`` (None: ``estimator.mode``) and ``estimator`` (``estimator.*`` overrides); ``config``
+    may hold an ``estimator`` section too."""
 
     def __init__(self, scene: str = "room", trajectory: str | None = None, frames: int = 20,
                  difficulty: str | dict | None = None, resolution: tuple[int, int] = (640, 480),
@@ -96,8 +79,8 @@ class LoopAssociationEnv(AssociationEnv):
         return slots
 
     def _load_frame(self) -> None:
-        """Frame ``k``'s problem from the filter: a new filter at frame 0 (reset), else the
-        prediction from the last frame's posterior by odometry."""
+        """Frame ``k``'s problem from the filter: a new filter at reset, else predicted from the
+        last posterior."""
         if self._frame == 0:
             from ..harness.loop import ClosedLoop
 
@@ -105,9 +88,8 @@ class LoopAssociationEnv(AssociationEnv):
         self._take(*self._loop.begin(self._frame))
 
     def _picture_estimator(self):
-        """A copy of the filter as it is now (after this frame's update): the next frame's
-        prediction moves the filter on before ``render`` draws this one. The live filter where it
-        cannot be copied (a back end's native objects)."""
+        """A copy of the filter after this frame's update (the next prediction moves it before
+        ``render``); the live one where it cannot be copied."""
         try:
             return copy.deepcopy(self._loop.filter)
         except Exception:  # noqa: BLE001 - any back end's copy failure: draw the live one

@@ -1,11 +1,7 @@
-"""``assocbench check``: compare a suite's accuracy with a committed baseline.
-
-``check`` passes only when it compared everything it was asked to: every (scenario, method)
-row of the suite is in the baseline and in the fresh run, every run's ``status`` is ``ok`` (no
-failed frames, candidates present, something associated), and every accuracy value on both
-sides is finite and no worse than the baseline by more than its tolerance (finite, >= 0). Which
-columns are guarded is the track's (``Track.guards``): accuracy for a track of association problems,
-a closed loop's ATE too; a track with a frame loop of its own guards its own columns.
+"""``assocbench check``: compare a suite's accuracy with a committed baseline. It passes only when
+it compared everything: every (scenario, method) row in the baseline and the fresh run, every
+``status`` ``ok``, every guarded value finite on both sides and no worse than the baseline by more
+than its tolerance. The guarded columns are the track's (``Track.guards``).
 """
 
 from __future__ import annotations
@@ -33,10 +29,9 @@ def check_tolerance(value, where: str = "--tolerance") -> float:
 
 def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "ci",
                   default: bool = False) -> pd.DataFrame:
-    """The baseline CSV (``scenario, method`` and every guarded column, each in its range), or a
-    one-line error: a missing, empty, truncated or non-numeric baseline, or one that lacks a column
-    the suite guards (a closed loop's ``ate_rmse``), cannot vouch for anything. ``default``: the
-    path is the default one, relative to the working folder (a clone's ``results/``)."""
+    """The baseline CSV (``scenario, method`` and every guarded column in range), or a one-line
+    error for one that cannot vouch for anything (missing, empty, truncated, non-numeric, a guarded
+    column lacking). ``default``: the default path, relative to the working folder."""
     if not path.is_file():
         how = "" if suite == "ci" else f" --suite {suite}"
         where = (f" in {Path.cwd()}: check guards a clone of assocbench (its baselines are the clone's results/); "
@@ -72,10 +67,9 @@ def read_baseline(path: Path, guards: tuple[GuardedMetric, ...], suite: str = "c
 
 def compare(current: pd.DataFrame, baseline: pd.DataFrame, guards: tuple[GuardedMetric, ...],
             tolerances: dict[str, float], expected: list[tuple[str, str]]) -> pd.DataFrame:
-    """Findings (one row each) that make ``check`` fail: a guarded column worse than the baseline
-    by more than its tolerance (``tolerances[guard.tolerance] · guard.scale``), a non-finite
-    value, a run whose status is not ``ok``, or an ``expected`` row missing from the baseline or
-    from the current results."""
+    """Findings that fail ``check``: a guarded column worse than the baseline by more than
+    ``tolerances[guard.tolerance] · guard.scale``, a non-finite value, a status not ``ok``, an
+    ``expected`` row missing on either side."""
     cur = current.set_index(KEY)
     base = baseline.set_index(KEY)
     rows = []
@@ -114,8 +108,8 @@ def baseline_columns(guards: tuple[GuardedMetric, ...]) -> list[str]:
 
 
 def write_ok_table(table: pd.DataFrame, columns: list[str], path: Path) -> None:
-    """Write ``table[columns]`` as a baseline atomically; refuse it when any row's status is not
-    ok (a run that cannot vouch for anything must not become the reference)."""
+    """Write ``table[columns]`` as a baseline atomically; refused when a row is not ok (it cannot be
+    the reference)."""
     bad = table[table["status"] != OK]
     if len(bad):
         r = bad.iloc[0]

@@ -1,14 +1,11 @@
 """Run configuration: one schema per track, its defaults, the user's YAML and ``--set`` overrides
 merged on them, and the resolved ``RunSpec``.
 
-A run's settings are the common ones (``RunKeys``, ``Limits``) and its track's (``Track.settings``):
-the defaults come from those dataclasses alone, the one source of defaults for ``run``, a suite's
-``base``, ``export`` and the Gymnasium envs. A key the run's track does not have is refused in one
-line naming the track (and the tracks that do have it); every value is checked once, when the
-typed ``Settings`` are built (``settings.Schema.build``).
-
-The run's track is the one named (``track:``, ``--track``), else inferred: the method's own, the
-scene's, else the default track (``tracks.inference``).
+Settings are the common ones (``RunKeys``, ``Limits``) and the track's (``Track.settings``), whose
+dataclasses are the one source of defaults (``run``, a suite's ``base``, ``export``, the Gymnasium
+envs). A key the track lacks is refused in one line naming the tracks that have it; every value is
+checked once, when the typed ``Settings`` are built. The run's track is the one named, else the
+method's, the scene's, or the default (``tracks.inference``).
 """
 
 from __future__ import annotations
@@ -38,10 +35,10 @@ LOOP_ONLY = "estimator"   # the section a run outside the closed loop must leave
 class RunKeys:
     """The settings every run has, whatever its track.
 
-    track: the run's track (`assocbench list tracks`); null: the method's own track, else the scene's,
-        else the default track.
-    scene: what the track reads: a scene or dataset it ships (`assocbench list scenes`), or a file of its
-        kind (an MJCF, a log); null: the track's first.
+    track: the run's track (`assocbench list tracks`); null: the method's own track, else the
+        scene's, else the default track.
+    scene: what the track reads: a scene or dataset it ships (`assocbench list scenes`), or a file
+        of its kind (an MJCF, a log); null: the track's first.
     frames: how many frames a run takes; null: the track's default (40 on a simulated track).
     seed: seeds the simulated noise, the belief's errors and the clutter.
     method: the associator (`assocbench list methods`) or pkg.module:Class.
@@ -68,7 +65,7 @@ class RunKeys:
 class Limits:
     """Sizes refused before anything runs (raise them here or with --set limits.frames=N).
 
-    frames: the longest sequence a run may take (frames); about 10 minutes of rendering at 640x480.
+    frames: the longest sequence a run may take (frames); rendering time grows with it.
     clutter: the most clutter features a frame (belief.clutter).
     """
 
@@ -85,8 +82,7 @@ def run_schema(track: Track) -> Schema:
 
 
 def defaults(track: Track | str | None = None) -> dict:
-    """The run config's defaults on ``track`` (a name or a ``Track``; None: the default track), its
-    name filled in."""
+    """The run config's defaults on ``track`` (None: the default track), its name filled in."""
     track = get_track(track or DEFAULT_TRACK) if not isinstance(track, Track) else track
     return run_schema(track).defaults() | {"track": track.name}
 
@@ -110,8 +106,8 @@ def _paths(cfg: dict, sections: set[str]) -> list[str]:
 
 
 def _unknown(key: str, known: list[str], where: str, track: str, everywhere: list[str]) -> UserError:
-    """An unknown dotted ``key``: the tracks that have it, else the key of that name elsewhere
-    (``limits.time_limit_s`` -> ``time_limit_s``) or the closest spelling."""
+    """An unknown dotted ``key``: the tracks that have it, else that name elsewhere or the closest
+    spelling."""
     others = [t for t in owners(key) if t != track]
     if others:
         return UserError(f"{key} is a setting of the {' and '.join(others)} track{'s' if len(others) > 1 else ''}, "
@@ -128,9 +124,8 @@ def _unknown(key: str, known: list[str], where: str, track: str, everywhere: lis
 
 
 def merge(base: dict, override: dict, where: str, track: str | None = None) -> dict:
-    """``base`` (a complete config of ``track``, ``base["track"]`` when None) updated by
-    ``override``: every key must be one of ``base``'s; a section (a mapping in ``base`` that is
-    not a free-form key such as ``params``) is merged key by key."""
+    """``base`` (a complete config of ``track``) updated by ``override``, whose keys must be
+    ``base``'s; sections (not free-form ``params``) merge key by key."""
     track = track or str(base.get("track"))
     sections = set(run_schema(get_track(track)).sections)
     everywhere = _paths(base, sections)
@@ -165,9 +160,8 @@ def run_track(layers: list[tuple[dict, str]]) -> Track:
 
 
 def load_run_config(config: str | Path | None = None, sets: list[str] | None = None, **flags) -> dict:
-    """The run config: the defaults of the run's track, then the YAML ``config``, then ``--set``,
-    then the command-line ``flags`` (None: not given). A key a flag and ``--set`` give different
-    values is refused (``_refuse_conflicts``)."""
+    """The run config: the track's defaults, the YAML ``config``, ``--set``, then the command-line
+    ``flags``; a flag and ``--set`` disagreeing is refused (``_refuse_conflicts``)."""
     given = {k: v for k, v in flags.items() if v is not None}
     parsed = parse_sets(sets)
     _refuse_conflicts(given, parsed, sets or [])
@@ -181,8 +175,8 @@ def load_run_config(config: str | Path | None = None, sets: list[str] | None = N
 
 
 def _refuse_conflicts(flags: dict, given: dict, sets: list[str]) -> None:
-    """Refuse a key given both by its flag and by ``--set`` with another value: the flag would win
-    and the other value, right or wrong, would be dropped without a word."""
+    """Refuse a key given by its flag and by ``--set`` with another value: one would be dropped
+    silently."""
     for key in [k for k in flags if k in given and given[k] != flags[k]]:
         item = next(s for s in reversed(sets) if s.partition("=")[0].strip() == key)
         flag = f"--{key}" if flags[key] is True else f"--{key} {flags[key]}"
@@ -240,9 +234,8 @@ class RunSpec:
 
 
 def run_spec(cfg: dict) -> RunSpec:
-    """Resolve a merged config (``load_run_config``, a suite's cell) into a ``RunSpec``. Every value is
-    checked here, once, before anything runs: types and ranges, the method and its parameters
-    (built once and thrown away), the closed loop, the sizes against ``limits``."""
+    """Resolve a merged config into a ``RunSpec``, checking every value once before anything runs
+    (types, ranges, the method built once, the closed loop, ``limits``)."""
     track = get_track(cfg.get("track") or infer_track(cfg.get("scene"), cfg.get("method")).name)
     cfg = merge(defaults(track), {k: v for k, v in cfg.items() if k != "track"}, "the run config", track.name)
     settings = run_schema(track).build(cfg)
@@ -256,8 +249,8 @@ def run_spec(cfg: dict) -> RunSpec:
 
 
 def _check_track_can(track: Track, settings: Settings, cfg: dict) -> None:
-    """Refuse what the track cannot do: run at all here (a missing package), a closed loop, or
-    estimator settings outside one."""
+    """Refuse what the track cannot do: run here (a missing package), a closed loop, estimator
+    settings outside one."""
     why = track.unavailable() if has(track, Requirements) else None
     if why:
         raise UserError(f"the {track.name} track is unavailable here: {why}")
@@ -293,10 +286,8 @@ def with_pictures(spec: RunSpec, what: str) -> RunSpec:
 
 
 def check_method(method: str, params: dict, loop: bool, track: Track) -> None:
-    """Refuse an unknown method or bad parameters now (built once and thrown away). ``oracle``
-    (the true association) exists only in the closed loop, as its reference row. A track with its
-    own frame loop checks its methods itself (``OwnFrames``); a method whose class has
-    ``check_track(track, params)`` (a learned model of one track) is asked about the track."""
+    """Refuse an unknown method or bad parameters now (built once). ``oracle`` is closed-loop only;
+    an ``OwnFrames`` track checks its methods; a class's ``check_track(track, params)`` is asked."""
     if has(track, OwnFrames):
         track.check_method(method, params)
         return

@@ -1,19 +1,16 @@
 """``export``: a suite's problems with their truth written as the dataset (``assocbench.dataset``).
+Each run (scene x difficulty x seed) gives its problems by its ``drive``:
 
-Each run of the suite (scene x difficulty x seed) gives its problems in one of two ways (``drive``):
+- ``open`` (default): the track's belief sampled around the truth, what ``assocbench run`` without
+  ``--loop`` scores;
+- ``oracle``: a closed-loop suite's own loop driven by the true association, so the problems hold
+  what only a loop makes (first sightings beside mapped posts, clutter landmarks, a tight
+  posterior);
+- a method's label: the loop driven by that method's pairings (on-policy data); the truth written is
+  always the true association.
 
-- ``open`` (default): the track's belief sampled around the truth, exactly what ``assocbench run``
-  without ``--loop`` scores. A closed-loop suite is exported this way too unless told otherwise.
-- ``oracle``: a closed-loop suite's own loop (its estimator, SLAM or localisation), driven by the
-  true association: frame k's problem is the estimator's posterior after frames < k were updated
-  with the truth, so it holds what only a loop makes (posts seen for the first time beside mapped
-  ones, false landmarks made of clutter, a posterior as tight as an update leaves it).
-- the label of one of the suite's ``methods``: the same loop driven by that method's pairings, so
-  the problems are those its own errors lead to (a learned model driving its own loop gives
-  on-policy data); the truth written is always the true association of each problem.
-
-The card says which drive made the data. A track with a frame loop of its own (``OwnFrames``)
-makes no ``Problem``s, so it has nothing to export."""
+The card says which drive made the data. A track with its own frame loop makes no ``Problem``s:
+nothing to export."""
 
 from __future__ import annotations
 
@@ -60,9 +57,8 @@ def check_export_folder(out: Path) -> Path:
 
 def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda line: None,
                  drive: str = "open") -> dict:
-    """Write every problem of suite ``name`` into ``out``, open loop or in the suite's closed loop
-    driven by the truth (``drive``, module docstring); returns the card, with the write's
-    ``seconds`` and rate (not written to the card: timing would break byte-for-byte output)."""
+    """Write every problem of suite ``name`` into ``out`` by ``drive``; returns the card with the
+    write's ``seconds`` and rate (kept off the card, which is byte for byte)."""
     check_export_folder(out)
     pyarrow()   # an install without the learn extra is told so before anything runs or is created
     path = resolve_suite(name)
@@ -87,8 +83,8 @@ def export_suite(name: str, out: Path, progress: Callable[[str], None] = lambda 
 
 
 def _driver(name: str, suite: Suite, drive: str) -> MethodEntry | None:
-    """What drives the loop: ``None`` (open, or the truth for ``oracle``) or the suite's method
-    labelled ``drive``; a one-line error for anything else, or for a loop drive of an open suite."""
+    """The loop's driver: ``None`` (open, or ``oracle``'s truth) or the method labelled ``drive``; a
+    one-line error otherwise."""
     methods = suite.methods
     labels = [m.label for m in methods]
     if drive not in DRIVES and drive not in labels:
@@ -107,9 +103,8 @@ def open_problems(track, spec) -> Iterator[tuple[Problem, FrameTruth]]:
 
 
 def driven_loop(spec, driver: MethodEntry | None) -> Iterator[tuple[Problem, FrameTruth]]:
-    """Each frame's (problem, truth) of the run's closed loop, the filter updated after the
-    problem is taken with the true association (``driver`` None) or with ``driver``'s answer (a
-    frame it fails updates nothing, as in the leaderboard's loop)."""
+    """Each frame's (problem, truth) of the closed loop, updated with the truth (``driver`` None) or
+    ``driver``'s answer."""
     associator = None if driver is None else make_associator(driver.method, **driver.params)
     loop = ClosedLoop(spec.source, spec)
     for k in range(len(spec.source)):

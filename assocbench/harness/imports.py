@@ -1,13 +1,8 @@
-"""A worker's log of the modules each run asks for by name, for the stored run's record of its
-inputs (``inputs.py``, which adds every module those import).
-
-What a run's code imports in its files is read from the files themselves (``inputs.py``); this
-log adds what no file names: a module loaded while the run ran (a plugin's helper, a lazily
-imported kernel) and a module asked for by a string (``importlib.import_module``: a registry
-resolving ``pkg.module:Class``), even one already loaded in a worker forked from a parent that
-imported it. Names are logged per method (``begin_method``) and, for what every method of a run
-shares (loading its frames, building its problems: ``for_every_method``), per run (``begin_run``).
-Outside a worker (``start`` not called) nothing is logged.
+"""A worker's log of the modules each run asks for by name, for the stored run's inputs
+(``inputs.py`` adds what those import): a module loaded while the run ran (a plugin's helper, a lazy
+kernel) or asked for by a string (``importlib.import_module``), even one a forked worker already
+had. Logged per method (``begin_method``) and, for what a run's methods share
+(``for_every_method``), per run (``begin_run``); nothing outside a worker.
 """
 
 from __future__ import annotations
@@ -51,9 +46,8 @@ class ImportLog:
             self._into = before
 
     def report(self) -> dict:
-        """What the parent needs of one method's run (``inputs.run_inputs``): the names asked for,
-        when each loaded source module was loaded (by its file), which numeric libraries are loaded
-        and when the earliest process of this worker's line started."""
+        """What the parent needs for ``inputs.run_inputs``: names asked for, each source module's
+        load time, the numeric libraries loaded, this worker line's start."""
         loaded = {}
         for name, module in list(sys.modules.items()):
             path = getattr(module, "__file__", None)

@@ -1,20 +1,10 @@
-"""A stored run's inputs, as make, Snakemake and DVC keep a dependency file: the source files its
-run imported, with their digests, and the versions of the libraries that change numbers. A stored
-run is reused only while every one still matches (``RunInputs.changed``); a file the run never
-imported is not among them, so editing it (another track's module) reuses the run.
-
-Which files (``ImportGraph.closure``): the modules a run starts from (``roots``: the worker's
-harness, the track's and the method's modules, those of the run's settings and frame source), the
-modules the worker asked for while it ran (``imports.ImportLog``: a plugin's helper, a module named
-by a string), and every module their files import, read from each file's import statements (those
-inside functions too: a hook imports its parts when it runs), wherever the module lives (a plugin's
-helper in another folder on PYTHONPATH). A library's modules are not hashed: its version is
-recorded where it changes numbers (``imports.NUMERIC_LIBRARIES``). The package's data files beside
-a module the run imports (``*.json``: the learned associator's trees) count with that module.
-
-A module file saved after the worker loaded the module (or a data file saved after the sweep's
-process started) means the code that ran is not the file's content: ``run_inputs`` raises
-``Stale`` and the run is not stored under those digests.
+"""A stored run's inputs, as make and DVC keep a dependency file: the source files its run imported,
+with digests, and the versions of the libraries that change numbers; a stored run is reused only
+while all still match (``RunInputs.changed``), so editing another track's module reuses it. The
+files (``ImportGraph.closure``): the modules a run starts from (``roots``), those the worker asked
+for (``imports.ImportLog``) and every module their files import (inside functions too); libraries
+are not hashed but versioned (``imports.NUMERIC_LIBRARIES``); data files (``*.json``) count with
+their module. A file saved after the worker loaded it raises ``Stale``: the run is not stored.
 """
 
 from __future__ import annotations
@@ -68,8 +58,8 @@ def is_library(path: Path) -> bool:
 
 
 def file_name(path: Path) -> str:
-    """How a stored run names a file: relative to the package's folder for its own files (a moved
-    checkout keeps its stored runs), else the absolute path."""
+    """How a stored run names a file: relative to the package for its own (a moved checkout keeps
+    its runs), else absolute."""
     return path.relative_to(PACKAGE_ROOT.parent).as_posix() if path.is_relative_to(PACKAGE_ROOT) else str(path)
 
 
@@ -83,8 +73,8 @@ _DIGESTS: dict[tuple, str] = {}
 
 
 def file_digest(path: Path) -> tuple[str, int] | None:
-    """SHA-256 (16 hex digits) of a file's content and its modification time (ns) after the read;
-    None when it is not there. Read again only when its size or modification time changed."""
+    """SHA-256 (16 hex digits) of a file's content and its mtime (ns) after the read; None when
+    absent. Re-read only when size or mtime changed."""
     try:
         before = os.stat(path)
         stamp = (str(path), before.st_mtime_ns, before.st_size)
@@ -175,8 +165,8 @@ class ImportGraph:
         return self._data[folder]
 
     def closure(self, roots: Iterable[str], installed: Iterable[str] = ()) -> set[str]:
-        """``roots`` and every module their files import, through source modules (``is_source``);
-        a library's modules are reached but not followed."""
+        """``roots`` and every module their files import, through source modules; libraries are
+        reached, not followed."""
         seen, todo, installed = set(), list(roots), set(installed)
         while todo:
             name = todo.pop()
@@ -190,9 +180,8 @@ class ImportGraph:
 
 
 def is_source(name: str, path: Path, installed: set[str]) -> bool:
-    """Whether module ``name`` at ``path`` is hashed as a source file: this package's modules and
-    any outside the libraries' folders, and those of the ``installed`` top-level packages (a plugin
-    installed with pip: its own modules are the method's code, wherever they are)."""
+    """Whether module ``name`` at ``path`` is hashed: this package's, any outside the libraries'
+    folders, and the ``installed`` top-level packages' (a pip-installed plugin)."""
     return not is_library(path) or name.partition(".")[0] in installed
 
 
@@ -229,8 +218,8 @@ class _Modules(pickle.Pickler):
 
 
 def pickled_modules(obj: object) -> set[str]:
-    """The modules whose classes and functions ``obj`` (picklable: a run's spec) refers to: what a
-    worker that receives it imports."""
+    """The modules whose classes and functions ``obj`` refers to: what a worker receiving it
+    imports."""
     pickler = _Modules()
     pickler.dump(obj)
     return pickler.found
@@ -238,15 +227,15 @@ def pickled_modules(obj: object) -> set[str]:
 
 def library_versions(tops: Iterable[str]) -> dict[str, str]:
     """``{module: "distribution version"}`` of the numeric libraries ``tops`` (``cv2`` ->
-    ``opencv-python-headless 4.10.0.84``): the first of its distributions installed; "" for none."""
+    ``opencv-python-headless 4.10.0.84``); "" for none."""
     return {top: next((f"{dist} {_version(dist)}" for dist in LIBRARY_DISTRIBUTIONS[top] if _version(dist)), "")
             for top in tops if top in LIBRARY_DISTRIBUTIONS}
 
 
 @cache
 def _version(dist: str) -> str:
-    """An installed distribution's version ("" when it is not installed), read once a process:
-    reading it scans every installed distribution."""
+    """An installed distribution's version ("" if none), read once a process (reading scans every
+    distribution)."""
     try:
         return metadata.version(dist)
     except metadata.PackageNotFoundError:
@@ -287,9 +276,8 @@ class RunInputs:
 
 
 def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict, installed: Iterable[str] = ()) -> RunInputs:
-    """The inputs of one method's run from its ``roots`` (module names) and the worker's
-    ``report`` (``ImportLog.report``), the modules of the ``installed`` top-level packages hashed
-    too (``is_source``); ``Stale`` when a file was saved after the worker loaded it."""
+    """The inputs of a method's run from its ``roots`` and the worker's ``report``; ``Stale`` when a
+    file was saved after it loaded."""
     loaded = {str(Path(path).resolve()): at for path, at in report["loaded"].items()}
     files, tops, installed = {}, set(), set(installed)
     for name in sorted(graph.closure(set(roots) | set(report["names"]), installed)):
@@ -311,10 +299,8 @@ def run_inputs(graph: ImportGraph, roots: Iterable[str], report: dict, installed
 
 
 def run_roots(spec, method: str) -> tuple[set[str], set[str]]:
-    """The modules a worker starts one method's run from: its harness (``HARNESS_ROOT``), the
-    track's module, the modules of the run's spec (settings, frame source) and of the method's
-    class; and the top-level packages of the track's and the method's modules (hashed even where
-    they are installed as libraries: ``is_source``)."""
+    """The modules a worker starts a run from (``HARNESS_ROOT``, the track's, the spec's, the method
+    class's) and their top-level packages (hashed even when installed)."""
     from ..associators.registry import associator_class
 
     own = {type(spec.track_impl).__module__}

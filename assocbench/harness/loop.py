@@ -1,18 +1,13 @@
-"""The closed loop: the belief of frame k is the estimator's posterior after frames < k were
-updated with the method's own pairings (``--loop``).
+"""The closed loop (``--loop``): the belief of frame k is the estimator's posterior after frames < k
+were updated with the method's own pairings.
 
 Per frame: predict with odometry (k > 0), build the problem from the estimator, call the method
-(``oracle``: the true association, for the harness only), update the filter with what it
-returned, and in slam mode make landmarks of the features left unassociated. A frame whose
-method fails (raises, times out, returns an invalid association) updates nothing: the filter
-only predicts through it. ``replay`` gives the associations of frames already recorded, so a
-worker that resumes after a killed call rebuilds the same filter without calling the method.
-
-An estimator that raises while the loop uses it (GTSAM's iSAM2 in ``update``, in a marginal for
-the problem, in ``predict``) ends its own run only: that frame and every later one are recorded
-failed with the error (``EstimatorFailed at frame k: ...``), so the run is counted (``failures``)
-and not ok, and a leaderboard job's other runs (the EKF rows of the same scene and seed) keep
-their results.
+(``oracle``: the true association), update with its answer, and in slam mode make landmarks of the
+unassociated features. A failed frame (raised, timed out, invalid answer) updates nothing.
+``replay`` gives the associations of recorded frames, so a resumed worker rebuilds the same filter
+without calling the method. An estimator that raises (GTSAM's iSAM2) ends its own run only: that
+frame and the rest fail with ``EstimatorFailed at frame k: ...``, the run is not ok, and a job's
+other runs keep their results.
 """
 
 from __future__ import annotations
@@ -40,9 +35,8 @@ class EstimatorFailed(RuntimeError):
 
 
 def _guarded(fn: Callable, *args, **kwargs):
-    """``fn(*args, **kwargs)``, with anything it raises turned into ``EstimatorFailed``, except bad
-    input (``UserError``) and an EKF update refused as not positive definite (a failed frame the
-    filter predicts through)."""
+    """``fn(*args, **kwargs)`` with its exceptions made ``EstimatorFailed``, except ``UserError``
+    and a not-positive-definite update (a failed frame)."""
     try:
         return fn(*args, **kwargs)
     except (UserError, NotPositiveDefinite):
@@ -52,8 +46,8 @@ def _guarded(fn: Callable, *args, **kwargs):
 
 
 class GuardedEstimator:
-    """The estimator as the closed loop uses it: every method call and property read goes through
-    ``_guarded``, so a back end's failure is told apart from the harness's own errors."""
+    """The estimator as the loop uses it: every call and property through ``_guarded``, so a back
+    end's failure is told from the harness's."""
 
     def __init__(self, inner) -> None:
         object.__setattr__(self, "_inner", inner)
@@ -92,8 +86,8 @@ class ClosedLoop:
         return self.finish(*decide(problem, truth))
 
     def begin(self, k: int) -> tuple[Problem, FrameTruth]:
-        """First half of frame ``k``: predict with odometry (k > 0), then frame ``k``'s problem
-        from the filter and its truth. ``finish`` applies an answer to it; frames go in order."""
+        """First half of frame ``k``: predict (k > 0), then the frame's problem and truth;
+        ``finish`` applies an answer; frames go in order."""
         if k > 0:
             self._est.predict(self.sensor.motion(k))
         data, labels = self.sensor.frame(k, self.in_map)
@@ -107,8 +101,8 @@ class ClosedLoop:
 
     def finish(self, association: np.ndarray | None, runtime: float = 0.0, info: dict | None = None,
                error: str = "") -> dict:
-        """Second half: update with ``association`` (None: the frame failed with ``error`` and the
-        filter only predicts through it) and return the frame's record."""
+        """Second half: update with ``association`` (None: the frame failed with ``error``) and
+        return its record."""
         if self._pending is None:
             raise RuntimeError("ClosedLoop.finish without a frame begun: call begin(k) first")
         (k, problem, truth, data, labels), self._pending = self._pending, None
@@ -141,9 +135,8 @@ class ClosedLoop:
         return record | {"new_landmarks": len(made), "no_depth": no_depth}
 
     def _made_label(self, map_id: int, label: int) -> int:
-        """The landmark a new map entry truly is: its feature's ``label``; for one triangulated from
-        two views (``first_sighting``), that label only if the earlier view's feature images the
-        same landmark (a point triangulated from two landmarks' features is neither: false)."""
+        """The landmark a new map entry truly is: its feature's ``label``, for a two-view one only
+        if both views image it (else false)."""
         first = getattr(self._est, "first_sighting", {}).get(map_id)
         if first is None:
             return int(label)
@@ -164,9 +157,8 @@ class ClosedLoop:
 
 
 def new_landmark_features(problem: Problem, association: np.ndarray, gate: float) -> np.ndarray:
-    """Indices of the features a slam filter may make landmarks of: those left unassociated whose
-    Mahalanobis distance ``√(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)`` to every candidate j exceeds ``gate``
-    (``estimator.new_landmark_gate``; 0: every unassociated feature)."""
+    """Unassociated features farther than ``gate`` (Mahalanobis, ``√(y_ijᵀ (P_jj + R_i)⁻¹ y_ij)``)
+    from every candidate: a slam filter's new landmarks (0: all)."""
     free = np.setdiff1d(np.arange(problem.m), association[association >= 0])
     if gate <= 0 or problem.n == 0 or not len(free):
         return free.astype(np.int64)
@@ -175,9 +167,8 @@ def new_landmark_features(problem: Problem, association: np.ndarray, gate: float
 
 
 def recorded_answer(recorded, k: int) -> tuple:
-    """Frame ``k``'s answer in a recorded run (``recorded[k] = (association, error)``), as a
-    ``decide`` returns it: the association, or a failure when an error was recorded or nothing was
-    (the filter then only predicts through the frame, as it did when the run was recorded)."""
+    """Frame ``k``'s recorded answer as ``decide`` returns it: the association, or a failure where
+    an error or nothing was recorded."""
     association, error = recorded.get(k, (None, "not recorded"))
     if error or association is None:
         return None, 0.0, {}, error or "not recorded"
@@ -187,9 +178,8 @@ def recorded_answer(recorded, k: int) -> tuple:
 def loop_records(source, run, first: int = 0, faults: dict | None = None,
                  on_call: Callable[[int, float], None] = lambda k, limit: None,
                  replay: dict | None = None) -> Iterator[dict]:
-    """Per-frame records of the run's method in its closed loop on ``source``, frames ``first..``
-    (frames before ``first`` are replayed from ``replay[k] = (association, error)``). ``faults``
-    and ``on_call`` as in ``runner.frame_records``."""
+    """Per-frame records of the method's closed loop on ``source`` from ``first`` (earlier frames
+    replayed from ``replay``); ``faults``, ``on_call`` as ``runner.frame_records``'."""
     faults, replay = faults or {}, replay or {}
     method, params, time_limit_s = run.method, run.params, run.time_limit_s
     try:
@@ -228,8 +218,8 @@ def loop_records(source, run, first: int = 0, faults: dict | None = None,
 
 
 def estimator_failed_records(frames: Iterable[int], at: int, exc: EstimatorFailed) -> Iterator[dict]:
-    """Records of ``frames`` of a run whose estimator failed at frame ``at`` with ``exc``: nothing
-    was measured on them (no candidates, no pose), each failed with the error."""
+    """Records of ``frames`` after the estimator failed at ``at`` with ``exc``: nothing measured,
+    each failed with the error."""
     nan = float("nan")
     error = f"{ESTIMATOR_FAILED} at frame {at}: {exc}"
     for k in frames:

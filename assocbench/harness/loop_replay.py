@@ -1,13 +1,8 @@
-"""Replay a recorded run in this process, for pictures (``assocbench render``).
-
-The method ran elsewhere (``execute``: a worker, a time limit, validated answers) and its
-per-frame associations were recorded. The open loop's problems are rebuilt from the belief's
-seeded errors. In the closed loop, feeding the recorded associations back through
-``ClosedLoop.begin``/``finish`` rebuilds, frame by frame, the problem the method was given and the
-filter after the frame's update, without calling the method again. A failed frame (any recorded
-error) is replayed as a failure, as the worker's own resume does (``sandbox``): the filter only
-predicts through it. The filter is deterministic, so the replayed estimate is the recorded one
-(``est_x`` … in the record); a drift beyond ``REPLAY_TOLERANCE_M`` is reported on stderr.
+"""Replay a recorded run in this process, for pictures (``assocbench render``). The open loop's
+problems are rebuilt from the belief's seeded errors; in the closed loop the recorded associations
+are fed back through ``ClosedLoop.begin``/``finish``, rebuilding each problem and filter without
+calling the method (a failed frame replayed as a failure). The filter is deterministic, so a drift
+beyond ``REPLAY_TOLERANCE_M`` from the recorded estimate is reported on stderr.
 """
 
 from __future__ import annotations
@@ -28,8 +23,8 @@ POSITION_COLUMNS = ("est_x", "est_y", "est_z")
 
 
 def replay_run(spec: RunSpec, records: pd.DataFrame) -> Iterator[RunFrame]:
-    """The recorded frames of ``spec``'s run (``records``: its frames table with an ``association``
-    column, as ``execute(spec, associations=True)`` returns it), in frame order."""
+    """The recorded frames of ``spec``'s run (``records`` with an ``association`` column, from
+    ``execute(spec, associations=True)``), in order."""
     rows = {int(r["frame"]): r for r in records.to_dict("records")}
     yield from (_closed_loop if spec.loop else _open_loop)(spec, rows)
 

@@ -1,12 +1,8 @@
-"""Truth of the closed loop: which map entry is which true landmark, and what a map is worth.
-
-The estimator never sees any of this. Each map entry is tied, when it is made, to the landmark
-its feature truly imaged (its index), or to none (-1): a look-alike corner of the wall texture
-or clutter. A feature and a map entry truly pair when they image the same landmark, so pairing
-anything with an entry tied to none is a false pairing, and such an entry is a false landmark.
-(A texture corner is no fixed, unbiased point: corners on depth edges slide with the view and
-L-corners' detections shift with it, and fusing them made even the true association's filter
-overconfident, ANEES 10 on the room.)
+"""Truth of the closed loop: which map entry is which true landmark, and what a map is worth. The
+estimator never sees it. Each map entry is tied when made to the landmark its feature truly imaged,
+or to none (-1: a look-alike texture corner or clutter); pairing with an entry tied to none is
+false, and such an entry is a false landmark (a texture corner is no fixed point: it slides with the
+view).
 """
 
 from __future__ import annotations
@@ -30,10 +26,8 @@ class MapTruth:
 
 
 def loop_truth(map_ids: np.ndarray, truth: MapTruth, labels: np.ndarray, visible: np.ndarray) -> FrameTruth:
-    """Truth of a closed-loop problem: the feature truly imaging each candidate's landmark, one-to-one,
-    older map entries first (a duplicate made later truly pairs with nothing); when several
-    features image one landmark (the last is the truth's), each is labelled with its entry. ``labels`` (m,) is
-    each feature's landmark or -1; ``visible`` (n,)."""
+    """Truth of a closed-loop problem: each candidate's truly imaging feature, one-to-one, older
+    entries first (a later duplicate pairs with nothing); ``labels`` (m,), ``visible`` (n,)."""
     association = np.full(len(map_ids), NO_MATCH, dtype=np.int64)
     feature_labels = np.full(len(labels), NO_MATCH, dtype=np.int64)
     features_of: dict[int, list[int]] = {}
@@ -52,9 +46,8 @@ def loop_truth(map_ids: np.ndarray, truth: MapTruth, labels: np.ndarray, visible
 
 def map_quality(map_ids: list[int], confirmed: np.ndarray, estimates: np.ndarray, truth: MapTruth,
                 landmarks: np.ndarray) -> dict[str, float]:
-    """Confirmed map entries (``map_size``), ``duplicates`` (confirmed entries beyond the first
-    for one landmark), ``false_landmarks`` (confirmed entries tied to none) and ``map_rmse`` (m)
-    of the confirmed entries tied to a landmark, against its true position."""
+    """Confirmed ``map_size``, ``duplicates``, ``false_landmarks`` (tied to none) and ``map_rmse``
+    (m) of the tied ones."""
     labels = np.array([truth.label[m] for m in map_ids], dtype=np.int64)[np.asarray(confirmed, bool)]
     tied = labels >= 0
     errors = np.linalg.norm(np.asarray(estimates)[np.asarray(confirmed, bool)][tied] - landmarks[labels[tied]], axis=1)
@@ -68,19 +61,17 @@ REVISIT_GAP = 50   # frames without a measurement of a landmark after which meas
 
 @dataclass
 class RevisitCounter:
-    """Loop closures, from the truth of the measurements (the same opportunities for every method).
-
-    A landmark measured in frame k whose previous true measurement was at least ``REVISIT_GAP``
-    frames earlier is a *revisit*; the method *closes the loop* when it pairs that measurement
-    with a map entry tied to that landmark and made no later than that previous measurement (an
-    entry made during the revisit is a duplicate, not a closure)."""
+    """Loop closures from the truth (the same opportunities for every method): a landmark measured
+    in frame k whose previous true measurement was at least ``REVISIT_GAP`` frames before is a
+    *revisit*; the method *closes the loop* when it pairs it with an entry of that landmark made no
+    later than that previous measurement (one made during the revisit is a duplicate)."""
 
     last: dict[int, int] = field(default_factory=dict)   # landmark -> frame of its last true measurement
 
     def count(self, k: int, labels: np.ndarray, map_ids: np.ndarray, association: np.ndarray | None,
               truth: MapTruth, born: dict[int, int]) -> dict[str, int]:
-        """``{"revisits", "loop_closures"}`` of frame ``k`` (``labels`` (m,) each feature's landmark or
-        -1; ``association`` (n,) over ``map_ids``, None for a failed frame); then remember frame k."""
+        """``{"revisits", "loop_closures"}`` of frame ``k`` (``association`` None for a failed
+        frame); then remember the frame."""
         paired = {} if association is None else {int(i): int(map_ids[j]) for j, i in enumerate(association) if i >= 0}
         revisits = closures = 0
         for i, lm in enumerate(labels):

@@ -1,13 +1,9 @@
-"""A progress bar over a run's frames on stderr (``assocbench run`` on a terminal).
-
-The supervising process hears each call the worker makes and each frame it finishes
-(``Supervisor(watch=...)``); the bar says which phase the run is in: the worker preparing the
-sequence (simulated, or read from the cache), building and warming up the method, then the frames.
-On a terminal it is redrawn at every ``tick`` (``sandbox.WATCH_TICK_S``), so the elapsed time
-moves while a phase is silent; a log file (``--progress`` forced) gets a line per event only.
-The size is the terminal's (one that reports none, such as a fresh pseudo-terminal, gets
-``shutil``'s 80 x 24: tqdm hides a bar on a screen of 0 rows). tqdm's monitor thread is off: a second thread in this process would make the workers start from
-a forkserver instead of a fork (``sandbox._context``).
+"""A progress bar over a run's frames on stderr (``assocbench run`` on a terminal). The supervisor
+hears each call and finished frame (``Supervisor(watch=...)``); the bar names the phase (preparing
+the sequence, building and warming the method, the frames). On a terminal it redraws every ``tick``
+so the elapsed time moves; a log file gets a line per event. A terminal reporting no size gets 80 x
+24 (tqdm hides a bar of 0 rows). tqdm's monitor thread is off: a second thread would make workers
+start from a forkserver (``sandbox._context``).
 """
 
 from __future__ import annotations
@@ -34,8 +30,8 @@ class RunProgress:
         self.live = bool(getattr(self.file, "isatty", lambda: False)())
 
     def watch(self, event: str, k: int) -> None:
-        """``start`` (a worker was launched), ``call`` (the method is called on frame ``k``;
-        ``WARM_UP``: built and warmed up), ``frame`` (frame ``k`` is done), ``tick`` (time passed)."""
+        """``start`` (worker launched), ``call`` (the method on frame ``k``; ``WARM_UP``: built and
+        warmed), ``frame`` (frame ``k`` done), ``tick``."""
         if self.bar is None:   # made here, after any compile in this process has printed its line
             size = shutil.get_terminal_size()   # 80 x 24 where the terminal reports 0 (tqdm would hide the bar)
             self.bar = _Bar(total=self.frames, desc="preparing the sequence", unit="frame", file=self.file,

@@ -1,12 +1,8 @@
-"""Per-frame records on their way from a worker to a run's table, never all held at once.
-
-A worker sends each frame's record as it is made; the parent (``sandbox.Supervisor``) writes it
-to a ``RecordSpool`` (an anonymous temporary file, one pickle a record) and keeps only where each
-frame's record starts: 16 bytes a frame, where a held record of a closed loop's ~60 columns cost
-~6 KB. When the task is done, ``frame_table`` reads the records back in frame order, a chunk at a
-time, into the per-frame ``DataFrame`` that ``frames.csv`` and the summary are made of: the same
-table, column for column and dtype for dtype, as one ``pd.DataFrame(records)``, so outputs stay
-bit for bit what they were.
+"""Per-frame records on their way from a worker to a run's table, never all held at once. The parent
+(``sandbox.Supervisor``) writes each record to a ``RecordSpool`` (an anonymous temporary file, one
+pickle a record), keeping only each frame's offset; ``frame_table`` reads them back in frame order,
+a chunk at a time, into the same ``DataFrame`` one ``pd.DataFrame(records)`` would make, column for
+column and dtype for dtype.
 """
 
 from __future__ import annotations
@@ -25,8 +21,8 @@ CHUNK = 256   # records read back per piece of the table
 
 
 class RecordSpool:
-    """The records of one run × method in arrival order on disk, read back in frame order (a
-    frame sent twice, e.g. again after a resumed worker, counts once: its last record)."""
+    """One run × method's records on disk in arrival order, read back in frame order (a frame sent
+    twice counts once: its last record)."""
 
     def __init__(self) -> None:
         try:
@@ -64,9 +60,8 @@ class RecordSpool:
         return len(set(self._frames))
 
     def close(self) -> None:
-        """Release the file. Its records are thrown away, so a flush of what ``add`` buffered that
-        fails (the folder is full: the error ``add`` already raised) is ignored: raised from a
-        ``finally``, it replaced that one-line error with a traceback."""
+        """Release the file, ignoring a failed flush of ``add``'s buffer (the error ``add`` already
+        raised would be replaced by a traceback)."""
         try:
             self._file.close()
         except OSError:
@@ -79,9 +74,8 @@ def _spool_error(exc: OSError) -> UserError:
 
 
 def frame_table(records: Iterable[dict], drop: tuple[str, ...] = ()) -> pd.DataFrame:
-    """``pd.DataFrame(list(records))`` without ``drop``'s columns, built ``CHUNK`` records at a
-    time so that the records are never all in memory: pieces joined in order, columns in order of
-    first appearance, a column a piece lacks filled with NaN (the dtypes one table would infer)."""
+    """``pd.DataFrame(list(records))`` less ``drop``'s columns, ``CHUNK`` records at a time (columns
+    by first appearance, missing ones NaN: one table's dtypes)."""
     it = iter(records)
     pieces = []
     while chunk := list(islice(it, CHUNK)):

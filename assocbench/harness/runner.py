@@ -1,10 +1,8 @@
-"""One run: a cached sequence, a belief per frame, one associator, scored frame by frame.
-
-The frame loop (``frame_records``) runs inside a worker process (``sandbox.py``), which is what
-lets the parent enforce a time limit and survive a method that dies or exits; ``sandbox.execute`` runs
-it there. The plugin boundary is ``call_method``: anything a method raises, ``SystemExit`` included,
-is that frame's failure, and every call gets its own copy of the problem, so a method that
-edits its problem in place can change neither the scoring nor what later methods see.
+"""One run: a cached sequence, a belief per frame, one associator, scored frame by frame. The frame
+loop (``frame_records``) runs in a worker (``sandbox.execute``), so the parent can enforce a time
+limit and survive a method that dies. The plugin boundary is ``call_method``: anything a method
+raises, ``SystemExit`` included, fails that frame, and every call gets its own copy of the problem,
+so a method editing it changes neither the scoring nor what later methods see.
 """
 
 from __future__ import annotations
@@ -47,9 +45,8 @@ def warm_scoring() -> None:
 
 
 def warm_up(associator) -> None:
-    """Run ``associator`` once on a tiny problem so that loading compiled kernels (numba's
-    cache, a plugin's own JIT) is not timed as the first frame's runtime. Errors are left to
-    the real frames to report, ``SystemExit`` included; a user's interrupt is not swallowed."""
+    """Run ``associator`` once on a tiny problem so loading kernels is not timed; errors are left to
+    the real frames, a user's interrupt passes."""
     try:
         hook = getattr(associator, "warm_up", None)   # Associator subclasses have one; other plugins need not
         if callable(hook):
@@ -62,18 +59,16 @@ def warm_up(associator) -> None:
 
 
 def load_source(source, cache_dir: Path | None) -> None:
-    """Read a simulated source's sequence (from ``cache_dir`` when the task names one) before its
-    frames are asked for; a recorded source reads its frames itself."""
+    """Read a simulated source's sequence (from ``cache_dir`` when named) before its frames are
+    asked for."""
     load = getattr(source, "load", None)
     if callable(load):
         load(cache_dir)
 
 
 class Problems:
-    """The open loop's problem and truth of each frame of a run, built when first asked for
-    (``track.problem``), checked whole before any method sees it (``checked_frame``: the problem and
-    the truth against it), and kept for the run's other methods: a worker builds each frame once,
-    whatever the methods."""
+    """The open loop's problem and truth per frame, built when first asked for, checked whole and
+    kept for the run's other methods."""
 
     def __init__(self, track, source, run) -> None:
         self.track, self.source, self.run = track, source, run
@@ -91,10 +86,8 @@ class Problems:
 
 
 def checked_frame(track: str, k: int, problem: Problem, truth: FrameTruth) -> tuple[Problem, FrameTruth]:
-    """``(problem, truth)`` of frame ``k`` once ``Problem.validate`` passes and the truth is
-    ``checked_truth``; else a ``UserError`` naming the track and frame. A track's open-loop frame
-    is the benchmark's input, the same for every method: nothing can be measured against it, so
-    the command stops (exit 2) rather than score each method against pairs that cannot exist."""
+    """``(problem, truth)`` of frame ``k`` once ``Problem.validate`` and ``checked_truth`` pass,
+    else a ``UserError`` naming track and frame (every method's input: the command stops, exit 2)."""
     try:
         problem.validate()
     except ValueError as exc:
@@ -103,8 +96,8 @@ def checked_frame(track: str, k: int, problem: Problem, truth: FrameTruth) -> tu
 
 
 def checked_truth(track: str, k: int, problem: Problem, truth: FrameTruth) -> FrameTruth:
-    """``truth`` once ``FrameTruth.validate(problem)`` passes; else a ``UserError`` naming the
-    track and frame (see ``checked_frame``)."""
+    """``truth`` once ``FrameTruth.validate(problem)`` passes, else a ``UserError`` naming track and
+    frame."""
     try:
         if not isinstance(truth, FrameTruth):
             raise ValueError(f"its truth is a {type(truth).__name__}, not a FrameTruth")
@@ -124,9 +117,8 @@ def private_copy(problem: Problem) -> Problem:
 
 
 def user_interrupt(exc: BaseException) -> bool:
-    """Whether ``exc`` is a real Ctrl-C, to be let through the plugin boundary: a
-    ``KeyboardInterrupt`` where SIGINT is not ignored. A worker ignores SIGINT (its parent handles
-    interrupts), so there a ``KeyboardInterrupt`` can only come from the method: a failure."""
+    """Whether ``exc`` is a real Ctrl-C, a ``KeyboardInterrupt`` where SIGINT is not ignored (in a
+    worker one can only be the method's)."""
     return isinstance(exc, KeyboardInterrupt) and signal.getsignal(signal.SIGINT) is not signal.SIG_IGN
 
 
@@ -136,9 +128,8 @@ def describe(exc: BaseException) -> str:
 
 
 def method_diagnostics(associator, problem: Problem) -> dict:
-    """What a method's ``info`` says about the call just made: ``timed_out`` (bool),
-    ``proven_optimal`` (1.0 or 0.0 where the method says, NaN where it does not) and, for a
-    soft associator, its ``marginals`` (validated: ``soft_marginals``)."""
+    """What ``info`` says of the last call: ``timed_out``, ``proven_optimal`` (1.0, 0.0, NaN
+    unsaid), a soft method's validated ``marginals``."""
     info = getattr(associator, "info", None) or {}
     proven = info.get("proven_optimal")
     if proven is not None and not isinstance(proven, (bool, np.bool_)):
@@ -151,8 +142,8 @@ def method_diagnostics(associator, problem: Problem) -> dict:
 
 
 def soft_marginals(marginals, problem: Problem) -> np.ndarray:
-    """A soft associator's ``info["marginals"]`` as an (n, m + 1) float array of probabilities
-    whose rows sum to 1 (within 1e-6); anything else is the frame's failure (``ValueError``)."""
+    """``info["marginals"]`` as (n, m + 1) probabilities with rows summing to 1 (1e-6), else a
+    ``ValueError`` failing the frame."""
     shape = (problem.n, problem.m + 1)
     beta = np.array(marginals, dtype=np.float64) if marginals is not None else None
     if beta is None or beta.shape != shape:
@@ -167,9 +158,7 @@ def soft_marginals(marginals, problem: Problem) -> np.ndarray:
 
 def call_method(associator, problem: Problem) -> tuple[np.ndarray | None, float, dict, str]:
     """``associate`` on a private copy of ``problem``, timed alone: (association validated against
-    the pristine problem, runtime_s, ``method_diagnostics``, error). Everything the method raises,
-    and any code of its that validation runs (``__array__``, an ``info`` property), is the
-    frame's failure."""
+    the pristine problem, runtime_s, diagnostics, error); whatever its code raises fails the frame."""
     start = time.perf_counter()
     try:
         raw = associator.associate(private_copy(problem))
@@ -195,8 +184,8 @@ def failed_record(k: int, problem: Problem, truth: FrameTruth, error: str, runti
 
 
 def guarded_build(make: Callable[[], object]) -> tuple[object | None, str]:
-    """``(make(), "")``, or ``(None, error)`` when building a method fails in its own code; a bad
-    name or parameter is the user's (``UserError`` propagates), and so is a real Ctrl-C."""
+    """``(make(), "")``, or ``(None, error)`` when the method's own constructor fails; ``UserError``
+    and a real Ctrl-C propagate."""
     try:
         return make(), ""
     except UserError:
@@ -215,15 +204,12 @@ def _build(method: str, params: dict):
 def frame_records(problems: Problems, method: str, params: dict,
                   time_limit_s: float = float("inf"), first: int = 0, faults: dict | None = None,
                   on_call: Callable[..., None] = lambda k, limit, whose=METHOD: None) -> Iterator[dict]:
-    """Per-frame records of ``method`` on ``problems[first:]``, one at a time. A method that raises,
-    exits or returns an invalid association is recorded as failed on that frame (``error``).
-
-    ``on_call(k, limit_s, whose)`` is told before each call (``k = WARM_UP`` for building the
-    associator and warming it up, with ``WARM_UP_FACTOR`` times the limit), so that a supervising
-    process can kill a call past its limit; ``whose`` is ``TRACK`` before the track builds frame
-    ``k``'s problem (``WARM_UP_FACTOR`` times the limit too): a track that hangs there is the run's
-    failure, not the method's. ``faults`` maps frame indices to (error, runtime_s) already known
-    (``WARM_UP``: every frame): those frames are recorded failed without calling the method.
+    """Per-frame records of ``method`` on ``problems[first:]``; a method that raises, exits or
+    answers invalidly fails that frame (``error``). ``on_call(k, limit_s, whose)`` hears each call
+    first, so a supervisor can kill it past its limit: ``k = WARM_UP`` for building and warming the
+    method (``WARM_UP_FACTOR`` times the limit), ``whose = TRACK`` before the track builds frame
+    ``k``'s problem (a hang there is the run's failure, not the method's). ``faults``: frames
+    already known failed (``WARM_UP``: all), recorded without calling the method.
     """
     faults = faults or {}
     if WARM_UP in faults:  # the method could not even start: every frame fails with that error
@@ -253,9 +239,8 @@ def frame_records(problems: Problems, method: str, params: dict,
 
 @dataclass
 class GuardedCalls:
-    """The plugin boundary for a track's own frame loop (``tracks.base.MethodCalls``): each call
-    announced to the supervising process with its limit, timed, and anything it raises (but a
-    real Ctrl-C) turned into the frame's error."""
+    """The plugin boundary of a track's own frame loop (``MethodCalls``): each call announced with
+    its limit, timed, its exceptions (but Ctrl-C) the frame's error."""
 
     time_limit_s: float
     faults: dict
@@ -280,17 +265,15 @@ class GuardedCalls:
 
 
 def summarize_run(track, frames) -> dict:
-    """The summary row of one run's per-frame records: the track's own (``OwnFrames``), else the
-    shared metrics of association problems (``scoring.aggregate.summarize``) and the track's own
-    scores of the run (``RunScores``)."""
+    """A run's summary row: the track's own, else the shared metrics and the track's ``RunScores``."""
     if has(track, OwnFrames):
         return track.summarize(frames)
     return summarize(frames) | (track.run_scores(frames) if has(track, RunScores) else {})
 
 
 def describe_run(track, run) -> tuple[dict, str]:
-    """Columns that say how a run was made, and the same in words: the track's own (``OwnFrames``),
-    else the loop (``open``, or the estimator's mode and name in the closed loop)."""
+    """Columns saying how a run was made, and the same in words: the track's own, else the loop
+    (``open``, or the estimator's mode and name)."""
     if has(track, OwnFrames):
         return track.describe(run)
     return {"loop": run.estimator.mode if run.loop else "open"}, loop_words(run)

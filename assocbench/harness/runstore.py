@@ -1,20 +1,13 @@
 """Stored runs: one method on one scene, seed and difficulty, reused only when complete, verified
 and made from the same inputs.
 
-A run ``<key>`` (``suite.Run.key``: its settings, source and method) is stored under
-``<out>/runs/`` as two CSV files named by their content, ``<key>.<sha>.summary.csv`` (its summary
-row) and ``<key>.<sha>.frames.csv`` (its per-frame records), and a manifest ``<key>.manifest.json``
-written last, atomically, that names both files with their SHA-256, size and row count, and the
-run's inputs (``inputs.RunInputs``: the source files it imported with their digests, the versions
-of the libraries that change numbers). The labels (scenario, method's name, seed) are not stored:
-they are the suite's, so renaming a difficulty or a method's row reuses its runs.
-
-A reader trusts only what the manifest vouches for: a missing manifest (the process died before
-it), a damaged one, a missing file or one whose bytes differ (truncated, edited, zero bytes) means
-the run is recomputed, with one line on stderr. A run whose inputs changed (an edited module, a new
-numpy) is out of date: recomputed, said once per sweep (``lookup``). Naming the files by content
-means two sweeps storing the same run at once never mix their files: each manifest points at a
-consistent pair.
+A run ``<key>`` (``suite.Run.key``) is stored under ``<out>/runs/`` as ``<key>.<sha>.summary.csv``
+and ``<key>.<sha>.frames.csv``, named by content, and a manifest ``<key>.manifest.json`` written
+last, atomically, naming both with SHA-256, size and rows, and the run's inputs
+(``inputs.RunInputs``). Labels (scenario, method name, seed) are the suite's, so renaming reuses
+runs. A missing or damaged manifest or file means the run is recomputed with one line on stderr;
+changed inputs too, said once per sweep (``lookup``). Content names keep two sweeps storing one run
+at once from mixing files.
 """
 
 from __future__ import annotations
@@ -42,8 +35,8 @@ def manifest_path(out: Path, key: str) -> Path:
 
 
 def store_run(out: Path, run: Run, result: tuple[pd.DataFrame, pd.DataFrame], inputs: RunInputs) -> None:
-    """Store a run's (summary, frames) under ``out/runs`` with its ``inputs``: data files first, the
-    manifest last, each written atomically, so a run interrupted at any point is simply not stored."""
+    """Store a run's (summary, frames) with its ``inputs``: data files first, the manifest last,
+    each atomically, so an interrupted run is simply not stored."""
     folder, key = Path(out) / FOLDER, run.key
     entries = {}
     for part, df in zip(PARTS, result):
@@ -63,10 +56,9 @@ def store_run(out: Path, run: Run, result: tuple[pd.DataFrame, pd.DataFrame], in
 
 
 def lookup(out: Path, run: Run) -> tuple[tuple[pd.DataFrame, pd.DataFrame] | None, str | None]:
-    """The stored (summary, frames) of ``run`` if they are complete, verified and made from the
-    inputs there are now, else ``(None, why)``: ``why`` names the input that changed (the caller
-    says it once for the sweep), None when there is nothing to reuse. Damaged files are removed
-    and one line on stderr says so."""
+    """The stored (summary, frames) of ``run`` if complete, verified and from today's inputs, else
+    ``(None, why)`` (``why``: the changed input, or None); damaged files are removed with one line
+    on stderr."""
     folder, key = Path(out) / FOLDER, run.key
     manifest = manifest_path(out, key)
     if not manifest.is_file():
@@ -118,8 +110,8 @@ def _decode(data: bytes, part: str) -> pd.DataFrame:
 
 
 def as_read_back(result: tuple[pd.DataFrame, pd.DataFrame]) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """A run's (summary, frames) as they read back once stored (CSV values and dtypes), so a run
-    computed now and one read from the store are the same tables."""
+    """A run's (summary, frames) as they read back from the store, so computed and stored runs are
+    the same tables."""
     return tuple(_decode(_encode(df), part) for part, df in zip(PARTS, result))
 
 

@@ -1,20 +1,10 @@
-"""Worker processes for method code: a per-call time limit, and methods that die, exit or hang
-fail their frames instead of the run.
-
-The parent (``Supervisor``) runs each ``Task`` (a leaderboard job: one sequence's runs × the
-methods; or one ``run``) in a worker process forked from a forkserver that has already imported
-assocbench and loaded the built-in associators' compiled kernels, so a worker starts warm in a
-few tens of milliseconds. The worker announces each ``associate`` call (``call``) and sends each
-frame's record after it (``frame``, scored in the worker against the pristine problem); the
-parent waits with the call's time limit. When a call overruns or its worker dies (``os._exit``,
-a segfault), the parent kills the worker, records that frame as failed and resumes the task at
-the next frame in a fresh worker, which rebuilds the problems from the cached sequence (same
-seed, same problems). A method whose construction or warm-up dies or hangs fails every frame.
-
-Workers ignore SIGINT and SIGTERM (the parent decides, and kills them) and exit when the parent
-is gone (a watchdog thread on the parent's sentinel), so a killed sweep leaves no orphans. Each
-worker leads a session of its own, and is killed with its whole process group, so the processes a
-method started (an external solver) die with it.
+"""Worker processes for method code: a per-call time limit, and methods that die, exit or hang fail
+their frames instead of the run. The ``Supervisor`` runs each ``Task`` (one sequence's runs ×
+methods) in a worker forked from a forkserver with the built-in kernels loaded. The worker announces
+each call and sends each frame's record (scored in the worker against the pristine problem); when a
+call overruns or the worker dies, the parent kills it, fails the frame and resumes at the next frame
+in a fresh worker (same seed, same problems). Workers ignore SIGINT and SIGTERM, exit when the
+parent is gone, and are killed with their process group, taking what their method started.
 """
 
 from __future__ import annotations
@@ -75,9 +65,8 @@ _GUARD = ("a script that runs assocbench from a process with threads (workers th
 
 @dataclass(frozen=True)
 class Task:
-    """Work for one worker: the runs ``(label, RunSpec)`` on one sequence and the methods
-    ``(label, method, params)`` called on every run's frames. ``name`` and the run labels
-    (e.g. ``room seed 0``, ``room/hard seed 0``) say which in messages."""
+    """One worker's work: the runs ``(label, RunSpec)`` on one sequence and the methods
+    ``(label, method, params)``; ``name`` and labels for messages."""
 
     name: str
     runs: tuple
@@ -92,9 +81,8 @@ class TaskFailed(RuntimeError):
 
 @dataclass
 class _Progress:
-    """What the parent knows of a task: records by (run, method) (a ``RecordSpool`` each), the
-    calls that failed in a worker that was then killed (by (run, method): frame -> (error,
-    runtime_s)), and where a fresh worker resumes."""
+    """What the parent knows of a task: records per (run, method), calls failed in killed workers,
+    where a fresh worker resumes."""
 
     records: dict = field(default_factory=dict)
     faults: dict = field(default_factory=dict)
@@ -106,8 +94,8 @@ class _Progress:
 
 def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, environ: dict,
             replay: dict | None = None) -> None:
-    """Worker process entry: run ``task`` from ``resume``, streaming messages; always ``os._exit``,
-    so threads a method left behind cannot keep the process alive."""
+    """Worker entry: run ``task`` from ``resume``, streaming messages; always ``os._exit``, so a
+    method's leftover threads cannot keep it alive."""
     _become_worker(environ)
     try:
         _run_task(conn.send, task, resume, faults, replay)
@@ -126,9 +114,8 @@ def _worker(conn, task: Task, resume: tuple[int, int, int], faults: dict, enviro
 
 
 def _become_worker(environ: dict) -> None:
-    """A session of its own (so that killing the worker kills every process its method started:
-    ``_kill_session``); interrupts are the parent's to handle; the parent's current environment;
-    exit with it."""
+    """Its own session (so ``_kill_session`` kills all its method started), interrupts left to the
+    parent, the parent's environment, exit with the parent."""
     try:
         os.setsid()
     except OSError:   # already a session's leader
@@ -152,9 +139,8 @@ def _exit_with(sentinel) -> None:
 
 
 def _kill_session(pid: int) -> None:
-    """SIGKILL the process group of worker ``pid`` (the session it made: ``_become_worker``), so
-    that processes its method started (an external solver) end with it instead of living on,
-    reparented to init; nothing when that group is gone or was never made."""
+    """SIGKILL worker ``pid``'s process group, so processes its method started end with it; nothing
+    when the group is gone."""
     try:
         os.killpg(pid, signal.SIGKILL)
     except (ProcessLookupError, PermissionError):
@@ -163,8 +149,8 @@ def _kill_session(pid: int) -> None:
 
 def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: dict,
               replay: dict | None = None) -> None:
-    """Run the task's runs × methods from ``resume``; a closed-loop run replays the frames before
-    ``resume`` from ``replay`` (frame -> (association, error)) to rebuild its filter."""
+    """Run the task's runs × methods from ``resume``, a closed loop replaying earlier frames from
+    ``replay``."""
     cache = Path(task.cache_dir) if task.cache_dir else None
     log = imports.start()
     for r in range(resume[0], len(task.runs)):
@@ -199,11 +185,8 @@ def _run_task(send: Callable, task: Task, resume: tuple[int, int, int], faults: 
 # ---------------------------------------------------------------- parent side
 
 def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
-    """``fork`` when this process has no other thread (Linux: one entry in /proc/self/task): a
-    worker then starts in milliseconds with all this process has loaded, and with no other thread
-    there is no lock that the child could inherit held. Otherwise (a progress monitor, a dask
-    worker, a user's threads) a forkserver: workers fork from a clean server, started once (an
-    import of assocbench, about 1.5 s) with the built-ins warm."""
+    """``fork`` when this process has no other thread (no lock inherited held; workers start with
+    all loaded), else a forkserver started once with the built-ins warm."""
     methods, tracks = list(methods), list(tracks)
     if "fork" in mp.get_all_start_methods() and _single_threaded():
         warm_builtins(methods, tracks)  # here, so that every worker inherits the loaded kernels
@@ -216,15 +199,12 @@ def _context(methods: Iterable[str], tracks: Iterable[str] = ()):
 
 def _start_forkserver(methods: Iterable[str] = (), tracks: Iterable[str] = ()) -> None:
     """Start the forkserver on this process's ``sys.path``, warming the built-in associators among
-    ``methods`` and the ``tracks`` (the first task's: a worker forked from it inherits their loaded
-    kernels, where warming its track itself cost each worker 0.5 s; warming every built-in associator
-    cost a run 93-109 s of compiling on a cold machine, for kernels it never calls; a later task's other methods and track warm in its
-    worker, the methods in their warm-up call). Python 3.11 starts it with ``python -c``
-    and ignores the ``sys_path`` it is handed, so the working folder came first: run from a clone
-    after ``pip install .``, the workers imported the clone's sources, not the installed package
-    the main process runs (and compiled every kernel again). PYTHONSAFEPATH drops the working
-    folder and PYTHONPATH lists this process's path, for the server only: ``worker_preload`` puts
-    the user's values back in it, so a method's own subprocesses see the environment it had."""
+    ``methods`` and the first task's ``tracks``, whose kernels its workers inherit (warming every
+    built-in would compile kernels a run never calls; other methods and tracks warm in their
+    worker). Python 3.11 starts it with ``python -c`` and ignores the ``sys_path`` handed to it, so
+    the working folder came first and a clone's workers imported the clone's sources instead of the
+    installed package: PYTHONSAFEPATH drops it and PYTHONPATH lists this process's path, for the
+    server only (``worker_preload`` restores the user's values)."""
     from multiprocessing import forkserver
 
     saved = {key: os.environ.get(key) for key in SERVER_ENV}
@@ -262,9 +242,8 @@ _warm: set[str] = set()
 
 
 def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
-    """Load the compiled kernels of the built-in associators among ``methods`` and of the
-    ``tracks`` (``Track.warm_up``) in this process (numba's cache; a compile if it is cold,
-    announced on stderr by ``kernels.warm``), once. Only assocbench's own code runs here."""
+    """Load the kernels of the built-in ``methods`` and the ``tracks`` here, once (a cold compile is
+    announced); only assocbench's code runs here."""
     for name in sorted(set(tracks)):
         warm_track(get_track(name))
     from ..associators.registry import BUILTINS
@@ -281,11 +260,8 @@ def warm_builtins(methods: Iterable[str], tracks: Iterable[str] = ()) -> None:
 
 
 def warm_track(track) -> None:
-    """``track.warm_up()`` in this process, once. A forked worker inherits its parent's warm
-    kernels; a forkserver's worker (the parent has a thread: numpy's BLAS pool, pyarrow's allocator
-    under pandas 3) inherits the server's, which warmed the built-in associators and the tracks of
-    the task that started it, so a worker of another track warms its track here, before its frames:
-    otherwise a track's kernels would compile inside its timed frames."""
+    """``track.warm_up()`` here, once, so a forkserver's worker of another track than the server
+    warmed does not compile inside its timed frames."""
     if f"track {track.name}" not in _warm:
         if has(track, WarmUp):
             track.warm_up()
@@ -293,8 +269,8 @@ def warm_track(track) -> None:
 
 
 class _Call(NamedTuple):
-    """The call a worker announced and is in: run and method indices, frame, limit (s), whose code
-    (``METHOD`` or ``TRACK``) and when it started (monotonic clock)."""
+    """The call a worker is in: run and method indices, frame, limit (s), whose code (``METHOD`` or
+    ``TRACK``), start time."""
 
     run: int
     method: int
@@ -328,12 +304,10 @@ def _stderr(line: str) -> None:
 
 
 class Supervisor:
-    """Runs tasks in at most ``slots`` worker processes at once and enforces each call's limit.
-
-    ``report(line)`` is told, once per method and run, that frames failed because a worker died
-    or overran (the records say it for every frame). ``watch(event, k)``, when given, hears each
-    worker start (``start``), each call it makes (``call``, frame k), each frame it finishes
-    (``frame``) and, at least every ``WATCH_TICK_S`` while it runs, ``tick`` (a progress bar)."""
+    """Runs tasks in at most ``slots`` workers at once and enforces each call's limit.
+    ``report(line)`` hears, once per method and run, that frames failed because a worker died or
+    overran. ``watch(event, k)`` hears each worker ``start``, each ``call`` (frame k), each
+    ``frame`` finished and, at least every ``WATCH_TICK_S``, ``tick``."""
 
     def __init__(self, slots: int = 1, report: Callable[[str], None] = _stderr,
                  watch: Callable[[str, int], None] | None = None) -> None:
@@ -343,11 +317,11 @@ class Supervisor:
         self.tick = WATCH_TICK_S if watch is not None else None
 
     def run(self, tasks: Iterable[Task], on_done: Callable[[Task, dict, dict], None]) -> None:
-        """Run ``tasks``; ``on_done(task, records, imports)`` as each finishes, with
-        ``records[(run, method)]`` the per-frame records in frame order (a ``RecordSpool``: read from
-        disk, open only during ``on_done``) and ``imports[(run, method)]`` what its worker imported
-        (``imports.ImportLog.report``). Raises ``TaskFailed`` at the end if a task failed
-        outside any method call (the others still run), ``UserError`` at once for bad input."""
+        """Run ``tasks``; ``on_done(task, records, imports)`` as each finishes,
+        ``records[(run, method)]`` the per-frame records in order (a ``RecordSpool``, open during
+        ``on_done``) and ``imports[(run, method)]`` its worker's import report. Raises
+        ``TaskFailed`` at the end if a task failed outside any method call, ``UserError`` at once
+        for bad input."""
         pending, live, failed = deque(tasks), [], []
         total = len(pending)
         try:
@@ -387,8 +361,7 @@ class Supervisor:
         return out
 
     def run_one_table(self, task: Task, drop: tuple[str, ...] = ()) -> dict:
-        """The per-frame table (``frame_table``) of each (run, method) of one task, built from
-        its spooled records without holding them all."""
+        """The per-frame table of each (run, method) of one task, from its spooled records."""
         out = {}
         self.run([task], lambda _, records, __: out.update({key: frame_table(spool, drop)
                                                          for key, spool in records.items()}))
@@ -480,8 +453,8 @@ class Supervisor:
 
 
 def _merged(before: dict | None, report: dict) -> dict:
-    """One method's import report, with what a worker killed earlier in its run reported: every
-    name asked for, each module's earliest load."""
+    """One method's import report merged with a killed earlier worker's: every name asked for, each
+    module's earliest load."""
     if before is None:
         return report
     loaded = dict(report["loaded"])
@@ -514,9 +487,8 @@ def _close_spools(progress: _Progress) -> None:
 
 
 def _stop(w: _Running, grace: float = 0.0) -> None:
-    """End ``w``'s process (killed unless it exits within ``grace`` s) and every process its
-    method started, and release its handles. The group is killed before ``join`` reaps the worker:
-    while a forked worker is unreaped, its id cannot be another process's."""
+    """End ``w``'s process (killed after ``grace`` s) and its method's, releasing its handles; the
+    group dies before ``join`` (an unreaped id is not reused)."""
     if grace:
         wait([w.process.sentinel], grace)
     _kill_session(w.process.pid)
@@ -528,8 +500,8 @@ def _stop(w: _Running, grace: float = 0.0) -> None:
 
 
 class _allow_children:
-    """Start a worker from a daemonic process too (a dask worker is one): the worker is ours to
-    kill, and it exits with its parent by itself."""
+    """Start a worker from a daemonic process too (a dask worker): it is ours to kill and exits with
+    its parent."""
 
     def __enter__(self):
         self.proc = mp.current_process()
@@ -542,11 +514,9 @@ class _allow_children:
 
 def execute(spec: RunSpec, cache_dir: Path | None = None, associations: bool = False,
             artifacts: Path | None = None, progress: bool = False) -> tuple[pd.DataFrame, dict]:
-    """Run ``spec`` in a worker process (time limit ``spec.time_limit_s`` per call): per-frame
-    records and the summary (the track's). ``associations=True`` keeps each frame's association
-    (a list, -1 where none; all -1 on a failed frame) in an ``association`` column, for pictures;
-    ``artifacts``: a folder for the run's end-of-run files (``RunFiles``); ``progress``:
-    a bar over the frames on stderr (``RunProgress``)."""
+    """Run ``spec`` in a worker (``time_limit_s`` per call): per-frame records and the summary.
+    ``associations=True`` adds an ``association`` column; ``artifacts``: a folder for ``RunFiles``;
+    ``progress``: a bar on stderr."""
     name = f"{spec.source.name} seed {spec.seed}"
     task = Task(name, ((name, spec),), ((spec.method, spec.method, dict(spec.params)),),
                 str(cache_dir) if cache_dir else None, str(artifacts) if artifacts else None)

@@ -1,13 +1,9 @@
 """Suites: scenes × difficulties × methods × seeds, read from YAML (``configs/leaderboard.yaml``).
-
-A suite file has the keys ``base`` (a run config applied to every run), ``scenes``,
-``difficulties`` (name -> run-config overrides, e.g. ``{belief: {sigma_rotation: 2}}``),
-``methods`` (names, or mappings ``{name, method, params}`` so a label can point at a plugin),
-``seeds``, and optionally ``track`` (the suite's track; else inferred from its methods and
-scenes), ``tolerance`` (for ``check``), ``description``, ``requires`` (modules beyond the core it
-needs, ``[gtsam]``: ``check`` skips it where one is missing) and ``backends`` (name -> run-config
-overrides, e.g. ``{isam2: {estimator: {name: isam2}}}``): each difficulty is then run once per back
-end, as the difficulty ``<difficulty>-<backend>``. docs/reference/suites.md describes every key.
+    Keys: ``base`` (a run config for every run), ``scenes``, ``difficulties`` (name -> overrides),
+    ``methods`` (names, or ``{name, method, params}``), ``seeds``, and optionally ``track``,
+    ``tolerance`` (``check``), ``description``, ``requires`` (modules beyond the core; ``check``
+    skips the suite without them) and ``backends`` (name -> overrides: each difficulty runs once per
+    back end as ``<difficulty>-<backend>``). docs/reference/suites.md describes every key.
 """
 
 from __future__ import annotations
@@ -49,8 +45,7 @@ class MethodEntry:
 
 @dataclass(frozen=True, eq=False)
 class Cell:
-    """One scene, seed and difficulty (or ``<difficulty>-<backend>``) of a suite: the run config
-    every method of the suite runs on (its ``method`` is set per method: ``config``)."""
+    """One scene, seed and difficulty of a suite: the run config each method runs on (``config``)."""
 
     scene: str
     seed: int
@@ -84,12 +79,11 @@ class Run:
 
     @cached_property
     def key(self) -> str:
-        """What a stored run is looked up by: the run's checked settings (the method and its
-        parameters among them), its frame source's content key (``source.key``: the scene's files,
-        a waypoint file, a log), the file of the method's class and the content of each file a
-        parameter names. Labels (the difficulty's and the method's names) are not in it. The code
-        the run imported is checked when a stored run is found (``inputs.RunInputs``). Computed
-        once: a file edited while a sweep runs must not move a run from one key to another."""
+        """What a stored run is looked up by: its checked settings (method and parameters included),
+        its source's content key (``source.key``), the method class's file and the content of each
+        file a parameter names; not its labels. The code it imported is checked when found
+        (``inputs.RunInputs``). Computed once, so a file edited during a sweep cannot move a run
+        between keys."""
         payload = {"format": KEY_FORMAT, "settings": settings_payload(self.spec.settings),
                    "source": self.spec.source.key, "class": _class_file(self.entry.method),
                    "param_files": _param_file_digests(self.entry.params)}
@@ -112,17 +106,15 @@ def settings_payload(settings) -> dict:
 
 
 def _param_file_digests(params: dict) -> list[str]:
-    """The content of each file a method's parameter names (``params.model`` of ``learned``, or a
-    plugin's data file): the settings hold its path alone, and a file rewritten in place (a
-    retrained model) must not reuse the numbers the old one made."""
+    """Each parameter-named file's content (``learned``'s ``params.model``), so one rewritten in
+    place reruns."""
     paths = (Path(v) for v in params.values() if isinstance(v, str) and v)
     return [hashlib.sha256(p.read_bytes()).hexdigest()[:16] for p in paths if p.is_file()]
 
 
 def _class_file(method: str) -> str:
-    """The file defining a method's class (``inputs.file_name``), so that another module of the
-    same name found on another path is another run; the name alone where it does not resolve
-    (``oracle``, a track's own method)."""
+    """The file defining a method's class, so a same-named module on another path is another run;
+    the name alone where it does not resolve."""
     try:
         return file_name(Path(inspect.getsourcefile(associator_class(method))).resolve())
     except Exception:  # noqa: BLE001 - a broken plugin must not stop the sweep from being planned
@@ -257,8 +249,8 @@ def missing_modules(modules) -> str | None:
 
 
 def suite_requirements(path: Path) -> str | None:
-    """Why the suite file at ``path`` cannot run here (``missing_modules`` of its ``requires``),
-    read before the suite is loaded: loading it resolves its runs, which would refuse the same."""
+    """Why the suite file at ``path`` cannot run here (its ``requires``), read before loading it
+    (loading would refuse the same)."""
     return missing_modules(_requires(read_yaml(path), str(path)))
 
 
@@ -271,9 +263,8 @@ def _requires(raw: dict, where: str) -> tuple[str, ...]:
 
 
 def suite_track(raw: dict, methods: tuple[MethodEntry, ...], where: str) -> Track:
-    """The one track of a suite's runs: its ``track`` (or its base's), else the track each method
-    and scene implies; a suite mixing tracks is refused (its runs are scored differently: one table
-    cannot hold them)."""
+    """The suite's one track: its ``track``, else what its methods and scenes imply; mixed tracks
+    are refused."""
     base = raw.get("base") or {}
     named = raw.get("track") or base.get("track")
     if named is not None:
@@ -292,8 +283,8 @@ def suite_track(raw: dict, methods: tuple[MethodEntry, ...], where: str) -> Trac
 
 
 def _crossed(difficulties: dict, backends: dict) -> dict:
-    """Each difficulty once per back end, as ``<difficulty>-<backend>`` with both overrides (the
-    back end's last); the difficulties themselves when no back end is named."""
+    """Each difficulty once per back end, ``<difficulty>-<backend>`` with both overrides; the
+    difficulties alone when none is named."""
     if not backends:
         return difficulties
     out = {}
@@ -304,9 +295,8 @@ def _crossed(difficulties: dict, backends: dict) -> dict:
 
 
 def resolve_suite(name: str) -> Path:
-    """A suite file: ``name`` itself when it is a path that exists or ends in .yaml/.yml, else a
-    registered track's shipped suite of that name (``Track.suites``: the built-ins' in
-    ``assocbench/configs``, a plugin's in its own package)."""
+    """A suite file: ``name`` if an existing path or ``.yaml``/``.yml``, else a registered track's
+    shipped suite."""
     path = Path(name)
     if path.exists() or path.suffix in (".yaml", ".yml") or len(path.parts) > 1:
         return path
@@ -318,6 +308,6 @@ def resolve_suite(name: str) -> Path:
 
 
 def shipped_difficulties() -> dict[str, dict]:
-    """The difficulty levels of the shipped leaderboard (``easy``, ``medium``, ``hard``):
-    run-config overrides, defined once in ``configs/leaderboard.yaml``."""
+    """The shipped leaderboard's difficulty levels (``easy``, ``medium``, ``hard``), defined once in
+    ``configs/leaderboard.yaml``."""
     return dict(read_yaml(shipped_config("leaderboard.yaml"))["difficulties"])

@@ -1,17 +1,12 @@
-"""Run a suite's missing runs: one worker process at a time, several (``--jobs N``), or on a dask cluster.
+"""Run a suite's missing runs: one worker at a time, several (``--jobs N``), or on a dask cluster.
 
-The stored unit is one run: a method on one scene, seed and difficulty (``suite.Run``). A sweep
-looks each run up in ``<out>/runs/`` (``runstore``) and computes only those not stored, or stored
-from other inputs: adding a method to a suite computes its runs alone, removing one computes
-nothing, changing one method's parameters recomputes that method. The missing runs of one scene,
-seed and difficulty form one worker task (``sandbox.Task``), which reads the sequence once and
-builds each frame's problem once for all its methods.
-
-Every task runs in a worker process (``sandbox.py``): a method call past its time limit, or a
-method that dies or exits, fails that frame and the task goes on; an interrupt kills the workers
-at once. Each run is stored as its task finishes, with the inputs its worker imported
-(``inputs.py``), so an interrupted sweep resumes where it stopped; a run whose code was saved while
-it ran is returned but not stored.
+The stored unit is one run, a method on one scene, seed and difficulty (``suite.Run``). A sweep
+computes only the runs not stored under ``<out>/runs/`` (``runstore``) or stored from other inputs:
+adding a method computes its runs, removing one nothing, changing one method's parameters that
+method. The missing runs of one cell form one worker task (``sandbox.Task``), which reads the
+sequence and builds each problem once for all its methods. Each run is stored as its task finishes,
+with the inputs its worker imported (``inputs.py``), so an interrupted sweep resumes; a run whose
+code was saved while it ran is returned but not stored.
 """
 
 from __future__ import annotations
@@ -38,8 +33,7 @@ Result = tuple[pd.DataFrame, pd.DataFrame]   # a run's summary row and per-frame
 
 
 def cell_task(runs: list[Run], cache_dir: str | None = None) -> Task:
-    """The worker task of ``runs``, methods of one cell (scene, seed, difficulty): the cell's run
-    and the methods."""
+    """The worker task of one cell's ``runs``: the cell's run and the methods."""
     cell = runs[0].cell
     name = f"{cell.scenario} seed {cell.seed}"
     return Task(name, ((name, runs[0].spec),), tuple((r.entry.label, r.entry.method, dict(r.entry.params))
@@ -47,8 +41,7 @@ def cell_task(runs: list[Run], cache_dir: str | None = None) -> Task:
 
 
 def run_result(run: Run, records) -> Result:
-    """A run's summary row and the per-frame columns of its track (``Columns.frames``) the run has,
-    from the worker's records (an iterable in frame order: a ``RecordSpool``)."""
+    """A run's summary row and the per-frame columns of its track, from the worker's records."""
     per_frame = frame_table(records)
     errors = sorted(set(per_frame["error"]) - {""})
     summary = pd.DataFrame([{**summarize_run(run.spec.track_impl, per_frame), "error": errors[0] if errors else ""}])
@@ -76,8 +69,8 @@ def _inputs(run: Run, report: dict | None, graph: ImportGraph) -> RunInputs | st
 
 
 class _Bar(tqdm):
-    """The sweep's progress bar, without tqdm's monitor thread: a process with no other thread
-    can fork its workers (``sandbox._context``), which is much faster than a forkserver."""
+    """The sweep's progress bar without tqdm's monitor thread, so workers can fork
+    (``sandbox._context``)."""
 
     monitor_interval = 0
 
@@ -88,8 +81,8 @@ def _report(line: str) -> None:
 
 def run_cell(runs: list[Run], cache_dir: str | None = None,
              graph: ImportGraph | None = None) -> list[tuple[Result, RunInputs | str]]:
-    """The results and inputs of ``runs`` (one cell's), run in a worker process (``cell_results``;
-    ``graph``: the files already read, shared by a sweep's tasks)."""
+    """Results and inputs of one cell's ``runs`` in a worker (``graph``: files already read,
+    shared)."""
     graph = graph or ImportGraph()
     out = []   # made while the task's spooled records are still open
     Supervisor(1, _report).run([cell_task(runs, cache_dir)],
@@ -123,8 +116,8 @@ def _run_dask(todo: list[list[Run]], keep: Callable, client, cache_dir: str | No
 
 
 def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str | None) -> None:
-    """Run each cell's ``todo`` in at most ``jobs`` worker processes, keeping each as it finishes;
-    a task that fails outside any method call is named, the others still run, then ``TaskFailed``."""
+    """Run each cell's ``todo`` in at most ``jobs`` workers, keeping each as it finishes; a task
+    failing outside a method call is named, the rest run, then ``TaskFailed``."""
     graph = ImportGraph()
     if jobs == 1:
         failed = []
@@ -143,8 +136,8 @@ def _run_local(todo: list[list[Run]], keep: Callable, jobs: int, cache_dir: str 
 
 
 def missing_cells(suite: Suite, out: Path) -> tuple[dict[Run, Result], list[list[Run]], list[str]]:
-    """The stored results of the suite's runs that can be reused, the others grouped by cell (a
-    task per cell, ``in_turns``) and why stored runs are out of date."""
+    """The reusable stored results, the other runs grouped by cell (``in_turns``), and why stored
+    runs are out of date."""
     done, todo, changed = {}, {}, []
     for run in suite.runs:
         result, why = lookup(out, run)
@@ -157,9 +150,8 @@ def missing_cells(suite: Suite, out: Path) -> tuple[dict[Run, Result], list[list
 
 
 def in_turns(tasks: list[list[Run]]) -> list[list[Run]]:
-    """``tasks`` with one task of each sequence in turn (its source's content key): the first
-    tasks that run side by side (``--jobs N``) make different sequences, where two difficulties of
-    one scene and seed would render the same one twice on a cold cache."""
+    """``tasks`` taking one of each sequence in turn, so tasks run side by side make different
+    sequences (not one render twice on a cold cache)."""
     by_source: dict[str, list] = {}
     for runs in tasks:
         by_source.setdefault(runs[0].spec.source.key, []).append(runs)
@@ -168,9 +160,8 @@ def in_turns(tasks: list[list[Run]]) -> list[list[Run]]:
 
 def run_suite(suite: Suite, out: Path, jobs: int = 1, executor: str = "local", address: str | None = None,
               cache_dir: str | None = None, progress: bool = True) -> tuple[pd.DataFrame, pd.DataFrame]:
-    """Compute every run of ``suite`` not stored under ``out`` (``missing_cells``), store each as its
-    task finishes, and return the summaries and frame records of all runs, labelled, in the suite's
-    order."""
+    """Compute the runs of ``suite`` not stored under ``out``, storing each as it finishes; return
+    every run's summary and frames, labelled, in suite order."""
     if executor not in EXECUTORS:
         raise UserError(f"unknown executor {executor!r}: choose one of {', '.join(EXECUTORS)}")
     if jobs < 1:

@@ -1,8 +1,6 @@
-"""Imported once by the forkserver that forks the worker processes (``sandbox.py``), never by
-a user: it imports what a worker runs and loads the compiled kernels of the built-in associators
-and the tracks the server was started for (every built-in associator when it was not told),
-compiling them if numba's cache is cold, so every worker forked from it starts warm instead of
-paying a second or more per process."""
+"""Imported once by the forkserver that forks the workers (``sandbox.py``), never by a user: it
+imports what a worker runs and loads the kernels of the built-in associators and the tracks the
+server was started for, so every forked worker starts warm."""
 
 import json
 import os

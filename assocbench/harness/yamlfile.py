@@ -13,9 +13,8 @@ from ..validation import BoundedLoader
 
 
 class _UniqueKeyLoader(BoundedLoader):
-    """A safe YAML loader that refuses a key given twice in one mapping (YAML itself keeps the
-    last silently, so a typo'd override would be lost without a word), and an alias bomb
-    (``BoundedLoader``)."""
+    """A safe YAML loader refusing a key given twice in a mapping (YAML keeps the last silently) and
+    alias bombs (``BoundedLoader``)."""
 
     def construct_mapping(self, node, deep=False):
         seen = set()

@@ -1,16 +1,14 @@
 """The Bundler camera (Snavely's Bundler v0.3): a pinhole with two radial distortion terms, and the
-predicted feature bundle ``h(x)`` with its analytic Jacobians, the photos track's measurement model.
+predicted bundle ``h(x)`` with its analytic Jacobians, the photos track's measurement model.
 
-Bundler's convention: a world point ``X`` has camera coordinates ``P = R X + t`` (the camera looks
-along ``-z``, x right, y up); it projects to ``q = -P_xy / P_z`` and, distorted, to
-``h' = f r(q) q`` with ``r(q) = 1 + k₁‖q‖² + k₂‖q‖⁴``, in pixels from the image centre, y up. With the
-pixel centres at integer (column, row), a ``W × H`` image has its centre at ``((W-1)/2, (H-1)/2)``:
+A world point ``X`` has camera coordinates ``P = R X + t`` (looking along ``-z``, y up), projects to
+``q = -P_xy / P_z`` and, distorted, to ``h' = f r(q) q``, ``r(q) = 1 + k₁‖q‖² + k₂‖q‖⁴`` (px from
+the centre, y up); in (column, row) pixels of a ``W × H`` image:
 
-    h = (h'_x + (W-1)/2,  (H-1)/2 - h'_y)          (column, row), rows going down
+    h = (h'_x + (W-1)/2,  (H-1)/2 - h'_y)
 
-State perturbations around an estimate, as ``pinhole``'s: the camera's orientation ``C = C' Exp(δθ)``
-(``C = Rᵀ``, camera to world, body-frame rotation vector), its centre ``p = p' + δp`` (``p = -Rᵀ t``)
-and a landmark ``l = l' + δl``. With ``P = Cᵀ (l - p)``:
+Perturbations as ``pinhole``'s: ``C = C' Exp(δθ)`` (``C = Rᵀ``), ``p = p' + δp`` (``p = -Rᵀ t``),
+``l = l' + δl``. With ``P = Cᵀ (l - p)``:
 
     ∂P/∂δp = -Cᵀ,   ∂P/∂δθ = [P]×,   ∂P/∂δl = Cᵀ
     ∂q/∂P  = -1/P_z [[1, 0, -P_x/P_z], [0, 1, -P_y/P_z]]
@@ -62,18 +60,17 @@ class BundlerCamera:
         return np.column_stack([xy[:, 0] + (self.width - 1) / 2, (self.height - 1) / 2 - xy[:, 1]])
 
     def in_image(self, pixels: np.ndarray) -> np.ndarray:
-        """Which (column, row) pixels lie inside the image (pixel centres from 0 to W-1, H-1, half a
-        pixel of border)."""
+        """Which (column, row) pixels lie in the image (centres 0..W-1, 0..H-1, half a pixel of
+        border)."""
         col, row = pixels[:, 0], pixels[:, 1]
         return (col >= -0.5) & (col <= self.width - 0.5) & (row >= -0.5) & (row <= self.height - 0.5)
 
 
 def predict_bundle(C: np.ndarray, p: np.ndarray, landmarks: np.ndarray,
                    camera: BundlerCamera) -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Predicted pixels ``h`` (n, 2) of ``landmarks`` (n, 3) seen by a camera of ``camera``'s
-    intrinsics at orientation ``C`` (camera to world) and centre ``p``; Jacobians with respect to
-    the pose ``[δp, δθ]`` (n, 2, 6) and to each landmark ``δl`` (n, 2, 3); depths ``-P_z`` (n,),
-    positive in front of the camera (module docstring)."""
+    """Predicted pixels ``h`` (n, 2) of ``landmarks`` (n, 3) from orientation ``C`` and centre
+    ``p``; Jacobians to the pose ``[δp, δθ]`` (n, 2, 6) and each landmark (n, 2, 3); depths ``-P_z``
+    (n,), positive in front."""
     P = (landmarks - p) @ C                      # rows: Cᵀ (l - p)
     z = P[:, 2]
     q = -P[:, :2] / z[:, None]

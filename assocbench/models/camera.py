@@ -1,9 +1,6 @@
-"""Pinhole camera: intrinsics from the MJCF and world-to-pixel projection.
-
-Conventions (OpenCV): camera frame x right, y down, z forward; pixel centres at integer
-coordinates, so ``cx = W/2 - 0.5``. A pose is ``(R, p)`` with ``R`` the camera-to-world
-rotation (columns are the camera axes in world) and ``p`` the camera centre in world.
-MuJoCo cameras look along -z with y up: ``R_mujoco = R @ diag(1, -1, -1)``.
+"""Pinhole camera: intrinsics from the MJCF and world-to-pixel projection. OpenCV axes, pixel
+centres at integers; a pose ``(R, p)`` is camera-to-world. MuJoCo's camera:
+``R_mujoco = R @ diag(1, -1, -1)``.
 """
 
 from __future__ import annotations

@@ -1,10 +1,5 @@
-"""A depth frame as the dense track uses it: vertex and normal maps, and per-pixel truth.
-
-Conventions are the camera track's (``sim/camera.py``): OpenCV camera axes (x right, y down,
-z forward), a pose ``(R, t)`` is camera-to-world, pixel centres at integer coordinates. A pixel
-``(v, u)`` (row, column) with z-depth ``d`` has the vertex ``V = d · ((u − cx)/f, (v − cy)/f, 1)``.
-Missing depth is NaN everywhere (depth, vertex, normal), never 0, so no filter can mistake it for
-a surface at the camera centre.
+"""A depth frame as the dense track uses it: vertex and normal maps (OpenCV axes), per-pixel truth.
+Missing depth is NaN everywhere, never 0, so no filter mistakes it for a surface at the camera.
 """
 
 from __future__ import annotations
@@ -29,26 +24,20 @@ def vertex_map(depth: np.ndarray, K: Intrinsics) -> np.ndarray:
 
 
 def pixel_rays(K: Intrinsics, h: int, w: int) -> tuple[np.ndarray, np.ndarray]:
-    """The ray slopes ``((u − cx)/f`` for each column ``u < w``, ``(v − cy)/f`` for each row ``v < h)``:
-    ``V[v, u] = d · (x[u], y[v], 1)``. Compiled passes that build vertices pixel by pixel take them from
-    here, so their vertices are ``vertex_map``'s bit for bit."""
+    """The ray slopes ``(u − cx)/f`` per column and ``(v − cy)/f`` per row: vertices built from them
+    match ``vertex_map`` bit for bit."""
     return (np.arange(w, dtype=np.float64) - K.cx) / K.f, (np.arange(h, dtype=np.float64) - K.cy) / K.f
 
 
 def normal_map(vertices: np.ndarray) -> np.ndarray:
-    """The homework's neighbour cross product, taken over both neighbours (H, W, 3):
-    ``n = (V[v+1, u] − V[v−1, u]) × (V[v, u+1] − V[v, u−1])``, normalised. In this order (OpenCV
-    axes) the normal of a surface seen from the front points towards the camera (``n · V < 0``).
-    NaN on the border rows and columns and wherever a vertex involved is missing or the cross
-    product vanishes.
+    """The homework's neighbour cross product over both neighbours (H, W, 3), normalised, facing the
+    camera:
 
-    Why central, not the one-sided ``V[v+1, u] − V[v, u]``: a one-sided normal depends on the
-    pixel's own depth, so its error is correlated with the pixel's own noise, and the
-    point-to-plane residual ``n_q · (p′ − q)`` then has a systematic part (the product of the
-    two errors): on crates with the sensor's noise, one ICP step from the TRUE pose moved 8 mm
-    away and further each iteration (0.5 m after 60). The central difference leaves the pixel
-    itself out, and the same step stays within 0.1 mm. One compiled pass a pixel (``_normals``):
-    the vectorised numpy form made nine temporaries of the whole map, ~4.6 ms a 320x240 frame."""
+        n = (V[v+1, u] − V[v−1, u]) × (V[v, u+1] − V[v, u−1])
+
+    NaN on the border and where undefined. Central, not one-sided: a one-sided normal shares the
+    pixel's own noise, which biases the point-to-plane residual ``n_q · (p′ − q)`` and drags ICP off
+    the true pose."""
     V = np.ascontiguousarray(vertices, dtype=np.float64)
     if V.ndim != 3 or V.shape[2] != 3:
         raise ValueError(f"normal_map: vertices must be (H, W, 3), got {V.shape}")
@@ -73,9 +62,8 @@ def _normals(V, out):
 
 @njit(cache=True)
 def central_normal(left, right, up, down):
-    """``n = (down − up) × (right − left) / |…|`` for 3-vectors (tuples): the cross product ``dy × dx``
-    of the central differences, divided by its norm; NaN where that is not > 0 or a coordinate is
-    NaN (NaN compares false). The one formula of ``normal_map`` and of the depth sensor's fused pass."""
+    """``n = (down − up) × (right − left) / |…|`` for 3-vectors; NaN where the norm is not > 0. The
+    one formula of ``normal_map`` and the sensor's pass."""
     dx0, dx1, dx2 = right[0] - left[0], right[1] - left[1], right[2] - left[2]
     dy0, dy1, dy2 = down[0] - up[0], down[1] - up[1], down[2] - up[2]
     c0 = dy1 * dx2 - dy2 * dx1
@@ -89,21 +77,17 @@ def central_normal(left, right, up, down):
 
 @njit(cache=True)
 def vertex_at(depth, x, y, v, u):
-    """``V[v, u] = d · (x[u], y[v], 1)`` with ``d = depth[v, u]`` and the slopes of ``pixel_rays``:
-    ``vertex_map``'s vertex, bit for bit, without building the map."""
+    """``V[v, u] = d · (x[u], y[v], 1)`` with ``pixel_rays``' slopes: ``vertex_map``'s vertex bit
+    for bit."""
     d = depth[v, u]
     return d * x[u], d * y[v], d
 
 
 @dataclass
 class DepthFrame:
-    """One (downsampled) depth frame and its truth.
-
-    Measured (what an associator and ICP may use): ``depth`` (H, W) noisy z in metres, NaN where
-    missing; ``vertices`` and ``normals`` (H, W, 3) in the camera frame, NaN where invalid.
-    Truth (for scoring only): ``true_points`` (H, W, 3) world point each pixel sees, from the
-    noise-free depth and the true pose, NaN where nothing is hit; ``geom`` (H, W) int MuJoCo geom
-    id the pixel sees, ``NO_GEOM`` where none; ``R``, ``t`` the true camera-to-world pose.
+    """One (downsampled) depth frame. Measured: ``depth`` (H, W) noisy z (m), ``vertices``,
+    ``normals`` (H, W, 3), NaN where missing. Truth, for scoring only: ``true_points`` (H, W, 3),
+    ``geom`` (H, W; ``NO_GEOM``: none), the true pose ``R``, ``t``.
     """
 
     K: Intrinsics

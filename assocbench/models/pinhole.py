@@ -41,11 +41,9 @@ def predict_bundle(R: np.ndarray, p: np.ndarray, landmarks: np.ndarray,
 
 
 def exp_so3(v: np.ndarray) -> np.ndarray:
-    """Rotation matrix ``Exp(v)`` of a rotation vector, by Rodrigues' formula
-    ``I + a [v]× + b [v]×²`` with ``a = sin θ / θ``, ``b = (1 − cos θ) / θ²``, θ = ‖v‖ and
-    ``[v]×² = v vᵀ − θ² I``; below θ = 1e-4, where a and b cancel, their Taylor series (the next
-    terms are below 1e-17 there). Equal to scipy's ``Rotation.from_rotvec(v).as_matrix()`` to
-    rounding (7e-16 measured), at a quarter of its cost: it runs on every predict and update."""
+    """``Exp(v)`` by Rodrigues, ``I + a [v]× + b [v]×²``, ``a = sin θ / θ``,
+    ``b = (1 − cos θ) / θ²``; Taylor series below θ = 1e-4. scipy's ``from_rotvec`` to rounding,
+    cheaper (every predict and update)."""
     x, y, z = (float(c) for c in v)
     t2 = x * x + y * y + z * z
     if t2 < 1e-8:

@@ -1,22 +1,18 @@
-"""An infinite line in polar form, measured from a planar robot (the line-features lecture, seed 003).
+"""An infinite line in polar form, measured from a planar robot (the line-features lecture, seed
+003).
 
-A line is ``{p : p·(cos α, sin α) = r}`` with **r ≥ 0**: α is the direction of the foot of the
-perpendicular from the frame's origin, wrapped to [−π, π). A line through the origin (r = 0)
-has two names, α and α + π; the convention keeps the one given.
-
-A map line ``(α_w, r_w)`` seen from the pose ``(x, y, θ)`` is predicted as (lecture, slide
-"From map to sensor/robot space")
+A line is ``{p : p·(cos α, sin α) = r}`` with **r ≥ 0**, α wrapped to [−π, π) (at r = 0 the given
+name of α, α + π is kept). A map line ``(α_w, r_w)`` seen from ``(x, y, θ)`` is predicted as
 
     ẑ = h(x, m) = [α_w − θ,  r_w − (x cos α_w + y sin α_w)]
 
-and when that r is negative the robot sits on the other side of the line than the world's
-origin: the same line is then ``(α_w − θ + π, −r)``, which keeps r ≥ 0 and flips the sign of
+and a negative r (the robot across the line from the origin) becomes ``(α_w − θ + π, −r)``, flipping
 the r row of each Jacobian:
 
     ∂h/∂(x, y, θ) = [[0, 0, −1], [−s cos α_w, −s sin α_w, 0]],
     ∂h/∂(α_w, r_w) = [[1, 0], [s (x sin α_w − y cos α_w), s]],      s = sign of the unflipped r.
 
-α is angular: it wraps (``ANGULAR``), and the association module compares it modulo 2π.
+α wraps (``ANGULAR``): the association compares it modulo 2π.
 """
 
 from __future__ import annotations
@@ -77,9 +73,8 @@ def to_world(pose: np.ndarray, z: np.ndarray) -> np.ndarray:
 
 
 def line_from_points(p: np.ndarray, q: np.ndarray) -> np.ndarray:
-    """``(α, r)`` (2,) of the line through the points ``p`` and ``q`` (2,): its unit normal
-    ``n = (−d_y, d_x) / ‖d‖`` with ``d = q − p`` and ``r = p·n``, then r ≥ 0. Equal points have
-    no line: ``ValueError``."""
+    """``(α, r)`` of the line through ``p`` and ``q``: normal ``n = (−d_y, d_x) / ‖d‖``,
+    ``d = q − p``, ``r = p·n``, then r ≥ 0; equal points: ``ValueError``."""
     p, q = np.asarray(p, dtype=np.float64), np.asarray(q, dtype=np.float64)
     d = q - p
     length = float(np.hypot(*d))

@@ -1,19 +1,17 @@
-"""Range-bearing measurement of a 2-D point landmark from a planar robot, and its Jacobians.
-
-Robot pose ``x = (x, y, θ)``, landmark ``l = (l_x, l_y)``; with ``δ = l − (x, y)`` and ``q = ‖δ‖²``:
+"""Range-bearing measurement of a 2-D point landmark from a planar robot (the lecture's EKF-SLAM
+model). Pose ``(x, y, θ)``, landmark ``l``; ``δ = l − (x, y)``, ``q = ‖δ‖²``:
 
     h(x, l) = ( √q,  wrap(atan2(δ_y, δ_x) − θ) )
 
     ∂h/∂(x, y, θ) = [[−δ_x/√q, −δ_y/√q,  0],      ∂h/∂l = [[ δ_x/√q, δ_y/√q],
                      [ δ_y/q,  −δ_x/q,  −1]]                [−δ_y/q,  δ_x/q ]]
 
-(the data association lecture's EKF-SLAM model). The inverse (a new landmark from one
-measurement ``z = (r, φ)``) is ``g(x, z) = (x + r cos(θ + φ), y + r sin(θ + φ))`` with
+The inverse (a landmark from ``z = (r, φ)``) is ``g(x, z) = (x + r cos(θ + φ), y + r sin(θ + φ))``:
 
     ∂g/∂(x, y, θ) = [[1, 0, −r sin(θ + φ)], [0, 1, r cos(θ + φ)]],
     ∂g/∂(r, φ)    = [[cos(θ + φ), −r sin(θ + φ)], [sin(θ + φ), r cos(θ + φ)]].
 
-Pose errors are additive on ``(x, y, θ)`` in the world frame, θ wrapped.
+Pose errors are additive on ``(x, y, θ)``, θ wrapped.
 """
 
 from __future__ import annotations

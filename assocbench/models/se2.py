@@ -1,5 +1,4 @@
-"""Planar poses ``(x, y, θ)``: composition with an increment given in the pose's own frame, and
-the increment between two poses (odometry's convention; GTSAM's ``Pose2.compose``/``between``)."""
+"""Planar poses ``(x, y, θ)``: ``compose`` and ``between`` (GTSAM's ``Pose2`` convention)."""
 
 from __future__ import annotations
 
@@ -29,8 +28,7 @@ def rot2(theta: float) -> np.ndarray:
 
 
 def rz(theta: np.ndarray | float) -> np.ndarray:
-    """Headings as 3-D rotations about z, ``Rz(θ)``: (3, 3), or (N, 3, 3) for N headings (the
-    planar track's poses for code that writes 3-D ones: TUM files, pose columns)."""
+    """Headings as rotations about z, ``Rz(θ)``: (3, 3) or (N, 3, 3), for code writing 3-D poses."""
     t = np.asarray(theta, dtype=np.float64)
     out = np.zeros(t.shape + (3, 3))
     c, s = np.cos(t), np.sin(t)

@@ -1,14 +1,6 @@
-"""Synthetic association problems with known truth, no rendering: for tests and benchmarks.
-
-* ``lattice_problem``: pixel measurements of landmarks on a regular lattice, prediction
-  error made of a common shift (pose-like, fully correlated) plus independent parts:
-  geometric ambiguity on demand.
-* ``range_bearing_problem``: EKF-SLAM-like planar robot observing point landmarks in range
-  and bearing (bearing wraps), landmark errors correlated with the pose error.
-
-Both return ``(Problem, true_association)`` (the camera track's ``camera_problem`` lives in
-``tracks/camera/synthetic.py``: it draws from that track's belief model); the measurements are drawn from the model the
-problem reports, so gating theory holds.
+"""Synthetic association problems with known truth and no rendering (tests, benchmarks):
+``lattice_problem`` (ambiguity on demand) and ``range_bearing_problem``. Measurements are drawn from
+the model the problem reports, so gating theory holds.
 """
 
 from __future__ import annotations
@@ -36,12 +28,9 @@ def lattice_problem(rng: np.random.Generator, n: int = 20, spacing: float = 30.0
                     sigma_independent: float = 2.0, sigma_meas: float = 1.0, p_detect: float = 0.9,
                     n_clutter: int = 5, cols: int = 5, elongation: float = 1.0,
                     scale_spread: float = 1.0) -> tuple[Problem, np.ndarray]:
-    """Landmarks on a ``cols``-wide lattice of pixel ``spacing``.
-
-    ``P = σ_c² (11ᵀ ⊗ I) + blockdiag(Q_j)``: a common shift plus independent errors whose
-    ellipses ``Q_j`` have a random orientation and axes ``σ_i·elongation`` and ``σ_i`` (depth
-    uncertainty seen by a camera is elongated like this), scaled per landmark by a factor
-    log-uniform in ``[1/scale_spread, scale_spread]`` (near landmarks are less certain in pixels).
+    """Landmarks on a ``cols``-wide lattice of pixel ``spacing``,
+    ``P = σ_c² (11ᵀ ⊗ I) + blockdiag(Q_j)``: a common shift plus random ellipses (axes
+    ``σ_i·elongation``, ``σ_i``) scaled log-uniformly in ``[1/scale_spread, scale_spread]``.
     """
     idx = np.arange(n)
     zhat = np.column_stack([idx % cols, idx // cols]).astype(float) * spacing + 50.0
@@ -75,10 +64,8 @@ def range_bearing_problem(rng: np.random.Generator, n: int = 40, p_detect: float
                           sigma_pose: tuple[float, float] = (0.3, np.deg2rad(3.0)), sigma_landmark: float = 0.2,
                           sigma_meas: tuple[float, float] = (0.1, np.deg2rad(1.0)), extent: float = 20.0
                           ) -> tuple[Problem, np.ndarray]:
-    """Robot at the origin heading +x observing ``n`` landmarks in a disc of radius ``extent``.
-
-    State error ``e = [e_pose, e_l]`` with ``e_l_j = e_pose,xy + ε_j`` (landmarks mapped from a
-    pose that shares the current error), so P = H Σ Hᵀ has pose-landmark cross terms.
+    """A robot at the origin heading +x observing ``n`` landmarks within ``extent``;
+    ``e_l_j = e_pose,xy + ε_j``, so P has pose-landmark cross terms.
     """
     pose = np.array([0.0, 0.0, 0.0])
     radius = extent * np.sqrt(rng.uniform(0.05, 1.0, n))

@@ -1,2 +1,2 @@
-"""Scoring: per-frame counts against the truth, their aggregation into a summary, and the
-accuracy and consistency of an estimated trajectory (``trajectory``)."""
+"""Scoring: per-frame counts against the truth, their summary, and trajectory accuracy and
+    consistency."""

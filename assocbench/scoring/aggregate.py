@@ -1,21 +1,16 @@
 """Aggregate per-frame records into a run summary and runs into a leaderboard.
 
-precision = ΣTP / Σ(TP + FP),  recall = ΣTP / Σ(TP + FN),  F1 = 2PR / (P + R)  (micro averages
-over frames); perfect = share of the frames with candidates whose association equals the truth
-exactly (a failed frame is not perfect);
-surprisal_gap = mean over frames of s(returned) - s(true); runtime median and p95 of
-``associate`` in milliseconds; proven_optimal = share of the frames (not failed) whose answer
-the method proved optimal (JCBB's search finished within its budget; NaN for methods that do
-not say); true_mass = mean over frames of the probability a soft associator (JPDA) puts on the
-true outcome of each candidate (``metrics.true_mass``; NaN for hard associators).
+precision = ΣTP / Σ(TP + FP), recall = ΣTP / Σ(TP + FN), F1 = 2PR / (P + R) (micro averages over
+frames); perfect = share of frames with candidates whose association equals the truth (a failed
+frame is not perfect); surprisal_gap = mean of s(returned) - s(true); runtime median and p95 of
+``associate`` (ms); proven_optimal = share of frames whose answer the method proved optimal (NaN
+where it does not say); true_mass = mean probability a soft associator puts on the true outcome
+(``metrics.true_mass``).
 
-A ratio with nothing to count is NaN, never 1: precision when no pairing was returned, recall
-when the truth has no pair; perfect when the run had nothing to associate at all (no true pair
-and no pairing returned: every empty answer is then trivially "exact"); jc_share and
-surprisal_gap when no pairing was returned in any frame (an empty answer is always compatible).
-``status`` says in words whether the numbers can be trusted: ``ok``, or every reason they cannot
-(frames that failed, no candidates, no true pair in any frame, nothing associated), so a broken
-run can never read as a perfect one; ``check`` fails every row that is not ``ok``.
+A ratio with nothing to count is NaN, never 1 (an empty answer is trivially exact and compatible).
+``status`` is ``ok`` or every reason the numbers cannot be trusted (failed frames, no candidates, no
+true pair, nothing associated), so a broken run never reads as a perfect one; ``check`` fails every
+row that is not ``ok``.
 """
 
 from __future__ import annotations
@@ -60,8 +55,8 @@ def run_status(frames: pd.DataFrame) -> str:
 
 
 def _perfect_share(frames: pd.DataFrame) -> float:
-    """Share of the frames with candidates whose association is exactly right; a failed frame is
-    never perfect, and a frame with nothing to associate does not count (NaN if none has any)."""
+    """Share of frames with candidates whose association is exactly right (a failed frame never is);
+    NaN if no frame has candidates."""
     posed = frames[frames["n"] > 0]
     if not len(posed):
         return float("nan")
@@ -76,8 +71,8 @@ def _reported_mean(ok: pd.DataFrame, column: str) -> float:
 
 
 def summarize(frames: pd.DataFrame) -> dict[str, float]:
-    """Summary metrics of one run's per-frame records (one row per frame); a closed-loop run's
-    (records with ``nees``) also gets ``loop_summary``'s trajectory and map columns."""
+    """Summary metrics of one run's per-frame records; a closed-loop run's also gets
+    ``loop_summary``'s columns."""
     ok = frames[frames["error"] == ""] if "error" in frames else frames
     tp, fp, fn = frames["tp"].sum(), frames["fp"].sum(), frames["fn"].sum()
     precision, recall = _ratio(tp, tp + fp), _ratio(tp, tp + fn)
@@ -101,12 +96,9 @@ def summarize(frames: pd.DataFrame) -> dict[str, float]:
 
 
 def leaderboard_table(summaries: pd.DataFrame, extra: Sequence[str] = ()) -> pd.DataFrame:
-    """Mean and std over seeds of each method × scenario (the shared metrics, and the columns
-    ``extra`` of a track's own that the summaries have), sorted by scenario, rows that are not ok
-    last, then F1 (best first);
-    a closed-loop suite's by ATE (lowest first), with ``diverged`` the number of seeds that did.
-    A NaN in any seed makes the mean NaN (it is not skipped), and ``status`` is ``ok`` only when
-    every seed's run was."""
+    """Mean and std over seeds of each method × scenario (shared metrics and the track's ``extra``),
+    by scenario, not-ok rows last, then F1 (closed loop: ATE, with ``diverged`` seeds counted). A
+    NaN seed makes the mean NaN; ``status`` is ``ok`` only when every seed's was."""
     metrics = ["precision", "recall", "f1", "perfect", "surprisal_gap", "runtime_median_ms", *REPORTED_METRICS]
     loop = "ate_rmse" in summaries
     if loop:   # a closed-loop suite: the trajectory, consistency and map columns too
@@ -137,8 +129,8 @@ def leaderboard_table(summaries: pd.DataFrame, extra: Sequence[str] = ()) -> pd.
 
 
 def _combined_status(runs: pd.DataFrame) -> str:
-    """The status of one leaderboard row from its seeds' runs: failed frames counted over all
-    seeds (as the row's ``failures`` / ``frames``), other reasons with how many seeds had them."""
+    """A leaderboard row's status from its seeds: failed frames summed, other reasons with their
+    seed counts."""
     reasons = []
     failures, frames = int(runs["failures"].sum()), int(runs["frames"].sum())
     if failures:

@@ -10,20 +10,18 @@ DECISIONS = ("right", "also", "wrong", "missed", "new", "clutter")
 
 def feature_decisions(landmark_ids: np.ndarray, labels: np.ndarray, association: np.ndarray,
                       real: np.ndarray) -> list[str]:
-    """The decision about each feature ``i`` (m = ``len(labels)``), from the candidates' map ids
-    ``landmark_ids`` (n,), the truth's ``labels`` (m,) (the map id feature ``i`` truly images, or
-    −1), the method's ``association`` (n,) (``a[j]``: the feature paired with candidate j, −1: none)
-    and ``real`` (m,) (the feature images a landmark of the scene, mapped or not):
+    """The decision about each feature ``i``, from the candidates' map ids ``landmark_ids`` (n,),
+    the truth's ``labels`` (m,) (the map id it images, −1: none), the ``association`` (n,) and
+    ``real`` (m,) (it images a scene landmark, mapped or not):
 
     * ``right``: paired with candidate j and ``landmark_ids[j] = labels[i]``;
-    * ``also``: left unpaired while another feature of the same landmark was paired right (a wall
-      split by a doorway gives several lines, a post seen twice two detections: one pairing per
+    * ``also``: unpaired while another feature of its landmark was paired right (one pairing per
       landmark is all an association holds);
-    * ``wrong``: paired with another landmark's candidate (a clutter feature paired is wrong too);
-    * ``missed``: left unpaired though its landmark is a candidate;
-    * ``new``: left unpaired, a real landmark that is not a candidate (not in the map, or not
-      predicted in view): a SLAM filter makes a new landmark of it;
-    * ``clutter``: left unpaired and images no landmark (a spurious detection or added clutter).
+    * ``wrong``: paired with another landmark's candidate (a clutter feature paired too);
+    * ``missed``: unpaired though its landmark is a candidate;
+    * ``new``: unpaired, a real landmark that is not a candidate (a SLAM filter makes it a
+      landmark);
+    * ``clutter``: unpaired and images no landmark.
     """
     landmark_ids, labels = np.asarray(landmark_ids, np.int64), np.asarray(labels, np.int64)
     paired = {int(i): int(landmark_ids[j]) for j, i in enumerate(np.asarray(association, np.int64)) if i >= 0}

@@ -1,17 +1,11 @@
-"""Summary of a closed-loop run from its per-frame records (``harness.loop``).
-
-ate_rmse (m) and rot_rmse_deg: RMSE of the position and rotation errors over all frames, no
-alignment (``evo_ape tum truth.txt estimate.txt`` gives the same), each frame's pose as the
-estimator had it then; ate_smoothed (m): the ATE of a smoother's final estimate of every pose
-(iSAM2; a filter revises no past pose, so its ate_smoothed is its ate_rmse); anees: mean pose
-NEES over the frames with a pose covariance (slam's frame 0 has none), with the two-sided 95 %
-band ``[anees_lo, anees_hi] = χ²_{qN}(0.025, 0.975) / N``, q the pose's degrees of freedom (the
-frames' ``nees_dof``: 6 for a pose in space, 3 for one in the plane). The band assumes independent frames; the
-frames of one run are correlated (the same map error steers them all), so one run's ANEES
-scatters more widely than the band says. diverged_at: the first frame whose NEES stays above
-χ²_q(0.999) for 5 frames, -1 for never. Map figures are the last frame's: confirmed landmarks,
-duplicates, false landmarks and map_rmse (m) of the entries tied to a landmark. ``revisits`` and
-``loop_closures`` are summed over frames (``harness.loop_truth.RevisitCounter``).
+"""Summary of a closed-loop run (``harness.loop``). ate_rmse (m) and rot_rmse_deg: RMSE of position
+and rotation errors with no alignment (as ``evo_ape tum truth.txt estimate.txt``), each pose as
+estimated then; ate_smoothed: a smoother's final trajectory's ATE (a filter's equals ate_rmse);
+anees: mean pose NEES where a covariance exists, with the 95 % band ``χ²_{qN}(0.025, 0.975) / N`` (q
+= ``nees_dof``: 6 in space, 3 in the plane; it assumes independent frames, so one run scatters
+wider); diverged_at: the first frame whose NEES stays above χ²_q(0.999) for 5 frames, -1 never. Map
+columns are the last frame's (confirmed, duplicates, false landmarks, map_rmse); ``revisits`` and
+``loop_closures`` are summed (``RevisitCounter``).
 """
 
 from __future__ import annotations
@@ -69,8 +63,8 @@ def chaotic(diverged_seeds: float) -> bool:
 
 
 def band_side(anees_value: float, lo: float, hi: float) -> str:
-    """``"above"`` or ``"below"`` where an ANEES lies outside its band ``[lo, hi]``, else ``""``
-    (inside, or any of them NaN)."""
+    """``"above"`` or ``"below"`` where an ANEES lies outside ``[lo, hi]``, else ``""`` (inside or
+    NaN)."""
     if not all(np.isfinite(v) for v in (anees_value, lo, hi)):
         return ""
     return "above" if anees_value > hi else "below" if anees_value < lo else ""
@@ -82,8 +76,7 @@ def band_mark(anees_value: float, lo: float, hi: float) -> str:
 
 
 def _last_estimated(frames: pd.DataFrame) -> pd.Series:
-    """The last frame the estimator finished (its map columns); all NaN when it finished none
-    (a run whose estimator failed at its start)."""
+    """The last frame the estimator finished; all NaN when none."""
     done = frames[frames["map_size"].notna()] if "map_size" in frames else frames.iloc[:0]
     if len(done):
         return done.iloc[-1]
@@ -96,16 +89,14 @@ def _count(value) -> float | int:
 
 
 def _smoothed(frames: pd.DataFrame, ate: float) -> float:
-    """ATE of a smoother's final trajectory (its last frame's ``ate_smoothed``); a filter does not
-    revise past poses, so its smoothed ATE is its ATE."""
+    """A smoother's final ATE (its last frame's ``ate_smoothed``); a filter's is its ATE."""
     value = frames["ate_smoothed"].iloc[-1] if "ate_smoothed" in frames else float("nan")
     return float(value) if np.isfinite(value) else ate
 
 
 def loop_status(frames: pd.DataFrame) -> list[str]:
-    """Reasons a closed-loop run cannot be trusted beyond the open loop's: an estimator that raised
-    (its frames from then on were not measured), a pose covariance that stopped being positive
-    definite (NEES NaN after frame 0, on a frame the estimator finished)."""
+    """Why a closed-loop run cannot be trusted beyond the open loop's: an estimator that raised, or
+    a pose covariance no longer positive definite (NEES NaN after frame 0 on a finished frame)."""
     lost = frames["error"].astype(str).str.startswith(ESTIMATOR_FAILED).to_numpy() if "error" in frames \
         else np.zeros(len(frames), bool)
     reasons = []

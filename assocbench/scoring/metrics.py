@@ -1,21 +1,16 @@
-"""Per-frame scores of an association against the truth.
+"""Per-frame scores of an association ``a`` against the truth ``t`` (feature index per candidate or
+-1):
 
-With ``a`` the returned and ``t`` the true association (feature index per candidate or -1):
-
-* TP: ``a_j >= 0`` and ``a_j ≡ t_j``;   FP: ``a_j >= 0`` and not ``a_j ≡ t_j``;
-  FN: ``t_j >= 0`` and not ``a_j ≡ t_j``. ``a_j ≡ t_j`` when they are the same feature, or
-  when ``t_j >= 0`` and both features carry the same truth label: two features can image one
-  landmark (two extracted pieces of one wall's line, split by an occluder), and pairing either
-  is right. Tracks of point landmarks label at most one feature per landmark, so for them
-  ``≡`` is ``=``.
-* clutter_accepted: FPs whose feature images no mapped landmark (a distractor or clutter).
-* missed_true: candidates with a true feature that were left unassociated.
-* surprisal / surprisal_true: ``s(a)`` and ``s(t)``; their difference says whether the
-  method found something the model finds more (or less) likely than the truth.
-* jointly_compatible: whether ``a`` passes the joint χ² test at the method-independent
-  confidence ``JC_CONFIDENCE``.
-* true_mass (soft associators, from their marginals ``β``): the probability the method puts
-  on the true outcome, ``mean_j β_{j, t_j}`` (``true_mass``).
+* TP: ``a_j >= 0`` and ``a_j ≡ t_j``; FP: ``a_j >= 0`` and not ``a_j ≡ t_j``; FN: ``t_j >= 0`` and
+  not ``a_j ≡ t_j``. ``a_j ≡ t_j``: the same feature, or (``t_j >= 0``) two features with one truth
+  label (two pieces of one wall's line); for point landmarks ``≡`` is ``=``.
+* clutter_accepted: FPs whose feature images no mapped landmark; missed_true: candidates with a true
+  feature left unassociated.
+* surprisal / surprisal_true: ``s(a)`` and ``s(t)``: did the method find something the model finds
+  more likely than the truth?
+* jointly_compatible: ``a`` passes the joint χ² test at ``JC_CONFIDENCE`` (the same for every
+  method).
+* true_mass (soft associators): ``mean_j β_{j, t_j}``.
 """
 
 from __future__ import annotations
@@ -59,23 +54,20 @@ def same_feature(a: np.ndarray, t: np.ndarray, labels: np.ndarray) -> np.ndarray
 
 
 def unscored_frame(problem: Problem, truth: FrameTruth) -> dict[str, float]:
-    """Record of a frame the method failed on: its counts as if it had returned no pairing (every
-    true pair a FN, so recall pays for the failure); the properties of an answer (``surprisal``,
-    ``jointly_compatible``) NaN, not measured, since the method gave none: the empty set would
-    pass the joint test trivially, and a failed frame must not claim it did."""
+    """Record of a failed frame: counts as if no pairing was returned (recall pays); ``surprisal``
+    and ``jointly_compatible`` NaN, since the empty set would pass the joint test trivially."""
     counts = score_frame(problem, truth, np.full(problem.n, NO_MATCH, dtype=np.int64))
     return counts | {"surprisal": float("nan"), "jointly_compatible": float("nan")}
 
 
 def true_mass(marginals: np.ndarray, truth_association: np.ndarray) -> float:
-    """Mean probability mass a soft associator puts on the true outcome of each candidate:
+    """Mean probability mass a soft associator puts on each candidate's true outcome:
 
         true_mass = (1/n) Σ_j β_{j, t_j},   column t_j = m (the last, "unassociated") when t_j = -1,
 
-    for marginals ``β`` (n, m + 1) (``Associator.soft``) and the true association ``t`` (n,).
-    1.0 for a perfect hard answer written as one-hot marginals, 0.0 when all mass is on wrong
-    outcomes; NaN when there is no candidate (nothing to count, as the other ratios). Raises
-    ``ValueError`` when the shapes disagree or ``t`` names a feature outside ``-1..m-1``.
+    for marginals ``β`` (n, m + 1) and the truth ``t`` (n,): 1.0 for a perfect one-hot answer, 0.0
+    when all mass is wrong, NaN with no candidate. ``ValueError`` for shapes that disagree or ``t``
+    outside ``-1..m-1``.
     """
     beta = np.asarray(marginals, dtype=np.float64)
     t = np.asarray(truth_association)

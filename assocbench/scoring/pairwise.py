@@ -1,15 +1,12 @@
-"""Pairwise "same landmark" scores of a whole run: for every two sightings, did the method put them
-on one landmark, and does the reference (or truth) say they are one?
-
-Over the run's sightings ``i`` with the landmark ``e_i`` the method put each on (a map entry it
-paired it with or made of it; −1 for none) and the landmark ``r_i`` the labels give (−1 for none):
+"""Pairwise "same landmark" scores of a whole run (the pair-counting scores of clustering). Over the
+sightings ``i``, with ``e_i`` the landmark the method put each on (−1: none) and ``r_i`` the labels'
+(−1: none):
 
     pair_precision = |{i < i′: e_i = e_i′ ≥ 0 and r_i = r_i′ ≥ 0}| / |{i < i′: e_i = e_i′ ≥ 0}|
     pair_recall    = |{i < i′: e_i = e_i′ ≥ 0 and r_i = r_i′ ≥ 0}| / |{i < i′: r_i = r_i′ ≥ 0}|
 
-(the pair-counting scores of clustering). Unlike a frame's precision, they see decisions across
-frames: a duplicate landmark splits every later sighting from the earlier ones (recall falls), a
-wrong merge joins two landmarks' sightings (precision falls). A ratio with nothing to count is NaN.
+They see decisions across frames: a duplicate landmark lowers recall, a wrong merge precision.
+Nothing to count: NaN.
 """
 
 from __future__ import annotations

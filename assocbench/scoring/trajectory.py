@@ -1,22 +1,14 @@
-"""Trajectory accuracy and filter consistency of an estimated path, and TUM files.
-
-A pose is a rotation ``R`` (sensor-to-world; a rendering sensor's axes are OpenCV's) and a position ``p`` in the
-world; a trajectory is ``R`` (N, 3, 3) and ``p`` (N, 3). The filter's error convention is
+"""Trajectory accuracy and filter consistency of an estimated path, and TUM files. A pose is ``R``
+(sensor-to-world) and ``p``; the filter's error convention is
 
     R_true = R_est · Exp(δθ)   (δθ a body-frame rotation vector),   δp = p_true − p_est (world),
 
-and its pose covariance ``P`` is 6×6 over ``e = [δp, δθ]`` in that order.
-
-* Accuracy: ATE = sqrt(mean_k ‖p_true,k − p_est,k‖²) with NO alignment (the estimate lives in
-  the world frame), and the RMSE of the rotation angle of ``R_trueᵀ R_est`` in degrees: the
-  numbers ``evo_ape tum truth.txt estimate.txt`` (without ``-a``) and ``... -r angle_deg`` give.
-* Consistency: NEES_k = e_kᵀ P_k⁻¹ e_k, whose mean over N frames of a consistent filter lies in
-  the two-sided χ²_{6N} band divided by N (``anees_band``); ``divergence_frame`` finds where
-  the NEES leaves the single-frame χ²_6 bound for good.
-
-A NaN never disappears into a mean: a NaN frame makes the ATE, the rotation RMSE and the ANEES
-NaN, except frames the caller excludes by index (``anees(nees, exclude=[0])`` for the first
-SLAM frame, whose covariance is zero and NEES therefore NaN).
+with the pose covariance ``P`` over ``e = [δp, δθ]``. Accuracy: ATE with NO alignment and the RMSE
+of ``R_trueᵀ R_est``'s angle (``evo_ape`` without ``-a``, and ``-r angle_deg``). Consistency: NEES_k
+= e_kᵀ P_k⁻¹ e_k, whose mean lies in the χ²_{6N} band over N for a consistent filter
+(``anees_band``); ``divergence_frame`` finds where it leaves the single-frame bound for good. A NaN
+frame makes the result NaN unless excluded by index (``anees(nees, exclude=[0])``: slam's first
+frame).
 """
 
 from __future__ import annotations
@@ -48,22 +40,20 @@ def position_errors(p_true: np.ndarray, p_est: np.ndarray) -> np.ndarray:
 
 
 def ate_rmse(p_true: np.ndarray, p_est: np.ndarray) -> float:
-    """Absolute trajectory error, no alignment:
+    """Absolute trajectory error, no alignment (``evo_ape``'s ``rmse`` without ``-a``/``-s``):
 
         ATE = sqrt( (1/N) Σ_k ‖p_true,k − p_est,k‖² ),
 
-    what ``evo_ape tum truth.txt estimate.txt`` (without ``-a``/``-s``) reports as ``rmse``.
-    NaN if any frame is NaN (never skipped) or there is no frame."""
+    NaN if any frame is NaN or there is none."""
     return _rms(position_errors(p_true, p_est))
 
 
 def rotation_errors_deg(R_true: np.ndarray, R_est: np.ndarray) -> np.ndarray:
-    """Per-frame rotation error (N,) in degrees: the angle of ``M = R_trueᵀ R_est``,
+    """Per-frame rotation error (deg), the angle of ``M = R_trueᵀ R_est``:
 
         θ = atan2( ‖vee(M − Mᵀ)‖ / 2, (tr M − 1) / 2 ),
 
-    which equals ``arccos((tr M − 1)/2)`` but stays accurate near 0 and π (no arccos of a
-    number rounded past ±1). NaN where either rotation is NaN."""
+    ``arccos((tr M − 1)/2)`` but accurate near 0 and π. NaN where either is NaN."""
     R_true, R_est = _rotations(R_true, "R_true"), _rotations(R_est, "R_est")
     _same_length(R_true, R_est, "R_true", "R_est")
     M = np.einsum("kji,kjl->kil", R_true, R_est)          # R_trueᵀ R_est per frame
@@ -74,9 +64,8 @@ def rotation_errors_deg(R_true: np.ndarray, R_est: np.ndarray) -> np.ndarray:
 
 
 def rotation_rmse_deg(R_true: np.ndarray, R_est: np.ndarray) -> float:
-    """RMSE of the rotation angle, ``sqrt((1/N) Σ_k θ_k²)`` in degrees (``rotation_errors_deg``),
-    what ``evo_ape tum truth.txt estimate.txt -r angle_deg`` reports as ``rmse``. NaN if any
-    frame is NaN or there is no frame."""
+    """``sqrt((1/N) Σ_k θ_k²)`` in degrees (``evo_ape -r angle_deg``'s ``rmse``); NaN if any frame
+    is NaN or there is none."""
     return _rms(rotation_errors_deg(R_true, R_est))
 
 
@@ -87,11 +76,11 @@ def _rms(errors: np.ndarray) -> float:
 # ---- consistency ---------------------------------------------------------------------------
 
 def pose_error(R_true: np.ndarray, p_true: np.ndarray, R_est: np.ndarray, p_est: np.ndarray) -> np.ndarray:
-    """The filter-convention error ``e = [δp, δθ]`` (6,) of one pose:
+    """The filter-convention error ``e = [δp, δθ]`` of one pose:
 
         δp = p_true − p_est,   δθ = Log(R_estᵀ R_true)   (so that R_true = R_est · Exp(δθ)).
 
-    All NaN when any input is NaN."""
+    All NaN when any input is."""
     R_true, R_est = (_rotations(np.asarray(R, dtype=np.float64)[None], name)[0]
                      for R, name in ((R_true, "R_true"), (R_est, "R_est")))
     p_true, p_est = (_positions(np.asarray(p, dtype=np.float64)[None], name)[0]
@@ -103,15 +92,13 @@ def pose_error(R_true: np.ndarray, p_true: np.ndarray, R_est: np.ndarray, p_est:
 
 
 def pose_nees(error6: np.ndarray, cov6: np.ndarray) -> float:
-    """Normalised estimation error squared of one pose, through the Cholesky factor ``P = L Lᵀ``:
+    """NEES of one pose through ``P = L Lᵀ``:
 
         NEES = eᵀ P⁻¹ e = ‖L⁻¹ e‖²,
 
-    χ²_q-distributed for a consistent filter: q = 6 for a 3-D pose ``[δp, δθ]``, 3 for a pose in the plane
-    one ``[δx, δy, δθ]`` (the error and covariance must agree). NaN when ``e`` or ``P`` holds a NaN or ``P`` is
-    not positive definite, numerically: a Cholesky pivot ``L_ii ≤ sqrt(ε · max|P|)`` (a zero
-    covariance, e.g. the first SLAM frame, or one singular to machine precision). Raises
-    ``UserError`` for wrong shapes or a ``P`` that is not symmetric (beyond rounding)."""
+    χ²_q for a consistent filter (q = 6 in space, 3 in the plane). NaN for a NaN or a ``P`` not
+    numerically positive definite (a pivot ``L_ii ≤ sqrt(ε · max|P|)``: slam's first frame).
+    ``UserError`` for wrong shapes or an asymmetric ``P``."""
     e = np.asarray(error6, dtype=np.float64)
     P = np.asarray(cov6, dtype=np.float64)
     if e.shape not in ((POSE_DOF,), (PLANE_DOF,)) or P.shape != (len(e), len(e)):
@@ -138,10 +125,8 @@ def anees(nees: Sequence[float] | np.ndarray, exclude: Sequence[int] = ()) -> fl
 
         ANEES = (1/N) Σ_{k ∉ exclude} NEES_k,   N = number of frames kept.
 
-    ``exclude`` lists frame indices to leave out on purpose (frame 0 of a SLAM run, whose zero
-    covariance makes its NEES NaN). Any other NaN makes the result NaN: a frame whose
-    consistency could not be measured is never silently dropped. NaN when no frame is kept.
-    Compare with ``anees_band(N)``."""
+    ``exclude``: frames left out on purpose (slam's frame 0). Any other NaN makes it NaN, never
+    silently dropped; NaN with no frame. Compare with ``anees_band(N)``."""
     values = np.asarray(nees, dtype=np.float64)
     if values.ndim != 1:
         raise UserError(f"NEES must be one value per frame (a 1-D sequence), got shape {values.shape}")
@@ -158,12 +143,11 @@ def anees(nees: Sequence[float] | np.ndarray, exclude: Sequence[int] = ()) -> fl
 
 
 def anees_band(frames: int, dof: int = POSE_DOF, confidence: float = 0.95) -> tuple[float, float]:
-    """Two-sided ``confidence`` band for the ANEES of a consistent filter over ``frames`` frames:
+    """Two-sided ``confidence`` band of a consistent filter's ANEES over ``frames`` frames:
 
         N·ANEES ~ χ²_{dof·N}   ⇒   band = ( χ²_{dof·N}(α/2) / N,  χ²_{dof·N}(1 − α/2) / N ),
 
-    with α = 1 − confidence and χ²_ν(q) the q-quantile. ANEES below the band: the filter is
-    pessimistic (too large a covariance); above: overconfident."""
+    α = 1 − confidence. Below: pessimistic; above: overconfident."""
     _check_count(frames, "frames")
     _check_count(dof, "dof")
     _check_confidence(confidence)
@@ -174,14 +158,11 @@ def anees_band(frames: int, dof: int = POSE_DOF, confidence: float = 0.95) -> tu
 
 def divergence_frame(nees: Sequence[float] | np.ndarray, dof: int = POSE_DOF,
                      confidence: float = 0.999, run: int = 5) -> int:
-    """First frame ``k`` from which the NEES stays above the single-frame bound ``χ²_dof(confidence)``
-    for ``run`` consecutive frames,
+    """First frame from which the NEES stays above ``χ²_dof(confidence)`` for ``run`` frames,
 
         k = min { k : NEES_i > χ²_dof(confidence) for all i in k … k + run − 1 },
 
-    or -1 when there is none. A NaN frame is not above the bound (it breaks a run; a NaN NEES
-    says the covariance was unusable, which ``anees`` reports), and an excursion cut short by
-    the end of the sequence is not a divergence."""
+    or -1. A NaN breaks a run; an excursion cut short by the sequence's end is no divergence."""
     values = np.asarray(nees, dtype=np.float64)
     if values.ndim != 1:
         raise UserError(f"NEES must be one value per frame (a 1-D sequence), got shape {values.shape}")
@@ -209,14 +190,10 @@ def _check_confidence(confidence: float) -> None:
 # ---- TUM files -----------------------------------------------------------------------------
 
 def tum_text(stamps: np.ndarray, R: np.ndarray, p: np.ndarray, path: Path | str = "trajectory") -> str:
-    """A trajectory as a TUM file's text, one line per pose:
-
-        t tx ty tz qx qy qz qw
-
-    with ``(tx, ty, tz) = p`` and the unit quaternion of ``R`` (sensor-to-world, scalar last),
-    every number in shortest round-trip form (``repr``), so reading it back loses nothing but
-    the quaternion's own rounding. Raises ``UserError`` (naming ``path``) for mismatched shapes,
-    non-finite values, stamps that do not increase, or an ``R`` that is not a rotation."""
+    """A trajectory as TUM text, one line per pose, ``t tx ty tz qx qy qz qw`` (``R``
+    sensor-to-world, scalar last), numbers in shortest round-trip form. ``UserError`` (naming
+    ``path``) for mismatched shapes, non-finite values, stamps not increasing, or an ``R`` not a
+    rotation."""
     stamps = np.asarray(stamps, dtype=np.float64)
     R, p = _rotations(R, "R"), _positions(p, "p")
     if stamps.shape != (len(R),) or len(p) != len(R):
@@ -241,9 +218,8 @@ def write_tum(path: Path | str, stamps: np.ndarray, R: np.ndarray, p: np.ndarray
 
 
 def read_tum(path: Path | str) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Read a TUM file (``t tx ty tz qx qy qz qw`` per line, ``#`` comments) into
-    ``(stamps (N,), R (N, 3, 3), p (N, 3))``; quaternions are normalised. Raises ``UserError``
-    when the file is missing or a line is not 8 numbers with a non-zero quaternion."""
+    """Read a TUM file (``#`` comments) into ``(stamps, R, p)``, quaternions normalised;
+    ``UserError`` for a missing file or a line that is not 8 numbers with a non-zero quaternion."""
     path = Path(path)
     try:
         lines = path.read_text().splitlines()
@@ -290,8 +266,7 @@ def _same_length(a: np.ndarray, b: np.ndarray, name_a: str, name_b: str) -> None
 
 
 def _check_rotations(R: np.ndarray, path: Path | str) -> None:
-    """Reject matrices that are not rotations: a quaternion would silently replace them by the
-    nearest rotation and the file would not say what the caller meant."""
+    """Reject non-rotations: a quaternion would silently replace them by the nearest rotation."""
     gram = np.einsum("kji,kjl->kil", R, R) - np.eye(3)
     bad = (np.abs(gram).max(axis=(1, 2)) > _ROTATION_TOL) | (np.abs(np.linalg.det(R) - 1) > _ROTATION_TOL)
     if bad.any():

@@ -1,20 +1,12 @@
 """The sequence cache every track shares.
 
-A track's simulated sequence (rendered frames and their features, depth images, lidar scans and
-what was detected in them) is stored once under a key that hashes everything it depends on (the
-spec, the scene's files, the sources that make it, the library versions: the track's ``key``),
-in ``<cache>/<kind>/<key>.<suffix>``, so a sweep over many methods and seeds makes each sequence
-once. A stored entry carries its key; reading checks it. An entry that cannot be read or is not
-the sequence of its key (truncated, corrupted, copied over another) is discarded with one line on
-stderr and made again; a cache folder that cannot be read or written is a one-line ``UserError``
-naming ``ASSOCBENCH_CACHE``.
-
-Tracks store their sequence their own way (``save`` and ``load``): the camera track as a compressed
-NumPy archive of its arrays, the dense track as an uncompressed one whose frames are memory-mapped
-and checked by their CRC-32 (``tracks/dense/sequence.py``), the lidar tracks (planar, lines: lists
-of small arrays per frame) with ``save_fields`` / ``load_fields``, a NumPy archive too. No entry is
-a pickle: reading a file planted in the cache runs no code (a pickle ran it before its key was
-checked).
+A track's simulated sequence is stored once under a key hashing everything it depends on (spec,
+scene files, the sources that make it, library versions), in ``<cache>/<kind>/<key>.<suffix>``, so a
+sweep makes each sequence once. An entry carries its key and reading checks it; an unreadable entry
+or one not of its key is discarded with one line on stderr and made again; an unusable cache folder
+is a one-line ``UserError`` naming ``ASSOCBENCH_CACHE``. Each track stores its own way (``save``,
+``load``): NumPy archives (the dense track's uncompressed and memory-mapped, the lidar tracks' via
+``save_fields``). No entry is a pickle, so a planted file runs no code.
 """
 
 from __future__ import annotations
@@ -58,10 +50,10 @@ DAMAGED = (Unusable, OSError, EOFError, ValueError, KeyError, IndexError, TypeEr
 def cached_sequence(kind: str, key: str, make: Callable[[], T], save: Callable[[T, Path, str], None],
                     load: Callable[[Path, str], T], cache_dir: Path | None = None, use_cache: bool = True,
                     suffix: str = ".npz", what: str = "sequence") -> T:
-    """The sequence stored under ``key`` in ``<cache_dir>/<kind>/`` when present and sound, else
-    ``make()``, stored there (atomically) before it is returned. ``save(seq, path, key)`` writes
-    an entry with its key inside; ``load(path, key)`` reads one back, raising ``Unusable`` (or any
-    of ``DAMAGED``) when it is not that sequence."""
+    """The sequence under ``key`` in ``<cache_dir>/<kind>/`` when present and sound, else
+    ``make()``, stored atomically first. ``save(seq, path, key)`` writes an entry with its key;
+    ``load(path, key)`` reads one, raising ``Unusable`` (or one of ``DAMAGED``) when it is not that
+    sequence."""
     path = Path(cache_dir or cache_root()) / kind / f"{key}{suffix}"
     if use_cache:
         seq = _read(path, key, load, what)
@@ -99,11 +91,9 @@ def _read(path: Path, key: str, load: Callable[[Path, str], T], what: str) -> T 
 
 
 def spec_key(spec: object, code: tuple[str, ...], fmt: int = 1) -> str:
-    """A cache key (20 hex digits) for a dataclass ``spec`` whose ``scene`` names an MJCF: its
-    settings, the scene's files (``scene_digest``), the content of a file its path is read from
-    (``spec.path_digest()`` where it has one: a robot's waypoint file, whose name alone is in
-    the settings), the sources under ``code`` (folders of the package: ``("sim", "models",
-    "tracks/planar")``), the entry format and MuJoCo's version."""
+    """A cache key (20 hex digits) of a dataclass ``spec`` naming an MJCF ``scene``: its settings,
+    the scene's files, a path file's content (``spec.path_digest()``: a waypoint file), the sources
+    under ``code``, the entry format and MuJoCo's version."""
     payload = {"spec": asdict(spec), "scene": scene_digest(spec.scene), "code": sources_digest(*code), "format": fmt,
                "mujoco": mujoco.__version__}
     path_file = spec.path_digest() if callable(getattr(spec, "path_digest", None)) else None
@@ -117,17 +107,16 @@ ENTRY = "__entry__"              # the member holding the entry's key and layout
 
 
 def storable(cls: type[T]) -> type[T]:
-    """Mark dataclass ``cls`` as one ``save_fields`` may store and ``load_fields`` may rebuild:
-    an entry names the classes it holds, and only marked ones are ever built from it."""
+    """Mark dataclass ``cls`` as one ``save_fields`` may store and ``load_fields`` rebuild (only
+    marked classes are built from an entry)."""
     STORABLE[f"{cls.__module__}.{cls.__qualname__}"] = cls
     return cls
 
 
 def save_fields(seq: object, path: Path, key: str) -> None:
     """Write ``seq`` (a ``storable`` dataclass of arrays, lists of arrays, numbers, strings and
-    other storable dataclasses: a lidar track's sequence) with its ``key`` as a NumPy archive:
-    each array a member of its own (its dtype and shape kept), the rest as JSON. Nothing in the
-    file can run code when it is read (no pickle: ``load_fields``)."""
+    storable dataclasses) with its ``key`` as a NumPy archive: each array a member (dtype and shape
+    kept), the rest JSON; no pickle."""
     arrays: dict[str, np.ndarray] = {}
     layout = _encode(seq, "", arrays)
     arrays[ENTRY] = np.frombuffer(json.dumps({"key": key, "layout": layout}).encode(), np.uint8)
@@ -136,9 +125,8 @@ def save_fields(seq: object, path: Path, key: str) -> None:
 
 
 def load_fields(path: Path, key: str) -> object:
-    """The sequence ``save_fields`` wrote under ``key``; ``Unusable`` for another key. Arrays are
-    read with ``allow_pickle=False`` and only ``storable`` classes are built, so a planted file
-    is refused as damaged, never run."""
+    """The sequence ``save_fields`` wrote under ``key``; ``Unusable`` for another key. No pickles,
+    only ``storable`` classes: a planted file is refused, never run."""
     with np.load(path, allow_pickle=False) as z:
         entry = json.loads(z[ENTRY].tobytes())
         if not isinstance(entry, dict) or entry.get("key") != key:
@@ -176,8 +164,8 @@ def _ragged(value) -> bool:
 
 
 def _decode(layout: dict, z) -> object:
-    """The value ``_encode`` laid out, its arrays read from archive ``z``; a layout that names a
-    class not marked ``storable`` is ``Unusable``."""
+    """The value ``_encode`` laid out, arrays from archive ``z``; a class not marked ``storable`` is
+    ``Unusable``."""
     if "dataclass" in layout:
         cls = STORABLE.get(layout["dataclass"])
         if cls is None:

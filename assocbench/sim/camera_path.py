@@ -1,6 +1,5 @@
-"""A camera's path through a scene: which named trajectory, with what parameters, over how many
-frames, for which image shape. Every track that renders (the camera and dense tracks) places
-its poses with it, so the path of a scene is one thing whichever track renders along it."""
+"""A camera's path through a scene (trajectory, parameters, frames, image shape), shared by every
+track that renders, so a scene's path is one thing whichever track renders along it."""
 
 from __future__ import annotations
 
@@ -32,8 +31,8 @@ class CameraPath:
     height: int = 480
 
     def resolved_trajectory(self) -> str:
-        """The trajectory's name (the scene's default when None), checked; a waypoint file is
-        read and checked here too, so a bad one is refused before anything runs."""
+        """The trajectory's name (the scene's default when None), checked, a waypoint file included,
+        before anything runs."""
         name = self.trajectory or DEFAULT_TRAJECTORY.get(Path(self.scene).stem, "circle")
         if name not in TRAJECTORIES:
             raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")

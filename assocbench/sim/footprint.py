@@ -1,8 +1,5 @@
-"""Obstacle footprints of a static MuJoCo scene: how far a point of the floor is from every solid.
-
-Shared by the planar track's ``PlanarScene`` and the lines track's ``LineScene`` (both assign
-``clearance = footprint.clearance``): the scripted loops, the default ellipse and a user's
-waypoint path are checked against it.
+"""Obstacle footprints of a static MuJoCo scene: how far a floor point is from every solid; the
+planar and lines scenes' paths are checked against it (``clearance``).
 """
 
 from __future__ import annotations
@@ -21,10 +18,9 @@ def obstacles(scene) -> list[int]:
 
 
 def nearest_obstacle(scene, xy: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Distance (n,) from points (n, 2) to the nearest obstacle's footprint (the horizontal
-    section of every box, cylinder, sphere or capsule that rises above the floor, the outline of
-    a mesh's vertices seen from above; 0 inside) and that obstacle's geom id (n,). ``scene`` is
-    anything with a compiled ``model`` and its ``data`` after ``mj_forward``."""
+    """Distance (n,) from points (n, 2) to the nearest obstacle's footprint (the horizontal section
+    of each solid rising above the floor, a mesh's outline; 0 inside) and that obstacle's geom id.
+    ``scene``: a compiled ``model`` and ``data`` after ``mj_forward``."""
     xy = np.atleast_2d(np.asarray(xy, float))
     best, which = np.full(len(xy), np.inf), np.full(len(xy), -1)
     m, d = scene.model, scene.data
@@ -45,8 +41,7 @@ def clearance(scene, xy: np.ndarray) -> np.ndarray:
 
 
 def extent(scene) -> tuple[np.ndarray, np.ndarray]:
-    """The corners ``(lo, hi)`` (2,) of the axis-aligned rectangle around every obstacle's
-    footprint: a box's four corners ``c ± R_xy (±s_x, ±s_y)``, a mesh's outline, a round geom's ``c ± r``."""
+    """Corners ``(lo, hi)`` of the axis-aligned rectangle around every obstacle's footprint."""
     m, d = scene.model, scene.data
     points = []
     for g in obstacles(scene):
@@ -64,8 +59,8 @@ def extent(scene) -> tuple[np.ndarray, np.ndarray]:
 
 def footprint_distance(kind: int, size: np.ndarray, centre: np.ndarray, rot: np.ndarray,
                        xy: np.ndarray) -> np.ndarray:
-    """Distance from points to one geom's footprint, the geom standing upright: a box's
-    rectangle ``|q| ≤ (sx, sy)`` with ``q = R_xyᵀ (p − c)``, a disc of radius ``size[0]`` else."""
+    """Distance to one upright geom's footprint: a box's rectangle ``|q| ≤ (sx, sy)``,
+    ``q = R_xyᵀ (p − c)``, else a disc of radius ``size[0]``."""
     q = (xy - centre) @ rot
     if kind == mujoco.mjtGeom.mjGEOM_BOX:
         return np.linalg.norm(np.maximum(np.abs(q) - size[:2], 0.0), axis=1)
@@ -73,18 +68,17 @@ def footprint_distance(kind: int, size: np.ndarray, centre: np.ndarray, rot: np.
 
 
 def mesh_outline(m, d, g: int) -> np.ndarray:
-    """The footprint of mesh geom ``g``: the convex hull (k, 2), counter-clockwise, of its vertices
-    in the world ``c + R v`` seen from above. Its ``geom_size`` is no footprint: MuJoCo turns a
-    mesh into its inertia frame, so the size is an inertia box about axes that need not be
-    upright (a 0.8 x 0.8 m rock's disc became an infinite strip across the floor)."""
+    """The footprint of mesh geom ``g``: the counter-clockwise convex hull of its world vertices
+    ``c + R v``. Its ``geom_size`` is an inertia box about axes that need not be upright, so no
+    footprint."""
     start, count = m.mesh_vertadr[m.geom_dataid[g]], m.mesh_vertnum[m.geom_dataid[g]]
     world = d.geom_xpos[g] + m.mesh_vert[start:start + count].astype(float) @ d.geom_xmat[g].reshape(3, 3).T
     return convex_hull(world[:, :2])
 
 
 def convex_hull(points: np.ndarray) -> np.ndarray:
-    """The convex hull (k, 2) of points (n, 2), counter-clockwise (Andrew's monotone chain); two
-    points for points on a line, one for a single point."""
+    """Convex hull (k, 2) of points, counter-clockwise (Andrew's monotone chain); two points on a
+    line, one for one."""
     pts = np.unique(np.asarray(points, float), axis=0)   # sorted by x, then y
     if len(pts) <= 2:
         return pts

@@ -1,7 +1,5 @@
-"""Load MuJoCo under the user's offscreen GL backend (``MUJOCO_GL``, ``egl`` unless set; see
-``assocbench._runtime``), once, before any module of the simulator imports it. Importing
-``assocbench.sim`` does this, so the association contract (``from assocbench import Problem``)
-never loads MuJoCo."""
+"""Load MuJoCo under the user's offscreen GL backend (``MUJOCO_GL``, ``egl`` unless set) once,
+before any simulator module imports it; ``from assocbench import Problem`` never loads MuJoCo."""
 
 from __future__ import annotations
 
@@ -14,10 +12,9 @@ GL_ERROR = ""   # why mujoco could not load the MUJOCO_GL backend; FrameRenderer
 
 
 def _load_mujoco() -> None:
-    """Import mujoco under the user's ``MUJOCO_GL``. A backend that cannot even load (a bogus
-    name, osmesa without libOSMesa) makes ``import mujoco`` raise, and with it ``import
-    assocbench``, before the CLI can say a word. Load mujoco without GL instead, so that all but
-    rendering works (scenes, cached runs, ``list``), and keep the reason in ``GL_ERROR``."""
+    """Import mujoco under the user's ``MUJOCO_GL``; a backend that cannot load would make
+    ``import assocbench`` itself raise, so load it without GL instead (all but rendering works) and
+    keep the reason in ``GL_ERROR``."""
     global GL_ERROR
     if "mujoco" in sys.modules:
         return

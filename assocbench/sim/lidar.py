@@ -1,11 +1,8 @@
-"""A 2-D lidar: one ``mj_multiRay`` call casts every beam of a scan in the horizontal plane.
-
-The lidar sits at the robot's origin ``(x, y)``, at ``height`` above the floor. Beam ``i`` points
-at the robot-frame angle ``α_i``: over a full circle ``α_i = 2π i / B`` (beam 0 along the heading,
-counter-clockwise), over a sector of ``fov`` the beams spread evenly over ``[−fov/2, fov/2]``.
-A beam returns ``r_i = d_i + ε_i``, ``ε_i ~ N(0, σ_r²)`` (``d_i``: the true distance to the first
-surface), or nothing (NaN): when nothing lies within ``max_range``, when the measured range falls
-beyond it, or, with probability ``dropout``, at random.
+"""A 2-D lidar: one ``mj_multiRay`` call casts every beam of a scan in the horizontal plane, from
+the robot's ``(x, y)`` at ``height``. Beam ``i`` points at the robot-frame angle ``α_i`` (full
+circle: ``2π i / B`` from the heading, counter-clockwise; else evenly over ``[−fov/2, fov/2]``) and
+returns ``r_i = d_i + ε_i``, ``ε_i ~ N(0, σ_r²)`` (``d_i`` the true distance), or NaN: nothing
+within ``max_range``, a reading beyond it, or a random ``dropout``.
 """
 
 from __future__ import annotations
@@ -29,8 +26,7 @@ class RayScene(Protocol):
 def cast(scene: RayScene, origin: np.ndarray, world_angles: np.ndarray,
          cutoff: float) -> tuple[np.ndarray, np.ndarray]:
     """True distances (k,) (``inf``: nothing within ``cutoff``) and hit geom ids (k,) (−1) of
-    horizontal rays from ``origin`` (3,) at ``world_angles`` (k,): one ``mj_multiRay`` call
-    (its cutoff skips geoms whose bounds lie beyond it, not every hit beyond it)."""
+    horizontal rays from ``origin`` at ``world_angles``, one ``mj_multiRay`` call."""
     k = len(world_angles)
     vec = np.zeros((k, 3))
     vec[:, 0], vec[:, 1] = np.cos(world_angles), np.sin(world_angles)
@@ -41,8 +37,8 @@ def cast(scene: RayScene, origin: np.ndarray, world_angles: np.ndarray,
 
 
 def scan(scene: RayScene, pose: np.ndarray, cfg: LidarConfig, rng: np.random.Generator) -> Scan:
-    """Scan from ``pose = (x, y, θ)``: ``r_i = d_i + ε_i`` or NaN (no hit, beyond range, dropout).
-    The generator draws B normals then B uniforms whatever the scene, so frames stay aligned."""
+    """Scan from ``pose = (x, y, θ)``: ``r_i = d_i + ε_i`` or NaN. B normals then B uniforms are
+    drawn whatever the scene, so frames stay aligned."""
     angles = cfg.angles()
     origin = np.array([pose[0], pose[1], cfg.height], float)
     dist, geom = cast(scene, origin, angles + pose[2], cfg.max_range)

@@ -1,16 +1,12 @@
-"""Load a lines scene: a shipped name (``office``) or an MJCF path whose map walls are upright box
-geoms named ``lw*``; which map line each lidar beam truly hits.
+"""Load a lines scene (``office``, or an MJCF whose map walls are upright ``lw*`` boxes) and find
+which map line each lidar beam truly hits.
 
-A wall contributes its four vertical side faces. Face ``f`` of a box with centre ``c``,
-horizontal unit axes ``u, v`` and half sizes ``a, b`` lies on the line of points ``p`` with
-``n·p = n·p_f`` (``n = ±u`` or ``±v``, ``p_f = c + a n`` or ``c + b n``); in the world it is
-``(α_w, r_w) = (atan2(n_y, n_x), n·p_f)``, flipped to ``(α_w + π, −r_w)`` when ``r_w < 0`` so that
-``r_w ≥ 0`` about the origin. Faces on one infinite line (``|Δα| < 1e-6`` rad and ``|Δr| < 1e-4``
-m) are one map line with several segments: the (α, r) model cannot tell them apart.
-
-Faces shorter than ``MIN_FACE_LENGTH`` (a wall's 10 cm end, a door jamb) are no map lines of their
-own (no extractor keeps a segment that short at its default ``min_length``); they join a map line
-they lie on, else their beams are labelled −1 like clutter. Every geom not named ``lw*`` is clutter.
+A wall gives its four side faces. Face ``f`` with outward normal ``n`` (``±u`` or ``±v``) through
+``p_f`` is the world line ``(α_w, r_w) = (atan2(n_y, n_x), n·p_f)``, flipped to ``(α_w + π, −r_w)``
+when ``r_w < 0``. Faces on one infinite line (``|Δα| < 1e-6`` rad, ``|Δr| < 1e-4`` m) are one map
+line with several segments: the (α, r) model cannot tell them apart. Faces shorter than
+``MIN_FACE_LENGTH`` (a wall's end, a door jamb; no extractor keeps such a segment) join a line they
+lie on, else their beams are −1 like clutter; geoms not named ``lw*`` are clutter.
 """
 
 from __future__ import annotations
@@ -54,7 +50,7 @@ class Wall:
         return out
 
     def face_of(self, p: np.ndarray) -> np.ndarray:
-        """Index (n,) of the face nearest each point (n, 2) on the box's boundary, in its frame:
+        """Index (n,) of the face nearest each boundary point, in the box frame:
         ``q = (u·(p − c), v·(p − c))``, argmin of ``|q_u ∓ a|, |q_v ∓ b|``."""
         q = (p - self.centre) @ self.axes.T
         gaps = np.column_stack([np.abs(q[:, 0] - self.half[0]), np.abs(q[:, 0] + self.half[0]),
@@ -88,8 +84,8 @@ class LineScene:
 
 
 def face_line(normal: np.ndarray, point: np.ndarray) -> np.ndarray:
-    """World ``(α, r)`` of the line through ``point`` with unit ``normal``: ``r = n·p``, flipped to
-    ``(α + π, −r)`` when negative, α wrapped to [−π, π)."""
+    """World ``(α, r)`` of the line through ``point`` with unit ``normal``: ``r = n·p``, flipped
+    when negative, α wrapped."""
     alpha, r = float(np.arctan2(normal[1], normal[0])), float(normal @ point)
     if r < 0:
         alpha, r = alpha + np.pi, -r
@@ -97,8 +93,8 @@ def face_line(normal: np.ndarray, point: np.ndarray) -> np.ndarray:
 
 
 def same_line(a: np.ndarray, b: np.ndarray) -> bool:
-    """Whether two ``(α, r)`` lines coincide (tolerances ``ALPHA_TOL``, ``R_TOL``); near the origin
-    ``(α, r)`` and ``(α + π, −r)`` are one line, so both are tried."""
+    """Whether two ``(α, r)`` lines coincide within ``ALPHA_TOL``, ``R_TOL`` (near the origin
+    ``(α + π, −r)`` is tried too)."""
     d = float(wrap(a[0] - b[0]))
     return (abs(d) < ALPHA_TOL and abs(a[1] - b[1]) < R_TOL) or \
         (abs(float(wrap(d - np.pi))) < ALPHA_TOL and a[1] + b[1] < R_TOL)
@@ -129,9 +125,9 @@ def _wall(model: mujoco.MjModel, data: mujoco.MjData, g: int, path: Path) -> Wal
 
 
 def build_map(walls: list[Wall]) -> tuple[np.ndarray, ...]:
-    """Map lines from the walls' faces: long faces first (each a new line unless it lies on one),
-    then short faces join a line they lie on or stay unmapped. Returns lines (K, 2), segments
-    (S, 2, 2), segment_line (S,), segment_geom (S,), face_line (W, 4), segment_normal (S, 2)."""
+    """Map lines from the walls' faces: long faces first (new unless on a line), short ones join a
+    line or stay unmapped. Returns lines (K, 2), segments (S, 2, 2), segment_line (S,), segment_geom
+    (S,), face_line (W, 4), segment_normal (S, 2)."""
     lines: list[np.ndarray] = []
     face_to_line = -np.ones((len(walls), 4), int)
     faces = [(w, f, *face) for w, wall in enumerate(walls) for f, face in enumerate(wall.faces())]
@@ -184,8 +180,8 @@ def load_line_scene(scene: str | Path) -> LineScene:
 
 
 def check_scan_plane(scene: LineScene, height: float) -> None:
-    """A one-line error when a map wall does not cross the lidar's scan plane at ``height``: its
-    faces would be candidates the lidar can never measure."""
+    """One-line error when a map wall does not cross the scan plane at ``height`` (its faces could
+    never be measured)."""
     for wall in scene.walls:
         lo, hi = wall.z_span
         if not lo <= height <= hi:
@@ -196,10 +192,9 @@ def check_scan_plane(scene: LineScene, height: float) -> None:
 
 
 def beam_lines(scene: LineScene, scan: Scan, pose: np.ndarray) -> np.ndarray:
-    """(B,) the map line each beam truly hits, −1 for none (no hit, clutter, an unmapped face).
-    The true hit point ``p_i = (x, y) + d_i (cos(θ + α_i), sin(θ + α_i))`` uses the true distance
-    ``d_i`` (``scan.distance``, else one ray against the hit wall alone) and belongs to the face
-    of the wall ``scan.geom[i]`` nearest it in the box's frame (``Wall.face_of``)."""
+    """(B,) the map line each beam truly hits, −1 for none: the true hit
+    ``p_i = (x, y) + d_i (cos(θ + α_i), sin(θ + α_i))`` with the true distance ``d_i``, on the face
+    of ``scan.geom[i]`` nearest it (``Wall.face_of``)."""
     labels = -np.ones(len(scan.angles), int)
     row = -np.ones(scene.model.ngeom + 1, int)           # geom id -> wall index; geom −1 -> last slot
     row[[w.geom for w in scene.walls]] = np.arange(len(scene.walls))
@@ -214,8 +209,7 @@ def beam_lines(scene: LineScene, scan: Scan, pose: np.ndarray) -> np.ndarray:
 
 
 def _distance_to(scene: LineScene, wall: Wall, pose: np.ndarray, heading: np.ndarray) -> np.ndarray:
-    """True distances (k,) along horizontal rays from the pose to one wall alone (mid-height:
-    an upright box is met at the same distance at any height it spans)."""
+    """True distances along horizontal rays from the pose to one wall alone, at mid-height."""
     g, m, d = wall.geom, scene.model, scene.data
     origin = np.array([pose[0], pose[1], d.geom_xpos[g, 2]])
     return np.array([mujoco.mju_rayGeom(d.geom_xpos[g], d.geom_xmat[g], m.geom_size[g], origin,
@@ -224,7 +218,7 @@ def _distance_to(scene: LineScene, wall: Wall, pose: np.ndarray, heading: np.nda
 
 
 def visible_lines(beam_line_labels: np.ndarray, n_lines: int, min_points: int) -> np.ndarray:
-    """(K,) bool: at least ``min_points`` beams truly hit the map line within range (dropped
-    returns included: a wall the sensor failed to see still counts as extractable)."""
+    """(K,) bool: at least ``min_points`` beams truly hit the map line in range (dropped returns
+    included)."""
     labels = np.asarray(beam_line_labels, int)
     return np.bincount(labels[labels >= 0], minlength=n_lines)[:n_lines] >= min_points

@@ -1,12 +1,8 @@
-"""Outward normals of landmark sites: read from the site when the MJCF orients it, inferred from
-the surface it sits on when it does not, and checked for plausibility either way.
-
-A site written without ``quat``/``euler``/``axisangle``/``xyaxes``/``zaxis`` has the z axis of
-its parent frame, +z in the world body: every landmark on a wall would then "face the
-ceiling". Such a site's normal is the outward normal of the surface it sits on, found with
-``mj_ray`` from probe points around the site and, where faces meet at the site (the shared
-corner of four box tiles), decided by the face that covers a small ring round it (see
-``surface_normal``).
+"""Outward normals of landmark sites: read from the site when the MJCF orients it, else inferred
+from the surface it sits on, and checked for plausibility either way. An un-oriented site has its
+parent's z axis (a wall's landmarks would "face the ceiling"), so its normal is found with
+``mj_ray`` from probes around it and, where faces meet at the site, decided by the face covering a
+small ring round it (``surface_normal``).
 """
 
 from __future__ import annotations
@@ -30,9 +26,9 @@ FACING_COS = 0.7     # a ring ray's hit faces the candidate within 45°: a side 
 
 
 def unoriented_sites(spec: mujoco.MjSpec, names: list[str]) -> np.ndarray:
-    """(L,) True for each named site the MJCF gives no orientation of its own: no
-    ``euler``/``axisangle``/``xyaxes``/``zaxis`` (the spec keeps which was used), an identity
-    ``quat`` (what MuJoCo stores when none is given) and no ``fromto``."""
+    """(L,) True for each named site given no orientation: no
+    ``euler``/``axisangle``/``xyaxes``/``zaxis``, an identity ``quat`` (MuJoCo's default) and no
+    ``fromto``."""
     sites = {s.name: s for s in spec.sites}
     quat_given = mujoco.mjtOrientation.mjORIENTATION_QUAT
     out = []
@@ -63,8 +59,8 @@ def _ray(model, data, origin: np.ndarray, direction: np.ndarray) -> tuple[float,
 
 
 def _probe_hits(model, data, point: np.ndarray, probe: float, reach: float) -> list[tuple[float, np.ndarray]]:
-    """(gap, unit outward normal) of each probe ray that enters a surface from outside within
-    ``reach`` of ``point``, nearest first (see ``surface_normal``)."""
+    """(gap, unit outward normal) of each probe ray entering a surface from outside within ``reach``
+    of ``point``, nearest first."""
     hits = []
     for d in fibonacci_sphere(N_PROBES):
         dist, normal = _ray(model, data, point + probe * d, -d)
@@ -87,8 +83,8 @@ def _distinct_faces(hits: list[tuple[float, np.ndarray]], most: int = 8) -> list
 
 
 def ring_offsets(normal: np.ndarray, radius: float = RING_M, k: int = N_RING) -> np.ndarray:
-    """(k, 3) offsets of length ``radius`` perpendicular to ``normal``, evenly round it, none
-    along the axes of the frame built on ``normal`` (where a box tile's edges would lie)."""
+    """(k, 3) offsets of length ``radius`` perpendicular to ``normal``, evenly round it, avoiding
+    the axes of the frame on ``normal`` (where tile edges lie)."""
     helper = np.array([1.0, 0.0, 0.0]) if abs(normal[0]) < 0.9 else np.array([0.0, 1.0, 0.0])
     u = np.cross(normal, helper)
     u /= np.linalg.norm(u)
@@ -98,21 +94,19 @@ def ring_offsets(normal: np.ndarray, radius: float = RING_M, k: int = N_RING) ->
 
 
 def starts_inside(model, data, origin: np.ndarray, away: np.ndarray) -> bool:
-    """Whether ``origin`` lies inside a solid: the ray from it along ``away`` first meets a
-    surface from within (its outward normal along the ray). A face glued to another solid (a
-    tile's back face on its wall) is met at the same distance as that solid's own face: only a
-    ray that starts in open space may count it as seen."""
+    """Whether ``origin`` lies inside a solid: the ray along ``away`` first meets a surface from
+    within. A face glued to another solid is met at that solid's own face's distance, so only a ray
+    from open space counts it as seen."""
     dist, hit = _ray(model, data, origin, away)
     return dist >= 0 and hit @ away > 0
 
 
 def ring_shares(model, data, point: np.ndarray, normal: np.ndarray, probe: float = PROBE_M,
                 reach: float = REACH_M) -> tuple[float, float]:
-    """Of the rays cast along ``-normal`` from ``point + probe·normal + o`` (``o`` in
-    ``ring_offsets``): the share that meets, from open space (``starts_inside``), a surface
-    facing ``normal`` (``cos > FACING_COS``) at the point's depth (``|dist - probe| ≤ reach``),
-    i.e. how much of the ring round the point a face with that outward normal covers; and the
-    share stopped well before that depth (``dist < probe - reach``: something in front)."""
+    """Of rays cast along ``-normal`` from ``point + probe·normal + o`` (``o`` in ``ring_offsets``):
+    the share meeting, from open space, a surface facing ``normal`` (``cos > FACING_COS``) at the
+    point's depth (``|dist - probe| ≤ reach``), i.e. how much of the ring that face covers; and the
+    share stopped well before (something in front)."""
     facing = blocked = 0
     offsets = ring_offsets(normal)
     for o in offsets:
@@ -125,24 +119,17 @@ def ring_shares(model, data, point: np.ndarray, normal: np.ndarray, probe: float
 
 def surface_normal(model, data, point: np.ndarray, probe: float = PROBE_M,
                    reach: float = REACH_M) -> tuple[np.ndarray, float] | None:
-    """Outward unit normal of the surface ``point`` sits on and the share of the ring around the
-    point that this face covers (``ring_shares``), or None when no surface is within ``reach``.
+    """Outward unit normal of the surface ``point`` sits on and the share of the ring round it this
+    face covers, or None when no surface is within ``reach``.
 
-    From probe points ``q = point + probe·d`` in ``N_PROBES`` directions ``d`` a ray is cast
-    back at ``point``. A probe in open space on the surface's front side enters the surface
-    from outside (MuJoCo reports the outward normal ``n`` of the hit, so ``n·d > 0``) at a hit
-    ``h`` within ``reach`` of the point, whether the point lies a little in front of the
-    surface, on it or embedded in it. A probe inside a solid first meets a surface from within
-    (``n·d ≤ 0``) and a probe behind a thin wall meets its back face farther than the front one.
-
-    Every distinct hit normal is a candidate face, checked on a ring round the point
-    (``ring_shares``): the face covering most of it wins, the nearest of equals (a thin board's
-    back face covers its ring too). The ring decides where faces meet at the point: on the
-    shared corner or edge of box tiles every probe ray ends exactly there, where MuJoCo reports
-    the front or a side face of any tile by rounding (gaps 1e-17 apart), so the nearest hit was
-    a side face as often as not (a third of a tiled hall's normals 90° off). The tiles' fronts
-    cover the whole ring; a side face buried between two tiles is seen from none of it. On a
-    flat surface every candidate normal is exact; on a pillar the nearest hit's is the radial one.
+    Rays are cast back at ``point`` from probes ``q = point + probe·d`` in ``N_PROBES`` directions:
+    a probe in open space on the front side enters the surface from outside (MuJoCo's outward normal
+    ``n``, ``n·d > 0``) within ``reach``, whether the point lies in front of, on or in the surface;
+    a probe inside a solid meets a surface from within. Every distinct hit normal is a candidate,
+    and the face covering most of the ring (``ring_shares``) wins, nearest of equals. The ring
+    decides where faces meet: at box tiles' shared corners every probe ray ends exactly there, and
+    rounding reports a front or side face at random; the tiles' fronts cover the ring, a buried side
+    face none of it.
     """
     hits = _probe_hits(model, data, point, probe, reach)
     if not hits:
@@ -159,12 +146,10 @@ def surface_normal(model, data, point: np.ndarray, probe: float = PROBE_M,
 
 def faces_open_space(model, data, point: np.ndarray, normal: np.ndarray, probe: float = PROBE_M,
                      reach: float = REACH_M) -> bool | None:
-    """Whether an explicit ``normal`` points out of the surface at ``point`` (None: no surface
-    there to judge by). The ray from ``point + probe·normal`` back at the point must enter a
-    surface facing it near the point; a probe inside a solid, or a surface facing the other
-    way, means the site's z axis points into the wall. When that one ray does not say yes the
-    ring round the point decides (``ring_shares``): aimed at the seam between box tiles a ray
-    slips through it or meets a side face, the ring's rays land on the tiles' faces."""
+    """Whether an explicit ``normal`` points out of the surface at ``point`` (None: no surface to
+    judge). The ray from ``point + probe·normal`` must enter a surface facing it near the point;
+    when that one ray does not say yes (aimed at a seam between tiles) the ring decides
+    (``ring_shares``)."""
     dist, hit_normal = _ray(model, data, point + probe * normal, -normal)
     if abs(dist - probe) <= reach and hit_normal @ normal > 0.5:
         if not starts_inside(model, data, point + probe * normal, normal):
@@ -219,10 +204,9 @@ def _fmt(v: np.ndarray) -> str:
 
 def landmark_normals(spec: mujoco.MjSpec, model, data, site_ids: list[int],
                      scene_name: str) -> tuple[np.ndarray, np.ndarray]:
-    """World unit normals (L, 3) of the landmark sites and which of them were inferred (L,).
-
-    Oriented sites keep their z axis; un-oriented ones take the normal of the surface they sit
-    on (their z axis when there is none). One line on stderr when the result looks wrong."""
+    """World unit normals (L, 3) of the landmark sites and which were inferred (L,): oriented sites
+    keep their z axis, others take their surface's normal (their z axis without one); one line on
+    stderr when the result looks wrong."""
     names = [model.site(i).name for i in site_ids]
     points = data.site_xpos[site_ids].copy()
     normals = data.site_xmat[site_ids].reshape(-1, 3, 3)[:, :, 2].copy()

@@ -1,9 +1,7 @@
-"""Odometry: the true motion between consecutive poses plus noise (a sensor, like the renderer).
-
-The increment from pose k−1 to k in the frame of k−1: ``Δp = R_{k−1}ᵀ (p_k − p_{k−1})``,
-``ΔR = R_{k−1}ᵀ R_k``. The measured one is ``Δp + k σ_t n_p``, ``ΔR Exp(k σ_r n_θ)`` with
-``n ~ N(0, I₃)`` (``k``: miscalibration, while the filter is told ``σ``). Each frame's noise
-has its own seeded generator, so frame k's odometry is the same whatever ran before it.
+"""Odometry: the true motion between consecutive poses plus noise. The increment from pose k−1 to k
+    in k−1's frame is ``Δp = R_{k−1}ᵀ (p_k − p_{k−1})``, ``ΔR = R_{k−1}ᵀ R_k``; measured,
+    ``Δp + k σ_t n_p`` and ``ΔR Exp(k σ_r n_θ)``, ``n ~ N(0, I₃)`` (``k``: miscalibration; the
+    filter is told ``σ``). Each frame's noise has its own seeded generator.
 """
 
 from __future__ import annotations
@@ -36,9 +34,9 @@ def odometry(rotations: np.ndarray, positions: np.ndarray, k: int, cfg: Estimato
 
 
 def planar_odometry(poses: np.ndarray, k: int, cfg: EstimatorConfig, seed: int) -> Motion:
-    """The measured planar increment from frame ``k − 1`` to ``k``: the true one plus
-    ``k_m (σ_t n_x, σ_t n_y, σ_θ n_θ)``, ``n ~ N(0, I₃)`` (``k_m``: miscalibration), and the
-    covariance the filter is told, ``diag(σ_t², σ_t², σ_θ²)`` (σ_θ in radians)."""
+    """The measured planar increment from ``k − 1`` to ``k``, the true one plus
+    ``k_m (σ_t n_x, σ_t n_y, σ_θ n_θ)``, and the covariance the filter is told,
+    ``diag(σ_t², σ_t², σ_θ²)``."""
     rng = np.random.default_rng([seed, k, 404])
     sigma = np.array([cfg.odometry_sigma_translation] * 2 + [np.deg2rad(cfg.odometry_sigma_rotation)])
     inc = between(poses[k - 1], poses[k]) + rng.normal(0.0, 1.0, 3) * sigma * cfg.odometry_miscalibration

@@ -1,10 +1,6 @@
-"""Load a planar scene: a shipped name (``park``) or an MJCF path whose posts are cylinder geoms
-named ``lm*``, all of one radius.
-
-The camera track marks landmarks with ``lm*`` *sites*, the planar track with ``lm*`` *geoms*
-(the posts themselves), the lines track its map walls with ``lw*`` box geoms (``line_scene``):
-the track registry (``tracks.base.track_for_scene``) tells them apart from the parsed MJCF
-without compiling it. Every geom is static (no robot body): the lidar's rays start at the pose, at its height.
+"""Load a planar scene: a shipped name (``park``) or an MJCF whose posts are ``lm*`` cylinder geoms
+of one radius (the camera track marks landmarks with ``lm*`` *sites*, the lines track walls with
+``lw*`` boxes). Every geom is static: the lidar's rays start at the pose.
 """
 
 from __future__ import annotations

@@ -1,18 +1,11 @@
-"""Scripted robot paths for the planar track: closed loops, driven at constant speed.
+"""Scripted robot paths for the planar track: closed loops at constant speed.
 
-A path is a closed curve ``c(t)``, ``t ∈ [0, 2π)``, sampled densely and re-parametrised by arc
-length ``s``; frame ``k`` of ``N`` sits at ``s_k = (start + laps · k / N) · L`` (``L``: one lap),
-so the robot drives ``laps`` laps at the constant step ``laps · L / N`` and comes back to where
-it started: every landmark seen at the start is revisited after a long excursion. The heading
-is the tangent's direction, ``θ = atan2(ċ_y, ċ_x)`` (the robot drives forwards).
-
-Shipped scenes have their own loop (``park``: a wavy ring through the posts, ``post_grid``: a
-rounded square through the grid's gaps, ``colonnade``: down the corridor and back; the lines
-track's ``office``: through every room and door, ``hallway``: down the corridor and back,
-``furnished``: around the table); a user MJCF gets an ellipse around the posts' centroid (a lines
-scene: its wall faces' midpoints), the largest of a few sizes that keeps ``CLEARANCE`` from every
-obstacle, or a one-line error when none fits that says how to give a path of one's own:
-``waypoints`` from a CSV or YAML file (``robot_waypoints``), checked for the same clearance.
+A closed curve ``c(t)``, ``t ∈ [0, 2π)``, is re-parametrised by arc length; frame ``k`` of ``N``
+sits at ``s_k = (start + laps · k / N) · L``, so the robot drives ``laps`` laps at a constant step
+and every landmark seen at the start is revisited after a long excursion. The heading is the
+tangent's direction, ``θ = atan2(ċ_y, ċ_x)``. Shipped scenes have their own loop; a user MJCF gets
+an ellipse around its anchors, the largest of a few sizes keeping ``CLEARANCE`` from every obstacle,
+or a one-line error pointing to ``waypoints`` (``robot_waypoints``).
 """
 
 from __future__ import annotations
@@ -44,9 +37,8 @@ def park_curve(t: np.ndarray) -> np.ndarray:
 
 
 def rounded_rectangle(half_x: float, half_y: float, corner: float) -> Curve:
-    """A rectangle of half sizes ``half_x × half_y`` centred at the origin, corners rounded with
-    radius ``corner``, traversed counter-clockwise from ``(half_x, 0)``; ``t`` is spread in
-    proportion to arc length."""
+    """A rectangle of half sizes ``half_x × half_y`` at the origin with corners of radius
+    ``corner``, counter-clockwise from ``(half_x, 0)``; ``t`` in proportion to arc length."""
     sx, sy = half_x - corner, half_y - corner
     legs = np.array([2 * sy, np.pi * corner / 2, 2 * sx, np.pi * corner / 2] * 2)
     ends = np.cumsum(legs)
@@ -70,8 +62,7 @@ def rounded_rectangle(half_x: float, half_y: float, corner: float) -> Curve:
 
 def _rect_pieces(sx: float, sy: float, c: float) -> list[tuple]:
     """Straight legs ``(x0, y0, dx, dy, None)`` and corner arcs ``(cx, cy, 0, 0, a0)`` of a
-    rectangle with corners of radius ``c`` centred at ``(±sx, ±sy)``, counter-clockwise from
-    the lower end of its right side."""
+    rectangle with corners of radius ``c`` at ``(±sx, ±sy)``."""
     h = np.pi / 2
     return [(sx + c, -sy, 0, 1, None), (sx, sy, 0, 0, 0.0), (sx, sy + c, -1, 0, None), (-sx, sy, 0, 0, h),
             (-sx - c, sy, 0, -1, None), (-sx, -sy, 0, 0, 2 * h), (-sx, -sy - c, 1, 0, None),
@@ -79,10 +70,9 @@ def _rect_pieces(sx: float, sy: float, c: float) -> list[tuple]:
 
 
 def rounded_polygon(vertices: list[tuple[float, float]], radius: float) -> Curve:
-    """The closed polygon through ``vertices`` with each corner replaced by a circular arc of
-    ``radius`` tangent to both legs (it starts ``radius · tan(φ/2)`` before the corner, ``φ``: the
-    turn), traversed in vertex order from the middle of the first leg; ``t`` is spread in
-    proportion to arc length. Raises ValueError when a leg is too short for its two arcs."""
+    """The closed polygon through ``vertices`` with each corner an arc of ``radius`` tangent to both
+    legs (from ``radius · tan(φ/2)`` before it), from the middle of the first leg; ``t`` by arc
+    length. ValueError when a leg is too short for its two arcs."""
     v = np.asarray(vertices, float)
     d = np.roll(v, -1, axis=0) - v                               # leg i: vertex i -> i + 1
     legs = np.linalg.norm(d, axis=1)
@@ -150,8 +140,8 @@ OWN_PATH = ("give the robot's own path: --trajectory waypoints --set trajectory_
 
 
 def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.ndarray:
-    """Poses (frames, 3) at equal arc-length steps along ``laps`` laps of a closed ``curve``
-    from the fraction ``start`` of a lap: ``s_k = (start + laps k / N) L``, ``θ_k`` the tangent."""
+    """Poses (frames, 3) at equal arc-length steps, ``s_k = (start + laps k / N) L``, ``θ_k`` the
+    tangent."""
     t = np.linspace(0.0, 2 * np.pi, DENSE + 1)
     pts = curve(t)
     seg = np.linalg.norm(np.diff(pts, axis=0), axis=1)
@@ -166,10 +156,9 @@ def resample(curve: Curve, laps: float, frames: int, start: float = 0.0) -> np.n
 
 
 def ellipse_curve(scene: PlanarScene | LineScene, scale: float, shift: np.ndarray | None = None) -> Curve:
-    """Ellipse around the scene's anchors' centroid (moved by ``shift`` × the semi-axes, along
-    them) on their principal axes, semi-axes ``scale ×`` the anchors' spread (√2 × the standard
-    deviation along each axis, at least 0.7 m). Anchors: a planar scene's posts, a lines scene's
-    wall-face midpoints."""
+    """An ellipse on the anchors' principal axes around their centroid (shifted by ``shift`` × the
+    semi-axes), semi-axes ``scale ×`` √2 × their standard deviation (at least 0.7 m). Anchors:
+    posts, or wall-face midpoints."""
     shift = np.zeros(2) if shift is None else shift
     anchors = scene.anchors
     centre = anchors.mean(axis=0)
@@ -185,8 +174,8 @@ SHIFTS = sorted(((a, b) for a in np.linspace(-0.3, 0.3, 5) for b in np.linspace(
 
 
 def default_ellipse(scene: PlanarScene | LineScene, laps: float, frames: int, start: float) -> np.ndarray:
-    """The first ellipse, largest scale (1.2 down to 0.3) and smallest shift first, whose path
-    keeps ``CLEARANCE`` from every obstacle; a one-line error when none does."""
+    """The first ellipse (largest scale, smallest shift first) keeping ``CLEARANCE`` from every
+    obstacle; a one-line error when none does."""
     for scale in np.linspace(1.2, 0.3, 10):
         for shift in SHIFTS:
             curve = ellipse_curve(scene, scale, np.array(shift))
@@ -217,10 +206,9 @@ def _params(name: str, params: dict) -> tuple[float, float, float]:
 
 def planar_trajectory(scene: PlanarScene | LineScene, name: str | None, frames: int, seed: int = 0,
                       **params) -> np.ndarray:
-    """Robot poses ``(frames, 3)`` = ``(x, y, θ)``: ``loop`` (a shipped scene's own path, the
-    default there), ``ellipse`` (around the posts, the default for a user MJCF) or ``waypoints``
-    (the user's file, ``robot_waypoints``). The path is fixed: ``seed`` is accepted for the
-    common signature and changes nothing."""
+    """Robot poses ``(frames, 3)``: ``loop`` (a shipped scene's path), ``ellipse`` (around the
+    posts; a user MJCF's default) or ``waypoints`` (``robot_waypoints``). ``seed`` changes nothing
+    (common signature)."""
     del seed
     own = scripted(scene.path)
     name = name or ("loop" if own else "ellipse")

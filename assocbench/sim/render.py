@@ -35,8 +35,7 @@ def _gl_error(reason: str) -> UserError:
 
 
 def _gl_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Renderer:
-    """``mujoco.Renderer``, or a one-line ``UserError`` when the GL backend cannot give a context
-    (glfw without a display raises ``FatalError`` after Python warnings that say why)."""
+    """``mujoco.Renderer``, or a one-line ``UserError`` when the GL backend gives no context."""
     if gl.GL_ERROR:   # the backend did not even load; mujoco was loaded without GL
         raise _gl_error(gl.GL_ERROR)
     with warnings.catch_warnings(record=True) as caught:
@@ -55,20 +54,18 @@ def _gl_renderer(model: mujoco.MjModel, width: int, height: int) -> mujoco.Rende
 
 
 def _geometry_only() -> mujoco.MjvOption:
-    """Default visual options with every site group hidden: a depth sensor sees geoms only (the
-    ``lm*`` sites are drawn as 1 cm spheres by default and would poke out of the surfaces)."""
+    """Visual options with every site group hidden: a depth sensor sees geoms only (``lm*`` sites
+    are drawn as spheres)."""
     option = mujoco.MjvOption()
     option.sitegroup[:] = 0
     return option
 
 
 class FrameRenderer:
-    """Renders RGB always, metric z-depth and segmentation ``(H, W, 2) [objid, objtype]`` on request;
-    ``render_depth`` renders depth and geom segmentation alone (no RGB pass).
-
-    Each extra mode is a full extra render pass, so ask only for what you use. ``msaa`` is the
-    number of multisamples of the offscreen buffer (None: the scene's ``<quality offsamples>``,
-    4 in the shipped scenes; 0 renders fastest, with harder pixel edges).
+    """Renders RGB, and on request metric z-depth and segmentation ``(H, W, 2) [objid, objtype]``
+    (each a full extra pass); ``render_depth`` renders depth and geom segmentation alone. ``msaa``:
+    offscreen multisamples (None: the scene's ``<quality offsamples>``; 0 is fastest, with harder
+    edges).
     """
 
     def __init__(self, scene: Scene, width: int = 640, height: int = 480, msaa: int | None = None) -> None:
@@ -120,10 +117,9 @@ class FrameRenderer:
         return out
 
     def render_depth(self, R: np.ndarray, p: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-        """Depth and geom segmentation of one frame, without the RGB pass: ``depth`` (H, W)
-        float64 metric z along the optical axis, NaN where nothing is hit (the far plane);
-        ``geom`` (H, W) int64 geom id each pixel sees, ``NO_GEOM`` (-1) where it sees no geom.
-        Sites are hidden (a sensor images surfaces, not markers)."""
+        """Depth and geom segmentation of one frame without the RGB pass: ``depth`` (H, W) metric z,
+        NaN where nothing is hit; ``geom`` (H, W) the geom id, ``NO_GEOM`` (-1) for none. Sites
+        hidden."""
         self.place_camera(R, p)
         r = self._renderer
         r.update_scene(self.scene.data, camera=self.scene.camera_id, scene_option=self._depth_option)

@@ -1,14 +1,11 @@
 """A robot's own path in the plane (planar and lines tracks): waypoints from a CSV or YAML file.
 
-A waypoint file lists positions ``x, y`` (m, world frame) and, optionally, a ``heading`` (deg,
-counter-clockwise from +x) and a time ``t`` (strictly increasing, any unit). The robot drives
-the polyline through them from the first to the last; frame ``k`` of ``N`` sits at arc length
-``s_k = k / (N − 1) · L`` (``L``: the polyline's length, so the robot's step is ``L / (N − 1)``),
-or, with ``t``, at the time ``t_0 + k / (N − 1) · (t_end − t_0)`` (constant speed on each leg).
-Without ``heading`` the robot faces along its leg and turns at a constant rate over the last and
-first ``TURN`` m around each waypoint (less on short legs); with it, the heading is interpolated
-linearly in arc length between waypoints, the shorter way round. A closed path ends with its
-first waypoint.
+A waypoint file lists positions ``x, y`` (m, world) and optionally a ``heading`` (deg,
+counter-clockwise from +x) and a time ``t`` (strictly increasing). The robot drives the polyline
+through them; frame ``k`` of ``N`` sits at arc length ``s_k = k / (N − 1) · L``, or with ``t`` at
+time ``t_0 + k / (N − 1) · (t_end − t_0)`` (constant speed per leg). Without ``heading`` it faces
+along its leg, turning at a constant rate over ``TURN`` m around each waypoint; with it, the heading
+is interpolated in arc length, the shorter way round. A closed path ends with its first waypoint.
 
 CSV (a header, ``#`` comments)::
 
@@ -21,9 +18,8 @@ YAML (a list, or a mapping with ``waypoints:``)::
     - {position: [0, 0]}
     - {position: [3, 0], heading: 90, t: 2.0}
 
-The path is checked before anything runs: every waypoint inside the scene (within ``MARGIN`` of
-the rectangle around its obstacles) and every point of every leg ``CLEARANCE`` from every
-obstacle, or a one-line error naming the waypoint or leg and the obstacle.
+Every waypoint must lie within ``MARGIN`` of the scene and every leg ``CLEARANCE`` from every
+obstacle, or a one-line error names the waypoint or leg and the obstacle.
 """
 
 from __future__ import annotations
@@ -49,7 +45,7 @@ COLUMNS = ("x", "y", "heading", "t")
 @dataclass(frozen=True)
 class RobotWaypoints:
     """Waypoints read from ``path``: positions (W, 2) m, headings (W,) rad or None, times (W,) or
-    None, and where each is written (``line 3``, ``waypoint 2``) for messages."""
+    None, and where each is written, for messages."""
 
     path: Path
     points: np.ndarray
@@ -64,9 +60,9 @@ class RobotWaypoints:
 
 
 def read_robot_waypoints(path: Path) -> RobotWaypoints:
-    """Parse and check a robot waypoint file: at least 2 waypoints, finite numbers, ``heading``
-    and ``t`` for every waypoint or for none, ``t`` strictly increasing, no waypoint on the one
-    before it. One-line ``UserError`` naming the file and line."""
+    """Parse and check a robot waypoint file (at least 2 waypoints, finite numbers, ``heading`` and
+    ``t`` for all or none, ``t`` increasing, no repeated waypoint); one-line ``UserError`` naming
+    file and line."""
     text = read_text(path)
     rows = _csv_rows(path, text) if path.suffix.lower() == ".csv" else _yaml_rows(path, text)
     if len(rows) < 2:
@@ -120,9 +116,8 @@ def _yaml_rows(path: Path, text: str) -> list[Row]:
 
 
 def waypoint_poses(wp: RobotWaypoints, frames: int) -> np.ndarray:
-    """Poses (frames, 3) ``(x, y, θ)`` along the polyline through ``wp``: equal arc-length steps
-    ``s_k = k L / (N − 1)`` (with times: equal time steps, constant speed on each leg), the
-    heading as the module says."""
+    """Poses (frames, 3) ``(x, y, θ)`` along the polyline through ``wp``: equal arc-length (or, with
+    times, equal time) steps, headings as the module says."""
     s_wp = np.concatenate([[0.0], np.cumsum(np.linalg.norm(np.diff(wp.points, axis=0), axis=1))])
     share = np.linspace(0.0, 1.0, frames) if frames > 1 else np.zeros(1)
     if wp.times is None:
@@ -140,9 +135,8 @@ def _unwrapped(angles: np.ndarray) -> np.ndarray:
 
 
 def _turns(points: np.ndarray, s_wp: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """Knots (arc length, unwrapped heading) of a robot facing along each leg and turning from
-    leg ``i − 1``'s direction to leg ``i``'s over ``±d_i`` around waypoint ``i``,
-    ``d_i = min(TURN, ℓ_{i−1}/2, ℓ_i/2)``."""
+    """Knots (arc length, unwrapped heading) of a robot facing along each leg and turning over
+    ``±d_i`` around waypoint ``i``, ``d_i = min(TURN, ℓ_{i−1}/2, ℓ_i/2)``."""
     d = np.diff(points, axis=0)
     lengths = np.linalg.norm(d, axis=1)
     legs = _unwrapped(np.arctan2(d[:, 1], d[:, 0]))
@@ -155,9 +149,8 @@ def _turns(points: np.ndarray, s_wp: np.ndarray) -> tuple[np.ndarray, np.ndarray
 
 
 def check_clearance(scene, wp: RobotWaypoints) -> None:
-    """Refuse, in one line naming the waypoint or leg and the obstacle, a waypoint outside the
-    scene (farther than ``MARGIN`` outside the rectangle around its obstacles) or a point of
-    the path closer than ``CLEARANCE`` to an obstacle's footprint (``footprint.nearest_obstacle``)."""
+    """Refuse in one line a waypoint more than ``MARGIN`` outside the scene's obstacles' rectangle,
+    or a path point closer than ``CLEARANCE`` to an obstacle's footprint."""
     lo, hi = extent(scene)
     outside = np.flatnonzero(np.any((wp.points < lo - MARGIN) | (wp.points > hi + MARGIN), axis=1))
     if len(outside):
@@ -191,8 +184,8 @@ def _obstacle(scene, g: int) -> str:
 
 
 def waypoint_file(params: dict, scene) -> Path:
-    """The robot's waypoint file named by ``trajectory_params.file`` (``waypoints.waypoint_path``):
-    as given, else next to the scene's MJCF; no other parameter is taken."""
+    """The waypoint file of ``trajectory_params.file`` (as given, else beside the scene's MJCF); no
+    other parameter."""
     other = sorted(set(params) - {"file"})
     if other:
         raise UserError(f"trajectory 'waypoints' takes no parameter {other[0]!r}; it takes file ({HOW})")

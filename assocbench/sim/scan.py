@@ -12,9 +12,9 @@ from .cache import storable
 @storable
 @dataclass
 class Scan:
-    """One scan. ``geom`` and ``distance`` are the truth: the geom each beam's ray meets first
-    within ``max_range`` (−1: none) and how far (``inf``: none), kept even where the return
-    dropped out; ``distance`` is None for scans made without it."""
+    """One scan; ``geom`` and ``distance`` are the truth, the geom each ray meets first within
+    ``max_range`` (−1) and how far (``inf``), kept where the return dropped out (``distance`` None
+    for scans made without it)."""
 
     angles: np.ndarray   # (B,) robot frame (rad)
     ranges: np.ndarray   # (B,) measured (m), NaN: no return

@@ -1,10 +1,7 @@
-"""Load a scene: a shipped name (``room``) or any MJCF path that follows the ``lm*`` convention.
-
-A landmark is a ``site`` whose name starts with ``lm``; its z axis is the outward normal of
-the patch it marks, or, when the site has no orientation of its own, the normal of the surface
-it sits on (``normals.landmark_normals``). The loader adds its own camera to the world body
-(so user MJCF needs none) and reads the offscreen buffer size, which bounds the rendering
-resolution.
+"""Load a scene: a shipped name (``room``) or any MJCF following the ``lm*`` convention: a landmark
+is an ``lm*`` site whose z axis is its outward normal (or, un-oriented, its surface's:
+``normals.landmark_normals``). The loader adds its own camera and reads the offscreen buffer size,
+which bounds the resolution.
 """
 
 from __future__ import annotations
@@ -33,8 +30,8 @@ def shipped_scenes() -> dict[str, Path]:
 
 
 def resolve_scene_path(scene: str | Path) -> Path:
-    """Path of a shipped scene name or an MJCF file; a one-line error saying what is wrong otherwise
-    (not found, a folder, or a file that is not an MJCF ``.xml``)."""
+    """Path of a shipped scene name or an MJCF file; a one-line error otherwise (not found, a
+    folder, not ``.xml``)."""
     shipped = shipped_scenes()
     if str(scene) in shipped:
         return shipped[str(scene)]
@@ -51,8 +48,8 @@ def resolve_scene_path(scene: str | Path) -> Path:
 
 
 def mjcf_error(path: Path, exc: Exception) -> UserError:
-    """MuJoCo's whole message on one line (its first line alone is often just "XML parse error
-    6:"; the line number and reason follow), plus Python's parser's reason for malformed XML."""
+    """MuJoCo's whole message on one line (its first line is often only "XML parse error 6:"), plus
+    Python's parser's reason for malformed XML."""
     said = " ".join(str(exc).split()) or type(exc).__name__
     if "XML_ERROR" in said or "parse error" in said.lower():
         import xml.etree.ElementTree as ET
@@ -65,8 +62,8 @@ def mjcf_error(path: Path, exc: Exception) -> UserError:
 
 
 def mjcf_names(path: Path) -> tuple[int, int, int]:
-    """How many ``lm*`` sites, ``lm*`` geoms and ``lw*`` geoms an MJCF names (parsed, not compiled;
-    a one-line error for bad XML): what the tracks' scene conventions read."""
+    """How many ``lm*`` sites, ``lm*`` geoms and ``lw*`` geoms an MJCF names (parsed, not compiled):
+    what the scene conventions read."""
     try:
         spec = mujoco.MjSpec.from_file(str(path))
     except (ValueError, RuntimeError) as exc:
@@ -100,9 +97,8 @@ class Scene:
         return scene_digest(self.path)
 
     def free_distance(self, origin: np.ndarray, directions: np.ndarray) -> np.ndarray:
-        """Distance (k,) from ``origin`` to the first surface along each unit direction (k, 3):
-        ``inf`` where nothing is hit, 0 where the origin lies inside a solid (the first surface
-        is met from within: its outward normal points along the ray)."""
+        """Distance (k,) from ``origin`` to the first surface along each direction: ``inf`` for
+        none, 0 inside a solid."""
         dirs = np.ascontiguousarray(directions, dtype=np.float64)
         k = len(dirs)
         dist, geom, normal = np.empty(k), np.empty(k, np.int32), np.empty(3 * k)
@@ -119,8 +115,8 @@ ASSET_DIRS = {"mesh": "meshdir", "hfield": "meshdir", "skin": "meshdir", "textur
 
 
 def _mjcf_trees(path: Path) -> list[tuple[Path, ET.Element]]:
-    """The main MJCF and every file it ``<include>``s (recursively), parsed; an include is looked
-    for beside the main file (MuJoCo's rule) and beside the including file."""
+    """The main MJCF and its ``<include>``s, recursively, parsed; includes looked for beside the
+    main and the including file."""
     trees, todo, seen = [], [path], set()
     while todo:
         current = todo.pop()
@@ -150,11 +146,10 @@ def _asset_folders(path: Path, trees: list[tuple[Path, ET.Element]]) -> dict[str
 
 
 def scene_files(path: Path) -> list[Path]:
-    """Every file the MJCF at ``path`` is made of: itself, each file it ``<include>``s (recursively)
-    and every file an element names (``file=``, a cube texture's ``fileright=`` and the like:
-    meshes, height fields, skins, textures), in its ``<compiler>`` folder (``meshdir``,
-    ``texturedir``, ``assetdir``) or beside the including file or the main one; and the asset files
-    beside the main file. What a digest must cover."""
+    """Every file the MJCF at ``path`` is made of, what a digest must cover: itself, its
+    ``<include>``s (recursively), every file an element names (meshes, height fields, skins,
+    textures) in its ``<compiler>`` folders or beside the including or main file, and the asset
+    files beside it."""
     path = path.resolve()
     trees = _mjcf_trees(path)
     folders = _asset_folders(path, trees)
@@ -172,8 +167,7 @@ def scene_files(path: Path) -> list[Path]:
 
 
 def scene_digest(scene: str | Path) -> str:
-    """SHA-256 (16 hex digits) of the names and contents of every file of a scene
-    (``scene_files``): editing an included body, a texture or a mesh changes it."""
+    """SHA-256 (16 hex digits) of the names and contents of every file of a scene (``scene_files``)."""
     path = resolve_scene_path(scene)
     h = hashlib.sha256()
     for f in scene_files(path):

@@ -1,7 +1,5 @@
-"""Settings of the simulated tracks that several tracks share: the path along a scene
-(``trajectory``, ``trajectory_params``), the rendered image's size (``resolution``, ``msaa``) and the
-2-D lidar (section ``lidar``, the planar and lines tracks'). Each is a dataclass whose fields
-declare what they accept (``validation``); a track's schema names the ones it uses."""
+"""Settings several simulated tracks share: the path (``trajectory``, ``trajectory_params``), the
+rendered image (``resolution``, ``msaa``) and the 2-D lidar (section ``lidar``)."""
 
 from __future__ import annotations
 
@@ -67,8 +65,10 @@ class LidarConfig:
 
     mode: ``lidar`` (ray-cast scans and circle fits) or ``geometric`` (true range and bearing of
         every unoccluded post plus noise: fast and idealised).
-    beams: beams per scan. fov_deg: field of view (deg), centred on the heading.
-    max_range: farthest return (m). sigma_range: σ of each beam's range noise (m).
+    beams: beams per scan.
+    fov_deg: field of view (deg), centred on the heading.
+    max_range: farthest return (m).
+    sigma_range: σ of each beam's range noise (m).
     sigma_bearing_deg: σ of the bearing noise in geometric mode (deg).
     dropout: probability that a beam (geometric mode: a post) returns nothing.
     height: height of the scan plane above the floor (m).

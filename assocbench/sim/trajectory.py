@@ -1,14 +1,9 @@
-"""Named, parameterised, seeded camera trajectories.
-
-Each trajectory is placed and sized (``radius`` defaults to the rig's ``motion``) by a *rig*
-derived from the scene's landmarks, so a user MJCF works without configuration: a scene whose
-landmark normals agree (a wall) is viewed from in front along the mean normal; an enclosure
-(room, corridor, hall) is viewed from inside, from the landmark centroid at the landmarks' mean
-height, along its long axis when it is elongated. Given the scene's free space (rays), the rig
-keeps the camera out of walls, pillars, floor and ceiling. Or the path is the user's own:
-``waypoints`` from a CSV/YAML file, ``mjcf-cameras`` through the MJCF's cameras (``Keyframes``).
-Parameters are in metres and degrees; ``seed`` sets the start phase and a small per-frame pose
-jitter.
+"""Named, parameterised, seeded camera trajectories, placed and sized (``radius`` defaults to the
+rig's ``motion``) by a *rig* derived from the scene's landmarks, so a user MJCF needs no
+configuration: a wall (agreeing normals) is viewed from in front, an enclosure from inside, from the
+landmark centroid along its long axis; the scene's free space keeps the camera out of walls,
+pillars, floor and ceiling. Or the user's own path: ``waypoints`` or ``mjcf-cameras``
+(``Keyframes``). Metres and degrees; ``seed`` sets the start phase and a small pose jitter.
 """
 
 from __future__ import annotations
@@ -43,12 +38,10 @@ class Rig:
 
 def rig_for(landmarks: np.ndarray, normals: np.ndarray, fovy: float, aspect: float,
             free: FreeSpace | None = None) -> Rig:
-    """Derive the rig from landmark positions (L, 3) and outward normals (L, 3).
-
-    ``free`` (the scene's ray distances, ``Scene.free_distance``) lets the rig keep clear of
-    the scene's surfaces: a wall is viewed from no farther than the free space in front of it
-    allows, and an enclosure's anchor is moved off a pillar or out of a wall and kept between
-    floor and ceiling. Without it the rig uses the landmarks alone."""
+    """The rig from landmark positions and outward normals (L, 3); ``free``
+    (``Scene.free_distance``) keeps it clear of surfaces: a wall is viewed from no farther than the
+    space in front allows, an enclosure's anchor moved off pillars and kept between floor and
+    ceiling."""
     centroid = landmarks.mean(axis=0)
     flat = landmarks[:, :2] - centroid[:2]
     _, _, vt = np.linalg.svd(flat, full_matrices=False)
@@ -86,8 +79,7 @@ def _clearance(free: FreeSpace, point: np.ndarray) -> float:
 
 
 def _height_between_floor_and_ceiling(free: FreeSpace, point: np.ndarray) -> np.ndarray:
-    """``point`` with its height kept ``CLEARANCE`` above the floor and below the ceiling (the
-    first surfaces straight down and up; an open top is no limit)."""
+    """``point`` kept ``CLEARANCE`` above the floor and below the ceiling (an open top is no limit)."""
     down, up = free(point, np.array([[0.0, 0.0, -1.0], [0.0, 0.0, 1.0]]))
     if not (np.isfinite(down) and down > 0):
         return point
@@ -98,12 +90,10 @@ def _height_between_floor_and_ceiling(free: FreeSpace, point: np.ndarray) -> np.
 
 def open_anchor(centroid: np.ndarray, landmarks: np.ndarray, normals: np.ndarray, free: FreeSpace, need: float,
                 grid: int = 15) -> tuple[np.ndarray, float]:
-    """The enclosure's anchor and its horizontal clearance: the landmark centroid (at the
-    landmarks' mean height, kept between floor and ceiling) when it has ``need`` metres of free
-    space around it; else, among the points of a grid over the landmarks' footprint that lie in
-    front of as many landmarks as the centroid does (inside the enclosure, not behind a wall),
-    the one with the most clearance (the centre of the largest free circle), nearest the
-    centroid among equals."""
+    """The enclosure's anchor and its clearance: the landmark centroid when it has ``need`` metres
+    free around it; else the grid point over the landmarks' footprint, in front of as many landmarks
+    as the centroid (inside the enclosure), with the most clearance, nearest the centroid among
+    equals."""
     def in_front(point: np.ndarray) -> int:
         return int(np.sum(np.einsum("ij,ij->i", normals, point - landmarks) > 0))
 
@@ -201,8 +191,7 @@ class Keyframes:
 
 
 def through_keyframes(keys: Keyframes, t: np.ndarray) -> Poses:
-    """Poses at times ``t`` in [0, 1]: positions interpolated linearly between keyframes,
-    orientations by spherical linear interpolation (constant angular rate, roll kept)."""
+    """Poses at times ``t`` in [0, 1]: positions linear between keyframes, orientations by slerp."""
     from scipy.spatial.transform import Rotation, Slerp
 
     pos = np.column_stack([np.interp(t, keys.times, keys.positions[:, i]) for i in range(3)])
@@ -239,8 +228,8 @@ PARAM_RANGES = {"radius": in_range(0, 100, lo_open=True), "length": in_range(0, 
 
 
 def check_trajectory_params(name: str, params: dict) -> None:
-    """Refuse, before anything runs, a parameter that trajectory ``name`` does not take or a
-    number outside ``PARAM_RANGES`` (one ``UserError`` line naming ``trajectory_params.<key>``)."""
+    """Refuse a parameter trajectory ``name`` does not take or a number outside ``PARAM_RANGES``
+    (one line naming ``trajectory_params.<key>``)."""
     accepted = set(inspect.signature(TRAJECTORIES[name]).parameters) - {"rig", "t", "keys"}
     accepted |= {"jitter_pos", "jitter_deg"} | USER_PATH_KEYS.get(name, set())
     for key, value in params.items():
@@ -254,12 +243,9 @@ def check_trajectory_params(name: str, params: dict) -> None:
 
 def make_trajectory(name: str, rig: Rig, frames: int, seed: int = 0, jitter_pos: float = 0.01,
                     jitter_deg: float = 0.5, keys: Keyframes | None = None, **params) -> Poses:
-    """Camera poses ``(R, p)`` of ``frames`` frames of trajectory ``name``.
-
-    ``seed`` draws the start phase of closed paths and a small Gaussian jitter of the
-    position (``jitter_pos`` m) and orientation (``jitter_deg``) of every frame; open paths
-    (``line``, ``waypoints``, ``mjcf-cameras``, the last two through ``keys``) run from start
-    to end.
+    """Camera poses ``(R, p)`` of ``frames`` frames of trajectory ``name``: ``seed`` draws the start
+    phase of closed paths and a Gaussian jitter (``jitter_pos`` m, ``jitter_deg``); open paths
+    (``line``, and ``waypoints``, ``mjcf-cameras`` through ``keys``) run start to end.
     """
     if name not in TRAJECTORIES:
         raise UserError(f"unknown trajectory {name!r}: choose one of {', '.join(TRAJECTORIES)}")

@@ -1,10 +1,7 @@
-"""User camera paths: waypoints from a CSV or YAML file, or the cameras an MJCF defines.
-
-A waypoint file lists camera positions with where each looks, either a look-at point or a
-heading (``yaw`` degrees counterclockwise from +x about +z, ``pitch`` degrees up, 0 if left
-out); an optional time ``t`` (strictly increasing, any unit) sets when each is reached,
-otherwise consecutive waypoints are equally far apart in time. The sequence's frames are
-spread over the whole path (``trajectory.through_keyframes``).
+"""User camera paths: waypoints from a CSV or YAML file, or the cameras an MJCF defines. A waypoint
+gives a camera position and a look-at point or a heading (``yaw`` degrees counter-clockwise from +x,
+``pitch`` degrees up), and optionally a time ``t`` (else equally spaced); frames spread over the
+whole path (``trajectory.through_keyframes``).
 
 CSV (a header, ``#`` comments)::
 
@@ -16,9 +13,7 @@ YAML (a list, or a mapping with ``waypoints:``)::
     - {position: [0, 0, 1.5], look_at: [3, 0, 1.5]}
     - {position: [1, 0, 1.5], yaw: 90, t: 2.0}
 
-Finding, reading and hashing a waypoint file (``waypoint_path``, ``read_text``, ``csv_table``,
-``yaml_list``, ``number``, ``vector``, ``file_digest``) also serve the robot's waypoints of the
-planar and lines tracks (``robot_waypoints``): one reader for both.
+The finding, reading and hashing helpers also serve the robot's waypoints (``robot_waypoints``).
 """
 
 from __future__ import annotations
@@ -44,9 +39,8 @@ _HOW = "a CSV or YAML file of camera positions with look-at points or headings"
 
 
 def waypoint_path(params: dict, scene_dir: Path | None = None, how: str = _HOW) -> Path:
-    """The file named by ``trajectory_params.file``: as given (relative to the working folder),
-    else next to the scene's MJCF. One-line error when it is missing or not CSV/YAML (``how``
-    says what the file holds: the camera's or the robot's waypoints)."""
+    """The file of ``trajectory_params.file``: as given, else beside the scene's MJCF; one-line
+    error when missing or not CSV/YAML (``how``: whose waypoints)."""
     name = params.get("file")
     if not isinstance(name, str) or not name:
         raise UserError(f"trajectory waypoints needs trajectory_params.file: {how}; got {name!r}")
@@ -69,17 +63,15 @@ def file_digest(path: Path) -> str:
 
 
 def waypoint_digest(trajectory: str | None, params: dict, scene: str | Path) -> str | None:
-    """``file_digest`` of the waypoint file of a ``waypoints`` path on any track (found as
-    ``waypoint_path`` finds it, next to ``scene``'s MJCF), else None: what a key of a path read
-    from a file holds besides the file's name (a sequence cache entry, a stored leaderboard job)."""
+    """``file_digest`` of a ``waypoints`` path's file on any track (found as ``waypoint_path``
+    does), else None: what a key holds besides the file's name."""
     if trajectory != "waypoints":
         return None
     return file_digest(waypoint_path(params, resolve_scene_path(scene).parent))
 
 
 def read_text(path: Path) -> str:
-    """The waypoint file's text (UTF-8; a byte-order mark, as spreadsheets write one, is dropped);
-    a one-line ``UserError`` when it cannot be read."""
+    """The file's text (UTF-8, a byte-order mark dropped); one-line ``UserError`` when unreadable."""
     try:
         return path.read_text(encoding="utf-8-sig")
     except (OSError, UnicodeDecodeError) as exc:
@@ -113,9 +105,8 @@ def number(path: Path, where: str, name: str, value) -> float:
 
 
 def csv_table(path: Path, text: str) -> tuple[str, list[str], list[tuple[str, list[str]]]]:
-    """A waypoint CSV's header (where it is written, its lower-case column names) and each data
-    row's cells with where it is written (``line N``); blank lines and ``#`` comments skipped. A
-    row with another number of cells than the header is a one-line ``UserError``."""
+    """A waypoint CSV's header (where, lower-case names) and each data row's cells with its
+    ``line N``; blank and ``#`` lines skipped; a row of another width is a one-line ``UserError``."""
     lines = [(k + 1, line) for k, line in enumerate(text.splitlines())
              if line.strip() and not line.lstrip().startswith("#")]
     if not lines:
@@ -153,8 +144,8 @@ def _csv_rows(path: Path, text: str) -> list[Row]:
 
 
 def yaml_list(path: Path, text: str, each: str) -> list:
-    """A waypoint YAML's list (or the list under ``waypoints:``); one-line ``UserError`` for
-    malformed YAML or anything else (``each`` says what one waypoint looks like)."""
+    """A waypoint YAML's list (or ``waypoints:``'s); one-line ``UserError`` otherwise (``each``: one
+    waypoint's form)."""
     try:
         data = yaml.load(text, Loader=BoundedLoader)  # noqa: S506 - a SafeLoader, aliases bounded
     except yaml.YAMLError as exc:
@@ -226,8 +217,7 @@ def _keyframes(path: Path, rows: list[Row]) -> Keyframes:
 
 
 def camera_keyframes(scene: Scene, cameras=None) -> Keyframes:
-    """Keyframes at the MJCF's own cameras: ``cameras`` names one or a list of them, in the
-    order to visit (default: all, in the MJCF's order); equally spaced in time."""
+    """Keyframes at the MJCF's cameras ``cameras`` (default: all, in order), equally spaced in time."""
     model, data = scene.model, scene.data
     own = [i for i in range(model.ncam) if i != scene.camera_id]
     if not own:
@@ -254,8 +244,8 @@ def camera_keyframes(scene: Scene, cameras=None) -> Keyframes:
 
 
 def user_keyframes(name: str, params: dict, scene: Scene) -> tuple[dict, Keyframes | None]:
-    """Split ``trajectory_params`` into the keyframes of a user path (``waypoints``:
-    ``file``; ``mjcf-cameras``: ``cameras``) and the parameters left for ``make_trajectory``."""
+    """Split ``trajectory_params`` into a user path's keyframes (``waypoints``: ``file``;
+    ``mjcf-cameras``: ``cameras``) and the parameters left for ``make_trajectory``."""
     rest = dict(params)
     if name == "waypoints":
         path = waypoint_path(params, scene.path.parent)

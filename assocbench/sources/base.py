@@ -1,21 +1,16 @@
-"""The frame source: the one interface between where frames come from and the track that reads them.
+"""The frame source: the one interface between where frames come from and the track reading them, in
+the spirit of kiss-icp's dataset classes:
 
-A frame source is a sequence of frames with a content key, in the spirit of kiss-icp's dataset
-classes (``__len__`` / ``__getitem__``, made by a factory: here the track's ``source`` hook):
+* ``len(source)``: the frames a run takes;
+* ``source[k]``: frame ``k``, read when asked for (a log parsed once, a simulated sequence made or
+  read from the cache on first access);
+* ``source.key``: a digest of every input the frames depend on (files, settings, code, library
+  versions); caches and stored runs are reused only under the same key;
+* ``source.name``: a short name for scenarios and titles, never a machine path;
+* ``source.track``: the registered track that reads it.
 
-* ``len(source)``: how many frames a run takes;
-* ``source[k]``: frame ``k``, read when it is asked for (a log parsed once, then indexed; a simulated
-  sequence made, or read from the sequence cache, on first access), never a list built up front;
-* ``source.key``: a digest of every input the frames depend on (the files read: an MJCF with its
-  includes, meshes and textures, a waypoint file, a log file; the settings; the code that makes the
-  frames; the library versions that change them). The sequence cache and a stored run are reused
-  only under the same key, so an edited log, mesh or texture is never silently reused;
-* ``source.name``: a short name for scenarios and titles (``park``, ``victoria_park``, a log file's
-  stem), never a machine path;
-* ``source.track``: the name of the registered track that reads it.
-
-A source is picklable and cheap to pickle (it travels to worker processes, which read its frames
-there): whatever it loads is dropped when it is pickled and loaded again where it is used.
+A source is cheap to pickle (it travels to workers): what it loads is dropped when pickled and
+loaded again where used.
 """
 
 from __future__ import annotations
@@ -48,8 +43,8 @@ class FrameSource(Protocol):
 
 
 def digest(payload: Any) -> str:
-    """SHA-256 (``KEY_DIGITS`` hex digits) of a JSON-able ``payload`` (keys sorted; other values by
-    their ``str``): the key of a source from its settings and the digests of its inputs."""
+    """SHA-256 (``KEY_DIGITS`` hex digits) of a JSON-able ``payload`` (keys sorted, other values by
+    ``str``)."""
     text = json.dumps(payload, sort_keys=True, default=str)
     return hashlib.sha256(text.encode()).hexdigest()[:KEY_DIGITS]
 
@@ -64,19 +59,16 @@ def file_digest(path: str | Path) -> str:
 
 
 def short_name(scene: str | Path) -> str:
-    """A source's short name from a shipped name or a file path: the file's stem (``/data/my room.xml``
-    -> ``my room``), so a scenario never carries a machine path."""
+    """A source's short name: the file's stem (``/data/my room.xml`` -> ``my room``), never a
+    machine path."""
     return Path(str(scene)).stem or str(scene)
 
 
 class SimulatedSource:
-    """A track's simulated sequence as a frame source.
-
-    ``spec`` (picklable) determines the sequence; ``load(spec, cache_dir, use_cache)`` makes it or reads
-    it from the sequence cache, on first access; ``key(spec)`` is its content key (the cache's key);
-    ``frame(sequence, k)`` is frame ``k`` of a loaded sequence. The loaded sequence stays in this
-    process: pickling the source keeps only what makes it (the callables must be module-level
-    functions or partials of them)."""
+    """A track's simulated sequence as a frame source: ``spec`` determines it;
+    ``load(spec, cache_dir, use_cache)`` makes or reads it on first access; ``key(spec)`` is its
+    content key; ``frame(sequence, k)`` its frame ``k``. Pickling keeps only what makes it
+    (module-level callables or partials)."""
 
     def __init__(self, track: str, spec: Any, name: str, frames: int, key: Callable[[Any], str],
                  load: Callable[..., Any], frame: Callable[[Any, int], Any], cache_folder: str | None = None) -> None:

@@ -1,27 +1,19 @@
-"""A recorded range-bearing log: the Victoria Park text format (as shipped in GTSAM's
-``Data/victoria_park.txt``), which is also the format of a user's own log.
-
-One record a line, whitespace-separated; ``#`` starts a comment, blank lines are skipped::
+"""A recorded range-bearing log: the Victoria Park text format (GTSAM's ``Data/victoria_park.txt``),
+also a user's own log's. One record a line, ``#`` comments::
 
     ODOMETRY i j dx dy dθ  cxx cxy cxθ cyy cyθ cθθ
     LANDMARK k ref x y  sxx sxy syy
 
-* ``ODOMETRY``: the robot moved from pose ``i`` to pose ``j`` by ``(dx, dy, dθ)`` in pose ``i``'s
-  frame (metres, radians; x forward, y left), with that increment's covariance as its six upper
-  triangle entries in g2o order (row by row). Poses form one chain in time order: ``j > i`` and
-  each ``i`` is the previous line's ``j``. The first pose is the log's origin, ``(0, 0, 0)``.
-* ``LANDMARK``: from pose ``k`` (the pose the robot is at: the last ``ODOMETRY``'s ``j``, or the
-  first pose before any) a landmark was seen at ``(x, y)`` in the robot's frame, with covariance
-  ``[[sxx, sxy], [sxy, syy]]`` (m²). ``ref`` is the landmark's id in the log's reference association
-  (a non-negative integer), or ``-`` for a sighting without one. Sightings of one pose name distinct
-  reference ids.
+* ``ODOMETRY``: pose ``i`` to ``j`` by ``(dx, dy, dθ)`` in pose ``i``'s frame (m, rad; x forward, y
+  left), the covariance as its upper triangle in g2o order. Poses form one chain (``j > i``, each
+  ``i`` the previous ``j``) from the origin ``(0, 0, 0)``.
+* ``LANDMARK``: from pose ``k`` (the current one) a landmark seen at ``(x, y)`` in the robot frame,
+  covariance ``[[sxx, sxy], [sxy, syy]]`` (m²); ``ref`` its reference id (a non-negative integer,
+  distinct within a pose) or ``-``.
 
-A bad log is refused in one line naming the file, the line and the field (``LogError``). Each
-sighting becomes a range-bearing measurement ``z = (r, φ) = h((0, 0, 0), (x, y))`` with noise
-``R = G Σ Gᵀ``, ``G = ∂h/∂l`` (``models.range_bearing``; first order, as the estimators use it).
-
-This reader sits below the tracks (``sources``): it knows the format, not what a track makes of it,
-so any track, benchmark or tool can read a log without importing a track.
+A bad log is refused in one line naming file, line and field (``LogError``). A sighting becomes
+``z = (r, φ) = h((0, 0, 0), (x, y))`` with ``R = G Σ Gᵀ``, ``G = ∂h/∂l`` (first order). The reader
+knows the format, not the tracks, so anything can read a log.
 """
 
 from __future__ import annotations
@@ -49,13 +41,16 @@ class LogError(UserError):
 
 @dataclass(frozen=True)
 class RangeBearingLog:
-    """A parsed log: ``N`` poses in one odometry chain and ``S`` sightings.
+    """A parsed log, ``N`` poses and ``S`` sightings.
 
-    pose_ids: (N,) the log's pose ids in order. increments: (N−1, 3) ``(dx, dy, dθ)`` from pose n
-    to n+1 in pose n's frame. increment_covariances: (N−1, 3, 3). sighting_pose: (S,) the index
-    (0..N−1) of the pose each sighting was made from, non-decreasing. sighting_ref: (S,) its
-    reference id, −1 for none. sighting_xy: (S, 2) in the robot frame (m). sighting_covariances:
-    (S, 2, 2) (m²). digest: the file's (``sources.base.file_digest``) of the bytes parsed."""
+    pose_ids: (N,) the log's pose ids in order.
+    increments: (N−1, 3) ``(dx, dy, dθ)`` from pose n to n+1 in pose n's frame.
+    increment_covariances: (N−1, 3, 3).
+    sighting_pose: (S,) the pose index of each sighting, non-decreasing.
+    sighting_ref: (S,) its reference id, −1 for none.
+    sighting_xy: (S, 2) in the robot frame (m).
+    sighting_covariances: (S, 2, 2) (m²).
+    digest: the parsed bytes' ``file_digest``."""
 
     name: str
     digest: str

@@ -1,8 +1,7 @@
-"""The ``Track`` core: what every track of the benchmark must say, in nine hooks.
-
-A track is one way of getting frames and turning them into association problems: a simulated
-camera, a 2-D lidar, a recorded log of your own. The harness, the CLI, ``list``, ``check``, the
-leaderboard, the report and the Gymnasium envs ask a track these, and nothing else is required:
+"""The ``Track`` core: what every track must say, in nine hooks. A track is one way of getting
+frames and turning them into association problems (a simulated camera, a 2-D lidar, a recorded log);
+the harness, CLI, ``list``, ``check``, leaderboard, report and Gymnasium envs ask it these and
+nothing else:
 
 ==========================  ===================================================================
 ``name``, ``summary``       its registry name and one line for ``assocbench list``
@@ -18,15 +17,9 @@ leaderboard, the report and the Gymnasium envs ask a track these, and nothing el
 ``scenes()``                its shipped scenes or datasets, name -> one line
 ==========================  ===================================================================
 
-Everything else a track may offer is a capability (``tracks.capabilities``): a closed loop,
-pictures, Gymnasium envs, a warm-up, scene conventions for inferring the track of an MJCF file,
-methods of its own. The harness discovers them; it never assumes one, and a track without one is
-told apart in one line where it is asked for.
-
-``FeatureTrack`` is the core with the defaults of a track whose frames are ``Problem``s scored
-by the shared metrics (the camera, planar and lines tracks, and most user tracks): its columns
-and guards are the shared ones, so such a track writes ``settings``, ``source``, ``problem``,
-``suites`` and ``scenes``.
+Anything more is a capability (``tracks.capabilities``) the harness discovers and never assumes.
+``FeatureTrack`` has the defaults of a track whose frames are ``Problem``s scored by the shared
+metrics: such a track writes ``settings``, ``source``, ``problem``, ``suites`` and ``scenes``.
 """
 
 from __future__ import annotations
@@ -53,12 +46,11 @@ class Metric:
 
 @dataclass(frozen=True)
 class Columns:
-    """A track's summary columns: ``summary`` in the order ``run`` prints and writes them,
-    ``primary`` the metric the report ranks its methods by, ``frames`` the per-frame columns a
-    leaderboard keeps beside ``frame`` (its pictures read them), ``units`` of the track's own
-    columns (the shared ones are in ``scoring.units``), and ``scored_against``: what its labels
-    are, ``truth`` (a simulation's) or ``reference`` (a recorded dataset's own association, not
-    ground truth), the word its leaderboard, report page and pictures use."""
+    """A track's summary columns: ``summary`` in the order ``run`` writes them, ``primary`` the
+    metric the report ranks by, ``frames`` the per-frame columns a leaderboard keeps (its pictures
+    read them), ``units`` of its own columns (shared ones: ``scoring.units``), and
+    ``scored_against``: ``truth`` (a simulation's) or ``reference`` (a recorded dataset's own
+    association), the word its pages use."""
 
     summary: tuple[str, ...]
     primary: Metric
@@ -69,9 +61,9 @@ class Columns:
 
 @dataclass(frozen=True)
 class GuardedMetric:
-    """A summary column ``assocbench check`` guards: it may fall (``higher_better``) or rise by the
-    suite's ``tolerance`` or ``ate_tolerance`` (times ``scale``: the tolerance's unit in this
-    column's), and a baseline value must lie in ``[lo, hi]``."""
+    """A column ``assocbench check`` guards: it may fall (``higher_better``) or rise by the suite's
+    ``tolerance`` or ``ate_tolerance`` (times ``scale``, the tolerance's unit in this column's); a
+    baseline value must lie in ``[lo, hi]``."""
 
     name: str
     higher_better: bool
@@ -84,8 +76,8 @@ class GuardedMetric:
 
 @dataclass(frozen=True)
 class SuiteFile:
-    """A shipped suite: its YAML ``path``, and whether ``assocbench check`` runs it by default
-    (``ci``) against ``results/baseline_<name>.csv``."""
+    """A shipped suite: its YAML ``path``, and whether ``check`` runs it by default (``ci``) against
+    ``results/baseline_<name>.csv``."""
 
     path: Path
     ci: bool = False
@@ -100,15 +92,15 @@ ATE = Metric("ate_rmse", False, "m")
 
 
 class Track:
-    """One track of the benchmark: the nine hooks of the module docstring. Subclasses set ``name``
-    and ``summary`` and implement the rest; ``register_track`` refuses one that misses a hook."""
+    """One track: the nine hooks of the module docstring. Subclasses set ``name`` and ``summary``
+    and implement the rest; ``register_track`` refuses one missing a hook."""
 
     name: ClassVar[str] = ""
     summary: ClassVar[str] = ""
 
     def settings(self) -> Schema:
-        """Its settings beyond the common ones (``track``, ``scene``, ``frames``, ``seed``, ``method``,
-        ``params``, ``loop``, ``time_limit_s``, ``limits``)."""
+        """Its settings beyond the common ones (``track``, ``scene``, ``frames``, ``seed``,
+        ``method``, ``params``, ``loop``, ``time_limit_s``, ``limits``)."""
         raise NotImplementedError
 
     def source(self, settings: Settings) -> FrameSource:
@@ -140,8 +132,8 @@ REQUIRED = ("settings", "source", "columns", "guards", "suites", "scenes")
 
 
 class FeatureTrack(Track):
-    """A track whose frames are ``Problem``s scored by the shared metrics: open loop, and a closed
-    loop where it has the ``ClosedLoop`` capability (which adds the trajectory columns)."""
+    """A track whose frames are ``Problem``s scored by the shared metrics, open loop and, with the
+    ``ClosedLoop`` capability, closed (adding the trajectory columns)."""
 
     def problem(self, source: FrameSource, k: int, run: Any) -> tuple[Problem, FrameTruth]:
         """Frame ``k``'s problem and its truth (or a recorded track's reference)."""
@@ -168,8 +160,7 @@ LOOP_FRAME_COLUMNS = OPEN_FRAME_COLUMNS + ("pos_err", "rot_err_deg", "nees", "ne
 
 
 def loop_words(run: Any) -> str:
-    """How a run of a feature track was made, in words: ``open loop``, or ``closed loop, <estimator>
-    <mode>``."""
+    """How a feature-track run was made: ``open loop``, or ``closed loop, <estimator> <mode>``."""
     return f"closed loop, {run.estimator.name} {run.estimator.mode}" if run.loop else "open loop"
 
 
@@ -179,8 +170,7 @@ def first_line(text: str | None) -> str:
 
 
 def missing_hooks(track: Track) -> list[str]:
-    """The core hooks ``track`` leaves out (``REQUIRED``, and ``problem`` or the ``OwnFrames``
-    capability's ``records``)."""
+    """The core hooks ``track`` leaves out (``REQUIRED``, and ``problem`` or ``OwnFrames.records``)."""
     missing = [h for h in REQUIRED if getattr(type(track), h) is getattr(Track, h, None)]
     problem = getattr(type(track), "problem", None)
     if (problem is None or problem is FeatureTrack.problem) and not callable(getattr(track, "records", None)):

@@ -1,6 +1,6 @@
-"""What a track may offer beyond its core (``tracks.base``): each capability is a protocol the
-harness discovers with ``has(track, Capability)``. None is assumed: where a command needs one the
-run's track lacks, it says so in one line (``lacks``).
+"""What a track may offer beyond its core (``tracks.base``): protocols the harness discovers with
+``has(track, Capability)``. None is assumed; a command needing one the track lacks says so in one
+line (``lacks``).
 
 =====================  ========================================================================
 ``OwnFrames``          frames that are not association problems: the track's own frame loop, its
@@ -35,10 +35,10 @@ from ..errors import UserError
 
 
 class MethodCalls(Protocol):
-    """The plugin boundary a track's own frame loop calls its method through (the harness
-    implements it): each call is announced to the supervising process, timed, and anything it
-    raises becomes that frame's ``error``. ``faults`` maps frames already known failed (a call that
-    hung or killed its worker) to ``(error, runtime_s)``; key -1: the method could not be built."""
+    """The plugin boundary a track's own frame loop calls its method through (the harness implements
+    it): each call announced to the supervisor, timed, and what it raises made the frame's
+    ``error``. ``faults``: frames known failed -> ``(error, runtime_s)``; key -1: the method could
+    not be built."""
 
     faults: dict
 
@@ -55,8 +55,8 @@ class OwnFrames(Protocol):
 
     def records(self, source: Any, run: Any, calls: MethodCalls, first: int = 0,
                 artifacts: Path | None = None) -> Iterator[dict]:
-        """Per-frame records from frame ``first`` on, the method called through ``calls``;
-        ``artifacts``: a folder for end-of-run files (``RunFiles``), or None."""
+        """Per-frame records from ``first`` on, the method called through ``calls``; ``artifacts``:
+        a folder for end-of-run files, or None."""
 
     def summarize(self, frames: Any) -> dict:
         """The summary row of a run's per-frame records (a pandas DataFrame)."""
@@ -71,7 +71,7 @@ class OwnFrames(Protocol):
 @runtime_checkable
 class ClosedLoop(Protocol):
     """A closed loop: the belief of frame k is the estimator's posterior after frames < k were
-    updated with the method's own pairings (``harness.loop``)."""
+    updated with the method's pairings (``harness.loop``)."""
 
     estimator_words: str   # what the leaderboard says updates the loop ("camera EKF-SLAM")
 
@@ -84,11 +84,10 @@ class ClosedLoop(Protocol):
 
 @dataclass(frozen=True)
 class RunFrame:
-    """One frame of a recorded run, rebuilt for its picture (``assocbench render``): the ``problem``
-    the method was given and its ``truth``, the recorded ``association`` (n,) (all −1 on a failed
-    frame) and ``error`` ("" when it succeeded), the run's ``record`` of the frame (a row of its
-    frames table), and in the closed loop the ``estimator`` after the frame's update (live: valid
-    until the next frame is replayed; None in the open loop)."""
+    """One recorded frame rebuilt for its picture: the ``problem`` and ``truth``, the recorded
+    ``association`` (all −1 on a failed frame) and ``error``, the run's ``record`` of it, and in the
+    closed loop the ``estimator`` after its update (valid until the next frame is replayed; None
+    open loop)."""
 
     k: int
     problem: Problem
@@ -112,8 +111,8 @@ class Pictures(Protocol):
 
 @dataclass(frozen=True)
 class GymEnv:
-    """One Gymnasium env a track offers: its ``id`` (``assocbench/<Scene>-v0``, ``<Scene>Loop-v0``
-    for the closed loop), the ``scene`` it runs and whether it is the closed ``loop``."""
+    """One Gymnasium env: its ``id`` (``assocbench/<Scene>-v0``, ``<Scene>Loop-v0`` closed loop),
+    its ``scene`` and whether it is the closed ``loop``."""
 
     id: str
     scene: str
@@ -121,9 +120,8 @@ class GymEnv:
 
 
 class EnvSlots(NamedTuple):
-    """The padded sizes of a track's Gymnasium env: ``landmarks`` (N) candidate slots and
-    ``features`` (M) feature slots, bounds no frame of the run exceeds whatever the seed, and
-    ``dim`` (d) the measurement's dimension."""
+    """The padded sizes of a track's env: ``landmarks`` (N) and ``features`` (M) slots no frame
+    exceeds whatever the seed, and ``dim`` (d) of a measurement."""
 
     landmarks: int
     features: int
@@ -142,8 +140,8 @@ class GymEnvs(Protocol):
 
 
 def gym_envs_of(scenes: Iterable[str], modes: Iterable[str]) -> tuple[GymEnv, ...]:
-    """For each scene and mode (``open``, ``loop``) the id ``assocbench/<Scene>-v0`` or
-    ``assocbench/<Scene>Loop-v0``, the scene's name in CamelCase (``post_grid`` -> ``PostGrid``)."""
+    """Per scene and mode the id ``assocbench/<Scene>-v0`` or ``<Scene>Loop-v0``, the scene in
+    CamelCase (``post_grid`` -> ``PostGrid``)."""
     suffix = {"open": "", "loop": "Loop"}
     modes = tuple(modes)
     return tuple(GymEnv(f"assocbench/{''.join(p.capitalize() for p in scene.split('_'))}{suffix[mode]}-v0",
@@ -152,8 +150,8 @@ def gym_envs_of(scenes: Iterable[str], modes: Iterable[str]) -> tuple[GymEnv, ..
 
 @runtime_checkable
 class WarmUp(Protocol):
-    """Compiled kernels loaded (or compiled, announced on stderr) once, in the process workers
-    are forked from, so no frame's time includes a compile."""
+    """Kernels loaded (or compiled, announced on stderr) once in the process workers fork from, so
+    no frame's time includes a compile."""
 
     def warm_up(self) -> None: ...
 
@@ -163,8 +161,8 @@ class TopView(Protocol):
     """The leaderboard's top view of a closed-loop scene."""
 
     def map_figure(self, frames: Any, scene: str, title: str) -> Any:
-        """A matplotlib figure of one seed's closed-loop ``frames`` on ``scene``: every method's run
-        over the true map (``viz.loop_plots.landmark_map_figure`` draws landmarks as points)."""
+        """A figure of one seed's closed-loop ``frames`` on ``scene``: every method's run over the
+        true map."""
 
 
 @runtime_checkable
@@ -188,8 +186,8 @@ class RunFiles(Protocol):
 
 @dataclass(frozen=True)
 class SceneMarks:
-    """What a scene's MJCF names, read without compiling it: ``lm*`` sites, ``lm*`` geoms and
-    ``lw*`` geoms, and its ``path`` for a convention of a track's own."""
+    """What an MJCF names, read without compiling it: ``lm*`` sites, ``lm*`` and ``lw*`` geoms, and
+    its ``path``."""
 
     path: Path
     landmark_sites: int
@@ -228,9 +226,8 @@ class Requirements(Protocol):
 
 @runtime_checkable
 class RunScores(Protocol):
-    """Summary columns of its own beside the shared ones (a track whose frames are ``Problem``s):
-    scores of a whole run that no single frame has (a recorded track's pairwise "same landmark"
-    precision over every sighting). Its ``Columns.summary`` lists them."""
+    """Summary columns of its own computed from a whole run's records (a recorded track's pairwise
+    "same landmark" precision); listed in its ``Columns.summary``."""
 
     def run_scores(self, frames: Any) -> dict:
         """``{column: value}`` from a run's per-frame records (a pandas DataFrame)."""

@@ -1,11 +1,7 @@
-"""The track of a run that names none (``--track``, ``track:``): the fallback.
-
-In this order: a method only one track runs implies that track (``OwnMethods``: the dense
-track's ``projective``); a scene name one track ships is that track's; an MJCF file belongs to the
-track whose convention it follows (``SceneConvention``: ``lm*`` sites, ``lm*`` post geoms, ``lw*``
-walls), the built-ins asked first; no scene at all is the default track's. A plugin that raises
-while it is asked is named in one line and skipped, and a plugin's claim never takes a shipped
-scene away from its track.
+"""The track of a run that names none: a method only one track runs (``OwnMethods``) implies it; a
+scene name one track ships is that track's; an MJCF file belongs to the track whose convention it
+follows (``SceneConvention``), built-ins asked first; no scene: the default track. A plugin raising
+while asked is named in one line and skipped, and never takes a shipped scene from its track.
 """
 
 from __future__ import annotations
@@ -47,8 +43,8 @@ def track_for_method(method: str) -> Track | None:
 
 
 def shipped_track(scene: str) -> Track | None:
-    """The track that ships a scene (or dataset) of this name, or None. A track with its own frame
-    loop and methods (``OwnFrames``) is never inferred from a scene: its methods imply it."""
+    """The track shipping a scene of this name, or None; an ``OwnFrames`` track is never inferred
+    from a scene (its methods imply it)."""
     for track in iter_tracks():
         if not has(track, OwnFrames) and scene in _asked(track, "scenes", track.scenes):
             return track
@@ -56,8 +52,8 @@ def shipped_track(scene: str) -> Track | None:
 
 
 def track_for_scene(scene: str | Path) -> Track:
-    """The track of a scene: the one that ships it by name, else the one whose convention its MJCF
-    follows (the built-ins first); a file two tracks claim is refused in one line."""
+    """The track of a scene: the one shipping it, else the one whose convention its MJCF follows
+    (built-ins first); a file two tracks claim is refused."""
     shipped = shipped_track(str(scene))
     if shipped is not None:
         return shipped

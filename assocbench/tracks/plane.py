@@ -1,7 +1,6 @@
-"""What the planar and lines tracks share as tracks: a robot in the plane with a 2-D lidar.
-``LidarTrack`` is their common part (the robot's paths, the cached sequence, the top view per
-frame, the closed loop's shape); the sequence as a frame source is ``plane_source``, the closed
-loop's sensor ``plane_sensor``. This module stays light: the registry imports it."""
+"""What the planar and lines tracks share: a robot in the plane with a 2-D lidar. ``LidarTrack`` is
+their common part; the frame source is ``plane_source``, the loop's sensor ``plane_sensor``. Light
+to import."""
 
 from __future__ import annotations
 
@@ -24,10 +23,9 @@ PLANE_TRAJECTORIES = [
 
 
 class LidarTrack(FeatureTrack):
-    """What the planar and lidar tracks share as tracks: the robot's paths, a cached sequence of
-    scans and what was extracted from them, a closed loop (the EKF of ``PlanarSensor``), the top
-    view per frame as their pictures, and Gymnasium envs. A subclass says what its map and
-    features look like (``picture_map``, ``feature_shapes``) and makes its sequence."""
+    """The planar and lines tracks' common part: the robot's paths, a cached sequence of scans and
+    their features, a closed loop (``PlanarSensor``'s EKF), a top view per frame, Gymnasium envs. A
+    subclass says what its map and features look like and makes its sequence."""
 
     code: ClassVar[tuple[str, ...]] = ()   # the package folders a cached sequence depends on
     maker: ClassVar[str] = ""              # ``module:function`` that makes its sequence from a spec
@@ -60,7 +58,7 @@ class LidarTrack(FeatureTrack):
         raise NotImplementedError
 
     def feature_shapes(self, seq: Any, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
-        """Frame ``k``'s features ``z`` (the sensor's, then any clutter) in the robot frame:
+        """Frame ``k``'s features (the sensor's, then clutter) in the robot frame:
         ``{"points": (m, 2)}`` or ``{"segments": (m, 2, 2)}``."""
         raise NotImplementedError
 
@@ -69,8 +67,7 @@ class LidarTrack(FeatureTrack):
         return {}
 
     def estimated_map(self, estimator: Any) -> tuple[np.ndarray, np.ndarray]:
-        """The filter's map to draw: landmarks (k, 2) and which are confirmed (k,); none by
-        default (a map of lines, known)."""
+        """The filter's map to draw: landmarks (k, 2) and which are confirmed; none by default."""
         return np.zeros((0, 2)), np.zeros(0, bool)
 
     def picture_note(self) -> str:

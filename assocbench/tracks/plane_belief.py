@@ -1,7 +1,6 @@
-"""The open-loop problem of one frame of a robot in the plane with range-bearing point landmarks
-(the planar track's posts, a recorded log's reference map): the sampled estimate
-(``belief.planar``) predicts each mapped landmark in range-bearing, ``P = H Σ Hᵀ``; measurements
-are the frame's detections plus uniform clutter over range × bearing."""
+"""The open-loop problem of one frame of a robot in the plane with range-bearing point landmarks:
+the sampled estimate predicts each mapped landmark, ``P = H Σ Hᵀ``; measurements are the detections
+plus uniform clutter."""
 
 from __future__ import annotations
 
@@ -21,11 +20,9 @@ from ..models.range_bearing import ANGULAR, jacobians, predict
 
 
 def make_planar_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
-    """The open-loop association problem of one planar frame and its truth. ``seq`` has the
-    frames' ``poses`` (N, 3), ``z``, ``R``, ``labels`` and ``visible`` (N, L), the ``landmarks``
-    (L, 2), the sensor's ``max_range`` and ``fov`` (they bound the candidates) and the
-    ``nominal_R`` a clutter detection reports when a frame has no detection (a ``PlanarSequence``,
-    a recorded log's sequence)."""
+    """The open-loop problem and truth of one planar frame. ``seq`` has ``poses`` (N, 3), ``z``,
+    ``R``, ``labels``, ``visible`` (N, L), ``landmarks`` (L, 2), ``max_range`` and ``fov`` (bounding
+    the candidates) and ``nominal_R`` (a clutter detection's noise in a frame without detections)."""
     rng = np.random.default_rng([seed, frame, 101])
     pose_hat, map_hat = sample_planar_estimate(seq.poses[frame], seq.landmarks, cfg, rng)
     in_map = map_mask(len(seq.landmarks), cfg, seed)

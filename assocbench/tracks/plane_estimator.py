@@ -22,11 +22,9 @@ def planar_estimator_class(name: str) -> type:
 
 
 def make_planar_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int, cls: type | None = None):
-    """The planar estimator (``cls``, by default ``planar_estimator_class(cfg.name)``) at frame 0,
-    started as ``make_estimator`` says, in the plane: ``slam`` from the first pose of ``seq.poses``
-    with zero covariance and no map; ``localisation`` from the sampled pose and mapped landmarks
-    of ``seq.landmarks`` (``belief.map_fraction``) with Σ = blockdiag(Σ_pose, Σ_L) reported.
-    ``seq.max_range`` and ``seq.fov`` bound the candidates."""
+    """The planar estimator (``cls``, default ``planar_estimator_class(cfg.name)``) at frame 0:
+    ``slam`` from the first pose with zero covariance and no map; ``localisation`` from the sampled
+    pose and mapped landmarks with Σ = blockdiag(Σ_pose, Σ_L)."""
     cls = cls or planar_estimator_class(cfg.name)
     if cfg.mode == "slam":
         return cls(cfg, seq.poses[0], np.zeros((3, 3)), np.zeros((0, 2)), np.zeros(0, np.int64), seq.max_range, seq.fov)

@@ -1,6 +1,5 @@
-"""What ``assocbench frame`` and ``assocbench render`` draw on the lidar tracks (planar, lines): a
-top view per frame (``viz.plane_view``). Each track says what its map and its features look like
-(``LidarTrack.picture_map``, ``feature_shapes``, ``estimated_map``); the rest is shared here."""
+"""What ``assocbench frame`` and ``render`` draw on the lidar tracks: a top view per frame
+(``viz.plane_view``); each track says what its map and features look like."""
 
 from __future__ import annotations
 
@@ -30,8 +29,8 @@ def scan_points(seq, k: int) -> np.ndarray:
 
 
 def real_features(seq, k: int, m: int) -> np.ndarray:
-    """(m,) whether each of the frame's ``m`` features images a landmark of the scene: the
-    sensor's labels, then ``False`` for the clutter the belief added after them."""
+    """(m,) whether each feature images a landmark: the sensor's labels, then ``False`` for the
+    belief's clutter."""
     labels = np.asarray(seq.labels[k], np.int64)
     return np.concatenate([labels >= 0, np.zeros(m - len(labels), bool)])
 
@@ -46,16 +45,15 @@ def _shapes(track, seq, k: int, z: np.ndarray, pose: np.ndarray) -> dict:
 
 
 def view_box(track, seq, the_map: dict) -> tuple[float, float, float, float]:
-    """The box a whole run is drawn in: the map, the path and every detection of the sequence (at
-    the true pose: a spurious detection beyond the map stays in view)."""
+    """The box a whole run is drawn in: map, path and every detection at the true pose."""
     seen = [next(iter(_shapes(track, seq, k, seq.z[k], seq.poses[k]).values())).reshape(-1, 2)
             for k in range(len(seq))]
     return plane_bounds(seq.poses[:, :2], *the_map.values(), *seen)
 
 
 def frame_picture(track, spec, index: int) -> tuple[np.ndarray, str]:
-    """Frame ``index`` as the lidar saw it, at the true pose: the scan, each feature marked as a
-    landmark's or spurious, and the landmarks it could have detected but did not."""
+    """Frame ``index`` as the lidar saw it at the true pose: the scan, features marked real or
+    spurious, and landmarks it missed."""
     seq_spec = spec.source.spec
     if not 0 <= index < seq_spec.frames:
         raise UserError(f"--index {index} is outside the trajectory's 0..{seq_spec.frames - 1}; "
@@ -88,9 +86,8 @@ def _caption(track, spec, rf: RunFrame, frames: int) -> str:
 
 
 def run_pictures(track, spec, frames: Iterable[RunFrame]) -> Iterator[np.ndarray]:
-    """One top view per recorded frame: the features of the frame's problem coloured by the
-    method's decision (``feature_decisions``), drawn at the estimated pose (the filter's in the
-    closed loop, the frame's draw in the open loop), on a box fixed for the whole video."""
+    """One top view per recorded frame: features coloured by the method's decision
+    (``feature_decisions``) at the estimated pose, on one box for the whole video."""
     seq = scan_sequence(track, spec)
     the_map = track.picture_map(seq)
     bounds = view_box(track, seq, the_map)

@@ -1,6 +1,6 @@
-"""The closed loop's sensor of a robot in the plane: ``PlanarSensor`` reads a frame's detections
-(their noise is the sensor's) plus clutter, the planar odometry, and the 3-dof pose error
-``[δx, δy, δθ]``; the lines track's sensor is this one with wall lines ``(α, r)`` for posts."""
+"""The closed loop's sensor of a robot in the plane (``PlanarSensor``): detections plus clutter,
+planar odometry, the pose error ``[δx, δy, δθ]``; the lines track's is the same with wall lines
+``(α, r)``."""
 
 from __future__ import annotations
 
@@ -34,8 +34,8 @@ class PlanarSensor:
         return motion
 
     def frame(self, k: int, in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
-        """Frame ``k``'s detections (their noise is the sensor's, already in them) and
-        ``belief.clutter`` false detections (``clutter``: uniform over the measurement space)."""
+        """Frame ``k``'s detections (their noise already in them) and ``belief.clutter`` uniform
+        false detections."""
         seq = self.seq
         rng = np.random.default_rng([self.seed, k, 101])
         R = seq.R[k].reshape(-1, 2, 2)

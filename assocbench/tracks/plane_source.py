@@ -19,21 +19,21 @@ def maker_of(entry: str):
 
 
 def lidar_frame(seq: Any, k: int) -> dict:
-    """Frame ``k`` of a lidar track's sequence: the robot's pose, the features extracted from its
-    scan (``z``, ``R``), their labels, and which map landmarks were truly detectable."""
+    """Frame ``k`` of a lidar sequence: the pose, the extracted features (``z``, ``R``), their
+    labels, and which landmarks were detectable."""
     return {"pose": seq.poses[k], "z": seq.z[k], "R": seq.R[k], "labels": seq.labels[k], "visible": seq.visible[k]}
 
 
 def load_lidar_sequence(folder: str, code: tuple[str, ...], maker: str, spec: Any,
                         cache_dir: Path | None = None, use_cache: bool = True) -> Any:
-    """The sequence of ``spec`` from the shared sequence cache (``sim.cache``) under ``folder``,
-    keyed by ``spec_key(spec, code)``, else made by ``maker`` (``module:function``), stored."""
+    """The sequence of ``spec`` from the cache under ``folder`` (key ``spec_key(spec, code)``), else
+    made by ``maker`` and stored."""
     return cached_sequence(folder, spec_key(spec, code), lambda: maker_of(maker)(spec), save_fields, load_fields, cache_dir,
                            use_cache, suffix=".npz")
 
 
 def lidar_source(track: str, spec: Any, code: tuple[str, ...], maker: str) -> SimulatedSource:
-    """A lidar track's sequence as a frame source (``sources.base.SimulatedSource``), cached under the
-    track's name and keyed by its settings, its scene's files and the package folders in ``code``."""
+    """A lidar sequence as a frame source, cached under the track's name, keyed by its settings,
+    scene files and ``code``'s folders."""
     return SimulatedSource(track, spec, short_name(spec.scene), spec.frames, partial(spec_key, code=code),
                            partial(load_lidar_sequence, track, code, maker), lidar_frame, cache_folder=track)

@@ -1,13 +1,7 @@
-"""One frame of a robot in the plane, seen from above, as an RGB image (``assocbench frame`` and
-``assocbench render`` on the planar and lines tracks).
-
-Drawn with matplotlib: axes in metres with equal aspect, the map (posts as grey rings, walls as
-grey segments), the true path so far (black) and the estimate (blue: a filter's path as a line,
-the open loop's independent draws as dots), the current lidar scan (small grey dots) and each
-feature (a post's detection as a dot, a wall's line as a thick segment) coloured by what the
-method decided about it, with a key that counts each kind. The scan and the features are drawn
-where the drawn pose (the estimate's, when there is one) puts them: an estimate that is off shows
-as a scan shifted from the map, which is what the association has to overcome.
+"""One frame of a robot in the plane, seen from above, as an RGB image: the map (grey), the true
+path (black) and the estimate (blue), the scan (grey dots) and each feature coloured by what the
+method decided, with a key counting each kind. The scan and features are drawn where the drawn
+(estimated) pose puts them, so an estimate that is off shows as a scan shifted from the map.
 """
 
 from __future__ import annotations
@@ -77,8 +71,8 @@ def plane_bounds(*points: np.ndarray, margin: float = MARGIN_M) -> tuple[float, 
 
 
 def figure_size(bounds: tuple[float, float, float, float]) -> tuple[float, float]:
-    """Inches (width, height) of the figure: a fixed width; the height follows the box's aspect
-    (between a third and 1.2 of the axes' width), at least what the key needs; even pixels (MP4)."""
+    """Figure inches: fixed width, height from the box's aspect (a third to 1.2 of the width), at
+    least the key's; even pixels (MP4)."""
     aspect = (bounds[3] - bounds[2]) / max(bounds[1] - bounds[0], 1e-9)
     axes_w = WIDTH_IN * (AXES_RIGHT - AXES_LEFT)
     height = max(float(np.clip(aspect, 1 / 3, 1.2)) * axes_w + 1.3, 5.0)

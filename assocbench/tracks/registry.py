@@ -1,17 +1,12 @@
-"""The registry of tracks: the built-ins, installed plugins and modules named in an environment
-variable, each loaded only when it is asked for.
+"""The registry of tracks, each loaded only when asked for:
 
-* Built-ins are named here by a lazy string entry point (``module:Class``, as Gymnasium's
-  ``EnvSpec`` does): asking for the camera track imports the camera track's module, nothing else,
-  and a track module imports its heavy parts (rendering, kernels) only inside its hooks.
-* An installed package declares an entry point in the group ``assocbench.tracks`` (a ``Track``
-  subclass or an instance); the entry point's name should be the track's ``name``, so asking for
-  it loads that plugin alone.
-* A module that calls ``register_track`` when imported, named in ``ASSOCBENCH_TRACKS``
-  (``pkg.mod[,pkg.mod2]``): a track that is not installed. The variable is read whenever the
-  registry is asked, so it reaches the worker processes that run jobs.
+* built-ins by lazy ``module:Class`` strings (as Gymnasium's ``EnvSpec``): asking for one imports
+  its module alone;
+* installed packages' entry points in the group ``assocbench.tracks`` (named as the track);
+* modules named in ``ASSOCBENCH_TRACKS`` (``pkg.mod[,pkg.mod2]``) that call ``register_track`` when
+  imported, read on every ask so it reaches the workers.
 
-A plugin that fails to load is named in one line; it never stops a run of another track.
+A plugin that fails to load is named in one line and never stops a run of another track.
 """
 
 from __future__ import annotations
@@ -65,8 +60,8 @@ def _plugins() -> list[metadata.EntryPoint]:
 
 
 def _load_plugin(ep: metadata.EntryPoint) -> None:
-    """Load one entry-point plugin; a broken one is remembered with its reason, not raised: it must
-    not stop a run of another track (it is named when it is asked for)."""
+    """Load one entry-point plugin; a broken one is remembered with its reason (named when asked
+    for), not raised."""
     if ep.name in _BROKEN:
         return
     try:
@@ -76,8 +71,8 @@ def _load_plugin(ep: metadata.EntryPoint) -> None:
 
 
 def _load_named_modules() -> None:
-    """Import each module named in ``ASSOCBENCH_TRACKS`` (comma-separated); importing one registers
-    its track. Read on every call: a worker may get the variable after the registry was asked."""
+    """Import each module named in ``ASSOCBENCH_TRACKS``, read on every call (a worker may get it
+    later)."""
     for name in filter(None, (n.strip() for n in os.environ.get(MODULES_VARIABLE, "").split(","))):
         if name in sys.modules:
             continue
@@ -113,9 +108,8 @@ def get_track(name: str) -> Track:
 
 
 def tracks() -> dict[str, Track]:
-    """Every registered track by name, all loaded: the built-ins in their own order, then plugins
-    and the modules named in ``ASSOCBENCH_TRACKS`` in the order they registered. A plugin that
-    fails to load is left out with one line on stderr."""
+    """Every registered track by name, all loaded: built-ins first, then plugins and named modules
+    as registered; a plugin failing to load is left out with one line on stderr."""
     for name in BUILTINS:
         if name not in _TRACKS:
             _load_builtin(name)

@@ -1,10 +1,7 @@
-"""A critical-difference diagram in the style of Demšar (JMLR 7, 2006, figure 1), as a matplotlib
-figure (no pyplot state): the methods' mean ranks on an axis (rank 1, the best, at the left), each
-named with its mean rank, the critical difference as a bar of its length, and a thick line under
-every run of methods that the test cannot tell apart.
-
-The figure is laid out in inches (its axes span it, one data unit an inch), so that every label
-has its own row and the figure grows with the names instead of clipping them."""
+"""A critical-difference diagram after Demšar (JMLR 7, 2006, figure 1): mean ranks on an axis (1,
+the best, at the left), each method named with its rank, the critical difference as a bar, and a
+thick line under each run of methods the test cannot tell apart. Laid out in inches, so every label
+has its own row and the figure grows with the names."""
 
 from __future__ import annotations
 

@@ -1,8 +1,6 @@
-"""Drawing primitives on RGB frames (OpenCV, anti-aliased).
-
-Markers take an outline in a contrasting colour (``halo``): the scenes are grey walls, black and
-white checkers and white patches, and a plain coloured mark vanishes on one of them. Text sits
-on a dark backing box for the same reason.
+"""Drawing primitives on RGB frames (OpenCV, anti-aliased). Markers have a contrasting outline
+(``halo``) and text a dark backing box: on grey walls, checkers and white patches a plain mark
+vanishes.
 """
 
 from __future__ import annotations
@@ -82,8 +80,8 @@ def shade(img: np.ndarray, x0: int, y0: int, x1: int, y1: int, color=BLACK, alph
 
 
 def label(img: np.ndarray, text: str, where=(4, 4), color=WHITE, background=BLACK) -> int:
-    """Write ``text`` on a backing box whose top-left corner is ``where``; return the box's bottom y.
-    Text wider than the image is cut and ends in ``...``."""
+    """Write ``text`` on a backing box from ``where``; returns the box's bottom y. Text wider than
+    the image ends in ``...``."""
     scale = text_scale(img)
     pad = max(2, int(round(4 * scale / 0.45)))
     x, y = int(where[0]), int(where[1])
@@ -98,9 +96,8 @@ def label(img: np.ndarray, text: str, where=(4, 4), color=WHITE, background=BLAC
 
 def legend_box(img: np.ndarray, entries: Sequence[tuple[Marker, str]],
                avoid: np.ndarray | None = None) -> tuple[int, int, int, int] | None:
-    """Where the key of ``entries`` goes, (x0, y0, x1, y1): the bottom corner or the top-right
-    one holding the fewest of the points ``avoid`` (k, 2); None where it would cover more than
-    half the width or a third of the height (small frames)."""
+    """The key's box (x0, y0, x1, y1): the bottom or top-right corner holding the fewest ``avoid``
+    points; None if it would cover over half the width or a third of the height."""
     scale = text_scale(img) * 0.9
     sizes = [cv2.getTextSize(text, FONT, scale, 1)[0] for _, text in entries]
     row = max(h for _, h in sizes) + max(6, int(10 * scale / 0.4))
@@ -120,8 +117,8 @@ def legend_box(img: np.ndarray, entries: Sequence[tuple[Marker, str]],
 
 
 def legend(img: np.ndarray, entries: Sequence[tuple[Marker, str]], box=None) -> None:
-    """A compact key: one row per entry, a sample of its marker and a few words, on a dark box
-    (``box`` from :func:`legend_box`). Draw it before the data, so that no data marker is hidden."""
+    """A compact key, a row per entry with its marker, on a dark ``box``; drawn before the data so
+    no marker is hidden."""
     box = box or legend_box(img, entries)
     if box is None:
         return
@@ -147,9 +144,8 @@ def check_image_path(path) -> Path:
 
 
 def write_image(path, rgb: np.ndarray) -> None:
-    """Write an RGB image atomically in the format its extension names (PNG, JPEG, ...). The image
-    is encoded in memory and written by us, so a full disk or a read-only folder is one line
-    naming ``-o`` (OpenCV's own writer only says it failed)."""
+    """Write an RGB image atomically in the format its extension names, encoded in memory, so a full
+    disk or read-only folder is one line naming ``-o``."""
     from ..atomic import OUTPUT_FILE, atomic_path
 
     path = check_image_path(path)

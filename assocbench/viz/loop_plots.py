@@ -1,12 +1,7 @@
-"""The closed-loop leaderboard's figures, as matplotlib figures (no pyplot state, as ``viz.plots``).
-
-- ``ate_figure``: ATE (m) per method per scenario, bars with ± std over seeds; ``oracle`` (the
-  true association, the loop's reference) hatched and named "oracle (truth)".
-- ``nees_figure``: pose NEES over time, median over seeds per method, log y, against the per-frame
-  χ²₆ band (95 % two-sided, shaded) and its 99.9 % bound (dashed).
-- ``map_figure``: one run's top view per method: trajectories, and the map where it is given.
-
-Save them with ``viz.plots.save_figure``. Methods keep ``viz.plots.method_styles``' colours.
+"""The closed-loop leaderboard's figures (matplotlib, no pyplot state): ``ate_figure`` (ATE per
+method per scenario, ± std; the oracle hatched), ``nees_figure`` (median pose NEES over time against
+its χ² band) and ``map_figure`` (one run's top view per method). Methods keep
+``viz.plots.method_styles``' colours.
 """
 
 from __future__ import annotations
@@ -29,11 +24,9 @@ LOG_RATIO = 20.0                # a panel whose ATEs span more than this ratio p
 
 
 def readable_log_axis(ax) -> None:
-    """A log y axis labelled in plain numbers (not 3×10¹), called once the data are drawn: ticked at
-    1, 2, 5 × 10ᵏ over up to three decades, at every decade (or every other) beyond, so every
-    panel keeps labelled ticks (matplotlib's default drops the labels of a 1-2-5 locator over
-    eight decades), and at evenly spaced round values where a panel spans so little that 1-2-5
-    would label one tick or none; the grid follows the labelled ticks only."""
+    """A log y axis in plain numbers, once the data are drawn: ticks at 1, 2, 5 × 10ᵏ over up to
+    three decades, every (other) decade beyond, evenly spaced round values on a short span, so every
+    panel keeps labelled ticks; the grid follows them."""
     from matplotlib.ticker import FuncFormatter, LogLocator, MaxNLocator, NullFormatter
 
     ax.set_yscale("log")
@@ -53,15 +46,15 @@ def method_order(methods) -> list[str]:
 
 
 def label(method: str, scored_against: str = "truth") -> str:
-    """A method's name in a legend: the oracle as what it is, ``oracle (truth)`` on a simulated
-    track, ``oracle (reference)`` on a recorded one (``tracks.base.Columns.scored_against``)."""
+    """A method's legend name: the oracle as ``oracle (truth)`` or, on a recorded track,
+    ``oracle (reference)``."""
     return f"{ORACLE} ({scored_against})" if method == ORACLE else method
 
 
 def scenario_grid(scenarios, scenes: Sequence[str] | None = None,
                   difficulties: Sequence[str] | None = None) -> tuple[list[str], list[str]]:
-    """Rows (scenes) and columns (difficulties) of ``scene/difficulty`` names: the orders given, or
-    the order of first appearance (pass ``harness.leaderboard._grid``'s for easy, medium, hard)."""
+    """Rows (scenes) and columns (difficulties) of ``scene/difficulty`` names, in the orders given
+    or of first appearance."""
     parts = [s.rpartition("/") for s in dict.fromkeys(scenarios)]
     scenes = list(scenes) if scenes is not None else list(dict.fromkeys(p[0] for p in parts))
     difficulties = list(difficulties) if difficulties is not None else list(dict.fromkeys(p[2] for p in parts))
@@ -94,9 +87,9 @@ def _bar_style(method: str, styles: dict) -> dict:
 
 
 def wants_log(table: pd.DataFrame) -> bool:
-    """Whether the ATE panels get a log axis: when any one scenario's positive ATEs span more than
-    ``LOG_RATIO`` (a diverged method would flatten the others' bars to nothing). One answer for
-    every panel, so that neighbouring panels of one quantity share a scale."""
+    """Whether the ATE panels get a log axis: when one scenario's positive ATEs span more than
+    ``LOG_RATIO`` (a diverged method would flatten the rest). One answer for every panel, so they
+    share a scale."""
     for _, sub in table.groupby("scenario"):
         values = sub["ate_rmse"].to_numpy(float)
         positive = values[np.isfinite(values) & (values > 0)]
@@ -127,11 +120,9 @@ def _ate_panel(ax, sub: pd.DataFrame, order: list[str], styles: dict, title: str
 
 def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None,
                scored_against: str = "truth"):
-    """ATE RMSE (m) of each method in each scenario (``scenario`` = ``scene/difficulty``,
-    ``method``, ``ate_rmse``, ``ate_rmse_std``: mean and std over seeds): a row of panels per
-    scene, a column per difficulty, a bar per method with ± std error bars. ``oracle`` is hatched
-    and labelled "oracle (truth)": the filter fed the true association, the floor the others chase
-    (``scored_against``: "reference" on a recorded track, whose labels are a dataset's)."""
+    """ATE RMSE (m) per method per scenario (``scenario``, ``method``, ``ate_rmse``,
+    ``ate_rmse_std``): a row of panels per scene, a column per difficulty, ± std bars; ``oracle``
+    hatched and labelled (the filter fed the true association, the floor the others chase)."""
     from matplotlib.patches import Patch
 
     order = method_order(table["method"])
@@ -152,26 +143,22 @@ def ate_figure(table: pd.DataFrame, scenes: Sequence[str] | None = None, difficu
 
 
 def nees_band(dof: int = POSE_DOF) -> tuple[float, float, float]:
-    """(χ²_dof(0.025), χ²_dof(0.975), χ²_dof(0.999)): a consistent filter's NEES lies in the first
-    two 95 % of the time, frame by frame, and above the third 0.1 % of the time."""
+    """(χ²_dof(0.025), χ²_dof(0.975), χ²_dof(0.999)): a consistent filter's per-frame NEES band and
+    bound."""
     return float(chi2.ppf(BAND[0], dof)), float(chi2.ppf(BAND[1], dof)), float(chi2.ppf(BOUND, dof))
 
 
 def median_over_seeds(frames: pd.DataFrame) -> pd.DataFrame:
-    """Per ``method`` and ``frame``: the median ``nees`` over seeds (NaN frames, such as slam's
-    frame 0 that has no pose covariance, left out)."""
+    """Per method and frame the median ``nees`` over seeds (NaN frames left out)."""
     finite = frames[np.isfinite(frames["nees"].to_numpy(float))]
     return finite.groupby(["method", "frame"], as_index=False)["nees"].median()
 
 
 def nees_figure(frames: pd.DataFrame, scenes: Sequence[str] | None = None, difficulties: Sequence[str] | None = None,
                 scored_against: str = "truth"):
-    """Pose NEES against frame (``scenario``, ``method``, ``seed``, ``frame``, ``nees`` per row): a
-    panel per scenario, a line per method (median over seeds), log y; shaded: the per-frame
-    two-sided 95 % band of χ²_q, q the frames' ``nees_dof`` (6: [1.24, 14.4], dashed χ²₆(0.999) = 22.5;
-    3, in the plane: [0.22, 9.35], dashed 16.3).
-    A line above the band says the filter is overconfident (its covariance too small); on a
-    recorded track (``scored_against`` "reference") the error is taken against the reference path."""
+    """Pose NEES against frame: a panel per scenario, a line per method (median over seeds), log y,
+    shaded the per-frame 95 % χ²_q band (q = ``nees_dof``), dashed χ²_q(0.999). Above the band:
+    overconfident; on a recorded track the error is against the reference path."""
     from matplotlib.lines import Line2D
     from matplotlib.patches import Patch
 
@@ -239,14 +226,9 @@ def _map_panel(ax, run: pd.DataFrame, landmarks, means, color, limits) -> None:
 
 def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
                maps: Mapping[str, np.ndarray] | None = None, title: str = "", scored_against: str = "truth"):
-    """Top view (x–y, metres, equal axes) of one run per method, a panel each.
-
-    frames: per-frame rows of one scenario and one seed with ``method``, ``frame``, ``true_x``,
-    ``true_y``, ``est_x``, ``est_y`` (a closed-loop ``frames.csv``, as the leaderboard stores it);
-    landmarks: the true landmarks (L, 2+), grey; maps: per method its final estimated landmark
-    means (N, 2+). ``frames.csv`` does not record the map, so without ``maps`` the panels show the
-    trajectories only, and the figure says so. ``scored_against``: what the path and landmarks
-    drawn are, "truth" or a recorded track's "reference" (the caption's word)."""
+    """Top view (metres, equal axes) of one run per method: ``frames`` (one scenario and seed with
+    ``true_x/y``, ``est_x/y``), ``landmarks`` (grey), ``maps`` (each method's final map; without
+    them trajectories only, and the figure says so); ``scored_against`` names what is drawn."""
     from matplotlib.figure import Figure
 
     order = method_order(frames["method"])
@@ -275,8 +257,8 @@ def map_figure(frames: pd.DataFrame, landmarks: np.ndarray | None = None,
 
 
 def final_maps(frames: pd.DataFrame) -> dict[str, np.ndarray] | None:
-    """Each method's final confirmed map (N, 2) from the ``final_map`` column of its last frame;
-    None when the frames do not record it (results written before it was recorded)."""
+    """Each method's final confirmed map from its last frame's ``final_map``; None when not
+    recorded."""
     if "final_map" not in frames:
         return None
     out = {}

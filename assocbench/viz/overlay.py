@@ -1,8 +1,6 @@
-"""The lab-8 picture of one association: what an associator did, at a glance.
-
-Predicted landmarks are ``+`` markers with their 3σ ellipses: blue when associated, bright red
-when not. Features are green ``×`` when associated, dark red dots when not. A key in a corner
-says so; a frame on which the method failed says why in a red box under the title.
+"""The lab-8 picture of one association: predicted landmarks as ``+`` with 3σ ellipses, blue when
+associated, red when not; features as green ``×`` when associated, dark red dots when not; a key,
+and on a failed frame its reason in a red box.
 """
 
 from __future__ import annotations
@@ -24,11 +22,8 @@ OVERLAY_LEGEND = (
 
 def draw_association(rgb: np.ndarray, problem: Problem, association: np.ndarray, title: str = "",
                      failure: str = "") -> np.ndarray:
-    """A copy of ``rgb`` (H, W, 3) uint8 with ``association`` of ``problem`` drawn on it.
-
-    ``failure`` (the method raised or answered an invalid association on this frame): pass an
-    all -1 ``association``; the reason is written in a red box. Title, note and key are drawn
-    before the marks, so they never hide one."""
+    """A copy of ``rgb`` with ``association`` of ``problem`` drawn; on ``failure`` pass an all -1
+    ``association`` and the reason is written. Title, note and key go first, so they hide no mark."""
     img = np.ascontiguousarray(rgb, dtype=np.uint8).copy()
     y = draw.label(img, title) if title else 4
     if failure:

@@ -1,7 +1,6 @@
-"""The leaderboard's two plots, as matplotlib figures (no pyplot state, so they are safe in workers).
-
-Every method keeps one look in both plots: a colour, a marker shape and a size that grows with
-its rank by name, so that methods on the very same spot show as concentric open marks.
+"""The leaderboard's two plots (matplotlib, no pyplot state: safe in workers). Each method keeps one
+look in both, a colour, a marker and a size growing with its rank by name, so coinciding methods
+show as concentric marks.
 """
 
 from __future__ import annotations
@@ -54,9 +53,8 @@ def _ties(sub: pd.DataFrame) -> list[tuple[tuple[float, float], str]]:
 
 
 def _emptiest_corner(ax, sub: pd.DataFrame, lines: int, near: tuple[float, float]) -> tuple[float, float]:
-    """The corner of the panel (axes fraction) whose box for ``lines`` lines of words, 60 % of the
-    width, holds the fewest of the panel's points; of those, the one nearest ``near`` (data), so
-    the leaders stay short."""
+    """The panel corner whose box for ``lines`` lines holds the fewest points, nearest ``near``
+    among those, so leaders stay short."""
     (x0, x1), (y0, y1) = ax.get_xlim(), ax.get_ylim()
     fx = (sub["recall"].to_numpy(float) - x0) / (x1 - x0)
     fy = (sub["precision"].to_numpy(float) - y0) / (y1 - y0)
@@ -73,9 +71,8 @@ def _emptiest_corner(ax, sub: pd.DataFrame, lines: int, near: tuple[float, float
 
 
 def _name_ties(ax, sub: pd.DataFrame) -> None:
-    """List ``a = b = c`` for methods whose precision and recall agree to 3 decimals, in the
-    panel's emptiest corner, each with a thin leader to its point: the concentric marks show a
-    tie, the words say who; next to the point the words ran off the panel and over each other."""
+    """List ``a = b = c`` for methods tied to 3 decimals in the panel's emptiest corner, a thin
+    leader to each point (beside the point the words overlapped)."""
     from matplotlib.transforms import offset_copy
 
     ties = [(point, textwrap.fill(words, TIE_CHARS, break_on_hyphens=False)) for point, words in _ties(sub)]
@@ -133,9 +130,8 @@ def pr_figure(table: pd.DataFrame, scenes: Sequence[str], difficulties: Sequence
 
 
 def binned_medians(n: np.ndarray, y: np.ndarray, bins: int = 12, min_count: int = 5) -> tuple[np.ndarray, np.ndarray]:
-    """Median of ``y`` in ``bins`` equal-width bins of ``n``: (median n, median y) per bin, NaN
-    for a bin holding fewer than ``min_count`` values, so that a line drawn through them breaks
-    there rather than joining clusters of n that no frame connects."""
+    """Median of ``y`` in ``bins`` equal bins of ``n``, NaN for a bin under ``min_count`` (a line
+    breaks rather than joining unconnected clusters)."""
     edges = np.linspace(n.min(), n.max() + 1e-9, bins + 1)
     which = np.clip(np.digitize(n, edges) - 1, 0, bins - 1)
     mid_n, mid_y = (edges[:-1] + edges[1:]) / 2, np.full(bins, np.nan)

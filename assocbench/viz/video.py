@@ -1,6 +1,5 @@
-"""Write a run as a video: MP4 (H.264, which browsers, slides and READMEs play) through
-imageio-ffmpeg's bundled encoder (the ``video`` extra: a 68 MB wheel, so the core stays lean),
-GIF through Pillow (matplotlib's dependency)."""
+"""Write a run as a video: MP4 (H.264, which browsers play) through imageio-ffmpeg (the ``video``
+extra), GIF through Pillow."""
 
 from __future__ import annotations
 
@@ -67,9 +66,8 @@ def write_video(path: Path, frames: Iterable[np.ndarray], fps: float = 8.0) -> i
 
 
 def write_mp4(path: Path, frames: Iterable[np.ndarray], fps: float) -> int:
-    """H.264 (libx264, yuv420p: what browsers decode; CRF 18, near lossless for drawings), the index
-    at the front (``+faststart``: a page plays it while it loads). yuv420p halves the chroma, so a
-    frame of odd width or height gets one edge column or row repeated."""
+    """H.264 (libx264, yuv420p for browsers; CRF 18, near lossless for drawings), ``+faststart`` so
+    a page plays it while loading; odd sizes repeat an edge row or column."""
     ffmpeg = mp4_encoder()
     writer, count = None, 0
     try:

@@ -174,8 +174,9 @@ GENERATORS = {"associators": associators_markdown, "settings": settings_markdown
 
 
 def on_page_markdown(markdown: str, page, config, files) -> str:
-    """Replace each ``<!-- generated: NAME -->`` line with the generated Markdown."""
-    return MARKER.sub(lambda m: GENERATORS[m.group(1)](), markdown)
+    """Replace each ``<!-- generated: NAME -->`` line with the generated Markdown (a NAME this hook
+    does not generate is another hook's: ``benchmarks`` is ``docs/hooks/benchmarks.py``'s)."""
+    return MARKER.sub(lambda m: GENERATORS[m.group(1)]() if m.group(1) in GENERATORS else m.group(0), markdown)
 
 
 def on_files(files, config):

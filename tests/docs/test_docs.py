@@ -142,3 +142,11 @@ def test_gymnasium_page_lists_every_registered_env_id(reference):
     ids = env_ids()
     assert {"assocbench/Room-v0", "assocbench/ParkLoop-v0", "assocbench/Hallway-v0"} <= set(ids)
     assert table_names(reference.gym_envs_markdown()) == set(ids)
+
+
+def test_the_home_page_names_every_built_in_associator():
+    """docs/index.md lists the associators; one added to the registry must be added there too."""
+    from assocbench.associators.registry import BUILTINS
+
+    text = (ROOT / "docs" / "index.md").read_text().lower()
+    assert [name for name in BUILTINS if not re.search(rf"\b{name}\b", text)] == []

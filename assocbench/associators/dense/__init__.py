@@ -1,9 +1,7 @@
 """Dense associators: source points (world) paired with pixels of a depth frame.
-
-``make_dense_associator(name, **params).associate(points, normals, frame, R, t) -> Pairs``;
-``DENSE_METHODS`` lists the built-ins (``projective``, ``kdtree``); they are registered with the
-other associators (``associators.registry``), so ``--method pkg.module:Class`` plugs in a user's
-``DenseAssociator`` the same way, and the method implies the dense track.
+``make_dense_associator(name, **params).associate(points, normals, frame, R, t) -> Pairs``; the
+built-ins (``DENSE_METHODS``: ``projective``, ``kdtree``) are registered with the other associators,
+so ``--method pkg.module:Class`` plugs in a user's ``DenseAssociator`` too.
 """
 
 from .base import DenseAssociator, Pairs

@@ -1,33 +1,18 @@
-"""The dense associator interface: pair source points (world) with pixels of a depth frame.
+"""The dense associator interface: pair source points (world ``points`` and unit ``normals``, (n,
+3)) with pixels of a ``DepthFrame`` seen from a guess ``(R, t)`` (camera-to-world). With
+``q = R V[pixel] + t`` and ``n_q = R N[pixel]`` a pair passes the homework's filters
 
-A source set is a map's points or a previous frame's points in WORLD coordinates: ``points`` and
-unit ``normals`` (n, 3). A target is a ``DepthFrame`` and a guess ``(R, t)`` of its camera-to-world
-pose. A pair (i, pixel) is kept only when it passes the homework's filters, all in world
-coordinates with ``q = R V[pixel] + t`` and ``n_q = R N[pixel]``:
+    target pixel valid (finite depth and normal),  |p_i − q| < gate(d),  n_p · n_q > cos(angle_deg)
 
-    target pixel valid (finite depth and normal),  |p_i − q| < gate(d),  angle(n_p, n_q) < angle_deg
-
-(the angle test is ``n_p · n_q > cos(angle_deg)``). How the candidate pixel is found is the
-method's: the projection of ``p_i`` under the guess (``projective``) or its nearest valid vertex
-in 3-D (``kdtree``). NaN anywhere in a candidate fails every comparison, so it never pairs.
-
-**The gate** grows with the depth noise of the pixel's measured depth ``d``:
+(NaN fails all); the method finds the pixel (``projective``: the projection; ``kdtree``: the nearest
+vertex). The gate grows with the depth noise at the pixel's depth ``d``:
 
     gate(d) = max(d_thr, gate_sigmas · σ(d)),   σ(d) = sigma_base + sigma_quad · d²
 
-(the sensor's model, ``tracks.dense.depth_sensor.DepthConfig.sigma``; a dense run passes its own). ``d_thr``
-is the floor, which covers the pose guess's error (ICP's capture range, see ``tracks.dense.icp``);
-``gate_sigmas · σ`` the measurement's own scatter where it is larger: with the default noise σ is
-3 mm at 1 m but 32 mm at 4 m, where a fixed 5 cm gate cut true pairs at 1.6 σ. With the defaults
-(5 cm, 3 σ) the gate grows beyond the floor from 2.9 m on (9.5 cm at 4 m); 0 sigmas is the fixed
-gate.
-
-**Visible** source points are the ``considered`` ones (the denominator of ICP's inlier share):
-in front of the camera, projecting into the image, and not hidden, i.e. not farther along the
-ray than the pixel's measured surface by more than the gate (``z ≤ d + gate(d)``): a map point
-behind a closer surface cannot be seen, so it is neither a pair nor a miss. A point in FRONT of
-the measured surface by more than the gate is visible (the sensor sees through where it should
-be): it counts, unpaired.
+(the floor covers the guess's error, ``gate_sigmas · σ`` far pixels' scatter; 0 sigmas: fixed).
+**Visible** points are the ``considered`` ones: in front, in the image, not hidden
+(``z ≤ d + gate(d)``); a point seen through (in front of the surface by more than the gate) counts,
+unpaired.
 """
 
 from __future__ import annotations
@@ -50,10 +35,9 @@ SENSOR_SIGMA_BASE, SENSOR_SIGMA_QUAD = 0.0012, 0.0019
 
 @dataclass
 class Pairs:
-    """An association: ``source`` (k,) int64 indices into the source points, ascending, each at
-    most once; ``pixel`` (k,) int64 flat pixel indices ``v·W + u`` into the frame; ``considered``
-    the source points that passed the method's first filter (see the method), so that
-    ``len / considered`` is the share of visible points (module docstring) the filters kept."""
+    """An association: ``source`` (k,) int64 indices into the source points, ascending, each at most
+    once; ``pixel`` (k,) int64 flat pixels ``v·W + u``; ``considered`` the visible source points the
+    method's first filter passed (``len / considered``: the share kept)."""
 
     source: np.ndarray
     pixel: np.ndarray
@@ -69,10 +53,10 @@ class Pairs:
 
 @dataclass
 class DenseAssociator(ABC):
-    """Base class. ``d_thr`` (m, > 0): the floor of the distance gate |p − q| < gate(d) of a pair;
-    ``gate_sigmas`` (≥ 0), ``sigma_base`` (m), ``sigma_quad`` (1/m): its growth with the pixel's
-    depth noise (module docstring); ``angle_deg`` (in (0, 180]): largest angle between the normals
-    of a pair. Checked when built (a bad value is a one-line ``UserError`` naming ``params.<field>``)."""
+    """Base class. ``d_thr`` (m, > 0): the floor of the distance gate ``|p − q| < gate(d)``;
+    ``gate_sigmas`` (≥ 0), ``sigma_base`` (m), ``sigma_quad`` (1/m): its growth with the depth
+    noise; ``angle_deg`` (in (0, 180]): largest angle between a pair's normals. A bad value is a
+    one-line ``UserError`` naming ``params.<field>``."""
 
     name: ClassVar[str] = "base"
     summary: ClassVar[str] = ""
@@ -103,16 +87,14 @@ class DenseAssociator(ABC):
     @abstractmethod
     def associate(self, points: np.ndarray, normals: np.ndarray, frame: DepthFrame,
                   R: np.ndarray, t: np.ndarray) -> Pairs:
-        """Pairs of source points (world) and pixels of ``frame`` seen from the guess (R, t).
-
-        Inside ICP the arrays handed here are read-only copies, valid during this call only: the
-        next call writes over them, so a method that keeps a frame or points copies what it keeps.
-        The frame's truth (``true_points``, ``geom``, ``R``, ``t``) is withheld (NaN, ``NO_GEOM``)."""
+        """Pairs of source points (world) and pixels of ``frame`` seen from the guess (R, t). Inside
+        ICP the arrays are read-only copies valid during this call only (copy what you keep); the
+        frame's truth is withheld (NaN, ``NO_GEOM``)."""
 
 
 def checked_inputs(points, normals, frame, R, t) -> tuple[np.ndarray, ...]:
-    """C-contiguous float64 copies (views where already so) of the inputs, with one-line
-    ``UserError``s for wrong shapes: points, normals (n, 3), R (3, 3), t (3,), frame maps (H, W, 3)."""
+    """C-contiguous float64 copies (views where already so) of the inputs; wrong shapes are one-line
+    ``UserError``s."""
     if not isinstance(frame, DepthFrame):
         raise UserError(f"the target must be a DepthFrame, got {type(frame).__name__}")
     p = np.ascontiguousarray(points, dtype=np.float64)
@@ -132,12 +114,10 @@ def checked_inputs(points, normals, frame, R, t) -> tuple[np.ndarray, ...]:
 
 def checked_pairs(pairs: object, n_source: int, valid: np.ndarray) -> Pairs:
     """The ``Pairs`` a method returned, or a ``ValueError`` saying what is wrong (the frame then
-    fails, as a feature method's invalid association does): ``source`` and ``pixel`` equal-length
-    1-D integer arrays, ``0 ≤ source < n_source`` strictly ascending, ``0 ≤ pixel < H·W`` on a
-    pixel where ``valid`` (the frame's ``valid``, flat) holds, ``len ≤ considered ≤ n_source``.
-    The compiled kernels index with them unchecked, so an index out of range would read outside
-    the frame (a crash, or garbage taken as a pose), and an invalid pixel's NaN vertex made the
-    normal equations NaN (the frame failed as ``LinAlgError: Eigenvalues did not converge``)."""
+    fails): equal-length 1-D integer arrays, ``0 ≤ source < n_source`` strictly ascending,
+    ``0 ≤ pixel < H·W`` on a valid pixel, ``len ≤ considered ≤ n_source``. The compiled kernels
+    index with them unchecked, and an invalid pixel's NaN vertex would make the normal equations
+    NaN."""
     if not isinstance(pairs, Pairs):
         raise ValueError(f"a dense associator must return Pairs, got {type(pairs).__name__}")
     src, pix = np.asarray(pairs.source), np.asarray(pairs.pixel)
@@ -175,8 +155,7 @@ def _source_ascending(src, n_source):
 
 @njit(cache=True)
 def _pixel_unusable(pix, valid):
-    """Index of the first entry of ``pix`` outside ``0..len(valid) − 1`` or where ``valid`` is
-    False, or −1."""
+    """First entry of ``pix`` outside ``valid``'s range or where ``valid`` is False, or −1."""
     for k in range(len(pix)):
         if pix[k] < 0 or pix[k] >= len(valid) or not valid[pix[k]]:
             return k
@@ -184,8 +163,8 @@ def _pixel_unusable(pix, valid):
 
 
 def flat_maps(frame: DepthFrame) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """The frame's depth (H·W,), vertices and normals (H·W, 3) as C-contiguous float64, indexed
-    by flat pixel ``v·W + u`` (views, no copy, for the maps ``vertex_map``/``normal_map`` make)."""
+    """The frame's depth (H·W,), vertices and normals (H·W, 3) as C-contiguous float64 views, by
+    flat pixel."""
     h, w = frame.depth.shape
     return (np.ascontiguousarray(frame.depth, dtype=np.float64).reshape(h * w),
             np.ascontiguousarray(frame.vertices, dtype=np.float64).reshape(h * w, 3),

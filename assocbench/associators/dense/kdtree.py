@@ -1,22 +1,9 @@
-"""KD-tree data association: each source point's nearest valid vertex of the frame in 3-D.
-
-The tree (``scipy.spatial.cKDTree``) holds the frame's valid vertices in its CAMERA frame, so it
-is built once per frame, whatever the pose guess; it is cached on the associator for the last
-frame seen (by identity: ICP's iterations on one frame share it; a frame changed in place after a
-call is not noticed). A source point ``p`` is queried at ``p_c = Rᵀ (p − t)`` with an upper bound
-the largest gate in the frame, ``gate(max depth)`` (a farther neighbour fails the distance filter
-anyway, and the bound prunes the search).
-
-First filter (``considered``, the visible points), the homework's as in the projective method:
-``z > 0``, the nearest pixel of the projection inside the image, and the point not hidden behind
-that pixel's measured surface (``z ≤ d + gate(d)``, ``base``). Without the view test a source
-point just outside the frame's view would pair with the nearest vertex on the image border (same
-surface, but a point the frame never saw: 4 % of the pairs were such in a 2 deg / 5 cm
-frame-to-frame step of the synthetic room). The valid-pixel part of that filter is the tree's (it
-holds valid vertices only), so a point projecting onto a missing pixel is considered and may
-still pair with a vertex nearby. The distance filter (the gate of the paired vertex's depth) and
-the angle filter are then applied in world coordinates (``base.world_filters``), like the
-projective ones.
+"""KD-tree data association: each source point's nearest valid vertex in 3-D. The tree holds the
+frame's valid vertices in its CAMERA frame, so it is built once per frame whatever the guess (cached
+by the frame's identity), and queried at ``p_c = Rᵀ (p − t)`` within ``gate(max depth)``. First
+filter as the projective method's (in front, in the image, not hidden), so a point outside the view
+does not pair with a border vertex; a point over a missing pixel may still pair nearby. Distance and
+angle filters follow (``base.world_filters``).
 """
 
 from __future__ import annotations
@@ -63,8 +50,8 @@ class KdTreeAssociator(DenseAssociator):
 
 
 def in_view(pc: np.ndarray, frame: DepthFrame) -> tuple[np.ndarray, np.ndarray]:
-    """(mask, flat pixel) of camera-frame points with ``z > 0`` whose nearest pixel
-    ``⌊f x/z + c + ½⌋`` lies in the image (NaN: outside); the pixel ``v·W + u`` is −1 outside."""
+    """(mask, flat pixel) of camera-frame points with ``z > 0`` whose nearest pixel lies in the
+    image; pixel −1 outside (NaN too)."""
     K, (h, w) = frame.K, frame.depth.shape
     z = pc[:, 2]
     with np.errstate(divide="ignore", invalid="ignore"):
@@ -76,9 +63,8 @@ def in_view(pc: np.ndarray, frame: DepthFrame) -> tuple[np.ndarray, np.ndarray]:
 
 
 def visible(pc: np.ndarray, frame: DepthFrame, assoc: DenseAssociator) -> np.ndarray:
-    """Mask of camera-frame points in view (``in_view``) and not hidden behind their pixel's
-    measured surface: ``z ≤ d + gate(d)`` where the pixel has a depth ``d`` (a missing pixel
-    hides nothing)."""
+    """Camera-frame points in view and not behind their pixel's depth ``d`` by more than ``gate(d)``
+    (a missing pixel hides nothing)."""
     inside, pix = in_view(pc, frame)
     d = frame.depth.reshape(-1)[np.where(inside, pix, 0)]
     with np.errstate(invalid="ignore"):

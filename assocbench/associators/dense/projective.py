@@ -1,25 +1,13 @@
-"""Projective data association (the homework's ``find_projective_correspondence``).
-
-Each source point ``p`` (world) is taken into the target camera with the guess (R, t),
-``p_c = Rᵀ (p − t)``, and projected to its nearest pixel
+"""Projective data association (the homework's ``find_projective_correspondence``): each source
+point, ``p_c = Rᵀ (p − t)``, goes to its nearest pixel
 
     u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋      (pixel centres at integers)
 
-First filter (the homework's 2.1; the points passing it are ``considered``, the visible ones):
-``z > 0`` (in front of the camera: a point behind it would otherwise project through the centre
-onto a real pixel), ``0 ≤ u < W``, ``0 ≤ v < H``, the pixel valid (finite positive depth ``d``,
-finite normal), and the point not hidden behind the pixel's surface, ``z ≤ d + gate(d)``
-(``base``: the gate grows with the depth noise). Second filter, the base's ``|p − q|² < gate(d)²``
-with ``q = R V + t`` (pixels on the same ray but at another depth are not the same surface) and
-``n_p · n_q > cos(angle)`` with ``n_q = R N``, evaluated in the target camera's frame, where they
-read ``|p_c − V|² < gate(d)²`` and ``(Rᵀ n_p) · N > cos(angle)``: a rotation keeps lengths and
-angles, and the point is already there for its projection, so no pixel's vertex and normal is
-rotated into the world (0.59 against 0.94 ms for 45 000 source points of a crates frame-to-model
-frame, the same pairs). The two forms differ only by rounding.
-
-One compiled pass over the source points, O(n), no sort: the pairs come out in source order.
-``associate_numpy`` is the same computation in plain numpy, operation for operation (the
-tests require identical pairs; the benchmark's baseline).
+First filter (``considered``): ``z > 0``, in the image, the pixel valid, not hidden
+(``z ≤ d + gate(d)``). Second: ``|p_c − V|² < gate(d)²`` and ``(Rᵀ n_p) · N > cos(angle)``, the
+world filters in the camera frame (rotations keep lengths and angles; equal up to rounding). One
+compiled O(n) pass, pairs in source order; ``associate_numpy`` is its numpy twin (the tests'
+reference).
 """
 
 from __future__ import annotations
@@ -35,8 +23,8 @@ from .base import DenseAssociator, Pairs, checked_inputs, flat_maps
 
 @njit(cache=True)
 def projective_kernel(points, normals, depth, V, N, width, height, f, cx, cy, R, t, floor, gate_a, gate_b, cos_thr):
-    """(source, pixel, considered) of the projective association with ``gate(d) = max(floor,
-    gate_a + gate_b · d²)``; see the module docstring."""
+    """(source, pixel, considered) with ``gate(d) = max(floor, gate_a + gate_b · d²)`` (module
+    docstring)."""
     n = points.shape[0]
     src = np.empty(n, np.int64)
     pix = np.empty(n, np.int64)
@@ -92,8 +80,8 @@ class ProjectiveAssociator(DenseAssociator):
 
 
 def associate_numpy(points, normals, frame: DepthFrame, R, t, assoc: ProjectiveAssociator | None = None) -> Pairs:
-    """``assoc.associate`` (default ``ProjectiveAssociator()``) in plain numpy, operation for
-    operation (reference for the tests, baseline for the benchmark)."""
+    """``assoc.associate`` in plain numpy, operation for operation (the tests' and benchmark's
+    reference)."""
     assoc = ProjectiveAssociator() if assoc is None else assoc
     floor, gate_a, gate_b = assoc.gate_coefficients
     p, n, R, t = checked_inputs(points, normals, frame, R, t)

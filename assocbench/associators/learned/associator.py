@@ -29,17 +29,17 @@ def _signature(problem: Problem) -> tuple:
 
 @dataclass
 class Learned(Associator):
-    """Gradient-boosted trees on per-pair features (``features.FEATURES``: NIS, log det S, ranks
-    and gaps in the pair's row and column, gate counts, NIS after the mutual-best pairs' median
-    innovation is removed) give each gated pair a log-odds ``f_ij``; the association solves
+    """Gradient-boosted trees on per-pair features (``features.FEATURES``: NIS, log det S, ranks and
+    gaps in the pair's row and column, gate counts, NIS after removing the mutual-best pairs' median
+    innovation) give each gated pair a log-odds ``f_ij``; the association solves
 
         max Σ_(i,j)∈A f_ij + (n - |A|)·τ   over one-to-one A (``linear_sum_assignment``),
 
-    i.e. a landmark is paired only when its pair's log-odds beats the no-match cost ``τ``,
-    validated on held-out training frames and stored in the model.
+    so a landmark is paired only when its log-odds beats the no-match cost ``τ`` (validated on
+    held-out frames, stored in the model).
 
-    model: path of a model JSON written by ``assocbench train``; empty: the model shipped for the
-        problem's track (camera, planar, lines), found by the problems' dimension and angular dims.
+    model: path of a model JSON from ``assocbench train``; empty: the model shipped for the
+        problem's track, found by its dimension and angular dims.
     """
 
     name = "learned"

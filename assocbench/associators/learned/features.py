@@ -1,8 +1,7 @@
-"""Per-pair features of a ``Problem`` for the learned associator, all from the compatibility
-module: one row per pair inside a loose individual gate ``NIS_ij <= χ²_d(GATE_CONFIDENCE)``.
-
-A change to what is computed here changes ``FEATURE_VERSION``; a model made for another version
-is refused when it is loaded (its trees split on other quantities)."""
+"""Per-pair features of a ``Problem`` for the learned associator, from the compatibility module: a
+row per pair inside a loose gate ``NIS_ij <= χ²_d(GATE_CONFIDENCE)``. Changing them changes
+``FEATURE_VERSION``, and a model of another version is refused (its trees split on other
+quantities)."""
 
 from __future__ import annotations
 

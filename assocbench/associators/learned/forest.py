@@ -1,10 +1,8 @@
-"""The learned model as plain data: a boosted ensemble of regression trees in a JSON file, read
-and evaluated with numpy and numba only (no scikit-learn, no pickle), so the shipped model loads in the
-core install and on any library version.
-
-The log-odds of a pair with features ``x`` is ``f(x) = base + Σ_t v_t(leaf_t(x))``, where each
-tree sends ``x`` left at a node when ``float32(x[feature]) <= threshold`` (scikit-learn's trees
-compare float32 features) and ``v_t`` already includes the learning rate."""
+"""The learned model as plain data: boosted regression trees in JSON, evaluated with numpy and numba
+only (no scikit-learn, no pickle), so the shipped model loads in the core install on any library
+version. A pair's log-odds is ``f(x) = base + Σ_t v_t(leaf_t(x))``, each tree sending ``x`` left
+when ``float32(x[feature]) <= threshold`` (as scikit-learn compares) and ``v_t`` including the
+learning rate."""
 
 from __future__ import annotations
 
@@ -101,10 +99,9 @@ TREE_KEYS = ("left", "right", "feature", "threshold", "value")
 
 
 def checked_trees(doc: dict, where: str) -> list[dict]:
-    """The document's trees, each checked node by node (``_check_tree``); a model that is not a
-    forest the walk can follow is refused in one line naming the file, tree and node. The
-    compiled walk reads ``x[feature]`` and the child indices unchecked: an index out of range read
-    other memory (a feature 12 of 12 ran with status ok, a child 1e6 segfaulted the worker)."""
+    """The document's trees, each checked node by node (``_check_tree``); a model the walk cannot
+    follow is refused in one line naming the file, tree and node, since the compiled walk indexes
+    unchecked (out of range it would read other memory)."""
     trees = doc.get("trees")
     if not isinstance(trees, list) or not trees:
         raise UserError(f"model {where} has no trees: make one with `assocbench train --data DIR --out MODEL`")
@@ -117,9 +114,8 @@ def checked_trees(doc: dict, where: str) -> list[dict]:
 
 
 def _check_tree(tree, where: str) -> None:
-    """A tree's node lists: equal lengths; at each node both children -1 (a leaf) or both later
-    nodes of the tree (so every walk ends at a leaf); a split's feature one of ``FEATURES``;
-    thresholds and values finite numbers."""
+    """A tree's node lists: equal lengths; each node's children both -1 (a leaf) or both later nodes
+    (every walk ends); split features in ``FEATURES``; finite thresholds and values."""
     if not isinstance(tree, dict) or not all(isinstance(tree.get(key), list) for key in TREE_KEYS):
         raise UserError(f"{where} is not a tree: it needs the lists {', '.join(TREE_KEYS)}")
     sizes = {key: len(tree[key]) for key in TREE_KEYS}

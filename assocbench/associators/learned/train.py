@@ -1,10 +1,8 @@
 """Fit the learned associator from an export (``assocbench train``): scikit-learn's gradient
-boosting on the pairs' features, its trees written out as plain data (``forest``).
-
-Frames of the export's last seed are held out to validate the no-match cost ``τ``: the value of
-``TAU_GRID`` that gives the best micro F1 of the assignment on them (ties: the smaller |τ|). The
-trees are fitted on the other seeds. Everything is deterministic (fixed ``random_state``, no
-subsampling, rows in the export's order), so the same export gives the same file bit for bit."""
+boosting on the pairs' features, written out as plain data (``forest``). The last seed's frames are
+held out to pick the no-match cost ``τ`` from ``TAU_GRID`` (best micro F1, ties to the smaller |τ|);
+the trees fit the other seeds. Deterministic (fixed ``random_state``, no subsampling, export order):
+the same export gives the same file bit for bit."""
 
 from __future__ import annotations
 

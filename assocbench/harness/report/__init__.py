@@ -1,10 +1,7 @@
-"""``assocbench report``: a static HTML leaderboard across tracks, built from the leaderboard
-folders of any set of suites (``assocbench leaderboard --out``).
-
-``build_report`` turns the folders into the report's files (``{relative path: bytes}``: the
-overview ``index.html`` with its critical-difference diagrams under ``img/ranks/``, a page per
-suite, its pictures under ``img/``); ``write_report`` puts them
-in a folder all at once; the docs site's hook hands the same files to mkdocs."""
+"""``assocbench report``: a static HTML leaderboard across tracks, from the leaderboard folders of
+any set of suites. ``build_report`` makes the files (``{relative path: bytes}``: the overview
+``index.html`` with its critical-difference diagrams, a page per suite, its pictures);
+``write_report`` puts them in a folder at once; the docs site's hook hands the same files to mkdocs."""
 
 from __future__ import annotations
 
@@ -21,9 +18,9 @@ __all__ = ["build_report", "write_report"]
 
 
 def build_report(folders: Sequence[Path | str], names: Sequence[str] | None = None) -> dict[str, bytes]:
-    """The report's files for the leaderboards in ``folders`` (each a folder holding
-    ``leaderboard.csv``, or that file), in the order given; ``names``: how the pages name each
-    source (default: the folder as given), so a report built elsewhere reads the same."""
+    """The report's files for the leaderboards in ``folders`` (each a folder with
+    ``leaderboard.csv``, or that file), in order; ``names``: how the pages name each source
+    (default: as given)."""
     if not folders:
         raise UserError("no leaderboard given: name one or more folders written by `assocbench leaderboard`, "
                         "e.g. results results/loop")

@@ -1,8 +1,6 @@
-"""What each leaderboard column means, for the HTML report: its label, its unit (``scoring.units``),
-a one-sentence meaning, which direction is better, and how many digits it is printed with.
-
-A column the catalogue does not know (a newer harness, a track of a plugin) is still shown, under
-its CSV name with the unit ``unit_of`` gives it, so nothing in a leaderboard is dropped silently."""
+"""What each leaderboard column means for the HTML report: label, unit (``scoring.units``), a
+one-sentence meaning, better direction and digits. An unknown column (a newer harness, a plugin
+track) is still shown under its CSV name, so nothing is dropped silently."""
 
 from __future__ import annotations
 
@@ -15,12 +13,10 @@ from ..loop_truth import REVISIT_GAP
 
 @dataclass(frozen=True)
 class Column:
-    """One metric column. better: ``"high"``, ``"low"`` or ``""`` (a count that describes, not
-    ranks); main: shown by default (the others behind the page's "more columns" switch), except in
-    the kinds of suite named in ``minor_in`` (``open``, ``loop``); count: a run's value
-    is a whole number (frames), so a whole mean over seeds prints without decimals; ``lo``, ``hi``:
-    the values a run can have (a share is in [0, 1]), against which a leaderboard CSV is checked
-    when it is read."""
+    """One metric column. better: ``"high"``, ``"low"`` or ``""`` (a describing count); main: shown
+    by default (others behind "more columns"), except in the suite kinds of ``minor_in``; count: a
+    whole number per run, so a whole mean prints without decimals; ``lo``, ``hi``: a run's possible
+    values, checked when a CSV is read."""
 
     key: str
     label: str

@@ -1,13 +1,9 @@
-"""Write a report's files into ``--out``, never touching a file the report did not write.
-
-``--out`` may be new, empty (a mount point too), or an earlier report, which may hold the user's
-own files beside it (a published site's ``.git/``, ``CNAME``, notes): the files are staged in a
-hidden folder inside ``--out`` (the same file system, so each lands by a rename), then each is
-renamed in place, and the earlier report's files that the new one no longer has are removed.
-An earlier report's files are its pages (``.html`` carrying the generator mark) and the pictures
-they show (``img/...``); everything else in the folder is the user's and stays. A write that fails
-leaves the earlier report as it was. Anything else as ``--out`` (a file, a folder of other things)
-is refused before anything is written."""
+"""Write a report's files into ``--out``, never touching a file the report did not write. ``--out``
+may be new, empty, or an earlier report beside the user's own files (``.git/``, ``CNAME``): files
+are staged in a hidden folder inside it and each renamed in place, and the earlier report's files
+(its marked ``.html`` pages and ``img/``) the new one lacks are removed; the rest is the user's. A
+failed write leaves the earlier report as it was; any other ``--out`` is refused before anything is
+written."""
 
 from __future__ import annotations
 

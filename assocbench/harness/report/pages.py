@@ -1,7 +1,7 @@
-"""The report's HTML: an overview page that ranks the methods and a page per suite with its
-sortable, filterable table, the legend of its columns and its pictures. Every page carries its CSS
-and script inline and names its pictures by relative paths, so the folder opens from ``file://``
-with no network; the text depends only on the inputs (no dates), so the same inputs give the same bytes."""
+"""The report's HTML: an overview ranking the methods and a page per suite with its sortable,
+filterable table, column legend and pictures. Pages carry their CSS and script inline and name
+pictures by relative paths (opens from ``file://``), and depend only on the inputs (same inputs,
+same bytes)."""
 
 from __future__ import annotations
 
@@ -60,9 +60,8 @@ def _v(value: float) -> str:
 
 # --- overview -------------------------------------------------------------------------------
 def overview_body(suites: list[Suite]) -> tuple[str, dict[str, bytes]]:
-    """The ranking rule, one ranking table per kind of method (feature associators; each track's
-    own methods) with what each ranking compared and its critical-difference diagrams, and the
-    list of suites; returns the HTML and the diagrams (``{relative path: PNG bytes}``)."""
+    """The ranking rule, a ranking table per kind of method with what it compared and its
+    critical-difference diagrams, and the suites; returns the HTML and the diagrams."""
     out = ["<h1>Leaderboard across tracks</h1>",
            '<p class="lead">Every method of every leaderboard in this report, ranked by its track\'s primary metric '
            "in each scenario (a scene at a difficulty, with its back end) and seed, and placed by a significance test: "
@@ -272,8 +271,8 @@ def _row(r: pd.Series, labels, columns: list[Column], counts: list[str], kind: s
 
 
 def _badges(r: pd.Series, counts: list[str]) -> str:
-    """A badge beside the method's name for each counted failure of the method (budget spent, failed frames,
-    diverged seeds): the row stays ok (the harness measured it) but the failure must not be missed."""
+    """A badge by the method's name per counted failure (budget spent, failed frames, diverged
+    seeds): the row stays ok, but the failure must not be missed."""
     return "".join(f' <span class="badge" title="{escape(COUNT_COLUMNS[k][1])}">{_num(r[k], 0)} {COUNT_COLUMNS[k][0]}'
                    f"</span>" for k in counts if pd.notna(r[k]) and r[k] > 0)
 

@@ -1,8 +1,7 @@
 """The overview's ranking: methods ranked in blocks (a scenario at a seed) by their suite's primary
-metric, over only the blocks every ranked method ran, with the Friedman test and the Nemenyi
-critical difference (``significance``) deciding which differences are more than noise.
-
-``RULE`` is the rule in words, as the overview page states it."""
+metric, over only the blocks every ranked method ran, the Friedman test and Nemenyi critical
+difference (``significance``) deciding which differences are more than noise. ``RULE`` states the
+rule as the page does."""
 
 from __future__ import annotations
 
@@ -38,9 +37,9 @@ RULE = (
 
 @dataclass
 class Ranking:
-    """One ranking: ``table`` has a row per ranked method (``method``, ``place``, ``mean_rank``,
-    ``last``: blocks where its run diverged, was not ok or had no value), best first; ``left_out``
-    and ``scenarios_out`` say which methods and scenarios were not compared, and why."""
+    """One ranking: ``table`` a row per ranked method (``method``, ``place``, ``mean_rank``,
+    ``last``: blocks where it diverged, was not ok or had no value), best first; ``left_out`` and
+    ``scenarios_out`` say what was not compared and why."""
 
     title: str
     slug: str
@@ -53,9 +52,8 @@ class Ranking:
 
 
 def suite_blocks(suite: Suite, metric: Column | None = None) -> pd.DataFrame:
-    """One row per block x method of ``suite`` (the oracle left out): ``block`` (its id),
-    ``scenario``, ``key`` (``metric``, by default the suite's primary one, signed so that lower is
-    better; +inf where the run cannot win), ``diverged``, ``ok``."""
+    """One row per block x method (no oracle): ``block``, ``scenario``, ``key`` (``metric``, signed
+    so lower is better; +inf where the run cannot win), ``diverged``, ``ok``."""
     runs = suite.runs if suite.runs is not None else suite.table
     runs = runs[~runs["method"].isin(REFERENCE_METHODS)]
     metric = metric or suite.primary
@@ -69,8 +67,8 @@ def suite_blocks(suite: Suite, metric: Column | None = None) -> pd.DataFrame:
 
 
 def compared(blocks: pd.DataFrame) -> tuple[list[str], list[str]]:
-    """The methods and blocks to compare: for each c, the blocks run by at least c methods and the
-    methods that ran all of them; the choice with the most method x block results (then the most methods)."""
+    """The methods and blocks to compare: for each c, the blocks at least c methods ran and the
+    methods that ran them all; the choice with the most results (then methods)."""
     ran = {m: set(b) for m, b in blocks.groupby("method")["block"]}
     count = blocks.groupby("block")["method"].nunique()
     best: tuple[int, int, list[str], list[str]] = (-1, -1, [], [])

@@ -1,17 +1,14 @@
 """Whether methods ranked over many blocks differ by more than chance: the Friedman test in Iman and
-Davenport's F form, then the Nemenyi critical difference (Demšar, "Statistical comparisons of
-classifiers over multiple data sets", JMLR 7:1-30, 2006, section 3.2.2).
-
-With k methods ranked in each of N blocks (1 best, ties sharing their places) and R_j the mean
-rank of method j:
+Davenport's F form, then the Nemenyi critical difference (Demšar, JMLR 7:1-30, 2006, §3.2.2). With k
+methods ranked in each of N blocks (1 best, ties sharing places) and R_j the mean rank of method j:
 
     χ²_F = 12 N / (k (k + 1)) · (Σ_j R_j² − k (k + 1)² / 4)
     F_F  = (N − 1) χ²_F / (N (k − 1) − χ²_F),   F-distributed with k − 1 and (k − 1)(N − 1) dof
     CD   = q_α √(k (k + 1) / (6 N)),   q_α = studentized range quantile(1 − α; k, ∞) / √2
 
 If F_F's p-value is below α, two methods differ when their mean ranks differ by CD or more;
-otherwise none does. The statistics are Demšar's own (no correction for ties), so a table of ties
-only makes the test more cautious."""
+otherwise none does. No tie correction (Demšar's statistics), so ties only make the test more
+cautious."""
 
 from __future__ import annotations
 
@@ -26,9 +23,8 @@ ALPHA = 0.05
 
 @dataclass(frozen=True)
 class RankTest:
-    """The test of ``mean_rank`` (one per method, in the order of ``methods``) over ``blocks``
-    blocks: ``chi2`` (χ²_F), ``f`` (F_F), ``p`` (its p-value; NaN when there is nothing to test:
-    one method or one block) and ``cd`` (the critical difference at ``alpha``)."""
+    """The test of ``mean_rank`` over ``blocks``: ``chi2`` (χ²_F), ``f`` (F_F), ``p`` (NaN with one
+    method or block) and ``cd`` at ``alpha``."""
 
     methods: tuple[str, ...]
     mean_rank: np.ndarray
@@ -50,15 +46,15 @@ class RankTest:
         return self.rejects and abs(self.mean_rank[i] - self.mean_rank[j]) >= self.cd
 
     def places(self) -> np.ndarray:
-        """Each method's place: 1 + the number of methods significantly better than it, so that
-        methods no test can tell apart share a place (every method is 1st when the test does not reject)."""
+        """Each method's place: 1 + the methods significantly better, so methods no test tells apart
+        share a place (all 1st when the test does not reject)."""
         k = len(self.methods)
         return np.array([1 + sum(self.differ(i, j) and self.mean_rank[j] < self.mean_rank[i] for j in range(k))
                          for i in range(k)])
 
     def cliques(self) -> list[tuple[int, ...]]:
-        """The maximal runs of methods, in order of mean rank, that do not differ pairwise (the bars
-        of a critical-difference diagram); each is a tuple of indices into ``methods``, 2 or more long."""
+        """The maximal runs of methods by mean rank that do not differ pairwise (a diagram's bars),
+        as index tuples of 2 or more."""
         order = [int(i) for i in np.argsort(self.mean_rank, kind="stable")]
         runs: list[tuple[int, ...]] = []
         for a in range(len(order)):
@@ -71,8 +67,8 @@ class RankTest:
 
 
 def block_ranks(values: np.ndarray) -> np.ndarray:
-    """Ranks (1 best) of each row of ``values`` (blocks × methods, lower is better), ties sharing
-    the mean of their places; NaN and +inf rank after every finite value, tied among themselves."""
+    """Ranks (1 best) of each row of ``values`` (blocks × methods, lower better), ties sharing their
+    mean place; NaN and +inf last, tied."""
     keyed = np.where(np.isfinite(values), values, np.inf)
     return stats.rankdata(keyed, method="average", axis=1)
 

@@ -1,12 +1,8 @@
-"""Read one leaderboard folder (``assocbench leaderboard --out``) into what the report shows: its
-table (one row per scenario x method), which track and loop it is, its primary metric, its pictures.
-
-What the track is, how its runs were made and what ranks them is the folder's card
-(``leaderboard.json``, written with the leaderboard from the track: ``harness.leaderboard.card``), so a
-plugin's leaderboard reads right wherever the report is built, with the plugin installed or not. A
-folder without a card (written before cards were) asks the track registry, from its scenarios'
-scene and its methods. Every way a folder can be unusable is a one-line ``UserError`` naming the
-file and what to do."""
+"""Read one leaderboard folder into what the report shows: its table, track and loop, primary metric
+and pictures. Those come from the folder's card (``leaderboard.json``,
+``harness.leaderboard.card``), so a plugin's leaderboard reads right with the plugin installed or
+not; a folder without a card asks the track registry. An unusable folder is a one-line ``UserError``
+naming the file and what to do."""
 
 from __future__ import annotations
 
@@ -40,9 +36,9 @@ CAPTIONS = {"pr": "precision against recall, a panel per scene and difficulty",
 
 @dataclass
 class Suite:
-    """One leaderboard: ``table`` has a row per scenario x method and the columns ``scene``,
-    ``difficulty``, ``backend`` split from the scenario (``scene/difficulty-backend``); ``runs`` a
-    row per scenario x method x seed where the folder has them (None: only means over seeds)."""
+    """One leaderboard: ``table`` a row per scenario x method with ``scene``, ``difficulty``,
+    ``backend`` split from the scenario; ``runs`` a row per run where the folder has them (None:
+    means only)."""
 
     source: str
     digest: str
@@ -160,8 +156,8 @@ def _where(table: pd.DataFrame, i: int, name: str) -> str:
 
 
 def _check_rows(data: bytes, table: pd.DataFrame, name: str) -> None:
-    """Refuse a row with fewer fields than the header (a file cut mid-row: pandas fills them with
-    NaN, and a missing status read as ok) and a row with an empty status, seeds or frames."""
+    """Refuse a row with fewer fields than the header (a cut file: pandas would fill NaN and read
+    the status as ok) or an empty status, seeds or frames."""
     lines = [row for row in csv.reader(io.StringIO(data.decode("utf-8", "replace"))) if row]
     short = [i for i, row in enumerate(lines[1:]) if len(row) != len(lines[0])]
     if short:
@@ -175,8 +171,8 @@ def _check_rows(data: bytes, table: pd.DataFrame, name: str) -> None:
 
 
 def _check_values(table: pd.DataFrame, name: str) -> None:
-    """Refuse a number outside its column's range (``columns.value_range``), an infinite one and a
-    count that is not whole, naming the line and column: the report would rank ``f1=inf`` first."""
+    """Refuse a number outside its column's range (``columns.value_range``), an infinite one or a
+    fractional count, naming line and column (the report would rank ``f1=inf`` first)."""
     for key in [c for c in table if c not in LABEL_COLUMNS]:
         lo, hi = value_range(key)
         values = table[key].to_numpy(dtype=float)
@@ -191,8 +187,8 @@ def _check_values(table: pd.DataFrame, name: str) -> None:
 
 
 def read_card(path: Path, table: pd.DataFrame, source: str) -> dict:
-    """The folder's card, checked; without one, the card its track would write (``harness.leaderboard.card``),
-    the track found from the first row's scene and method (one line when none is found)."""
+    """The folder's card, checked; without one, the card its track would write, the track found from
+    the first row's scene and method."""
     if path.is_file():
         try:
             card = json.loads(path.read_text())
@@ -216,9 +212,8 @@ def read_card(path: Path, table: pd.DataFrame, source: str) -> dict:
 
 
 def _per_scenario(runs: pd.DataFrame) -> pd.DataFrame:
-    """Mean (and std, ddof 0) over seeds per scenario x method of a CSV that lists every run;
-    status is ok only when every seed's was; the counted columns (failed frames...) and ``frames``
-    summed, since the page shows them as "k / frames" over all seeds."""
+    """Mean and std (ddof 0) over seeds per scenario x method of a CSV of every run; ok only when
+    every seed was; counted columns and ``frames`` summed (the page shows "k / frames")."""
     metrics = [c for c in runs if c not in LABEL_COLUMNS and c != "seed"]
     grouped = runs.groupby(["scenario", "method"], sort=False)
     table = grouped[metrics].agg(lambda col: col.mean(skipna=False))
@@ -232,7 +227,7 @@ def _per_scenario(runs: pd.DataFrame) -> pd.DataFrame:
 
 def _with_parts(table: pd.DataFrame) -> pd.DataFrame:
     """Scene, difficulty and back end split from ``scene/difficulty-backend``, rows in leaderboard
-    order (scene, easy to hard), then by the order the CSV gave."""
+    order, then CSV order."""
     split = table["scenario"].str.rpartition("/")
     parts = split[2].str.partition("-")
     table = table.assign(scene=split[0], difficulty=parts[0], backend=parts[2])

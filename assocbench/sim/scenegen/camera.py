@@ -1,10 +1,8 @@
-"""Generator of the shipped scenes in ``assocbench/scenes/`` (MJCF + textures).
-
-Rebuild them with ``python -m assocbench.sim.scenegen.camera``. Every landmark is a ``site``
-named ``lm###`` at the X-junction of an identical 2x2 black/white checker patch made of four
-thin boxes, so appearance cannot tell landmarks apart. The site's z axis is the patch's
-outward normal (used for the "facing the camera" visibility test). Walls carry a tiled
-texture with smaller look-alike X-junctions: distractor corners the detector will find.
+"""Generator of the shipped camera scenes in ``assocbench/scenes/`` (MJCF and textures), rebuilt
+with ``python -m assocbench.sim.scenegen.camera``. Every landmark is a site ``lm###`` at the
+X-junction of an identical 2x2 checker patch of four thin boxes, so appearance cannot tell landmarks
+apart; its z axis is the patch's outward normal. Walls carry a texture with smaller look-alike
+X-junctions: distractor corners.
 """
 
 from __future__ import annotations

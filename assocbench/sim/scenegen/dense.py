@@ -1,15 +1,11 @@
-"""Generator of the dense track's shipped scenes (``assocbench/scenes/bays.xml``, ``assocbench/scenes/crates.xml``).
-
-Rebuild them with ``python -m assocbench.sim.scenegen.dense``. Both are self-similar on
-purpose: ``bays`` is a corridor whose cross-section repeats every ``BAY_PERIOD`` metres (a pier
-on each wall, a beam under the ceiling, a sill on the floor, a recess between), so a depth
-frame fits the corridor shifted by one period almost as well as the true one; ``crates`` is a
-room with identical boxes on a regular grid. Geometry is boxes and finite planes only, so the
-dense track's surface error is analytic. They follow the camera scenes' conventions
-(``scenegen.SceneBuilder``: ``lm###`` sites at the X-junctions of identical checker patches,
-walls textured), so the camera track runs on them too. The clip planes are pinned in metres
-(``<statistic extent>``): near ``NEAR_M``, below any depth sensor's minimum range, far ``FAR_M``,
-beyond its maximum, so the depth buffer keeps sub-millimetre precision where depth is measured.
+"""Generator of the dense track's shipped scenes (``bays.xml``, ``crates.xml``), rebuilt with
+``python -m assocbench.sim.scenegen.dense``. Both are self-similar on purpose: ``bays`` is a
+corridor whose cross-section repeats every ``BAY_PERIOD`` metres, so a frame fits it shifted by a
+period almost as well; ``crates`` is a room of identical boxes on a grid. Boxes and finite planes
+only, so the surface error is analytic; the camera scenes' conventions (``lm###`` sites, textured
+walls), so the camera track runs on them too. The clip planes are pinned in metres (near ``NEAR_M``,
+far ``FAR_M``, outside any depth sensor's range) so the depth buffer keeps sub-millimetre precision
+where depth is measured.
 """
 
 from __future__ import annotations
@@ -94,11 +90,10 @@ def bays(sb: SceneBuilder) -> None:
 
 
 def crate_cells() -> list[tuple[float, float, int]]:
-    """(x, y, height in crates) of each crate stack: the 16 cells on the perimeter of a 5 x 5 grid
-    ``CRATE_GRID`` apart, two high, three at the four corners (36 crates). Stacks this tall fill
-    the view of a camera at 1.1 m, and their sides, seen obliquely through the 0.4 m gaps, pin
-    the motion along the walls that a view of a wall and crate fronts alone leaves free (ICP's
-    normal matrix had a condition number of ~2000 with one-high crates)."""
+    """(x, y, height in crates) of each stack: the 16 perimeter cells of a 5 x 5 grid ``CRATE_GRID``
+    apart, two high, three at the corners (36 crates). Stacks this tall fill a camera's view at 1.1
+    m, and their sides seen through the gaps pin the motion along the walls that wall and crate
+    fronts alone leave free (ICP's normal matrix is ill conditioned with one-high crates)."""
     cells = []
     for i in range(-2, 3):
         for j in range(-2, 3):

@@ -1,10 +1,6 @@
-"""Belief of the camera track: estimate = truth + error drawn from the reported covariance Σ.
-
-The filter reports Σ = blockdiag(σ_p² I₃, σ_θ² I₃, Σ_L) over camera position, orientation and
-landmark positions, with ``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₃)`` (optional common-mode error
-shared by all landmarks). The actual error is drawn from ``k² Σ`` (``k = miscalibration``),
-so gating theory holds at ``k = 1`` and difficulty is a knob. The predicted bundle covariance
-is ``P = J Σ Jᵀ`` with the analytic Jacobians of ``pinhole.predict_bundle``.
+"""Belief of the camera track: the truth plus an error drawn from ``k² Σ`` while Σ = blockdiag(σ_p²
+I₃, σ_θ² I₃, Σ_L), ``Σ_L = σ_l² I + σ_c² (11ᵀ ⊗ I₃)``, is reported (``k = miscalibration``: gating
+theory holds at 1). ``P = J Σ Jᵀ`` with ``pinhole.predict_bundle``'s Jacobians.
 """
 
 from __future__ import annotations
@@ -25,8 +21,8 @@ def bundle_covariance(J_pose: np.ndarray, J_l: np.ndarray, cfg: BeliefConfig) ->
 
 def expected_in_view(seq: Sequence, p_hat: np.ndarray, l_hat: np.ndarray, h: np.ndarray, depth: np.ndarray,
                      max_view_angle: float) -> np.ndarray:
-    """Landmarks the estimate expects to see: in front, facing the estimated camera within
-    ``max_view_angle`` and predicted inside the image (the estimate knows nothing of occlusion)."""
+    """Landmarks the estimate expects to see: in front, facing it within ``max_view_angle``,
+    predicted in the image (occlusion unknown to it)."""
     to_cam = p_hat - l_hat
     cos_view = np.einsum("ij,ij->i", seq.normals, to_cam) / np.linalg.norm(to_cam, axis=1)
     in_image = seq.K.in_image(np.nan_to_num(h, nan=-1e9))

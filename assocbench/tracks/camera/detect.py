@@ -21,10 +21,8 @@ def _raw_corners(gray: np.ndarray, cfg: DetectorConfig) -> np.ndarray:
 
 
 def _drop_duplicates(pts: np.ndarray, radius: float = 1.0) -> np.ndarray:
-    """Keep the first (strongest) of corners that sub-pixel refinement pulled together.
-
-    Two raw corners near one X-junction both converge onto it; left in, one of them would
-    be an unlabelled "clutter" feature sitting exactly on the landmark.
+    """Keep the strongest of corners sub-pixel refinement pulled together: two raw corners near an
+    X-junction converge onto it, and the second would be unlabelled "clutter" on the landmark.
     """
     if len(pts) < 2:
         return pts

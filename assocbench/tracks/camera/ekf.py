@@ -1,23 +1,19 @@
 """Camera EKF-SLAM: camera pose (position, orientation as an error state) and 3-D landmarks.
 
-State ``x = [p, θ, l₁, …, l_N]`` with the nominal orientation ``R̂`` kept outside the vector:
-``R = R̂ Exp(δθ)`` (body-frame error, the perturbation ``models.pinhole`` takes its Jacobians
-with), so the covariance is over ``[δp, δθ, δl₁, …]`` and never meets a rotation's singularity.
+State ``x = [p, θ, l₁, …, l_N]`` with the nominal orientation ``R̂`` outside the vector,
+``R = R̂ Exp(δθ)`` (``models.pinhole``'s perturbation), so the covariance is over
+``[δp, δθ, δl₁, …]`` and never meets a rotation's singularity.
 
-* Motion (body-frame increment ``Δp, Δθ`` with covariance Q):
-  ``p' = p + R̂ Δp``, ``R̂' = R̂ Exp(Δθ)``; ``F = [[I, −R̂[Δp]×], [0, Exp(Δθ)ᵀ]]``,
-  ``G = blockdiag(R̂, I)``.
-* Measurement: lab 8's pinhole bundle ``h(x)`` and Jacobians (``models.pinhole.predict_bundle``),
-  updated in Joseph form (``ekf_core.joseph_update``). After an update the error is folded into
-  the nominal state, ``R̂ ← R̂ Exp(δθ)``, and the covariance's θ rows and columns are mapped by
-  the reset Jacobian ``G_r = I − ½[δθ]×``.
-* RGB-D initialisation: ``l = p̂ + R̂ r_c`` with ``r_c = z [(u−c_x)/f, (v−c_y)/f, 1]``:
-  ``∂l/∂δp = I``, ``∂l/∂δθ = −R̂[r_c]×``, ``∂l/∂(u, v, z) = R̂ [[z/f, 0, (u−c_x)/f], [0, z/f, (v−c_y)/f], [0, 0, 1]]``.
-* Two-view initialisation (``init: triangulation``): ``two_view_init`` (DLT of a feature left
-  unassociated in an earlier frame and one in this frame). While views of frame j wait, a clone
-  of its pose sits after the landmarks in P (corrected by updates, folded like the pose), and
-  the landmark is augmented w.r.t. the current pose and that clone; ``covariance`` leaves the
-  clones out.
+* Motion (body-frame ``Δp, Δθ``, covariance Q): ``p' = p + R̂ Δp``, ``R̂' = R̂ Exp(Δθ)``;
+  ``F = [[I, −R̂[Δp]×], [0, Exp(Δθ)ᵀ]]``, ``G = blockdiag(R̂, I)``.
+* Measurement: lab 8's pinhole bundle (``models.pinhole.predict_bundle``), Joseph update
+  (``ekf_core.joseph_update``); the error is then folded into ``R̂ ← R̂ Exp(δθ)`` and θ's rows and
+  columns mapped by the reset Jacobian ``G_r = I − ½[δθ]×``.
+* RGB-D initialisation: ``l = p̂ + R̂ r_c``, ``r_c = z [(u−c_x)/f, (v−c_y)/f, 1]``: ``∂l/∂δp = I``,
+  ``∂l/∂δθ = −R̂[r_c]×``,
+  ``∂l/∂(u, v, z) = R̂ [[z/f, 0, (u−c_x)/f], [0, z/f, (v−c_y)/f], [0, 0, 1]]``.
+* Two-view initialisation: ``two_view_init``; a waiting frame's pose clone sits after the landmarks
+  in P (``covariance`` leaves clones out).
 """
 
 from __future__ import annotations
@@ -113,11 +109,9 @@ class CameraEKF(Estimator):
         return UpdateReport(len(paired), confirmed, removed)
 
     def initialise(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
-        """RGB-D: a landmark from each feature with a valid depth, in the given order, while the
-        frame paired fewer than ``target_paired`` features (at most the shortfall), at most
-        ``max_new_per_frame`` per frame and ``max_landmarks`` in the map. Features without a
-        positive finite depth are skipped (the caller counts them). ``init: triangulation``: the
-        same caps, landmarks from two views instead (``two_view_init``; depth is not used)."""
+        """RGB-D: a landmark from each feature with a positive finite depth, in order, within
+        ``_room`` (the others are skipped; the caller counts them). ``init: triangulation``: the
+        same caps, landmarks from two views (``two_view_init``)."""
         if self._two_view is not None:
             return self._initialise_two_view(frame, features)
         if self.cfg.mode != "slam" or frame.depth is None:
@@ -148,8 +142,8 @@ class CameraEKF(Estimator):
 
     @property
     def normals(self) -> np.ndarray:
-        """Each landmark's outward normal: the map's in localisation, the direction towards the
-        camera that made it in slam (the estimate knows no surface)."""
+        """Each landmark's outward normal: the map's in localisation, towards the camera that made
+        it in slam."""
         return self._normals.copy()
 
     # ---------------------------------------------------------------- helpers
@@ -212,14 +206,14 @@ class CameraEKF(Estimator):
         return removed
 
     def _room(self, frame: FrameData, features: np.ndarray) -> int:
-        """How many landmarks this frame may make: the shortfall against ``target_paired`` (the
-        features not in ``features`` were paired), ``max_new_per_frame``, ``max_landmarks``."""
+        """How many landmarks this frame may make: the shortfall against ``target_paired``,
+        ``max_new_per_frame``, ``max_landmarks``."""
         return creation_room(self.cfg, len(frame.z), len(features), len(self.book))
 
     def _initialise_two_view(self, frame: FrameData, features: np.ndarray) -> list[tuple[int, int]]:
-        """Landmarks from waiting views paired with ``features`` (``two_view_init``), appended with
-        the Jacobians w.r.t. the current pose and the clone of the first view's pose (the pixels
-        are the measurement); then the clones follow the waiting views."""
+        """Landmarks from waiting views paired with ``features``, appended with Jacobians to the
+        current pose and the first view's clone (pixels as the measurement); then the clones follow
+        the waiting views."""
         made = []
         for lm, i in self._two_view.step(self.frame, frame.z, frame.R, features, self.R, self.p, self._clone_poses,
                                          self._with_clone, max(self._room(frame, features), 0)):
@@ -241,8 +235,8 @@ class CameraEKF(Estimator):
         return self.P[np.ix_(cols, cols)]
 
     def _sync_clones(self) -> None:
-        """Marginalise the clones no waiting view needs; clone the current pose (``augment`` with
-        Jacobian I and no measurement: P_cc = P_ξξ, P_cx = P_ξ·) if this frame's views wait."""
+        """Marginalise clones no waiting view needs; clone the current pose (``augment``, Jacobian
+        I, no measurement) if this frame's views wait."""
         needed = self._two_view.frames
         gone = [c for c in self._clones if c not in needed]
         if gone:
@@ -269,9 +263,9 @@ class CameraEKF(Estimator):
 
     def _append_landmark(self, landmark: np.ndarray, J_state: np.ndarray, J_meas: np.ndarray, M: np.ndarray,
                          state_cols: np.ndarray = POSE) -> int:
-        """Append ``landmark`` with ``ekf_core.augment`` (Jacobian ``J_state`` w.r.t. the state
-        columns ``state_cols``, ``J_meas`` w.r.t. a measurement of covariance ``M``), in front of
-        any pose clones; tentative unless ``confirm_after`` is 1."""
+        """Append ``landmark`` with ``ekf_core.augment`` (``J_state`` on ``state_cols``, ``J_meas``
+        of a measurement of covariance ``M``) before any pose clones; tentative unless
+        ``confirm_after`` is 1."""
         self.P = augment(self.P, J_state, state_cols, J_meas, M)
         if self._clones:   # the clones stay last: move the new rows in front of them
             n, N = 6 + 3 * len(self._L), len(self.P)

@@ -12,12 +12,9 @@ from .ekf import CameraEKF
 
 
 def make_camera_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
-    """The camera EKF at frame 0.
-
-    ``localisation``: pose and the mapped landmarks (``belief.map_fraction``) start at the open
-    loop's sampled estimate of frame 0 (truth plus an error from ``k² Σ``) with Σ reported.
-    ``slam``: the pose starts at the true first pose with zero covariance (it fixes the gauge,
-    as every SLAM system's first frame does) and the map is empty; frame 0's features make it."""
+    """The camera EKF at frame 0: ``localisation`` starts the pose and mapped landmarks at the open
+    loop's sampled estimate with Σ reported; ``slam`` at the true first pose with zero covariance
+    (the gauge) and an empty map."""
     if cfg.name != "ekf":
         raise UserError(f"estimator.name {cfg.name} serves the planar track only; the camera track's estimator is ekf")
     R0, p0 = seq.rotations[0], seq.positions[0]

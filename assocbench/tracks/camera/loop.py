@@ -25,9 +25,9 @@ class CameraSensor:
         return odometry(self.seq.rotations, self.seq.positions, k, self.est, self.seed)
 
     def frame(self, k: int, in_map: np.ndarray | None) -> tuple[FrameData, np.ndarray]:
-        """Frame ``k``'s features plus N(0, σ_pixel²) when ``est.pixel_noise`` (drawn after labelling:
-        a truth gate must not truncate the noise), then ``belief.clutter`` uniform clutter features
-        with no depth; the measured depth is the rendered one plus N(0, σ_z(z)²)."""
+        """Frame ``k``'s features plus N(0, σ_pixel²) when ``est.pixel_noise`` (after labelling, so
+        no truth gate truncates it), then ``belief.clutter`` uniform features without depth; depth
+        is the rendered one plus N(0, σ_z(z)²)."""
         seq, belief, est = self.seq, self.belief, self.est
         rng = np.random.default_rng([self.seed, k, 101])
         features = seq.features[k]

@@ -1,6 +1,5 @@
-"""What ``assocbench frame`` and ``assocbench render`` draw on the camera track: one rendered frame
-with its ground truth; a run's frames with the lab-8 association overlay and, in the closed loop,
-beside a top view of the trajectories and the map with its uncertainty."""
+"""What ``assocbench frame`` and ``render`` draw on the camera track: a rendered frame with its
+truth; a run's frames with the lab-8 overlay and, closed loop, a top view beside."""
 
 from __future__ import annotations
 
@@ -38,8 +37,8 @@ def landmark_blocks(P: np.ndarray, n: int) -> np.ndarray:
 
 
 def top_view_width(bounds, height: int) -> int:
-    """Width of the top view beside a camera image of ``height``: the box's aspect, between 3/4
-    and 2 heights (a corridor gets a wide picture), even (some MP4 encoders need it)."""
+    """Top view width beside an image of ``height``: the box's aspect, within 3/4 to 2 heights, even
+    (MP4)."""
     aspect = (bounds[1] - bounds[0]) / (bounds[3] - bounds[2])
     return 2 * int(round(np.clip(aspect, 0.75, 2.0) * height / 2))
 
@@ -52,8 +51,8 @@ def _title(method: str, rf: RunFrame) -> tuple[str, str]:
 
 
 def run_pictures(spec, seq: Sequence, frames: Iterable[RunFrame]) -> Iterator[np.ndarray]:
-    """Each frame re-rendered with the method's association drawn on it (lab-8 colours); in the
-    closed loop beside the top view after that frame's update, on a box fixed for the whole video."""
+    """Each frame re-rendered with the method's association (lab-8 colours); closed loop, beside the
+    top view after that frame's update, on one box for the video."""
     s = spec.source.spec
     bounds = view_bounds(seq.positions, seq.landmarks)   # fixed for the whole video: no jumping
     size = (seq.K.height, top_view_width(bounds, seq.K.height))

@@ -1,10 +1,6 @@
-"""A rendered sequence: poses, features, truth labels and visibility of every frame, cached.
-
-``load_sequence(spec)`` renders, detects and labels each frame once and stores the result
-under a key that hashes everything that affects it (scene files, trajectory, resolution,
-detector and truth settings, this module's format version, the sources in ``CODE`` and the
-MuJoCo and OpenCV versions). A second call with the same
-spec reads the cache and renders nothing.
+"""A rendered sequence: poses, features, truth labels and visibility of every frame, rendered once
+and cached under a key hashing all it depends on (scene files, trajectory, resolution, detector and
+truth settings, format version, the sources in ``CODE``, MuJoCo and OpenCV versions).
 """
 
 from __future__ import annotations
@@ -71,8 +67,8 @@ class SequenceSpec:
         return self.path().resolved_trajectory()
 
     def key(self) -> str:
-        """Cache key: a hash of every setting, the scene's files, a waypoint file's content, the
-        format version, the sources in ``CODE`` and the MuJoCo and OpenCV versions."""
+        """Cache key: every setting, the scene's files, a waypoint file's content, the format,
+        ``CODE``'s sources, MuJoCo and OpenCV versions."""
         path = resolve_scene_path(self.scene)
         payload = asdict(self) | {"trajectory": self.resolved_trajectory(), "scene": scene_digest(path),
                                   "format": FORMAT_VERSION, "code": sources_digest(*CODE),
@@ -136,9 +132,8 @@ def process_frame(spec: SequenceSpec, scene: Scene, renderer: FrameRenderer, R: 
 
 
 def depth_at(depth: np.ndarray, features: np.ndarray, far: float) -> np.ndarray:
-    """Rendered z-depth at each feature's nearest pixel (a depth sensor returns one surface's
-    value, not a blend across an edge); NaN where nothing was hit (the far plane) or the value is
-    not a positive finite number."""
+    """Rendered z-depth at each feature's nearest pixel (one surface's value, not a blend); NaN
+    where nothing was hit or not a positive finite number."""
     cols = np.clip(np.rint(features[:, 0]).astype(int), 0, depth.shape[1] - 1)
     rows = np.clip(np.rint(features[:, 1]).astype(int), 0, depth.shape[0] - 1)
     z = depth[rows, cols].astype(np.float64)
@@ -167,8 +162,7 @@ def render_sequence(spec: SequenceSpec, scene: Scene | None = None) -> Sequence:
 
 
 def _save(seq: Sequence, path: Path, key: str) -> None:
-    """Write ``seq`` to ``path`` (the cache makes it atomic), with its cache ``key`` inside so a
-    file that lands under another key (copied, renamed) is recognised."""
+    """Write ``seq`` with its cache ``key`` inside, so an entry under another key is recognised."""
     counts = np.array([len(f) for f in seq.features])
     arrays = dict(
         key=np.array(key),
@@ -229,16 +223,14 @@ def _check_shapes(seq: Sequence, counts: np.ndarray, spec: SequenceSpec) -> None
 
 
 def load_sequence(spec: SequenceSpec, cache_dir: Path | None = None, use_cache: bool = True) -> Sequence:
-    """The sequence of ``spec``: from the shared sequence cache (``sim.cache``) when present and
-    sound, else rendered and stored. A damaged entry, or one that is not this spec's sequence, is
-    rendered again."""
+    """The sequence of ``spec`` from the cache when present and sound, else rendered and stored."""
     return cached_sequence(CACHE_FOLDER, spec.key(), lambda: render_sequence(spec), _save,
                            lambda path, key: _load(path, key, spec), cache_dir, use_cache)
 
 
 def sequence_frame(seq: Sequence, k: int) -> dict:
-    """Frame ``k`` of a rendered sequence: the camera's pose, its detected features and their
-    labels, which landmarks were truly visible and where they project."""
+    """Frame ``k``: the pose, detected features and labels, the truly visible landmarks and their
+    projections."""
     return {"R": seq.rotations[k], "p": seq.positions[k], "features": seq.features[k], "labels": seq.labels[k],
             "visible": seq.visible[k], "projections": seq.projections[k]}
 

@@ -15,9 +15,9 @@ from .belief import bundle_covariance
 def camera_problem(rng: np.random.Generator, n: int = 40, p_detect: float = 0.8, clutter_ratio: float = 0.2,
                    sigma_position: float = 0.05, sigma_rotation_deg: float = 1.0, sigma_landmark: float = 0.03,
                    sigma_common: float = 0.03, sigma_pixel: float = 1.0) -> tuple[Problem, np.ndarray]:
-    """The camera track without rendering: ``n`` landmarks 2-8 m in front of a 640x480 camera,
-    the same belief model as the rendered benchmark (``camera_belief``): P = J Σ Jᵀ with pose,
-    landmark and common-mode errors; measurements drawn from the true state."""
+    """The camera track without rendering: ``n`` landmarks 2-8 m before a 640x480 camera, the
+    rendered benchmark's belief (P = J Σ Jᵀ with pose, landmark and common-mode errors),
+    measurements from the true state."""
     K = Intrinsics.from_fovy(640, 480, 60.0)
     cfg = BeliefConfig(sigma_position=sigma_position, sigma_rotation=sigma_rotation_deg,
                        sigma_landmark=sigma_landmark, sigma_common=sigma_common, sigma_pixel=sigma_pixel)

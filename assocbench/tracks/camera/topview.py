@@ -1,14 +1,9 @@
-"""A top view of a closed-loop run (world x–y plane, z up, seen from above) as an RGB image.
-
-Drawn with OpenCV so it can sit beside a camera frame in a video: the true and estimated
-trajectories so far, the true and estimated camera with its heading (the optical axis projected on
-the floor), the true landmarks as small grey marks, and the map's estimated landmarks with the
-3σ ellipse of each one's x–y marginal covariance, blue when confirmed and orange while tentative.
-A key, a scale bar in metres and a 1-2-5 grid make the picture readable on its own.
-
-The world-to-pixel map is a similarity (one scale for x and y, so circles stay circles):
-``u = u₀ + s (x − x₀)``, ``v = v₀ − s (y − y₀)`` (image rows grow downwards, y grows upwards).
-A covariance ``C`` of (x, y) in metres is ``D C Dᵀ`` in pixels with ``D = diag(s, −s)``.
+"""A top view of a closed-loop run (world x–y, seen from above) as an RGB image drawn with OpenCV,
+to sit beside a camera frame: the true and estimated paths and cameras (heading: the optical axis on
+the floor), the true landmarks (grey) and the map's with the 3σ ellipse of each x–y marginal (blue
+confirmed, orange tentative), a key, a scale bar and a 1-2-5 grid. World to pixel is a similarity,
+``u = u₀ + s (x − x₀)``, ``v = v₀ − s (y − y₀)``; a covariance ``C`` becomes ``D C Dᵀ``,
+``D = diag(s, −s)``.
 """
 
 from __future__ import annotations
@@ -45,9 +40,8 @@ TOPVIEW_LEGEND = (
 
 
 def view_bounds(*points: np.ndarray, margin: float = MARGIN) -> Bounds:
-    """x–y box around all ``points`` (each (k, 2+) in metres; non-finite rows ignored), widened by
-    ``margin`` of its span (at least ``MIN_MARGIN_M``) on every side. Compute it once per video,
-    from the true trajectory and true landmarks, so the picture does not jump between frames."""
+    """x–y box around all ``points`` (finite rows), widened by ``margin`` of its span (at least
+    ``MIN_MARGIN_M``); computed once per video so the picture does not jump."""
     xy = np.vstack([np.asarray(p, float).reshape(len(p), -1)[:, :2] for p in points if len(p)] or [np.zeros((0, 2))])
     xy = xy[np.all(np.isfinite(xy), axis=1)]
     if not len(xy):
@@ -112,8 +106,8 @@ def _grid(img: np.ndarray, T: WorldToPixel, step: float, top: int) -> None:
 
 
 def _scale_bar(img: np.ndarray, T: WorldToPixel, length: float, top: int) -> int:
-    """A bar of ``length`` metres at the top left, below ``top`` (the title), labelled above it.
-    The key takes one of the other three corners (``draw.legend_box``), so they never overlap."""
+    """A bar of ``length`` metres at the top left below ``top``, labelled; the key takes another
+    corner."""
     scale = draw.text_scale(img)
     (_, th), _ = cv2.getTextSize("0", draw.FONT, scale, 1)
     x0, y = 10, top + th + 14
@@ -135,8 +129,8 @@ def _path(img: np.ndarray, uv: np.ndarray, color, thickness: int) -> None:
 
 
 def _camera(img: np.ndarray, T: WorldToPixel, p: np.ndarray, R: np.ndarray | None, color, radius: int) -> None:
-    """The camera at ``p``: a ring, and an arrow along its optical axis ``R[:, 2]`` projected on
-    x–y (no arrow when the camera looks straight up or down)."""
+    """The camera at ``p``: a ring and an arrow along its optical axis on x–y (none looking straight
+    up or down)."""
     if not np.all(np.isfinite(p)):
         return
     c = T(p[None])[0]
@@ -152,9 +146,8 @@ def _camera(img: np.ndarray, T: WorldToPixel, p: np.ndarray, R: np.ndarray | Non
 
 
 def _map(img: np.ndarray, T: WorldToPixel, means: np.ndarray, covs: np.ndarray, confirmed: np.ndarray) -> None:
-    """Each map landmark's mean and the 3σ ellipse of its x–y marginal ``C[:2, :2]``; tentative
-    ones first, so confirmed ones are on top. Non-finite entries are skipped (an ellipse of a
-    singular covariance is a line or a point; ``draw.ellipse`` clamps negative eigenvalues)."""
+    """Each map landmark's mean and 3σ ellipse of ``C[:2, :2]``, tentative first so confirmed are on
+    top; non-finite entries skipped."""
     uv = T(means) if len(means) else np.zeros((0, 2))
     for want in (False, True):
         color = CONFIRMED_COLOR if want else TENTATIVE_COLOR
@@ -167,15 +160,14 @@ def _map(img: np.ndarray, T: WorldToPixel, means: np.ndarray, covs: np.ndarray, 
 
 
 def _text_width(h: int, w: int) -> int:
-    """Width whose ``draw.text_scale`` sizes this picture's words: at most 4/3 of the height, so a
-    wide top view (a corridor) writes as small as the 4:3 camera frame beside it."""
+    """Width ``draw.text_scale`` sizes the words by: at most 4/3 of the height, so a wide view
+    writes as small as the camera frame beside it."""
     return min(w, int(round(4 * h / 3)))
 
 
 def _key(img: np.ndarray, points: list[np.ndarray]) -> None:
-    """The key in the corner (bottom left, bottom right, top right: the title holds the top left)
-    covering the fewest ``points`` (k, 2 pixels), sized and written as on a ``_text_width`` wide
-    image (``draw.legend`` sizes its words by the width of the image it is given)."""
+    """The key in the corner (bottom left, bottom right, top right) covering the fewest ``points``,
+    sized as on a ``_text_width`` wide image."""
     h, w = img.shape[:2]
     vw = _text_width(h, w)
     box = draw.legend_box(img[:, :vw], TOPVIEW_LEGEND)   # for its size only
@@ -193,8 +185,8 @@ def _key(img: np.ndarray, points: list[np.ndarray]) -> None:
 
 
 def _check(size: tuple[int, int], bounds: Bounds | None, n: tuple[int, int, int]) -> None:
-    """One line naming what is wrong: a size without pixels, an empty or non-finite box, a map whose
-    means, covariances and confirmed flags disagree in number."""
+    """One line naming what is wrong: a size without pixels, an empty or non-finite box, map arrays
+    of unequal length."""
     if min(size) < 1:
         raise UserError(f"top view size must be (height, width) of at least 1 pixel each, got {size}")
     if bounds is not None and not (np.all(np.isfinite(bounds)) and bounds[1] > bounds[0] and bounds[3] > bounds[2]):
@@ -208,13 +200,11 @@ def _check(size: tuple[int, int], bounds: Bounds | None, n: tuple[int, int, int]
 def top_view(true_p: np.ndarray, est_p: np.ndarray, est_R: np.ndarray | None, landmarks_true: np.ndarray,
              map_means: np.ndarray, map_covs: np.ndarray, confirmed: np.ndarray, size: tuple[int, int] = (480, 480),
              bounds: Bounds | None = None, true_R: np.ndarray | None = None, title: str = "") -> np.ndarray:
-    """The top view (module docstring) as an (h, w, 3) uint8 RGB image, ``size = (h, w)``.
-
-    true_p, est_p: (k, 3) positions of frames 0..k-1 (the last row is the current camera);
-    est_R, true_R: the current camera-to-world rotations (3, 3) for the heading (None: no arrow);
-    landmarks_true: (L, 3); map_means (N, 3), map_covs (N, 3, 3), confirmed (N,) bool: the
-    filter's map (N = 0 allowed); bounds: (x_min, x_max, y_min, y_max) in metres, default
-    ``view_bounds(true_p, landmarks_true)`` (pass one fixed box for a whole video)."""
+    """The top view as an (h, w, 3) uint8 RGB image, ``size = (h, w)``. ``true_p``, ``est_p``: (k,
+    3) positions (the last is the current camera); ``est_R``, ``true_R``: current rotations (None:
+    no arrow); ``landmarks_true`` (L, 3); ``map_means`` (N, 3), ``map_covs`` (N, 3, 3),
+    ``confirmed`` (N,); ``bounds`` (metres), default ``view_bounds(true_p, landmarks_true)`` (pass
+    one box for a video)."""
     h, w = int(size[0]), int(size[1])
     true_p, est_p = np.asarray(true_p, float).reshape(-1, 3), np.asarray(est_p, float).reshape(-1, 3)
     landmarks_true = np.asarray(landmarks_true, float).reshape(-1, 3)

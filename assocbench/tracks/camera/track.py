@@ -1,7 +1,5 @@
-"""The camera track: rendered RGB frames, Shi-Tomasi corners, the pinhole bundle (lab 8).
-
-This module stays light (the registry imports it to list the track): rendering, detection and
-the estimator are imported inside the hooks that use them."""
+"""The camera track: rendered RGB frames, Shi-Tomasi corners, the pinhole bundle (lab 8). Light to
+import: rendering, detection and the estimator load inside the hooks."""
 
 from __future__ import annotations
 
@@ -39,8 +37,8 @@ class CameraTrack(FeatureTrack):
                                               "belief": Section(BeliefConfig), "estimator": Section(EstimatorConfig)})
 
     def source(self, settings: Settings) -> FrameSource:
-        """Rendered frames and detected corners along the path (``resolution``, ``msaa``, ``detector``,
-        ``truth``); RGB-D depth at each feature for the closed loop's slam mode."""
+        """Rendered frames and detected corners along the path; RGB-D depth at each feature for
+        slam."""
         from ...sim.trajectory import check_trajectory_params
         from .sequence import SequenceSpec, camera_source
 

@@ -1,40 +1,25 @@
 """Two-view DLT triangulation with its first-order covariance (GMU project 4, §I, done right).
 
-Conventions are the camera track's (``belief/pinhole.py``): a pose ``(R, p)`` has ``R``
-camera-to-world in OpenCV axes (x right, y down, z forward) and ``p`` the camera centre, so a
-world point ``l`` is seen at ``r_c = Rᵀ (l − p)`` and pixel ``(f r_x/r_z + c_x, f r_y/r_z + c_y)``.
-Pose errors are ``p = p̂ + δp``, ``R = R̂ Exp(δθ)``, ordered ``[δp, δθ]`` per camera.
+A pose ``(R, p)``: ``R`` camera-to-world (OpenCV axes), ``p`` the centre; ``l`` is seen at
+``r_c = Rᵀ (l − p)``; pose errors ``p = p̂ + δp``, ``R = R̂ Exp(δθ)``, ordered ``[δp, δθ]``. The DLT
+(Hartley & Zisserman §12.2) stacks per view ``v P₃ − P₂`` and ``P₁ − u P₃`` into ``A`` (4×4) and
+takes the right singular vector ``x`` of the smallest singular value, ``X = x₁:₃ / x₄``.
 
-The DLT (Hartley & Zisserman §12.2) stacks, per view, the rows ``v P₃ − P₂`` and
-``P₁ − u P₃`` into ``A`` (4×4) and takes the unit right singular vector ``x`` of the smallest
-singular value; ``X = x₁:₃ / x₄``.
-
-Its Jacobian is analytic. With ``A = U S Vᵀ`` (``s₁ ≥ … ≥ s₄``, ``x = v₄``), the eigenvector
-``x`` of ``AᵀA`` moves under ``dA`` as (implicit function theorem on ``AᵀA x = s₄² x``,
-``‖x‖ = 1``)::
+Its Jacobian is analytic: with ``A = U S Vᵀ`` (``x = v₄``), the implicit function theorem on
+``AᵀA x = s₄² x``, ``‖x‖ = 1``, gives::
 
     dx = Σ_{k<4} v_k (s₄ u₄ᵀ dA v_k + s_k u_kᵀ dA v₄) / (s₄² − s_k²)
     dX = (dx₁:₃ − X dx₄) / x₄
 
-This is exact for any ``A`` (noisy pixels included, where ``s₄ > 0``), and is finite exactly
-when the DLT is well posed (``s₃ > s₄``, ``x₄ ≠ 0``), the conditions ``triangulate_dlt``
-checks. We take it over finite differences because it needs no step size (pixels ~1e2 and
-poses ~1e-2 would each need their own, traded between truncation and rounding) and costs the
-one SVD already made. A pixel moves one row of ``A`` by ``±P₃``; a pose moves ``P`` by
-``dP = −[0 | M δp]`` (``M = P₁:₃,₁:₃``) and ``dP = −K [δθ]× K⁻¹ P``. Central differences of
-``triangulate_dlt`` agree within 1e-6 relative (measured ~1e-9; the tests check it).
+exact for any ``A`` and finite exactly when the DLT is well posed (``s₃ > s₄``, ``x₄ ≠ 0``), with no
+step size to choose and no SVD beyond the one made. A pixel moves one row of ``A`` by ``±P₃``; a
+pose moves ``P`` by ``dP = −[0 | M δp]`` (``M = P₁:₃,₁:₃``) and ``dP = −K [δθ]× K⁻¹ P``. The tests
+check it against central differences.
 
-Where this differs from the GMU project's code, and why:
-
-* noise: their Monte Carlo drew ``randint(-5, 5)`` pixels (uniform integers, std ≈ 3.2 px,
-  not the 5 px Gaussian of the task) and 50 draws; we propagate Gaussian ``σ`` analytically
-  and check against thousands of seeded Gaussian draws;
-* side length: their ``Var(d)`` squared the covariance entries (``σ⁴`` for ``σ²``), kept only
-  the diagonals (triangulated points are strongly correlated along the viewing ray), had no
-  cross-covariance between the two corners (non-zero as soon as the poses are uncertain,
-  since both corners share them) and returned a square root (a std, not a variance). We use
-  ``Var(d) = gᵀ Σ g`` with ``g = [u, −u]``, ``u = (X₁ − X₂)/d`` and the full 6×6 ``Σ``,
-  plus an optional second-order term for the norm's curvature (``distance_mean_variance``).
+Unlike the GMU project's code: Gaussian ``σ`` propagated analytically (theirs drew uniform integer
+pixels), and the side length's ``Var(d) = gᵀ Σ g``, ``g = [u, −u]``, ``u = (X₁ − X₂)/d``, with the
+full 6×6 ``Σ`` (theirs squared the entries, dropped the correlations and returned a std), plus an
+optional second-order term (``distance_mean_variance``).
 """
 
 from __future__ import annotations
@@ -98,12 +83,10 @@ def _solve(uv_a, uv_b, P_a, P_b):
 
 
 def triangulate_dlt(uv_a: np.ndarray, uv_b: np.ndarray, P_a: np.ndarray, P_b: np.ndarray) -> np.ndarray:
-    """World point (3,) from pixels ``uv_a``, ``uv_b`` seen by cameras ``P_a``, ``P_b``: the unit
-    null vector of ``A`` (smallest right singular vector), divided by its last coordinate.
-
-    Raises a one-line UserError for non-finite input, rays that coincide (zero baseline or a
-    point on the baseline) or are parallel (point at infinity). A point triangulated behind a
-    camera is returned as is: check depths where that matters (``two_view_candidates`` does).
+    """World point (3,) from pixels ``uv_a``, ``uv_b`` of cameras ``P_a``, ``P_b``: ``A``'s unit
+    null vector over its last coordinate. One-line UserError for non-finite input or rays that
+    coincide or are parallel; a point behind a camera is returned as is (``two_view_candidates``
+    checks depths).
     """
     return _solve(uv_a, uv_b, P_a, P_b)[4]
 
@@ -131,8 +114,8 @@ def pixel_jacobian(uv_a: np.ndarray, uv_b: np.ndarray, P_a: np.ndarray, P_b: np.
 
 def pose_jacobian(uv_a: np.ndarray, uv_b: np.ndarray, P_a: np.ndarray, P_b: np.ndarray,
                   K: Intrinsics | np.ndarray) -> np.ndarray:
-    """``∂X/∂[δp_a, δθ_a, δp_b, δθ_b]`` (3, 12) of ``triangulate_dlt``, analytic, with the pose
-    errors of the module doc (``R = R̂ Exp(δθ)``, body frame; ``p = p̂ + δp``)."""
+    """``∂X/∂[δp_a, δθ_a, δp_b, δθ_b]`` (3, 12) of ``triangulate_dlt``, analytic
+    (``R = R̂ Exp(δθ)``, ``p = p̂ + δp``)."""
     _, U, s, V, _ = _solve(uv_a, uv_b, P_a, P_b)
     P_a, P_b = np.asarray(P_a, float), np.asarray(P_b, float)
     Km = intrinsic_matrix(K)
@@ -153,15 +136,11 @@ def triangulation_covariance(uv_a: np.ndarray, uv_b: np.ndarray, P_a: np.ndarray
                              sigma_px: float, pose_cov: np.ndarray | None = None,
                              K: Intrinsics | np.ndarray | None = None) -> np.ndarray:
     """First-order covariance (3, 3) of ``triangulate_dlt``:
-    ``Σ_X = σ² J Jᵀ + J_pose Σ_pose J_poseᵀ`` with ``J = ∂X/∂(u_a, v_a, u_b, v_b)``.
-
-    ``sigma_px``: std of independent Gaussian pixel noise on each coordinate. ``pose_cov``:
-    optional (12, 12) covariance of ``[δp_a, δθ_a, δp_b, δθ_b]`` (needs ``K``), taken
-    independent of the pixel noise. First order holds while the relative depth std
-    ``s ≈ √2 σ / (f · parallax)`` is small: it misses a variance excess of about ``8 s²``
-    (+9 % at s = 0.1, which is 1.9° of parallax at σ = 1 px, f ≈ 416 px). Below s ≈ 0.25
-    (~0.8° there) ``X`` is a ratio whose denominator reaches zero within the noise, the true
-    spread is heavy-tailed and this underestimates it by orders of magnitude.
+    ``Σ_X = σ² J Jᵀ + J_pose Σ_pose J_poseᵀ``, ``J = ∂X/∂(u_a, v_a, u_b, v_b)``; ``sigma_px`` per
+    pixel coordinate, ``pose_cov`` optional (12, 12) (needs ``K``). First order holds while
+    ``s ≈ √2 σ / (f · parallax)`` is small: it misses a variance excess of about ``8 s²``, and past
+    s ≈ 0.25 ``X`` is a ratio whose denominator reaches zero within the noise (heavy tails, far
+    underestimated).
     """
     if not (isinstance(sigma_px, (int, float, np.number)) and np.isfinite(sigma_px) and sigma_px >= 0):
         raise UserError(f"sigma_px must be a finite number >= 0, got {sigma_px!r}")
@@ -178,17 +157,12 @@ def triangulation_covariance(uv_a: np.ndarray, uv_b: np.ndarray, P_a: np.ndarray
 
 def distance_mean_variance(X1: np.ndarray, S1: np.ndarray, X2: np.ndarray, S2: np.ndarray,
                            S12: np.ndarray | None = None, second_order: bool = False) -> tuple[float, float]:
-    """Distance ``d = ‖X₁ − X₂‖`` and its first-order variance
-    ``Var(d) = gᵀ Σ g = uᵀ Σ_Δ u``, ``g = [u, −u]``, ``u = (X₁ − X₂)/d``,
-    ``Σ_Δ = S₁ + S₂ − S₁₂ − S₁₂ᵀ`` the covariance of ``X₁ − X₂``, ``S₁₂ = Cov(X₁, X₂)``
-    (zero if None: independent points; not zero when both share uncertain poses).
-
-    First order ignores the curvature of the norm: errors across ``u`` lengthen ``d``. With
-    ``Σ_⊥ = (I − uuᵀ) Σ_Δ (I − uuᵀ)`` and Gaussian errors, ``second_order=True`` returns
-    ``d + tr Σ_⊥ / (2d)`` and ``uᵀ Σ_Δ u + tr(Σ_⊥²) / (2d²)`` (the quadratic term of the Taylor
-    series, ``eᵀ (I − uuᵀ) e / (2d)``, is uncorrelated with the linear one). It matters when
-    the across-side spread is not small next to ``√(d σ_d)``: triangulated corners spread
-    mostly along their viewing rays, across a side seen face-on.
+    """Distance ``d = ‖X₁ − X₂‖`` and ``Var(d) = gᵀ Σ g = uᵀ Σ_Δ u``, ``g = [u, −u]``,
+    ``u = (X₁ − X₂)/d``, ``Σ_Δ = S₁ + S₂ − S₁₂ − S₁₂ᵀ`` (``S₁₂ = Cov(X₁, X₂)``, zero if None; not
+    zero when the points share uncertain poses). ``second_order=True`` adds the norm's curvature,
+    with ``Σ_⊥ = (I − uuᵀ) Σ_Δ (I − uuᵀ)``: ``d + tr Σ_⊥ / (2d)`` and
+    ``uᵀ Σ_Δ u + tr(Σ_⊥²) / (2d²)``, which matters when the across-side spread is not small next to
+    ``√(d σ_d)`` (triangulated corners spread along their rays).
     """
     X1, X2 = _finite("X1", X1, (3,)), _finite("X2", X2, (3,))
     S1, S2 = _finite("S1", S1, (3, 3)), _finite("S2", S2, (3, 3))
@@ -222,15 +196,11 @@ def fundamental_matrix(R_a: np.ndarray, p_a: np.ndarray, R_b: np.ndarray, p_b: n
 def two_view_candidates(uv_a: np.ndarray, uvs_b: np.ndarray, R_a: np.ndarray, p_a: np.ndarray,
                         R_b: np.ndarray, p_b: np.ndarray, K: Intrinsics | np.ndarray,
                         gate_px: float) -> int:
-    """Index of the frame-B feature (row of ``uvs_b``, (m, 2)) that best matches the frame-A
-    feature ``uv_a`` for initialising a landmark from two views, or -1.
-
-    The candidate is the one nearest to the epipolar line ``ℓ = F [u_a, v_a, 1]`` of ``uv_a``
-    in image B (distance ``|x_bᵀ ℓ| / ‖ℓ₁:₂‖`` in pixels, ``F`` from the two estimated poses),
-    among those within ``gate_px`` whose DLT point lies in front of both cameras. Returns -1
-    when none qualifies, the two centres coincide or ``uv_a`` is the epipole (no epipolar line). A feature on a
-    self-similar scene may have several candidates along the line: this picks the nearest,
-    so the caller should gate the resulting landmark before trusting it.
+    """The frame-B feature (row of ``uvs_b``) best matching ``uv_a`` for a two-view landmark, or -1:
+    nearest the epipolar line ``ℓ = F [u_a, v_a, 1]`` (``|x_bᵀ ℓ| / ‖ℓ₁:₂‖`` px) within ``gate_px``,
+    its DLT point in front of both cameras. -1 when none qualifies, the centres coincide or ``uv_a``
+    is the epipole. A self-similar scene may offer several along the line: gate the landmark before
+    trusting it.
     """
     uv_a = _finite("uv_a", uv_a, (2,))
     uvs_b = np.asarray(uvs_b, dtype=float)

@@ -12,9 +12,8 @@ from .settings import TruthConfig
 
 
 def occluded_by_ray(scene: Scene, p: np.ndarray, points: np.ndarray, tol: float = 0.02) -> np.ndarray:
-    """True where the first rendered surface hit from ``p`` towards a point lies before it (by
-    > tol m); geoms in groups the renderer does not draw (collision geoms, often group 3) are
-    not in the image, so they hide nothing."""
+    """True where the first rendered surface from ``p`` towards a point lies before it (by > tol m);
+    geoms the renderer does not draw (collision geoms) hide nothing."""
     vec = points - p
     dist = np.linalg.norm(vec, axis=1)
     unit = np.ascontiguousarray((vec / dist[:, None]).ravel())
@@ -27,12 +26,10 @@ def occluded_by_ray(scene: Scene, p: np.ndarray, points: np.ndarray, tol: float 
 
 def occluded_by_depth(depth: np.ndarray, uv: np.ndarray, z: np.ndarray, tol: float = 0.02,
                       slope: np.ndarray | float = 0.0) -> np.ndarray:
-    """True where the rendered depth at the rounded projection is nearer than the point by more
-    than ``tol`` plus ``slope`` (m per pixel: how fast the landmark's own surface recedes across
-    the image, see ``surface_depth_slope``), capped at half the point's depth.
-
-    Without the slope term an oblique wall is its own occluder: at 83° and 10 m its depth changes
-    by about 0.2 m per pixel, so the pixel nearest the projection is already 0.1 m nearer."""
+    """True where the rendered depth at the rounded projection is nearer than the point by more than
+    ``tol`` plus ``slope`` (m/px: how fast the landmark's own surface recedes,
+    ``surface_depth_slope``), capped at half the point's depth. Without the slope an oblique wall
+    would occlude itself."""
     cols = np.clip(np.rint(uv[:, 0]).astype(int), 0, depth.shape[1] - 1)
     rows = np.clip(np.rint(uv[:, 1]).astype(int), 0, depth.shape[0] - 1)
     return depth[rows, cols] < z - np.minimum(tol + slope, 0.5 * z)
@@ -53,14 +50,11 @@ def surface_depth_slope(normals: np.ndarray, uv: np.ndarray, z: np.ndarray, R: n
 
 def visibility(scene: Scene, R: np.ndarray, p: np.ndarray, K: Intrinsics, cfg: TruthConfig,
                depth: np.ndarray | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """True projections (L, 2) and the mask (L,) of the landmarks really imaged.
-
-    A landmark is visible when it lies in front of the camera (``z > 0``), projects into the
-    image, the front side of its patch is towards the camera (``n · (p - l) > 0``, however
-    oblique: a patch seen at 80° still images its X-junction precisely) and nothing lies
-    between (``mj_ray``, or the rendered depth). Whether its corner is also *detected* is
-    decided per feature by ``label_features``; the estimate's own view limit is the belief's
-    business (``BeliefConfig.max_view_angle``), not the truth's.
+    """True projections (L, 2) and the mask (L,) of the landmarks really imaged: in front
+    (``z > 0``), in the image, the patch's front towards the camera (``n · (p - l) > 0``, however
+    oblique: the X-junction still images precisely) and nothing between (``mj_ray`` or the rendered
+    depth). Detection is ``label_features``' business, the estimate's view limit the belief's
+    (``max_view_angle``).
     """
     uv, z = project(scene.landmarks, R, p, K)
     facing = np.einsum("ij,ij->i", scene.normals, p - scene.landmarks) > 0

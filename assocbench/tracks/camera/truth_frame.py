@@ -23,11 +23,9 @@ class TruthFrame:
     labels: np.ndarray
 
     def summary(self) -> str:
-        """One line of counts that nest: labelled ⊆ visible ⊆ in view, labelled ⊆ features.
-
-        ``visible``: in front, in the image, front side towards the camera and unoccluded (the
-        green marks); labels name only visible landmarks, one feature each, so "labelled" counts
-        both the labelled features and the visible landmarks the detector found."""
+        """One line of nested counts: labelled ⊆ visible ⊆ in view, labelled ⊆ features
+        (``visible``: in front, in the image, facing the camera, unoccluded; each visible landmark
+        labels at most one feature)."""
         lab = self.labels >= 0
         err = np.linalg.norm(self.features[lab] - self.projections[self.labels[lab]], axis=1)
         med = f"{np.median(err):.2f} px" if len(err) else "n/a"
@@ -61,10 +59,9 @@ TRUTH_LEGEND = (
 
 
 def draw_truth_frame(tf: TruthFrame, title: str = "") -> np.ndarray:
-    """Green ``+`` true projections of visible landmarks, magenta ``×`` for landmarks in view but
-    hidden or turned away, yellow rings on labelled features, small dark-red dots on unlabelled
-    (clutter) features; every mark outlined so it shows on grey, black and white alike. The
-    title and a key are drawn first, so they never hide a mark."""
+    """Green ``+`` visible landmarks' true projections, magenta ``×`` those in view but hidden or
+    turned away, yellow rings on labelled features, dark-red dots on clutter; every mark outlined;
+    title and key first, so they hide no mark."""
     img = tf.rgb.copy()
     if title:
         draw.label(img, title)

@@ -1,11 +1,9 @@
-"""A depth sensor: turn a rendered (noise-free) z-depth image into the frame a dense method sees.
+"""A depth sensor: a rendered noise-free z-depth image turned into the frame a dense method sees.
 
-``depth_frame`` keeps every ``s``-th pixel, computes the truth (the world point each pixel sees,
-from the noise-free depth and the true pose), then degrades the measurement the way structured-
-light sensors do (Kinect-like, Nguyen et al. 2012): axial Gaussian noise whose sigma grows with
-depth squared, dropouts where the view ray grazes the surface, optional random dropouts, and a
-working range. Vertex and normal maps are built from the NOISY depth (``depth_frame.vertex_map``,
-``normal_map``), as a real pipeline must. Missing is NaN everywhere, never 0.
+``depth_frame`` keeps every ``s``-th pixel, computes the truth, then degrades the depth as a
+structured-light sensor does (Nguyen et al. 2012): axial noise growing with depth², dropouts at
+grazing view, random dropouts, a working range. Vertices and normals come from the NOISY depth.
+Missing is NaN, never 0.
 """
 
 from __future__ import annotations
@@ -27,34 +25,21 @@ def downsample_intrinsics(K: Intrinsics, s: int) -> Intrinsics:
 
 
 def grazing_cosine(vertices: np.ndarray) -> np.ndarray:
-    """``|n · V| / |V|`` (H, W): the cosine of the angle between the view ray and the surface
-    normal (1 head-on, 0 grazing), with ``n ∝ (V[v+1, u] − V[v, u]) × (V[v, u+1] − V[v, u])`` as
-    in ``depth_frame.normal_map``; the last row and column, which have no neighbour below or
-    right, take the normal of the row above or the column left of them. NaN where a vertex
-    involved is missing or the cross product vanishes.
-
-    Computed as ``|c · V| / sqrt(|c|² |V|²)`` with the cross product ``c`` written out per
-    component (``sensor_passes.view_cosine``), in one compiled pass (the numpy expression it
-    replaced, term for term: the same values bit for bit, 0.5 ms against 3.2 ms a 320x240 frame).
-    ``depth_frame`` computes the same cosine inside its own pass, from the noise-free depth."""
+    """``|n · V| / |V|`` (H, W): cosine between view ray and normal
+    ``n ∝ (V[v+1, u] − V[v, u]) × (V[v, u+1] − V[v, u])`` (last row and column take their
+    neighbour's); NaN where undefined. One compiled pass, bit for bit the numpy expression."""
     return grazing_kernel(np.ascontiguousarray(vertices, dtype=np.float64))
 
 
 def depth_frame(depth_true: np.ndarray, seg_geom: np.ndarray, R: np.ndarray, t: np.ndarray, K_full: Intrinsics,
                 cfg: DepthConfig, rng: np.random.Generator) -> DepthFrame:
-    """The frame the sensor measures at pose ``(R, t)`` (camera-to-world) from the rendered
-    noise-free z-depth ``depth_true`` (H, W; NaN where nothing is hit) and segmentation
-    ``seg_geom`` (H, W; geom id, ``NO_GEOM`` for background) at full resolution ``K_full``.
-
-    Steps: stride by ``s``; truth ``X = R · V_true + t`` (NaN where nothing is hit, kept where
-    the measurement later drops out); ``z = z_true + sigma(z_true) · N(0, 1)`` drawn for every
-    pixel (so the noise at a pixel does not depend on which others are missing); drop pixels
-    whose noise-free normal is more than ``grazing_deg`` from the view ray (this also drops the
-    near side of depth edges, whose neighbour-difference normal spans the jump), a random
-    ``dropout`` share, and measured depths outside ``[min_depth, max_depth]``; vertex and normal
-    maps from the noisy depth. ``rng`` is the caller's, ``default_rng([seed, k, 17])`` for frame k:
-    ``standard_normal`` for the whole frame, then (when ``dropout`` > 0) ``random`` for the dropouts.
-    All but the draws is two compiled passes over the pixels (``sensor_passes``), around the smoothing.
+    """The frame measured at ``(R, t)`` from noise-free ``depth_true`` and ``seg_geom`` (H, W) at
+    ``K_full``: stride by ``s``; truth ``X = R · V_true + t``;
+    ``z = z_true + sigma(z_true) · N(0, 1)`` drawn for every pixel (a pixel's noise does not depend
+    on which others drop); drop grazing pixels (beyond ``grazing_deg``: also a depth edge's near
+    side), a random ``dropout`` share and depths outside ``[min_depth, max_depth]``; vertices and
+    normals from the noisy depth. ``rng``: ``default_rng([seed, k, 17])``, ``standard_normal`` for
+    the frame then ``random`` for the dropouts.
     """
     depth_true, seg_geom = np.asarray(depth_true), np.asarray(seg_geom)
     expected = (K_full.height, K_full.width)
@@ -68,11 +53,8 @@ def depth_frame(depth_true: np.ndarray, seg_geom: np.ndarray, R: np.ndarray, t: 
 
 
 def _frame_block(h: int, w: int) -> dict[str, np.ndarray]:
-    """The arrays of one frame (kept: vertices … geom; scratch of the passes: noise … dropout) as
-    C-contiguous views of one buffer of 17·h·w float64 (10 MB at 320x240, which numpy advises onto
-    huge pages): one allocation instead of a dozen, whose fresh 4 kB pages each cost a fault when
-    first written (measured in a loop of frames on a loaded core: about 3 000 faults a frame before,
-    1 900 with the passes writing separate arrays, 0-16 with the one buffer; 1-2 ms of the frame)."""
+    """The frame's arrays as views of one 17·h·w float64 buffer: one allocation, its pages faulted
+    once (``benchmarks/dense_depth_frame.py``)."""
     shapes = {"vertices": (h, w, 3), "normals": (h, w, 3), "true_points": (h, w, 3), "depth": (h, w), "geom": (h, w),
               "noise": (h, w), "gate": (h, w), "smoothing": (3, h, w), "dropout": (h, w)}
     buf, at, out = np.empty(sum(int(np.prod(shape)) for shape in shapes.values())), 0, {}
@@ -108,9 +90,7 @@ def sensed_frame(d_true: np.ndarray, seg: np.ndarray, R: np.ndarray, t: np.ndarr
 
 def _normals_into(depth: np.ndarray, gate: np.ndarray, K: Intrinsics, smooth_px: float, work: np.ndarray,
                   out: np.ndarray) -> None:
-    """The normal map of measured ``depth`` into ``out``: ``normal_map`` of the edge-aware smoothed
-    depth (``depth_smoothing``, working in ``work`` (3, H, W); the raw depth when ``smooth_px`` is 0),
-    NaN where the depth is missing and where a neighbour lies across a depth edge (``depth_edges``),
-    in one compiled pass (``sensor_passes.edge_free_normals``)."""
+    """Normals of the edge-aware smoothed ``depth`` into ``out`` (raw when ``smooth_px`` is 0), NaN
+    where missing or across a depth edge."""
     smooth = edge_aware_smoothed(depth, smooth_px, gate, work) if smooth_px > 0 else depth
     edge_free_normals(depth, smooth, gate, *pixel_rays(K, *depth.shape), out)

@@ -1,10 +1,6 @@
-"""A fused multiply-add for the dense track's compiled kernels.
-
-Where the order of a kernel's roundings is part of its result (the true points formed as
-OpenBLAS's kernel forms them, ICP's normal equations), the kernel writes its products with
-``fma`` rather than leaving LLVM to contract ``a * b + c`` or not depending on the machine: an
-``fma`` rounds once on every machine (an instruction on x86-64 since 2013, exact in software
-elsewhere), so the kernel's bits do not depend on the CPU it was compiled for.
+"""A fused multiply-add for the dense kernels: where the order of roundings is part of a result (the
+true points, ICP's normal equations), ``fma`` rounds once on every machine, where LLVM might
+contract ``a * b + c`` or not.
 """
 
 from __future__ import annotations
@@ -32,9 +28,8 @@ def fma(typingctx, a, b, c):
 
 @njit(cache=True, inline="always")
 def outer_fma(h, a0, a1, a2, a3, a4, a5):
-    """``h + a aᵀ`` on the upper triangle of a symmetric 6 x 6 matrix held as 21 numbers, row by row
-    (``h[0] = H₀₀, h[1] = H₀₁, …, h[20] = H₅₅``), each entry added with one rounding. A tuple, not
-    an array: the sum of a loop stays in registers (an array entry is a load and a store a point)."""
+    """``h + a aᵀ`` on a symmetric 6 x 6 matrix's upper triangle (21 numbers, row by row), one
+    rounding each; a tuple, so the sum stays in registers."""
     return (fma(a0, a0, h[0]), fma(a0, a1, h[1]), fma(a0, a2, h[2]), fma(a0, a3, h[3]), fma(a0, a4, h[4]),
             fma(a0, a5, h[5]), fma(a1, a1, h[6]), fma(a1, a2, h[7]), fma(a1, a3, h[8]), fma(a1, a4, h[9]),
             fma(a1, a5, h[10]), fma(a2, a2, h[11]), fma(a2, a3, h[12]), fma(a2, a4, h[13]), fma(a2, a5, h[14]),

@@ -1,68 +1,27 @@
-"""Point-based fusion of depth frames into a point map (the dense-SLAM homework, section 3 and its bonus).
+"""Point-based fusion of depth frames into a point map (the dense-SLAM homework, section 3 and
+bonus).
 
-Given a frame with vertex map ``V`` and normal map ``N`` (camera frame) and its pose ``(R, t)``
-(camera-to-world), every map point ``p`` (world) with normal ``n_p`` and weight ``w`` is projected
-into the frame, ``p_c = Rᵀ (p − t)``, ``(u, v) = round(f x/z + c)``, and filtered as the homework does:
-
-* pass 1: ``z > 0``, ``0 ≤ u < W``, ``0 ≤ v < H``, and the pixel valid (finite depth ``> 0`` and normal);
-* pass 2: ``q = R V[v,u] + t`` and ``n_q = R N[v,u]`` with ``|p − q| < d_thr`` and
-  ``angle(n_p, n_q) < angle_deg`` (``n_p · n_q > cos angle_deg``).
-
-A point that passes is **merged** (weighted average; the frame's vertex has weight 1)::
+Every map point ``p`` with normal ``n_p`` and weight ``w`` is projected into the frame at
+``(R, t)``, ``p_c = Rᵀ (p − t)``, ``(u, v) = round(f x/z + c)``, and kept by pass 1 (``z > 0``, in
+the image, the pixel valid) and pass 2 (``q = R V[v,u] + t``, ``n_q = R N[v,u]``,
+``|p − q| < d_thr``, ``n_p · n_q > cos angle_deg``). A kept point is **merged**::
 
     p   ← (w p + R q + t) / (w + 1)
     n_p ← (w n_p + R n_q) / (w + 1),   n_p ← n_p / ‖n_p‖
     w   ← w + 1,   last_seen ← k
 
-Several map points may merge with one pixel (the homework's rule; a pixel is one measurement
-each of them gets). With ``voxel: 0`` (the homework's rule) every valid pixel that no map point
-merged with is **added** as a new point (``R q + t``, ``R n_q``, weight 1): the map then grows with
-every new viewpoint, because a surface seen again has pixels between the old points (93k -> 249k
-points in view over 200 crates frames). By default (``voxel`` 1 cm) such a pixel first looks up
-the **cell** of its point and normal (``voxel_table``): when a map point holds it, the pixel merges
-into that point (the frame's samples of one point are averaged and count once: weight + 1 a
-frame), and only a pixel in a free cell is added, so the map keeps one point per cell and its
-size levels off once the scene is seen. The merges are applied once the frame is read: each point
-sums its samples of the frame (its projective pixel and the pixels of its cell), and one pass
-merges their mean with weight 1 (``_apply_samples``; a new point has weight 0, so it becomes its
-samples' mean); the gates compare the samples with the map as it was before the frame. Summing
-instead of updating the point at every sample (9 additions, not 18 divisions and a square root:
-a crates frame has 31 000 such extra pixels) took fusion from 14.5 to 10.6 ms a frame (120 crates
-frames at true poses, one core), the map the same to 0.4 % (fused noise |p − true| median 0.79 mm,
-p95 4.7 mm; 84 310 against 84 031 points). Then (the bonus) points are **removed**:
+A valid pixel no point merged with is **added**; with cells (``voxel``, ``voxel_table``) it first
+merges into the point holding its cell, so the map keeps one point per cell and levels off once the
+scene is seen. A frame's samples of a point are summed and merged once, as one measurement
+(``_apply_samples``). Then (the bonus) unstable points (``w < stable_weight``) are **removed** when
+dormant (not merged for ``dormant_frames``) or seen through (``z < depth[v,u] − d_thr``). Truth
+rides along with the same weights; a point whose pixels lie on two geoms becomes ``MIXED_GEOM``.
 
-* dormant: ``w < stable_weight`` and not merged for ``dormant_frames`` frames (``k − last_seen ≥
-  dormant_frames``), in view or not;
-* outliers: ``w < stable_weight`` and seen through: the point projects onto a pixel whose measured
-  depth lies more than ``d_thr`` behind it (``z < depth[v,u] − d_thr``): the sensor sees a surface
-  beyond, so nothing is there. Stable points are kept (a surface seen many times outvotes one frame).
-
-Truth rides along: each point's ``true_points`` is averaged with the pixel's true point with the
-same weights as its position (so ``p − true_point`` is the weighted mean of the fused noise), and
-its ``geom`` stays the geom of the pixels it fused while they agree, ``MIXED_GEOM`` once two
-differ (a point averaged across an edge has no single true surface).
-
-All three steps are compiled loops (numba): one pass over the map projects, filters, takes the
-samples and marks removals; one pass over the pixels takes the cells' samples and adds; one over
-the touched points merges; removal fills the holes below the new size with
-the surviving points from above it (O(removed), not O(map)), so point order is not kept. The map
-keeps spare capacity (doubling), so adding is not a copy of the whole map per frame.
-
-**The map's index** (``index``): the points are kept in blocks of ``BLOCK`` consecutive rows, each
-with a bounding box ``[lo, hi]`` and a lower bound ``oldest`` of the ``last_seen`` of its unstable
-points. A block's points lie close together because the map is kept in spatial order: points are
-appended in raster order (a run of neighbouring pixels of one frame), and once the rows added or
-moved since reach a tenth of the map the whole map is sorted by cell (``map_order``: a later frame's few
-hundred new points are scattered over the image, so unsorted blocks would span the room). Sorting
-moves rows and changes nothing else. The merge pass visits only the blocks whose box meets the view frustum
-(``blocks_in_view``) and, for the dormant rule, those that may hold a dormant point
-(``k − oldest ≥ dormant_frames``); every other block provably has no point that projects into the
-image and none that turns dormant, so skipping it changes nothing: the map, its order and the
-statistics are those of the whole-map pass bit for bit (``index=False`` runs it; the tests compare
-them). A skipped block's points do not move, so its box and bound stay true; a visited block's are
-recomputed, an added or moved-in point widens its block's. Out-of-view blocks are visited only while
-they hold unstable points about to turn dormant, so the work per frame follows what is in view
-(``FusionStats.scanned``), plus one box test per block (1/``BLOCK`` of the map).
+The passes are compiled; removal fills holes from the end (row order is not kept). **Index**: rows
+form blocks of ``BLOCK`` with a bounding box and the oldest unstable ``last_seen``; the map is kept
+in spatial order (``map_order``), and the merge pass visits only blocks in the frustum or holding a
+point about to turn dormant. Skipped blocks provably change nothing: ``index=False`` gives the same
+map bit for bit.
 """
 
 from __future__ import annotations
@@ -94,21 +53,16 @@ BLOCK = 64        # points per block of the map's index: a fifth of a 320-pixel 
 NEVER = np.iinfo(np.int64).max   # ``oldest`` of a block without unstable points
 # a point's sums of one ``fuse`` call, one row of ``_fsum``: Σq, Σm, Σtruth (0-8), their count
 # (COUNT) and the call they belong to (CALL, exact in a float below 2^53). One row, not three
-# arrays: the cell pass adds samples to points at random rows, and each array was a cache miss
-# more (fusion 13.8 -> 12.4 ms a crates frame with the voxel table's slots packed too:
-# benchmarks/dense_fusion_ab.py)
+# arrays: the cell pass adds samples to points at random rows, and each array is a cache miss
+# more (benchmarks/dense_fusion_ab.py)
 SUM_COLUMNS, COUNT, CALL = 11, 9, 10
 
 
 @dataclass(frozen=True)
 class FusionStats:
-    """What one ``fuse`` call did: map points merged, pixels added as points, points removed
-    (``dormant`` + ``outliers``), map points that passed pass 1 (``considered``), points whose
-    truth became ``MIXED_GEOM`` in this call, the map size after, and the map points the merge pass
-    visited (``scanned``: the blocks in view or holding a point about to turn dormant; the whole
-    map without the index), the unmerged pixels merged into the point holding their cell
-    (``binned``) and those dropped because that point's normal failed the angle gate (``dropped``;
-    both 0 without cells, ``fusion.voxel: 0``)."""
+    """What one ``fuse`` call did: ``merged``, ``added``, removed (``dormant``, ``outliers``),
+    ``considered`` (passed pass 1), ``mixed``, the map size after, ``scanned`` (points visited),
+    ``binned`` (pixels merged into their cell's point) and ``dropped`` (their normals disagreed)."""
 
     merged: int
     added: int
@@ -124,16 +78,11 @@ class FusionStats:
 
 
 class PointMap:
-    """A growing set of surfel-like points in world coordinates: ``positions`` (n, 3), unit
-    ``normals`` (n, 3), ``weights`` (n,) (1 + merges), ``last_seen`` (n,) (the frame index of the
-    last merge or the addition), and truth for scoring only: ``true_points`` (n, 3) (NaN: unknown)
-    and ``geom`` (n,) (``NO_GEOM`` unknown, ``MIXED_GEOM`` mixed), and ``born`` (n,), the serial of
-    the point's addition (a point's identity: rows move, by removal and by ``sort_spatially``, which
-    ``fuse`` calls past ``sort_share`` of unsorted rows; None never sorts). The properties are views of the
-    first n rows of buffers with spare capacity; ``fuse`` changes them in place and keeps the index
-    of blocks (module docstring) in step, so they are to be read, not written (they stay writable
-    arrays because the compiled kernels that read them, e.g. the surface distance, would otherwise
-    compile a second, read-only version; a map built with ``from_arrays`` is indexed afresh)."""
+    """Surfel-like points in world coordinates: ``positions``, unit ``normals``, ``weights`` (1 +
+    merges), ``last_seen``, and for scoring only ``true_points``, ``geom`` (``NO_GEOM``,
+    ``MIXED_GEOM``) and ``born`` (the point's serial: rows move on removal and ``sort_spatially``,
+    called past ``sort_share``). Views of buffers with spare capacity that ``fuse`` updates in
+    place: read, do not write."""
 
     # name, columns, dtype; _remove is per-frame work space of the kernels, kept with the
     # map (like ``_used``) because a fresh array costs a page fault per 4 KiB on first write, which
@@ -158,8 +107,8 @@ class PointMap:
         self._alloc(max(int(capacity), 16))
 
     def _alloc(self, cap: int) -> None:
-        """Buffers of ``cap`` rows holding the current points; written through once (``fill``) so
-        their pages are mapped here, when the map grows, not inside a later frame's fusion."""
+        """Buffers of ``cap`` rows holding the current points, written once so their pages are
+        mapped now."""
         n = self._n
         for name, cols, dtype in self._BUFFERS:
             buf = np.empty((cap, cols) if cols else cap, dtype=dtype)
@@ -182,25 +131,20 @@ class PointMap:
         self._stable = -np.inf
 
     def index_cells(self, voxel: float, thick: float, extra: int) -> None:
-        """Make the voxel table hold the cells of size ``voxel`` (``thick`` along the normal's
-        dominant axis) of the current points with room for ``extra`` more keys below half its size:
-        the points keyed afresh when the cells changed (a map built from arrays, or fused before
-        with other cells), the table rebuilt when full."""
+        """Make the voxel table hold the current points' cells (``voxel``, ``thick``) with room for
+        ``extra`` keys."""
         if (voxel, thick) != self._voxel:
             keys_of(self._pos, self._nrm, self._n, 1.0 / voxel, 1.0 / thick, self._key)
             self._voxel, self._table_used = (voxel, thick), len(self._table_keys)   # forces the rebuild below
         if 2 * (self._table_used + extra) > len(self._table_keys):
-            # the power of two above 2 (n + extra): at most half full once the frame's keys are in. Twice
-            # that (a quarter full) made the add pass's probes miss the caches more: 16 MB of table at
-            # 100k points, its pass 4.5-4.6 against 3.9-4.2 ms a crates frame
+            # the power of two above 2 (n + extra): at most half full once the frame's keys are in; a
+            # bigger, emptier table makes the add pass's probes miss the caches more
             size = 1 << max(4, int(2 * (self._n + extra)).bit_length())
             self._table_keys, self._table_rows = new_table(size)
             self._table_used = table_build(self._table_keys, self._table_rows, self._key, self._n)
 
     def blocks_in_view(self, K, R: np.ndarray, t: np.ndarray) -> np.ndarray:
-        """Ascending ids of the blocks whose box meets the view frustum of camera ``K`` at the
-        camera-to-world pose ``(R, t)`` (``frustum_blocks``): any point that projects into the image
-        lies in one of them."""
+        """Ascending ids of the blocks whose box meets the view frustum of ``K`` at ``(R, t)``."""
         return frustum_blocks(self._lo, self._hi, -(-self._n // BLOCK), np.ascontiguousarray(R, dtype=np.float64),
                               np.ascontiguousarray(t, dtype=np.float64).reshape(3), float(K.f), float(K.cx),
                               float(K.cy), K.width, K.height)
@@ -243,9 +187,8 @@ class PointMap:
         return m
 
     def sort_spatially(self) -> None:
-        """Put the rows in spatial order (``map_order``: by the Morton code of their cell, stably),
-        every field moving with its point, the voxel table and the blocks' boxes renewed. Changes no
-        result, only which rows share a block."""
+        """Sort the rows by the Morton code of their cell (``map_order``), stably; changes no
+        result."""
         n = self._n
         order = np.argsort(morton_keys(self._pos, n, 1.0 / CELL), kind="stable")
         for name in self._FIELDS:
@@ -275,8 +218,8 @@ class PointMap:
 
 @njit(cache=True)
 def _index_blocks(pos, w, last, n, lo, hi, oldest, blocks, stable_w):
-    """Recompute the box and ``oldest`` (the least ``last`` of a point with ``w < stable_w``) of
-    each block in ``blocks`` from its points (NaN positions widen no box: they project nowhere)."""
+    """Recompute each block's box and ``oldest`` (least ``last`` with ``w < stable_w``); NaN widens
+    nothing."""
     for b in blocks:
         for a in range(3):
             lo[b, a], hi[b, a] = np.inf, -np.inf
@@ -290,8 +233,8 @@ def _index_blocks(pos, w, last, n, lo, hi, oldest, blocks, stable_w):
         oldest[b] = first
 
 
-@njit(cache=True, inline="always")   # inlined: a call passing seven arrays counted their references,
-def _widen(lo, hi, oldest, i, pos, w, last, stable_w):   # 60 ns of a binned pixel's 240 (1.9 ms a frame)
+@njit(cache=True, inline="always")   # inlined: a call passing seven arrays counts their references
+def _widen(lo, hi, oldest, i, pos, w, last, stable_w):
     """Block of row ``i`` widened to hold the point now in row ``i`` (added or moved in)."""
     b = i // BLOCK
     for a in range(3):
@@ -304,10 +247,8 @@ def _widen(lo, hi, oldest, i, pos, w, last, stable_w):   # 60 ns of a binned pix
 
 @njit(cache=True)
 def _outside(lo, hi, b, R, t, a0, a1, a2):
-    """Whether block ``b``'s box lies wholly on the negative side of the plane ``a · p_c = 0``
-    through the camera centre (``a`` in camera coordinates, ``p_c = Rᵀ (p − t)``): the largest of
-    ``(R a) · (p − t)`` over the box, centre term plus half-extents, is below zero by more than
-    rounding (a relative 1e-9 margin, so a point on the boundary is never culled)."""
+    """Whether block ``b``'s box lies wholly behind the plane ``a · p_c = 0`` through the camera
+    centre, by more than a relative 1e-9 (a point on it is never culled)."""
     top = 0.0
     scale = 0.0
     for r in range(3):
@@ -320,10 +261,9 @@ def _outside(lo, hi, b, R, t, a0, a1, a2):
 
 @njit(cache=True)
 def frustum_blocks(lo, hi, blocks, R, t, f, cx, cy, width, height):
-    """Ascending ids of the blocks ``< blocks`` not wholly outside one of the five planes a point
-    that lands on a pixel satisfies (``z > 0``; ``0 ≤ f x/z + cx + ½ < W``, i.e.
-    ``f x + (cx + ½) z ≥ 0`` and ``(W − cx − ½) z − f x > 0``; the same for ``v``). A block with no
-    point (empty box) is outside."""
+    """Ascending ids of the blocks not wholly outside one of the five planes of a pixel's ray
+    (``z > 0``, ``f x + (cx + ½) z ≥ 0``, ``(W − cx − ½) z − f x > 0``, the same for ``v``); an
+    empty block is outside."""
     out = np.empty(blocks, np.int64)
     k = 0
     for b in range(blocks):
@@ -341,8 +281,7 @@ def frustum_blocks(lo, hi, blocks, R, t, f, cx, cy, width, height):
 
 @njit(cache=True)
 def _merge_blocks(in_view, oldest, blocks, k, dormant_frames, drop_dormant):
-    """Ascending ids of the blocks the merge pass visits: those in view (ascending ``in_view``) and,
-    when dormant points are dropped, those that may hold one (``k − oldest ≥ dormant_frames``)."""
+    """The blocks the merge pass visits: in view, and those that may hold a dormant point."""
     out = np.empty(blocks, np.int64)
     m = 0
     j = 0
@@ -358,9 +297,9 @@ def _merge_blocks(in_view, oldest, blocks, k, dormant_frames, drop_dormant):
 
 @njit(cache=True, inline="always")   # inlined: a call passing arrays would count their references a point
 def pixel_of(pos, i, R, t, f, cx, cy, width, height):
-    """(flat pixel, z) of point ``i`` seen from ``(R, t)``: ``p_c = Rᵀ (p − t)``, the nearest pixel of
-    ``(f x / z + cx, f y / z + cy)``; pixel −1 when behind the camera or outside the image (NaN
-    included). The one projection of the splat and of fusion's merge."""
+    """(flat pixel, z) of point ``i`` seen from ``(R, t)``, the nearest pixel of
+    ``(f x/z + cx, f y/z + cy)``; −1 behind the camera or outside (NaN included). The splat's and
+    fusion's one projection."""
     dx, dy, dz = pos[i, 0] - t[0], pos[i, 1] - t[1], pos[i, 2] - t[2]
     z = R[0, 2] * dx + R[1, 2] * dy + R[2, 2] * dz
     if not z > 0.0:
@@ -376,11 +315,8 @@ def pixel_of(pos, i, R, t, f, cx, cy, width, height):
 
 @njit(cache=True, inline="always")
 def _take_sample(geom, fsum, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G, j):
-    """Add the sample ``q``, ``m`` (world; truth ``TP[j]``, ``G[j]``) to map point ``i``'s sums of
-    the ``fuse`` call ``call`` (``fsum`` columns 0-8: Σq, Σm, Σtruth; ``COUNT``: how many); the call's first
-    sample starts them and lists the point in ``touched[nt]``. ``_apply_samples`` merges them once
-    the frame is read. Returns (the number of touched points, 1 when the point's truth turned
-    ``MIXED_GEOM``)."""
+    """Add sample ``q``, ``m`` (truth ``TP[j]``, ``G[j]``) to point ``i``'s sums (``fsum``: Σq, Σm,
+    Σtruth, ``COUNT``); returns (touched points, 1 when its truth turned mixed)."""
     x = (q0, q1, q2, m0, m1, m2, TP[j, 0], TP[j, 1], TP[j, 2])
     if fsum[i, CALL] != call:
         for r in range(9):
@@ -399,16 +335,15 @@ def _take_sample(geom, fsum, call, touched, nt, i, q0, q1, q2, m0, m1, m2, TP, G
 
 @njit(cache=True)
 def _apply_samples(pos, nrm, w, last, tp, fsum, touched, nt, k, lo, hi, oldest, stable_w):
-    """The homework's merge of frame ``k`` into each touched point, its samples' mean
-    ``(q̄, m̄, t̄) = Σ / c`` (c = ``fsum[i, COUNT]``) taken as ONE measurement of weight 1:
+    """Merge each touched point's mean sample ``(q̄, m̄, t̄) = Σ / c`` as ONE measurement of weight
+    1:
 
         p ← (w p + q̄) / (w + 1),   n ← (w n + m̄) / (w + 1),  n ← n / ‖n‖,
         true ← (w true + t̄) / (w + 1),   w ← w + 1,   last_seen ← k
 
-    (a cell holds several pixels of a frame, and pixels of one frame share its pose and its smoothed
-    normals: counting each would let one frame outvote many). A point added in this call has
-    ``w = 0``: it becomes its samples' mean with weight 1. Each moved point widens its block."""
-    for r in range(nt):     # reciprocals: 3 divisions a point, not 15 (fusion 10.6 against 11.2-12.0 ms a crates frame)
+    (one frame's pixels share its pose: counted singly, one frame would outvote many). A new point
+    (``w = 0``) becomes its mean."""
+    for r in range(nt):     # reciprocals: 3 divisions a point, not 15
         i = touched[r]
         wi = w[i]
         mean, keep = 1.0 / (fsum[i, COUNT] * (wi + 1)), wi / (wi + 1)     # Σ/c/(w+1) and w/(w+1)
@@ -429,13 +364,9 @@ def _apply_samples(pos, nrm, w, last, tp, fsum, touched, nt, k, lo, hi, oldest, 
 def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, call, touched, n, R, t, f, cx, cy, W, H, V, N, TP, G, d_thr, cos_thr, stable_w,
                 dormant_frames, k, drop_dormant, drop_outliers, used, remove, blocks, lo, hi, oldest, table_keys,
                 table_rows):
-    """One pass over the points of ``blocks`` (ascending; every block: the whole map): project, the
-    homework's filters, the sample taken for the merge (``_take_sample``; the points' positions and
-    normals stay those of the frame before until ``_apply_samples``), and removals
-    marked in ascending order into ``remove`` (and their cells freed in the voxel table at once, so
-    a sample in one adds a fresh point); the visited blocks' boxes and ``oldest`` are computed anew
-    on the way (``_index_blocks``'s result, without a second pass over the points).
-    Returns (merged, considered, dormant, outliers, mixed, removals, scanned, touched points)."""
+    """The merge pass over ``blocks``: project, filter, sample, mark removals (freeing their cells),
+    and recompute the visited blocks' boxes. Returns (merged, considered, dormant, outliers, mixed,
+    removals, scanned, touched)."""
     merged = considered = dormant = outliers = mixed = nrem = scanned = nt = 0
     for b in blocks:   # the loops are nested, not a call per block: a call that passes a dozen arrays
         first, end = b * BLOCK, min(n, (b + 1) * BLOCK)   # costs their reference counting
@@ -483,8 +414,7 @@ def _merge_pass(pos, nrm, w, last, tp, geom, key, fsum, call, touched, n, R, t, 
 
 @njit(cache=True, inline="always")
 def _grown(box, pos, i):
-    """``box`` (lo x, y, z, hi x, y, z) widened to hold point ``i`` (a NaN coordinate widens nothing),
-    as ``_index_blocks`` computes it."""
+    """``box`` (lo xyz, hi xyz) widened to hold point ``i`` (NaN widens nothing)."""
     x, y, z = pos[i, 0], pos[i, 1], pos[i, 2]
     return (min(box[0], x) if x == x else box[0], min(box[1], y) if y == y else box[1],
             min(box[2], z) if z == z else box[2], max(box[3], x) if x == x else box[3],
@@ -494,12 +424,9 @@ def _grown(box, pos, i):
 @njit(cache=True)
 def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, call, touched, nt, n, R, t, V, N, TP, G,
               used, k, lo, hi, oldest, stable_w, inv_voxel, inv_thick, cos_thr, table_keys, table_rows, width):
-    """Every valid pixel no map point merged with (raster order): with cells (``inv_voxel`` > 0,
-    ``voxel_table``) one whose cell a point holds is a sample of that point (``_take_sample``: the
-    samples of one frame count once) when their normals pass the angle gate, and is dropped when
-    not; any other is appended with weight 0 as its own first sample, taking its cell, and widens
-    its block's box (a block's first row starts it afresh). Returns (new size, samples merged into their cell's point, samples dropped, table
-    slots newly used, points whose truth turned mixed, touched points)."""
+    """Unmerged valid pixels (raster order): with cells, a sample of the point holding their cell if
+    the normals agree, else dropped; otherwise appended with weight 0. Returns (size, merged,
+    dropped, new slots, mixed, touched)."""
     binned = dropped = fresh = mixed = 0
     last_cell = last_row = -1   # the table's entries only gain keys in this pass, so a found key stays found
     up_cell, up_row = np.full(width, -1, np.int64), np.full(width, -1, np.int64)
@@ -564,9 +491,8 @@ def _add_pass(pos, nrm, w, last, tp, geom, key, born, serial, fsum, call, touche
 @njit(cache=True)
 def _remove_pass(pos, nrm, w, last, tp, geom, key, born, n, remove, nrem, lo, hi, oldest, stable_w, table_keys,
                  table_rows):
-    """Remove the points ``remove[:nrem]`` (ascending; already gone from the voxel table): the holes
-    below the new size m = n − nrem are filled, in ascending order, with the surviving points at
-    m..n−1 in ascending order (each widening the hole's block, its cell told of the move)."""
+    """Remove ``remove[:nrem]`` (ascending), filling the holes below ``n − nrem`` with the survivors
+    above, telling blocks and cells."""
     m = n - nrem
     holes = 0
     while holes < nrem and remove[holes] < m:
@@ -599,8 +525,7 @@ def _check_pose(R: np.ndarray, t: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
 
 
 def _frame_arrays(frame: DepthFrame) -> tuple[np.ndarray, ...]:
-    """The frame's maps flattened to pixels j = v W + u, in the dtypes the kernels take (the depth
-    is the vertices' z, ``vertex_map``)."""
+    """The frame's maps flattened to pixels ``j = v W + u`` in the kernels' dtypes."""
     h, w = frame.depth.shape
     if ((frame.K.width, frame.K.height) != (w, h) or frame.vertices.shape != (h, w, 3)
             or frame.normals.shape != (h, w, 3)):
@@ -615,10 +540,8 @@ def _frame_arrays(frame: DepthFrame) -> tuple[np.ndarray, ...]:
 
 def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int,
          cfg: FusionConfig | None = None, index: bool = True) -> FusionStats:
-    """Fuse ``frame`` seen from the camera-to-world pose ``(R, t)`` (the estimate; the frame's own
-    ``R``, ``t`` are truth and unused) as frame number ``k`` into ``pmap`` in place: merge, add,
-    remove (module docstring). ``index=False`` visits every map point (the same result, the
-    whole-map baseline). Returns what it did."""
+    """Fuse ``frame`` at the estimated pose ``(R, t)`` as frame ``k`` into ``pmap`` in place (merge,
+    add, remove). ``index=False``: every point (same result)."""
     cfg = FusionConfig() if cfg is None else cfg
     if not isinstance(cfg, FusionConfig):   # a FusionConfig was checked when it was made (frozen)
         raise UserError(f"fuse: cfg must be a FusionConfig, got {type(cfg).__name__}")
@@ -668,11 +591,9 @@ def fuse(pmap: PointMap, frame: DepthFrame, R: np.ndarray, t: np.ndarray, k: int
 
 
 def compression_ratio(map_size: int, frames: int, width: int, height: int) -> float:
-    """``map_size / (frames · width · height)``: the map against naive concatenation of every frame
-    at ``width`` x ``height``. Which resolution to pass is the caller's choice, and it matters by the
-    downsample factor squared: the homework's 8.87 % is 1,362,143 / (200 · 320 · 240), its frames'
-    resolution *after* downsampling 640x480 by 2 (its text says "no down-sampling", but the 15,360,000
-    points it divides by are 200 · 320 · 240); against 640x480 the same map is 2.22 %."""
+    """``map_size / (frames · width · height)``: the map against concatenated frames. The homework's
+    8.87 % is 1,362,143 / (200 · 320 · 240), i.e. at the downsampled resolution (against 640x480 it
+    is 2.22 %)."""
     for name, value in (("map_size", map_size), ("frames", frames), ("width", width), ("height", height)):
         value = int(value) if isinstance(value, np.integer) else value
         check_number(value, f"compression_ratio: {name}", integer=True, lo=0 if name == "map_size" else 1)
@@ -680,9 +601,7 @@ def compression_ratio(map_size: int, frames: int, width: int, height: int) -> fl
 
 
 def warm_fusion() -> None:
-    """Compile (or load from numba's cache) the fusion kernels and the surface-distance kernel on
-    a 4x3 frame, with the note ``kernels.warm`` prints while they compile, so the first real frame
-    is not the one that waits."""
+    """Compile or load the fusion and surface kernels on a 4x3 frame, so no real frame waits."""
     from ...kernels import warm
     from ...models.camera import Intrinsics
     from ...models.depth_frame import normal_map, vertex_map

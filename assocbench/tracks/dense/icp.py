@@ -1,108 +1,29 @@
 """Point-to-plane ICP (the homework's section 2): source points (world) against a depth frame.
 
-**Estimate.** ``T = (R, t)⁻¹`` (world-to-camera) of the target frame; a source point ``p`` is
-``p′ = T p`` in the target camera. Each iteration pairs points with pixels (a ``DenseAssociator``
-at the current guess) and minimises the linearised point-to-plane residuals
+**Estimate.** ``T = (R, t)⁻¹`` (world-to-camera) of the target frame, a source point ``p`` at
+``p′ = T p``. Each iteration pairs points with pixels (a ``DenseAssociator``) and minimises the
+linearised residuals
 
     r_i(δ) = A_i δ + b_i,   A_i = n_qᵀ [−[p′]ₓ | I] = [(p′ × n_q)ᵀ, n_qᵀ],   b_i = n_qᵀ (p′ − q)
 
-over ``δ = (α, β, γ, t_x, t_y, t_z)`` (q, n_q: the pixel's vertex and normal, camera frame), i.e.
-the normal equations ``(Σ A_iᵀ A_i) δ = −Σ A_iᵀ b_i`` (the homework's stacked ``A δ = −b`` in
-least squares), then left-multiplies ``T ← [δR | δt] T`` with ``δR = exp([ω]ₓ)`` (exact Rodrigues).
+over ``δ = (α, β, γ, t_x, t_y, t_z)`` (q, n_q: the pixel's vertex and normal):
+``(Σ A_iᵀ A_i) δ = −Σ A_iᵀ b_i``, then ``T ← [δR | δt] T``, ``δR = exp([ω]ₓ)``.
 
-**Solve.** The 6x6 normal matrix and right-hand side are summed in one compiled pass over the
-pairs (27 products per pair, streaming: the n x 6 matrix A is never stored, so the pass reads only
-the inputs; 0.6 ms for 60 000 pairs, where a QR of the stacked n x 6 A would first write 2.9 MB).
-The step is solved in the eigenbasis of ``S = T H Tᵀ``, after re-expressing the motion so that its
-parameters are comparable (``stability_transform``: rotation about the pairs' centroid, scaled by
-their rms radius, so ``|y|`` is about the points' rms motion in metres); κ(S) measured 4.7-6.5 on
-the synthetic room at the true pose.
-
-**Iteration** (``icp``): a trust region on the re-associated cost. Each step is the
-Levenberg–Marquardt step (``solve_update``): the Gauss–Newton step when it moves the points by at
-most the radius, else damped, ``(S + λI) y = −T g``, to exactly the radius (which starts at, and
-never exceeds, the association gate's floor ``d_thr``: pairs found within the gate say nothing
-about farther motion). A poorly conditioned step is thus taken, damped, never truncated: truncation
-at κ 1e4 froze the weak motion of crates 0 -> 5 (κ 1.1e4) and stopped 45.8 mm off. The pairs are
-then re-associated at the trial pose; the slope of the cost along the step there, ``g₁ · δ``,
-decides: ≤ 0 (still descending) takes the trial (and doubles the radius when the minimum lies
-beyond twice the step); > 0 means the step overshot the minimum of the re-associated cost, so the
-pose goes to the secant's zero ``α = g₀·δ / (g₀·δ − g₁·δ)`` of the step and the radius shrinks to
-that length. Slopes, not cost values, because the cost of a newly associated pixel set carries
-that set's noise (0.3 % of the cost between neighbouring poses of noisy crates, more than a 20 mm
-error in the weak direction changes it), while the slope averages it out. This stops the 2-cycle
-(crates 0 -> 5 from the truth alternated between +1.19 and −0.36 mm forever) and the noisy
-jitter: converged when a step is below ``converge_rot_deg``/``converge_trans`` (taken without a
-trial association: it cannot move the pose farther; ``pairs`` are then those before it) or the
-radius below ``converge_trans``; an overshot step whose secant point lies within ``SETTLE`` x
-``converge_trans`` (0.3 mm of the points' rms motion) ends there without a further association:
-re-associating at that scale measured the pair set's noise, not the cost (on 29 crates frames
-frame-to-model, 7.4 associations a frame without this rule, 5.9 with it, the error to the true
-pose median 0.37 / 0.36 mm, p90 0.97 / 0.96 mm). ``iterations`` counts the steps' associations (the
-trials and the shortened steps) plus the last, untried step of a small-step or last-iteration exit
-(a settled secant step is not counted: it associates nothing); the last allowed iteration is taken
-untried.
+**Iteration.** A trust region on the re-associated cost: the Levenberg–Marquardt step
+(``solve_update``) is at most the radius, which never exceeds the gate's floor ``d_thr`` (pairs
+within the gate say nothing about farther motion). At the trial pose the slope ``g₁ · δ`` decides: ≤
+0 takes it (and may double the radius); > 0 overshot, so the pose goes to the secant's zero
+``α = g₀·δ / (g₀·δ − g₁·δ)`` and the radius shrinks. Slopes, not costs: a re-associated pixel set's
+cost carries that set's noise, the slope averages it out. Converged when a step is below
+``converge_rot_deg``/``converge_trans`` or the radius below ``converge_trans``; a secant point
+within ``SETTLE`` x ``converge_trans`` ends it (closer, re-association measures noise).
 
 **Failure** (``failed=True`` with a ``reason``, never an exception for data): no valid pixel, too
-few pairs at the initial guess, no convergence within ``max_iterations``, and at the final pose a
-degenerate normal matrix (κ(S) > ``max_condition``), an inlier share below ``min_inlier_share``,
-a lost direction (``direction_share`` below ``min_direction_share``: the pairs keep too small a
-share of the visible source points' information in some motion), a residual rms above
-``max_rms`` (each residual scaled by the gate's floor over the gate that admitted it, so that
-far, noisy pairs the depth-scaled gate lets in do not read as a mismatch: plain rms 30-35 mm on
-bays from the identity) or a step from the guess beyond ``max_step_m`` / ``max_step_deg``. A
-trial step that keeps fewer than ``min_pairs`` pairs is shortened, not failed.
-Frame-to-frame and frame-to-model tracking are this call with a different source set.
-
-**Capture range.** The association's distance gate bounds it: a start must put most points
-within ``d_thr`` of their surface. At 2-3 m a 3 deg error moves points by 10-16 cm; with the
-default 5 cm gate 4 of 8 such starts (projective) end at a wrong minimum, reported failed, and
-with a 10 cm gate all 8 converge (tests/test_icp.py). On the crates scene from the identity
-(``benchmarks/dense_icp_basin.py``, 6 seeds, sensor noise) frame pairs up to ~5 deg apart
-register within about a millimetre, 8-11 deg apart mostly fail, and 11 deg apart always do.
-
-**Thresholds** (``IcpConfig`` defaults). From ``benchmarks/dense_icp_thresholds.py`` (ICP from
-starts 0-45 deg / 0-45 cm off, on the synthetic room with and without its crate and a single wall)
-and from the crates pairs above:
-
-* κ(S): ≤ 6.5 on the synthetic room at the true pose and ≥ 3 650 wherever it converged elsewhere,
-  but the crates scene measures up to 520 at the true pose (noise-free; ≤ 310 with noise), and
-  its noise-free wrong minima 2 800-14 000: ``max_condition = 1000``. A noisy wrong minimum can
-  sit at κ 380-950, so κ alone does not separate them there.
-* inlier share: ≥ 0.96 at the true pose between crates frames, 0.48-0.76 at most of their wrong
-  minima (measured with hidden points counted; ``considered`` now counts only visible source
-  points, see ``associators.dense.base``), so ``min_inlier_share = 0.5`` only catches gross failure.
-* direction share (``direction_share``, the pairs' share of the visible source points'
-  information in the motion they keep worst; visible as the kdtree's inlier share counts
-  them (the projective one also leaves out points on pixels without a measurement): a point
-  hidden behind the measured surface by more than the gate can never pair, so it is neither a
-  pair nor a loss. Counted, such points failed 25 frames of a crates view seen
-  again, poses right to 1 mm, ρ 0.22-0.25: the model rendered into the view shows surfaces
-  behind the near ones through the near surfaces' gaps and beside their edges (fusion leaves out
-  a frame's pixels without a normal, at depth edges), 5 302 of 51 603 source points on the
-  revisit against 1 474 of 44 780 the first time; ``benchmarks/dense_flat.py``). On the 40-frame leaderboard runs
-  (projective, bays and crates, seeds 0 and 1, frame-to-model and frame-to-frame): 0.52-0.90 on
-  every step that registered on crates and 0.68-0.80 on bays, and 0.057-0.076 on the four bays
-  steps that slid sideways (34-57 mm off the true step; 0.035-0.059 on such steps when hidden
-  points were counted): ``min_direction_share = 0.25``. Not counting hidden points costs some of
-  the test's margin, since a slide also moves points behind the surface: with the test off
-  (``benchmarks/dense_direction_share.py``, bays seed 1 frame-to-model, each wrong step fused)
-  the 8 wrong steps' ρ rose from 0.035-0.485 to 0.055-0.521 and 6 of them fall below 0.25
-  instead of 7 (the step after the first slide, against a map fused at its wrong pose, 0.16 ->
-  0.255); the first slides stay at 0.055-0.11. Bays is a corridor seen along its length; the
-  constant-position guess is up to 57 mm / 2.3 deg off, which puts the side walls, the only
-  surfaces that fix the sideways translation, beyond the 5 cm gate. The first steps correct the
-  turn by pairing the piers' faces, and the correction carries the camera sideways (the GN step
-  itself, not the damping: a smaller trust radius slides the same); there the walls stay
-  unpaired, and the pose keeps 0.56-0.68 of the points at κ 12-20 and a gated rms of 16 mm, so no
-  other test can see it.
-* residual rms at the true pose: ≤ 0.73 mm noise-free, ≤ 11 mm with the sensor's noise on
-  crates; ``max_rms = 0.02`` m catches gross mismatch only (a wrong minimum fits its remaining
-  pairs about as well).
-* step from the guess: ``max_step_m = 0.15`` / ``max_step_deg = 10``, 5-10x a tracking step
-  (1-3 cm, 0.2-1 deg a frame on the dense paths): of the crates pairs that converged to a wrong
-  pose, it rejects those that slid farther (4 of 9 with noise); 3 wrong poses (15-18 cm off after
-  a 6-10 cm slide) remain accepted, which the benchmark reports.
+few pairs at the guess, no convergence within ``max_iterations``, or at the final pose κ(S) >
+``max_condition``, inlier share < ``min_inlier_share``, ``direction_share`` <
+``min_direction_share``, gated residual rms > ``max_rms``, or a step from the guess beyond
+``max_step_m`` / ``max_step_deg``. Each threshold and the benchmark behind it: ``IcpConfig``; the
+capture range is bounded by the gate (``benchmarks/dense_icp_basin.py``).
 """
 
 from __future__ import annotations
@@ -123,14 +44,11 @@ from .settings import IcpConfig
 
 @dataclass
 class IcpResult:
-    """``R, t``: the estimated camera-to-world pose of the target frame (when ``failed``, the last
-    estimate: do not trust it). ``converged``: the last update was below the convergence
-    thresholds. ``failed`` / ``reason``: see the module docstring (``reason`` is "" when not
-    failed). ``iterations``: associations after the first (each a tried or a shortened step).
-    ``pairs``: the association at the returned pose; ``first_pairs``: at the initial guess.
-    ``rms``: point-to-plane residual rms (m) of ``pairs``; ``inlier_share``:
-    ``len(pairs) / pairs.considered``; ``condition``: κ(S) of their normal matrix (``solve_update``);
-    ``direction_share``: ``direction_share`` at the returned pose (NaN when ICP did not converge)."""
+    """``R, t``: the estimated camera-to-world pose (when ``failed``, the last estimate).
+    ``converged``, ``failed`` / ``reason`` ("" when not failed), ``iterations`` (associations after
+    the first), ``pairs`` at the returned pose and ``first_pairs`` at the guess, ``rms`` of
+    ``pairs`` (m), ``inlier_share`` (``len(pairs) / pairs.considered``), ``condition`` κ(S),
+    ``direction_share`` (NaN when not converged)."""
 
     R: np.ndarray
     t: np.ndarray
@@ -160,13 +78,11 @@ SETTLE = 3.0
 
 @njit(cache=True)
 def normal_equations_kernel(points, V, N, source, pixel, TR, Tt, floor, gate_a, gate_b):
-    """(H, g, sse, sp, spp, sse_gated): ``H = Σ A_iᵀ A_i`` (6, 6), ``g = Σ A_iᵀ b_i`` (6,),
-    ``sse = Σ b_i²`` with ``A_i = [(p′ × n)ᵀ, nᵀ]``, ``b_i = n · (p′ − q)``, ``p′ = TR p + Tt``;
-    ``sp = Σ p′`` (3,) and ``spp = Σ |p′|²`` for the stability measure; ``sse_gated = Σ (s_i b_i)²``
-    with ``s_i = floor / max(floor, gate_a + gate_b d²)`` at the pixel's depth d (the residual in
-    units of the association gate that admitted it, times its floor; 1 when floor is 0). One pass;
-    the 21 distinct entries of H summed in registers (``outer_fma``), each product added with one
-    rounding (``fma``: the same bits on any machine): 0.40 against 0.52 ms for 39 000 pairs."""
+    """(H, g, sse, sp, spp, sse_gated): ``H = Σ A_iᵀ A_i``, ``g = Σ A_iᵀ b_i``, ``sse = Σ b_i²``
+    with ``A_i = [(p′ × n)ᵀ, nᵀ]``, ``b_i = n · (p′ − q)``, ``p′ = TR p + Tt``; ``sp = Σ p′``,
+    ``spp = Σ |p′|²``; ``sse_gated = Σ (s_i b_i)²``,
+    ``s_i = floor / max(floor, gate_a + gate_b d²)``. One pass, H in registers with ``fma`` (the
+    same bits on any machine)."""
     h = ZERO21
     g0 = g1 = g2 = g3 = g4 = g5 = sse = sx = sy = sz = spp = ssg = 0.0
     for k in range(source.shape[0]):
@@ -194,9 +110,8 @@ def normal_equations_kernel(points, V, N, source, pixel, TR, Tt, floor, gate_a, 
 
 def gated_normal_equations(points: np.ndarray, frame: DepthFrame, pairs: Pairs, TR: np.ndarray, Tt: np.ndarray,
                            gate: tuple[float, float, float] = (0.0, 0.0, 0.0)):
-    """``(Σ A_iᵀ A_i, Σ A_iᵀ b_i, Σ b_i², Σ p′, Σ |p′|², Σ (s_i b_i)²)`` of ``pairs`` under the
-    world-to-camera estimate ``p′ = TR p + Tt``; ``gate`` the associator's ``gate_coefficients``
-    (``normal_equations_kernel``)."""
+    """``normal_equations_kernel`` of ``pairs`` at ``p′ = TR p + Tt``, ``gate`` the associator's
+    ``gate_coefficients``."""
     _, V, N = flat_maps(frame)
     f64 = np.float64
     return normal_equations_kernel(np.ascontiguousarray(points, dtype=f64), V, N, pairs.source, pairs.pixel,
@@ -205,8 +120,7 @@ def gated_normal_equations(points: np.ndarray, frame: DepthFrame, pairs: Pairs, 
 
 
 def normal_equations(points: np.ndarray, frame: DepthFrame, pairs: Pairs, TR: np.ndarray, Tt: np.ndarray):
-    """``(Σ A_iᵀ A_i, Σ A_iᵀ b_i, Σ b_i², Σ p′, Σ |p′|²)`` of ``pairs`` under the world-to-camera
-    estimate ``p′ = TR p + Tt`` (the homework's stacked system; see the module docstring)."""
+    """``(Σ A_iᵀ A_i, Σ A_iᵀ b_i, Σ b_i², Σ p′, Σ |p′|²)`` of ``pairs`` at ``p′ = TR p + Tt``."""
     return gated_normal_equations(points, frame, pairs, TR, Tt)[:5]
 
 
@@ -220,12 +134,9 @@ def rodrigues(w: np.ndarray) -> np.ndarray:
 
 
 def stability_transform(sp: np.ndarray, spp: float, k: int) -> np.ndarray:
-    """``T = diag(I/L, I) [[I, −[c]ₓ], [0, I]]`` (6, 6): the motion parameters re-expressed as a
-    rotation about the pairs' centroid ``c = Σp′/k`` with its angle times their rms radius
-    ``L = √(Σ|p′|²/k − |c|²)``, so that every parameter moves the points by metres and ``T H Tᵀ``
-    compares them (Gelfand et al. 2003, "Geometrically stable sampling for the ICP algorithm").
-    In these units ``y = T⁻ᵀ δ`` is (the rotation's displacement at radius L, the centroid's
-    displacement), and ``|y|`` about the rms displacement of the points."""
+    """``T = diag(I/L, I) [[I, −[c]ₓ], [0, I]]``: the motion as a rotation about the pairs' centroid
+    ``c = Σp′/k`` times their rms radius ``L = √(Σ|p′|²/k − |c|²)``, so every parameter moves the
+    points by metres and ``T H Tᵀ`` compares them (Gelfand et al. 2003)."""
     c = sp / k
     L = np.sqrt(max(spp / k - c @ c, 1e-12))
     T = np.eye(6)
@@ -235,10 +146,9 @@ def stability_transform(sp: np.ndarray, spp: float, k: int) -> np.ndarray:
 
 
 def damping(ev: np.ndarray, r: np.ndarray, radius: float) -> float:
-    """The Levenberg–Marquardt ``λ ≥ 0`` with ``|y(λ)| ≈ radius``, ``y_i(λ) = r_i / (ev_i + λ)``
-    (the eigenbasis of S), or 0 when the Gauss–Newton step ``y(0)`` is inside the radius: Newton's
-    method on ``φ(λ) = 1/|y(λ)| − 1/radius`` (Moré & Sorensen 1983), which is nearly linear in λ
-    and approached from below, so it converges monotonically; a few iterations reach 1e-3."""
+    """The Levenberg–Marquardt ``λ ≥ 0`` with ``|y(λ)| ≈ radius``, ``y_i(λ) = r_i / (ev_i + λ)``, 0
+    when the Gauss–Newton step fits: Newton on ``φ(λ) = 1/|y(λ)| − 1/radius`` (Moré & Sorensen
+    1983), monotone from below."""
     lam = 0.0
     for _ in range(50):
         d = ev + lam
@@ -251,14 +161,10 @@ def damping(ev: np.ndarray, r: np.ndarray, radius: float) -> float:
 
 
 def solve_update(H: np.ndarray, g: np.ndarray, T: np.ndarray, radius: float = np.inf) -> tuple[np.ndarray, float]:
-    """(δ, κ): the Levenberg–Marquardt step ``(S + λI) y = −T g``, ``δ = Tᵀ y``, with
-    ``S = T H Tᵀ`` (``stability_transform``) and κ = λ_max/λ_min of S (inf when singular); λ = 0
-    (the Gauss–Newton step, ``H δ = −g``) when ``|y| ≤ radius``, else the λ with ``|y| = radius``
-    (``damping``): the minimiser of the linearised cost ``|A δ + b|²`` within the trust region.
-    Solved in the eigenbasis of S, which also gives κ; a direction with eigenvalue below
-    ``NUMERICAL_RANK · λ_max`` (numerically unconstrained: a single plane's sliding) gets no step.
-    Unlike truncating the solve at a condition number, damping moves every constrained motion,
-    however weakly constrained, by no more than the radius allows."""
+    """(δ, κ): ``(S + λI) y = −T g``, ``δ = Tᵀ y``, ``S = T H Tᵀ``, κ = λ_max/λ_min of S; λ = 0
+    (Gauss–Newton) when ``|y| ≤ radius``, else ``|y| = radius`` (``damping``). A direction below
+    ``NUMERICAL_RANK · λ_max`` gets no step; damping, unlike truncation, still moves weakly
+    constrained motions."""
     S, rhs = T @ H @ T.T, -T @ g
     ev, vec = np.linalg.eigh(S)
     cond = float(ev[-1] / ev[0]) if ev[0] > 0 else float("inf")
@@ -287,16 +193,10 @@ def _add_outer(H, a0, a1, a2, a3, a4, a5, c):
 
 @njit(cache=True)
 def information_kernel(points, normals, paired, TR, Tt, f, cx, cy, width, height, depth, floor, gate_a, gate_b):
-    """(H_V, H_P), each ``Σ a_i a_iᵀ`` (6, 6) with ``a_i = [(p′ × n′)ᵀ, n′ᵀ]`` at ``p′ = TR p + Tt``
-    and the point's OWN normal ``n′ = TR n`` (the information it would give if it were paired): H_V
-    over the visible points (in view: ``z′ > 0``, ``−½ ≤ f x′/z′ + cx ≤ W − ½`` and likewise v,
-    ``Intrinsics.in_image``; and not hidden: not farther than the measured depth ``d`` of their
-    nearest pixel (``depth``, flat) by more than ``gate(d) = max(floor, gate_a + gate_b d²)``), H_P
-    over the paired ones, each counted ``paired[i]`` times. One pass
-    over the points. The common cases sum in registers (``outer_fma``): a point in view paired once
-    adds to one sum both matrices share, one in view and unpaired to H_V's own; the rest (paired
-    twice or out of view: a k-d tree's pairs) go to the matrices (0.51 against 0.72 ms for 45 000
-    points, when both matrices took every point)."""
+    """(H_V, H_P), each ``Σ a_i a_iᵀ`` with ``a_i = [(p′ × n′)ᵀ, n′ᵀ]``, ``n′ = TR n`` the point's
+    own normal: H_V over the visible points (in the image and not behind their pixel's depth by more
+    than ``gate(d) = max(floor, gate_a + gate_b d²)``), H_P over the paired ones, ``paired[i]``
+    times each."""
     shared, alone = ZERO21, ZERO21
     HV, HP = np.zeros((6, 6)), np.zeros((6, 6))
     for i in range(points.shape[0]):
@@ -335,10 +235,9 @@ def information_kernel(points, normals, paired, TR, Tt, f, cx, cy, width, height
 
 def source_information(points: np.ndarray, normals: np.ndarray, pairs: Pairs, frame: DepthFrame, TR: np.ndarray,
                        Tt: np.ndarray, gate: tuple[float, float, float] | None = None) -> tuple[np.ndarray, np.ndarray]:
-    """``(H_V, H_P)`` (``information_kernel``): the point-to-plane information of the source points
-    visible in ``frame`` at the world-to-camera estimate ``(TR, Tt)``, and of the paired ones.
-    ``gate``: the association's ``(floor, a, b)`` (``DenseAssociator.gate_coefficients``), whose
-    ``gate(d)`` says how far behind the measured surface a point is hidden; None: none is."""
+    """``(H_V, H_P)`` (``information_kernel``) of the source points visible in ``frame`` at
+    ``(TR, Tt)`` and of the paired ones; ``gate``: ``DenseAssociator.gate_coefficients`` (None:
+    nothing hidden)."""
     f64, K = np.float64, frame.K
     floor, gate_a, gate_b = (np.inf, 0.0, 0.0) if gate is None else (float(g) for g in gate)
     paired = np.bincount(pairs.source, minlength=len(points)) if len(pairs) else np.zeros(len(points), np.int64)
@@ -350,15 +249,10 @@ def source_information(points: np.ndarray, normals: np.ndarray, pairs: Pairs, fr
 
 def direction_share(points: np.ndarray, normals: np.ndarray, pairs: Pairs, frame: DepthFrame, TR: np.ndarray,
                     Tt: np.ndarray, gate: tuple[float, float, float] | None = None) -> float:
-    """ρ = min over motions u of ``uᵀ H_P u / uᵀ H_V u``, the smallest generalised eigenvalue of
-    ``(H_P, H_V)`` (``source_information``: the paired source points and every visible source
-    point, in front of the camera, projecting into the image and not hidden behind the measured
-    surface by more than the association's ``gate``; a pixel without a depth hides nothing): the
-    pairs' share of the information in the motion they keep worst. ``H_V = L Lᵀ`` (Cholesky), ρ = λ_min(L⁻¹ H_P L⁻ᵀ)
-    by triangular solves; invariant to the motion's parametrisation. The plain inlier share counts
-    points; ρ weighs them by what they constrain (Gelfand et al. 2003's stability analysis, applied
-    to the pairs against the source): a pose that keeps half the points but none that fix one
-    motion has ρ ≈ 0. 0 when the points in view constrain no motion at all (H_V singular)."""
+    """ρ = min over motions u of ``uᵀ H_P u / uᵀ H_V u`` = λ_min(L⁻¹ H_P L⁻ᵀ), ``H_V = L Lᵀ``: the
+    pairs' share of the visible points' information in the motion they keep worst (Gelfand et al.
+    2003). Unlike the inlier share it weighs points by what they constrain: keeping half the points
+    but none that fix one motion gives ρ ≈ 0. 0 when H_V is singular."""
     H_view, H_pairs = source_information(points, normals, pairs, frame, TR, Tt, gate)
     try:
         L = np.linalg.cholesky(H_view)
@@ -385,9 +279,7 @@ def _check_pose(R0, t0) -> tuple[np.ndarray, np.ndarray]:
 
 @dataclass
 class _Linearised:
-    """The pairs at a pose and their point-to-plane system: ``H``, ``g``, the residual rms (m) and
-    the rms of the residuals referred to the gate's floor (``gated_normal_equations``), ``T``
-    (``stability_transform``)."""
+    """The pairs at a pose and their system: ``H``, ``g``, rms, gated rms, ``T``."""
 
     TR: np.ndarray
     Tt: np.ndarray
@@ -414,10 +306,9 @@ class _Linearised:
 
 def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: DenseAssociator,
         R0: np.ndarray, t0: np.ndarray, cfg: IcpConfig | None = None) -> IcpResult:
-    """Camera-to-world pose of ``frame`` registering the source ``points``/``normals`` (world)
-    to it, from the guess ``(R0, t0)``; see the module docstring (**Iteration**). Bad shapes are a
-    ``UserError``; bad data (nothing valid, degenerate, diverging) is ``failed=True`` with a ``reason``.
-    ``cfg``: the ``icp`` settings (their defaults when None)."""
+    """Camera-to-world pose of ``frame`` registering the world ``points``/``normals`` from the guess
+    ``(R0, t0)``. Bad shapes are a ``UserError``, bad data ``failed=True``; ``cfg`` defaults when
+    None."""
     cfg = cfg if cfg is not None else IcpConfig()
     points, normals, _, _ = checked_inputs(points, normals, frame, np.eye(3), np.zeros(3))
     R0, t0 = _check_pose(R0, t0)
@@ -425,8 +316,8 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
     valid = frame.valid.reshape(-1)   # one mask a call: ``valid`` is computed from the maps each time
     if not valid.any():
         return _result(TR, Tt, Pairs.empty(), None, "the frame has no valid pixel (no finite depth with a normal)")
-    # the method's copies, which ICP then reads too (one copy of the maps in the caches, not two:
-    # an ICP call 0.6-1.6 ms faster on crates): a write the method forces into them moves its own pose, never the
+    # the method's copies, which ICP then reads too (one copy of the maps in the caches, not two):
+    # a write the method forces into them moves its own pose, never the
     # frame fusion merges, the truth scoring reads or the caller's source
     clock, shown = _Clock(), _as_the_method_sees_it(frame)
     given = _handed("points", points), _handed("normals", normals)
@@ -490,16 +381,10 @@ def icp(points: np.ndarray, normals: np.ndarray, frame: DepthFrame, associator: 
 
 
 def _as_the_method_sees_it(frame: DepthFrame) -> DepthFrame:
-    """``frame`` as the method sees it: the measured maps (``depth``, ``vertices``, ``normals``) as
-    read-only copies (``_handed``), since fusion merges the frame's own maps into the map
-    after the method's calls and ICP solves on them; the truth (``true_points``, ``geom``, ``R``,
-    ``t``) withheld, NaN and ``NO_GEOM`` of the same shapes (read-only broadcasts: no copy), since a
-    method that read the true pose or the true points would be scored on what it was not given. A
-    write is an error of the frame: a method setting each paired pixel's true point to its source
-    point once raised crates' precision, 4 frames at one iteration, from 0.079 to 0.908 with the
-    same pairs. Copies, not read-only views, as ``harness.runner.private_copy`` gives the feature
-    tracks' methods: a view's ``base`` is the sensor's one buffer of every map, the truth included,
-    and ``setflags(write=True)`` makes a view of a writable array writable again."""
+    """``frame`` as the method sees it: the measured maps as read-only copies (``_handed``: fusion
+    and ICP use them after the method), the truth withheld (NaN and ``NO_GEOM`` broadcasts: a method
+    must not be scored on what it was not given). Copies, not views: a view's ``base`` is the
+    sensor's buffer, truth included."""
     def withheld(a: np.ndarray, fill: float) -> np.ndarray:
         return np.broadcast_to(np.asarray(fill, dtype=np.asarray(a).dtype), np.shape(a))
 
@@ -512,12 +397,8 @@ _HANDED: dict[str, np.ndarray] = {}   # the work space of ``_handed``: one flat 
 
 
 def _handed(role: str, a: np.ndarray) -> np.ndarray:
-    """A read-only C-contiguous copy of ``a`` in this process's work space for ``role``: a plain
-    write is an error, and one forced through ``setflags``, ``base`` or ``ctypes`` changes only the
-    copy. The copy is valid during the ICP call it was handed in (the next call writes over it; a
-    method keeping a frame copies what it keeps). The work space is reused because fresh arrays
-    cost their page faults: the maps of a 320x240 frame and 45 000 source points in 1.7 ms fresh,
-    0.19 ms into the work space (2026-11-26, one core)."""
+    """A read-only copy of ``a`` in this process's work space for ``role``, valid during the call it
+    is handed in; a forced write changes only the copy. Reused to spare page faults."""
     a = np.asarray(a)
     buf = _HANDED.get(role)
     if buf is None or buf.dtype != a.dtype or buf.size < a.size:
@@ -530,8 +411,8 @@ def _handed(role: str, a: np.ndarray) -> np.ndarray:
 
 
 def _associated(associator: DenseAssociator, *args) -> Pairs:
-    """``associator.associate(*args)``; a ``ValueError`` about a read-only array says which arrays the
-    method is handed read-only, since numpy's own words ("output array is read-only") name none."""
+    """``associator.associate(*args)``; a read-only ``ValueError`` names the arrays handed
+    read-only."""
     try:
         return associator.associate(*args)
     except ValueError as exc:
@@ -557,8 +438,7 @@ class _Clock:
 
 
 def _judged(cur: _Linearised, cfg: IcpConfig, R0: np.ndarray, t0: np.ndarray, rho: float) -> str:
-    """The failure reason of a converged estimate ("" when accepted; ``rho``: its
-    ``direction_share``): module docstring, **Failure**."""
+    """The failure reason of a converged estimate ("" when accepted; ``rho``: its direction share)."""
     cond, pairs = condition_number(cur.H, cur.T), cur.pairs
     share, rms = _share(pairs), cur.rms_gated
     if not cond <= cfg.max_condition:
@@ -596,7 +476,6 @@ def _result(TR: np.ndarray, Tt: np.ndarray, pairs: Pairs, first: Pairs | None, r
 
 
 def step_from(R0: np.ndarray, t0: np.ndarray, R: np.ndarray, t: np.ndarray) -> tuple[float, float]:
-    """How far the camera moved from ``(R0, t0)`` to ``(R, t)`` (camera-to-world): ``|t − t0|`` (m)
-    and the angle of ``R0ᵀ R`` (deg)."""
+    """``|t − t0|`` (m) and the angle of ``R0ᵀ R`` (deg) between two camera-to-world poses."""
     cos = np.clip((np.trace(R0.T @ R) - 1.0) / 2.0, -1.0, 1.0)
     return float(np.linalg.norm(t - t0)), float(np.degrees(np.arccos(cos)))

@@ -1,30 +1,12 @@
 """The point map's rows in spatial order, so that its blocks are small boxes.
 
-The map's index (``fusion``: blocks of ``BLOCK`` consecutive rows, each with a bounding box) lets
-the splat and fusion's merge pass skip the blocks outside the view frustum. That works only if a
-block's points lie close together. Rows are appended as fusion adds them: a frame's new points in
-raster order, a few hundred a frame scattered over the image once the scene is seen, and removal
-moves the last rows into the holes. Later blocks then span the room, and over a 500-frame crates
-path the points visited grew 67k -> 134k while those in view went 64k -> 84k.
-
-So the map is put in spatial order from time to time (``PointMap.sort_spatially``, called by
-``fuse`` once the rows added or moved since the last sort pass ``SORT_SHARE`` of the map): all its rows
-sorted, stably, by the Morton (z-order) code of their ``CELL`` cell, which keeps nearby cells
-near in the order, so a block holds one cell's points or a few neighbouring cells'. Every row
-moves with all its fields, and the voxel table is told the new rows. A sort costs 3.5-15 ms
-(50k-175k points), about once every 10-25 frames on the crates path.
-
-Measured by ``benchmarks/dense_map_order.py``: the 500-frame crates path fused at true poses with
-the splat of each frame, sorted and unsorted maps interleaved frame by frame in one process:
-splat and fusion 13.1 -> 19.3 ms a frame from the first to the last hundred frames with the sort
-(sorts included), 13.8 -> 22.4 ms without; the points the splat visits 62k -> 101k against 67k ->
-134k. Cells of 0.1, 0.2, 0.4 and 0.8 m gave the last hundred frames 0.85-0.88 of the unsorted
-time; 0.4 m also left the first hundred no slower (sorted rows visit the image's pixels less in
-order than rows appended in raster order, which the smaller cells pay for).
-
-Nothing computed from the map depends on its row order (the splat breaks a tie of weights by
-the point's ``born`` serial, not by its row), so sorting changes no number of a run: the maps
-with and without it hold the same points with the same fields (tests/tracks/dense/test_map_order.py).
+The map's index (``fusion``) skips blocks outside the view frustum, which pays only if a block's
+points lie close together; rows appended as fusion adds them (and holes filled on removal) scatter
+over the room. So ``fuse`` sorts the map once the rows added or moved since the last sort pass
+``SORT_SHARE`` of it: stably, by the Morton (z-order) code of their ``CELL`` cell, which keeps
+nearby cells near. ``benchmarks/dense_map_order.py`` measures it. Nothing computed from the map
+depends on row order (ties break by ``born``), so sorting changes no number
+(tests/tracks/dense/test_map_order.py).
 """
 
 from __future__ import annotations

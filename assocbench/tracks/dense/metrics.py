@@ -1,15 +1,12 @@
 """Scores of the dense track: correspondences against per-pixel truth, relative pose errors.
 
-A source point (a map point, or a pixel of an earlier frame) carries the true surface point it
-stands for and the geom it lies on; so does every pixel of a frame (``DepthFrame.true_points``,
-``geom``). A pair (source point i, pixel j) is **true** when both lie on the same geom and their
-true positions are within ``tol`` of each other. A source point **has a partner** in a frame when
-its true position, projected with the frame's true pose, lands on a measured pixel that would make
-a true pair with it (so a point hidden behind another surface, or outside the view, has none).
+Source points and pixels carry their true surface point and geom. A pair is **true** when both lie
+on one geom within ``tol``; a source point **has a partner** when its true position, projected with
+the true pose, lands on a pixel it would truly pair with.
 
     precision = true pairs / pairs,    recall = source points truly paired / source points with a partner
 
-Both are NaN when their denominator is 0, never 0 or 1 by default.
+NaN when the denominator is 0.
 """
 
 from __future__ import annotations
@@ -46,9 +43,8 @@ def true_pairs(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, so
 
 
 def has_partner(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame, tol: float) -> np.ndarray:
-    """Mask of source points whose true position, seen from the frame's true pose, lands on a
-    measured pixel of the same geom within ``tol`` (the nearest pixel to its projection,
-    ``u = rint(f x/z + cx)``, ``v = rint(f y/z + cy)`` of ``(x, y, z) = Rᵀ (X − t)``)."""
+    """Source points whose true position, projected with the true pose to its nearest pixel, lands
+    on a pixel of the same geom within ``tol``."""
     K = frame.K
     tp, geom = _truth_maps(frame)
     out = np.zeros(len(src_true), np.bool_)
@@ -105,9 +101,8 @@ def score_correspondences(src_true: np.ndarray, src_geom: np.ndarray, frame: Dep
 
 def score_associations(src_true: np.ndarray, src_geom: np.ndarray, frame: DepthFrame,
                        associations: Sequence[tuple[np.ndarray, np.ndarray]], tol: float) -> list[CorrespondenceScore]:
-    """``score_correspondences`` of several associations (source, pixel) of one source set with one
-    frame (ICP's first and last): the partners (``has_partner``) depend on those two only, so they
-    are found once."""
+    """``score_correspondences`` of several associations of one source set and frame (partners found
+    once)."""
     partner = has_partner(src_true, src_geom, frame, tol)
     n_partner = int(partner.sum())
     tp, geom = _truth_maps(frame)
@@ -140,8 +135,7 @@ def _count_kernel(src_true, src_geom, tp, geom, partner, source, pixel, tol2):
 def relative_pose_error(R0_true: np.ndarray, t0_true: np.ndarray, R1_true: np.ndarray, t1_true: np.ndarray,
                         R0_est: np.ndarray, t0_est: np.ndarray, R1_est: np.ndarray,
                         t1_est: np.ndarray) -> tuple[float, float]:
-    """Translation (m) and rotation (deg) of ``Δ_true⁻¹ Δ_est`` where ``Δ = T0⁻¹ T1`` is the motion
-    from frame 0 to frame 1 (the RPE of one step; 0 for a perfect step whatever the drift before)."""
+    """Translation (m) and rotation (deg) of ``Δ_true⁻¹ Δ_est``, ``Δ = T0⁻¹ T1``: one step's RPE."""
     dR_true, dt_true = R0_true.T @ R1_true, R0_true.T @ (t1_true - t0_true)
     dR_est, dt_est = R0_est.T @ R1_est, R0_est.T @ (t1_est - t0_est)
     trans = float(np.linalg.norm(dR_true.T @ (dt_est - dt_true)))

@@ -1,13 +1,9 @@
 """The map's picture as JSON text, written by a compiled pass instead of ``json.dumps``.
 
-The last record of a dense run carries a subsample of the fused map (10 000 points, 4 columns:
-x, y, z in m and the error in mm) as JSON, rounded to 4 decimals. ``json.dumps(np.round(a, 4).tolist())``
-spends 80 ms on it (a Python float and its shortest repr per number: 0.4 ms a frame of a 200-frame
-run); ``fixed_json`` writes each number as ``rint(x · 10⁴)`` with the decimal point put back, in
-one compiled pass (about 2 ms). The text differs (``1.2300`` where ``json.dumps`` writes ``1.23``),
-the numbers do not: ``rint(x · 10⁴) / 10⁴`` is exactly ``np.round(x, 4)``, and the nearest double
-to the decimal ``m/10⁴`` that ``json.loads`` reads is that quotient (IEEE division rounds to
-nearest). Non-finite numbers are written as ``json.dumps`` writes them (``NaN``, ``Infinity``).
+A dense run's last record carries 10 000 map points (x, y, z in m, error in mm) rounded to 4
+decimals. ``fixed_json`` writes ``rint(x · 10⁴)`` with the decimal point put back: the text differs
+(``1.2300``), the numbers do not, since ``rint(x · 10⁴) / 10⁴`` is exactly ``np.round(x, 4)`` and
+``json.loads`` reads that quotient. Non-finite numbers as ``json.dumps`` writes them.
 """
 
 from __future__ import annotations
@@ -67,10 +63,8 @@ def _write(a, scale, decimals, buf):
 
 
 def fixed_json(a: np.ndarray, decimals: int = DECIMALS) -> str:
-    """JSON text of the 2-D array ``a`` rounded to ``decimals`` places: the same numbers as
-    ``json.dumps(np.round(a, decimals).tolist())`` once read (module docstring), for float64 ``a``;
-    other dtypes are rounded as float64 (a float32 array reads back as ``np.round(a.astype(float), 4)``,
-    not as float32's rounding)."""
+    """JSON of the 2-D array ``a`` rounded to ``decimals``: once read, ``np.round(a, decimals)`` (as
+    float64)."""
     shape = np.shape(a)   # before ascontiguousarray, which makes a 0-d array 1-d
     if len(shape) != 2:
         raise ValueError(f"fixed_json: a 2-D array is needed, got shape {shape}")

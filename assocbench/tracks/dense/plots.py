@@ -1,15 +1,10 @@
-"""Top views of the dense track: fused maps coloured by their distance to the true surfaces,
-with the true path (black), the estimated one (blue), a red cross at each frame whose ICP failed
-(its pose held at the last tracked one, the frame not fused) and an orange plus at each frame whose
-method failed (it raised, hung past ``time_limit_s`` or exited; its pose held the same way: a failure
-of the method's code, not of ICP).
+"""Top views of the dense track: fused maps coloured by their distance to the true surfaces, with
+the true path (black), the estimate (blue), a red cross where ICP failed and an orange plus where
+the method failed (pose held, frame not fused).
 
-Every map point counts: the points are rasterised into the panel's own pixel grid (one cell per
-screen pixel at ``DPI``), each pixel showing the worst error of the points that fall in it, so the
-worst stay visible as the old scatter's sort kept them. The colours span the 2nd to 98th percentile
-of the figure's map errors (``colour_range``, one range for every panel, so they compare): a map
-whose errors are mostly a millimetre or two uses the whole colour scale instead of its darkest
-tenth, and the colour bar's label says the range and that errors beyond it take the end colours.
+Each map point is rasterised into the panel's pixel grid, a pixel showing its worst error, so the
+worst stay visible. Colours span the 2nd to 98th percentile of the figure's errors
+(``colour_range``, one range for all panels).
 """
 
 from __future__ import annotations
@@ -42,8 +37,8 @@ XLABEL_CHARS = 62   # an x label's line at 7 pt, within a panel's 4.2 in column 
 
 
 def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float, float, float]:
-    """``(x0, x1, y0, y1)`` (m) around every finite map point and path position, widened by
-    ``MARGIN`` of the larger span on each side (a 1 m square around a single point)."""
+    """``(x0, x1, y0, y1)`` (m) around every finite point and path, widened by ``MARGIN`` (1 m
+    square for one point)."""
     xy = np.concatenate([np.asarray(a, float)[:, :2] for a in (positions, *paths)])
     xy = xy[np.isfinite(xy).all(axis=1)]
     if not len(xy):
@@ -56,9 +51,7 @@ def view_limits(positions: np.ndarray, *paths: np.ndarray) -> tuple[float, float
 
 def worst_error_grid(xy: np.ndarray, error_mm: np.ndarray, extent: Sequence[float], width: int,
                      height: int) -> np.ndarray:
-    """Per pixel the largest error (mm) of the points in it, ``-inf`` where none: point ``(x, y)``
-    falls in column ``⌊(x − x0) / (x1 − x0) · width⌋`` and row ``⌊(y − y0) / (y1 − y0) · height⌋``
-    (row 0 at ``y0``, for ``origin="lower"``), clipped into the grid. Points must be finite."""
+    """Per pixel the largest error (mm) of its points, ``-inf`` where none; row 0 at ``y0``."""
     x0, x1, y0, y1 = extent
     col = np.clip(((xy[:, 0] - x0) * (width / (x1 - x0))).astype(np.int64), 0, width - 1)
     row = np.clip(((xy[:, 1] - y0) * (height / (y1 - y0))).astype(np.int64), 0, height - 1)
@@ -68,8 +61,8 @@ def worst_error_grid(xy: np.ndarray, error_mm: np.ndarray, extent: Sequence[floa
 
 
 def colour_range(panels: Sequence[dict]) -> tuple[float, float]:
-    """(lo, hi) mm: the ``PERCENTILES`` of every drawable point's error over ``panels``; (0, the
-    largest error, at least 1 mm) where they coincide (one point, or errors all alike)."""
+    """(lo, hi) mm: the ``PERCENTILES`` of every drawable error; (0, max(1, largest)) where they
+    coincide."""
     errors = np.concatenate([p["error_mm"][_finite(p["positions"], p["error_mm"])] for p in panels] or [np.zeros(0)])
     if not len(errors):
         return 0.0, 1.0
@@ -78,9 +71,8 @@ def colour_range(panels: Sequence[dict]) -> tuple[float, float]:
 
 
 def error_colours(grid: np.ndarray, span: tuple[float, float]) -> np.ndarray:
-    """RGBA bytes ``(h, w, 4)`` of a worst-error grid: entry ``⌊(e − lo) / (hi − lo) · 256⌋`` of the
-    256-colour ``COLORMAP``, clipped to 0..255, for an error ``e`` mm and ``span = (lo, hi)`` (the
-    entry matplotlib picks for the same value), transparent where no point fell."""
+    """RGBA ``(h, w, 4)`` of a worst-error grid in ``COLORMAP`` over ``span`` (as matplotlib picks
+    it); transparent where empty."""
     from matplotlib import colormaps
 
     lo, hi = span
@@ -117,8 +109,7 @@ def _frame_panel(ax, panel: dict) -> tuple[float, float, float, float]:
 
 
 def _flagged_frames(panel: dict, key: str) -> np.ndarray:
-    """(T,) the panel's per-frame flags ``key`` (``failed``: ICP failed, as ``icp_failed``;
-    ``raised``: the method's call failed: raised, hung or exited); none when absent."""
+    """(T,) flags ``key`` (``failed``: ICP, ``raised``: the method's call); none when absent."""
     flags = np.asarray(panel.get(key, np.zeros(len(panel["p_est"]), bool)), bool)
     if flags.shape != (len(panel["p_est"]),):
         raise ValueError(f"{key} has shape {flags.shape}, expected one flag per pose ({len(panel['p_est'])},)")
@@ -126,8 +117,7 @@ def _flagged_frames(panel: dict, key: str) -> np.ndarray:
 
 
 def _failed_note(failed: np.ndarray, raised: np.ndarray) -> str:
-    """The counts of the marks, over the tracked frames (the first pose is given), as the run's
-    summary counts them (``icp_failures``; ``failures`` and its status "13/19 frames failed")."""
+    """The marks' counts over the tracked frames, as the summary counts them."""
     tracked = max(len(failed) - 1, 0)
     notes = [f"ICP failed in {int(failed.sum())} of {tracked} tracked frames (pose held)"] if failed.any() else []
     notes += [f"the method failed in {int(raised.sum())} of {tracked} (raised or hung; pose held)"] if raised.any() else []
@@ -144,8 +134,7 @@ def _lost_note(positions: np.ndarray, error_mm: np.ndarray) -> str:
 
 
 def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float], span: tuple[float, float]) -> None:
-    """The map points as an image in the axes' final pixel grid (at most one cell per pixel, so
-    none is dropped when drawn), beneath the paths."""
+    """The map points as an image in the axes' own pixel grid, beneath the paths."""
     ax.apply_aspect()
     box = ax.get_window_extent()
     width, height = max(1, int(box.width)), max(1, int(box.height))
@@ -156,22 +145,17 @@ def _raster_panel(ax, panel: dict, extent: tuple[float, float, float, float], sp
 
 
 def map_figure(panels: Sequence[dict], path, columns: int = 3) -> None:
-    """A PNG of one panel per entry (``positions`` (N, 3) m, ``error_mm`` (N,), ``p_true``,
-    ``p_est`` (T, 3) m, the first pose given, the others tracked, ``title``, optionally ``failed``
-    (T,) bool: frames whose ICP failed, and ``raised`` (T,) bool: frames whose method failed, each
-    marked on the estimate and counted over the T − 1 tracked frames); every map point
-    with a finite x, y and error is drawn."""
+    """A PNG of one panel per entry (``positions``, ``error_mm``, ``p_true``, ``p_est``, ``title``,
+    optional ``failed`` / ``raised`` flags); every finite point is drawn."""
     with _collector_paused():
-        # zlib level 1 instead of the default 6 saves ~2 ms of ~45: not worth a bigger file
+        # the default zlib level: a faster one saves little and writes a bigger file
         map_canvas(panels, columns).savefig(path, dpi=DPI, format="png")
 
 
 @contextmanager
 def _collector_paused():
-    """The cyclic garbage collector off while drawing, as it was after. A run's process imports
-    matplotlib for this one picture; its ~100k new objects make the figure's allocations set off a
-    full collection that took 70-90 ms of a ~0.2 s first picture (``benchmarks/dense_map_figure.py``);
-    the figure's own cycles wait for the next collection instead."""
+    """The garbage collector off while drawing: matplotlib's new objects would trigger a full
+    collection (``benchmarks/dense_map_figure.py``)."""
     was_on = gc.isenabled()
     gc.disable()
     try:
@@ -182,9 +166,8 @@ def _collector_paused():
 
 
 def row_heights(panels: Sequence[dict], columns: int) -> list[float]:
-    """Each row's axes height (inches): its tallest panel at the aspect of its extent (y span over x
-    span, ``view_limits``) drawn ``AXES_WIDTH`` wide, within [``MIN_AXES``, ``MAX_AXES``]. A wide
-    scene (bays: 9 m by 3.6 m) gets a short row instead of a square one half white."""
+    """Each row's axes height (inches): its tallest panel's aspect at ``AXES_WIDTH``, within
+    [``MIN_AXES``, ``MAX_AXES``]."""
     cols = min(columns, len(panels)) or 1
     heights = []
     for first in range(0, len(panels), cols):
@@ -197,9 +180,8 @@ def row_heights(panels: Sequence[dict], columns: int) -> list[float]:
 
 
 def figure_size(panels: Sequence[dict], columns: int) -> tuple[float, float]:
-    """(width, height) in inches of ``map_canvas``'s figure: ``PANEL_WIDTH`` a column; the rows'
-    axes (``row_heights``), ``LABEL_ROOM`` around each for its title and x label,
-    ``LEGEND_ROOM`` at the top and ``BAR_ROOM`` at the bottom. No panel: one empty panel's room."""
+    """(width, height) in inches: ``PANEL_WIDTH`` a column, the rows' heights plus label, legend and
+    bar room."""
     if not panels:
         return PANEL_WIDTH, EMPTY_HEIGHT
     cols = min(columns, len(panels))
@@ -209,8 +191,7 @@ def figure_size(panels: Sequence[dict], columns: int) -> tuple[float, float]:
 
 
 def map_canvas(panels: Sequence[dict], columns: int = 3):
-    """The ``Figure`` of ``map_figure``: a grid of panels, each row as tall as its panels' aspect
-    needs (``figure_size``), one legend above them and one colour bar below."""
+    """``map_figure``'s ``Figure``: rows of panels, one legend above, one colour bar below."""
     from matplotlib.cm import ScalarMappable
     from matplotlib.colors import Normalize
     from matplotlib.figure import Figure  # no pyplot state (as viz.plots)
@@ -252,8 +233,7 @@ def map_canvas(panels: Sequence[dict], columns: int = 3):
 
 
 def failure_flags(frames) -> dict:
-    """A run's ``failed`` (ICP failed) and ``raised`` (the method's call failed: it raised, hung,
-    exited or could not be built; ``icp_reason`` ``METHOD_FAILED``) flags, one per frame, for ``map_figure``."""
+    """A run's per-frame ``failed`` (ICP) and ``raised`` (the method's call) flags."""
     raised = frames["icp_reason"].eq(METHOD_FAILED).to_numpy() if "icp_reason" in frames else np.zeros(len(frames), bool)
     return {"failed": frames["icp_failed"].eq(True).to_numpy(), "raised": raised}
 

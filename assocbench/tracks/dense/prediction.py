@@ -1,42 +1,18 @@
-"""The model rendered into the view: KinectFusion's predicted vertex and normal maps, for a point map.
+"""The model rendered into the view: KinectFusion's predicted maps, for a point map. Projecting the
+whole map every ICP iteration costs O(map); KinectFusion (Newcombe et al. 2011) renders the model
+once per frame, for a point map a splat with a z-buffer (Keller et al. 2013). A map point goes to
+its nearest pixel
 
-Frame-to-model ICP registers the new frame to the fused map. Projecting every map point in every
-ICP iteration (the homework's ``find_projective_correspondence`` over the whole map) costs
-O(map) an iteration, and the map grows with the run (73 000 -> 180 000 points over 60 crates
-frames). KinectFusion (Newcombe et al. 2011) instead renders the model ONCE per frame into the
-camera at the predicted pose and associates against that image; for a point map (Keller et al.
-2013, "Real-time 3D reconstruction in dynamic scenes using point-based fusion") rendering is a
-splat with a z-buffer. Here each map point ``p`` is taken into the predicted camera
-``(R, t)`` (camera-to-world), ``p_c = Rᵀ (p − t)``, and projected to its nearest pixel
+    u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋,      j = v W + u,   (x, y, z) = Rᵀ (p − t),
 
-    u = ⌊f x/z + cx + ½⌋,   v = ⌊f y/z + cy + ½⌋,      j = v W + u,
-
-(the projective associator's rounding). Which of the points landing on pixel ``j`` (with ``z > 0``)
-the pixel shows is Keller et al.'s rule: of those within ``band`` behind the nearest (the same
-surface: the band is fusion's merge distance ``fusion.d_thr``), the most confident (highest
-weight, the number of measurements averaged into it), ties to the point added first (its
-``born`` serial, so the choice does not depend on the map's row order, ``map_order``):
+and the pixel shows the most confident point within ``band`` (fusion's ``d_thr``) of the nearest,
+ties to the first born:
 
     z_min[j] = min_{i → j} z_i,   index[j] = argmax_{i → j, z_i ≤ z_min[j] + band} (w_i, −born_i),
 
-−1 where no point lands. Plain nearest-wins is biased: where two unmerged points of one surface
-share a pixel (a surface seen again from a new pose adds its unmatched pixels as new points), the
-nearer is the one whose noise pulled it towards the camera (by 0.56 σ for two), so the whole
-prediction sits in front of the surface, and ICP against it drew the camera back: on the
-``dense_ci`` suite (crates, 10 frames) frame-to-model ATE 4.6 mm (projective) and 3.3 mm (kdtree)
-against 0.9 and 1.0 mm for the whole map (1.2 and 1.3 mm with this rule, and 0.95 against 5.5 mm
-for the whole map over 100 crates frames). Choosing by weight and index does not look at the noise
-within the band, and a merged point is an average, the best estimate of its surface.
-
-The chosen points, in raster order, are ICP's source set: at most one point per pixel, so each ICP
-iteration touches at most ``W · H`` source points whatever the map's size, and a point hidden
-behind a nearer surface of the model, or outside the view, is not a source at all. The splat
-itself is two compiled passes per frame over the map's blocks whose bounding box meets the view
-frustum (``PointMap.blocks_in_view``: the map's index, ``fusion``), a few arithmetic operations a
-point and no per-iteration work; a block wholly outside the frustum has no point that lands on a
-pixel, so skipping it changes nothing (``index=False`` visits every point, the same prediction). ICP then moves the camera from the predicted pose: the association stays
-projective, pixel to pixel (a point shown on pixel j of the prediction lands on pixel j of the
-new frame when the pose is unchanged).
+−1 where none lands (nearest-wins would favour points whose noise pulled them towards the camera).
+The shown points are ICP's source: at most one per pixel whatever the map's size, hidden points
+none. Only the map's blocks in the view frustum are visited (same result as ``index=False``).
 """
 
 from __future__ import annotations
@@ -53,13 +29,9 @@ from .fusion import BLOCK, PointMap, pixel_of
 @njit(cache=True)
 def splat_kernel(pos, weights, born, n, blocks, block, R, t, f, cx, cy, width, height, band, zmin, zbuf, index, rows,
                  pixels, depths):
-    """The splat of the points of ``blocks`` (ascending ids of runs of ``block`` rows of
-    ``pos[:n]``; module docstring) into ``zmin`` (nearest depth), ``zbuf`` (the shown point's depth)
-    and ``index`` (W·H each; filled with inf, inf, −1) in place; returns (the points in front of the
-    camera that landed in the image, the points visited). Of equal weights the point born first
-    (lower ``born``) is shown. The first pass keeps each landed point's
-    (row, pixel, z) in ``rows``, ``pixels``, ``depths`` (room for every visited point), so the
-    second reads them in the same order instead of projecting every point again."""
+    """Splat the points of ``blocks`` into ``zmin``, ``zbuf`` and ``index`` (filled with inf, inf,
+    −1); returns (points landed, points visited). The first pass keeps each landed point's (row,
+    pixel, z) for the second."""
     landed = scanned = 0
     for b in blocks:
         for i in range(b * block, min(n, (b + 1) * block)):
@@ -82,8 +54,8 @@ def splat_kernel(pos, weights, born, n, blocks, block, R, t, f, cx, cy, width, h
 
 @njit(cache=True)
 def gather_rows(rows, pos, nrm, tp, geom):
-    """``(pos[rows], nrm[rows], tp[rows], geom[rows])`` in one compiled pass: the shown points lie
-    scattered over the map, and numpy's four fancy-indexing passes cost four rounds of cache misses."""
+    """``(pos[rows], nrm[rows], tp[rows], geom[rows])`` in one pass (one round of cache misses, not
+    four)."""
     n = len(rows)
     p, q, r, g = np.empty((n, 3)), np.empty((n, 3)), np.empty((n, 3)), np.empty(n, np.int64)
     for k in range(n):
@@ -96,10 +68,8 @@ def gather_rows(rows, pos, nrm, tp, geom):
 
 @dataclass
 class Prediction:
-    """The model seen from a predicted pose: ``index`` (H, W) int64 map index of the point each
-    pixel shows (−1: none), ``depth`` (H, W) its camera z (inf: none), ``landed`` the map points
-    that fell in the image (hidden ones included), ``scanned`` the map points the splat visited
-    (those of the blocks in view; the whole map without the index)."""
+    """The model seen from a pose: ``index`` (H, W) map row each pixel shows (−1: none), ``depth``
+    (inf: none), ``landed`` and ``scanned`` counts."""
 
     index: np.ndarray
     depth: np.ndarray
@@ -114,8 +84,7 @@ class Prediction:
 
 
 class Splatter:
-    """Renders a point map into one camera's image (``predict``), reusing its z-buffer and index
-    map from frame to frame (a fresh 77k-pixel array per frame costs its page faults)."""
+    """Renders a point map into one camera's image, reusing its buffers from frame to frame."""
 
     def __init__(self, K: Intrinsics, band: float = 0.05) -> None:
         self.K, self.band = K, float(band)
@@ -125,9 +94,8 @@ class Splatter:
         self._rows, self._pixels, self._depths = np.empty(0, np.int64), np.empty(0, np.int64), np.empty(0)
 
     def predict(self, positions: np.ndarray, weights: np.ndarray, R: np.ndarray, t: np.ndarray) -> Prediction:
-        """The point each pixel shows (module docstring: the most confident within ``band`` of the
-        nearest) of the world ``positions`` (n, 3) with ``weights`` (n,), seen from the
-        camera-to-world pose ``(R, t)``; every point is visited."""
+        """The point each pixel shows (module docstring) of ``positions`` with ``weights`` seen from
+        ``(R, t)``."""
         pos = np.ascontiguousarray(positions, dtype=np.float64)
         w = np.ascontiguousarray(weights, dtype=np.float64).reshape(-1)
         if w.shape != (len(pos),):
@@ -141,8 +109,7 @@ class Splatter:
         return self._splat(pmap._pos, pmap._w, pmap._born, len(pmap), blocks, BLOCK, R, t)
 
     def shown_rows(self, pmap: PointMap, R: np.ndarray, t: np.ndarray, index: bool = True) -> tuple[np.ndarray, int]:
-        """``(predict_map(...).source, predict_map(...).scanned)`` without copying the image-sized
-        index and depth maps out of the work space (what frame-to-model tracking needs)."""
+        """``predict_map``'s ``source`` and ``scanned`` without copying the image-sized maps."""
         blocks = pmap.blocks_in_view(self.K, R, t) if index else np.arange(-(-len(pmap) // BLOCK))
         _, scanned = self._splat_kernel(pmap._pos, pmap._w, pmap._born, len(pmap), blocks, BLOCK, R, t)
         return self._index[self._index >= 0], scanned

@@ -1,27 +1,14 @@
-"""One run of the dense track, frame by frame: depth frames tracked by point-to-plane ICP and
-fused into a map. Runs inside the harness's worker (``harness/sandbox.py``) like every track.
+"""One run of the dense track: depth frames tracked by point-to-plane ICP and fused into a map,
+inside the harness's worker.
 
-Per frame k ≥ 1 (frame 0 seeds the map at its true pose, as the homework's first frame does):
-
-1. the source is the fused map (``dense.tracking: model``, the homework's frame-to-model) or the
-   previous frame's points placed at their estimated pose (``frame``; after a lost frame, whose
-   pose is unknown, the last tracked frame's); ``truth`` fuses at the true poses and runs ICP
-   from the previous true pose, which isolates one step's error from drift. The
-   map enters as the model rendered into the view at the previous pose (``dense.prediction:
-   view``, ``prediction``: at most one point a pixel, so an ICP iteration costs the pixel count)
-   or as every map point (``map``, the homework's whole-map projection);
-2. ICP from the previous estimate pairs source points with pixels (the run's method: projective,
-   kdtree or a user's ``DenseAssociator``) and solves for the pose. That is the method's call: the
-   harness times it, kills it past ``time_limit_s`` and records what it raises as the frame's
-   ``error``. A failed ICP or a failed call keeps the previous pose and the frame is not fused
-   (a lost frame must not damage the map);
-3. the frame is fused at the estimated pose.
-
-Each frame is scored for its correspondences (first and last ICP iteration) against per-pixel
-truth, its relative pose error, and its time; the last frame's record also carries the run's
-end: the map's distance to the true surfaces, its compression and a subsample of the map for the
-leaderboard's picture. A worker resumed at frame ``first`` replays frames ``< first`` (the same
-seed gives the same frames and poses) without sending them again.
+Frame 0 seeds the map at its true pose; then per frame: (1) the source is the fused map
+(``dense.tracking: model``), the previous frame's points (``frame``) or the map fused at true poses
+(``truth``: one step's error without drift), entering as the model rendered into the view or as
+every map point (``dense.prediction``); (2) ICP pairs source points with pixels (the method's call:
+timed, killed past ``time_limit_s``, its exception recorded; a failure holds the pose and the frame
+is not fused); (3) the frame is fused at the estimate. Each frame is scored (correspondences,
+relative pose error, time); the last record carries the map's error, compression and a picture
+subsample. A resumed worker replays frames ``< first`` without sending them.
 """
 
 from __future__ import annotations
@@ -74,9 +61,8 @@ def map_source(pmap: PointMap) -> Source:
 
 
 def view_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarray, index: bool = True) -> Source:
-    """The map points visible from the predicted pose ``(R, t)``, one per pixel (``prediction``:
-    the model rendered into the view, ``dense.prediction: view``); ``index``: visit only the map's
-    blocks in view (the same points)."""
+    """The map points visible from ``(R, t)``, one per pixel (``prediction``); ``index``: visit only
+    blocks in view."""
     rows, scanned = splatter.shown_rows(pmap, R, t, index)
     return Source(*gather_rows(rows, pmap.positions, pmap.normals, pmap.true_points, pmap.geom), scanned)
 
@@ -88,9 +74,8 @@ def model_source(pmap: PointMap, splatter: Splatter, R: np.ndarray, t: np.ndarra
 
 
 def unmeasurable(seq: DenseSequence, first: DepthFrame) -> str:
-    """Why the run cannot be measured at all, or "": no measured pixel in the first frame, which
-    seeds the map. Such a run is not ok (its frames fail with this error), and in a leaderboard it
-    fails alone."""
+    """Why the run cannot be measured at all ("" if it can): no measured pixel in the first frame.
+    Not ok."""
     if first.valid.any():
         return ""
     reason = "every pixel is beyond depth.max_depth or missing" if np.isfinite(seq.depths[0]).any() \
@@ -165,7 +150,7 @@ def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, a
                 calls: MethodCalls, R0: np.ndarray, t0: np.ndarray, cfg: IcpConfig,
                 tol: float) -> tuple[dict, np.ndarray, np.ndarray]:
     """ICP of frame ``k`` from ``(R0, t0)`` as the method's call: its record and the pose to carry on."""
-    def held(runtime: float, error: str) -> dict:   # only when the call failed: a pose's columns cost 75 µs
+    def held(runtime: float, error: str) -> dict:   # built only when the call failed: pose columns are not free
         return {"frame": k, "icp_converged": False, "icp_failed": True, "source_points": len(source.points),
                 **pose_columns("true_", seq.rotations[k], seq.positions[k]), **pose_columns("est_", R0, t0),
                 "icp_reason": METHOD_FAILED, "icp_s": runtime, "error": error}
@@ -196,10 +181,8 @@ def track_frame(k: int, seq: DenseSequence, frame: DepthFrame, source: Source, a
 
 
 def run_end(seq: DenseSequence, spec, pmap: PointMap, artifacts: Path | None) -> dict:
-    """The run's end, for its last record: the map's distance to the true surfaces (mm), its
-    compression, a subsample for the picture; the whole map to ``artifacts/map.npz`` when asked.
-    The subsample and the file list the points in the order they were added (``born``), so the
-    rows' spatial order (``map_order``) changes neither."""
+    """The last record's map error (mm), compression and picture subsample (``born`` order, so row
+    order changes nothing); the map to ``artifacts/map.npz`` when asked."""
     error = surface_distance(pmap.positions, load_scene(spec.source.spec.scene)) if len(pmap) else np.zeros(0)
     birth = np.argsort(pmap.born)   # after the distance, which runs faster over spatially sorted rows
     positions, error_mm = pmap.positions[birth], 1000 * error[birth]

@@ -1,12 +1,7 @@
-"""The depth sensor's compiled passes over the pixels (``depth_sensor.depth_frame`` orchestrates them).
-
-A frame was a dozen numpy steps, each a temporary of the whole image (stride, vertex maps, the
-truth's matrix product, σ(z), the noise, the drop masks, the NaN fill, the gate, the edge mask);
-here it is two passes that write preallocated outputs: ``sense`` (truth, noise, drops, vertices,
-the smoothing's gate) before the edge-aware smoothing and ``edge_free_normals`` (the normals of the
-smoothed depth and the depth-edge mask) after it. Each computes what the numpy steps computed, in
-the same order of operations, so the frame is the same bit for bit (tests/tracks/dense/test_sensor_passes.py
-holds each pass against the numpy form of its formula).
+"""The depth sensor's two compiled passes over the pixels, writing preallocated outputs: ``sense``
+(truth, noise, drops, vertices, the smoothing's gate) and, after the smoothing,
+``edge_free_normals``. Both keep the numpy formulas' order of operations: the same frame bit for bit
+(tests/tracks/dense/test_sensor_passes.py).
 """
 
 from __future__ import annotations
@@ -27,9 +22,8 @@ def axial_sigma(z, sigma_base, sigma_quad):
 
 @njit(cache=True, error_model="numpy")   # numpy's division: 0/0 is NaN, not an exception
 def view_cosine(here, right, below, own):
-    """``|c · p| / sqrt(|c|² |p|²)`` with ``c = (below − here) × (right − here)`` and ``p = own``
-    (3-vectors as tuples), ``c`` written out per component: the cosine between the view ray to
-    ``own`` and the normal of the surface through ``here``, ``right``, ``below``."""
+    """``|c · p| / sqrt(|c|² |p|²)``, ``c = (below − here) × (right − here)``, ``p = own``: the
+    cosine between the view ray and the surface normal."""
     dx0, dx1, dx2 = right[0] - here[0], right[1] - here[1], right[2] - here[2]
     dy0, dy1, dy2 = below[0] - here[0], below[1] - here[1], below[2] - here[2]
     cx = dy1 * dx2 - dy2 * dx1

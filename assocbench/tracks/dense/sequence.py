@@ -1,20 +1,11 @@
 """The dense track's sequence: noise-free depth and segmentation rendered along a path, cached.
 
-Rendering (two passes a frame) is the slow part, so it is done once and stored downsampled
-under a key that hashes everything it depends on (scene files, path, resolution, downsample
-factor, the sources in ``CODE``, the MuJoCo version). The sensor's noise is not stored: it is drawn
-when a frame is read (``DenseSequence.frame``), from ``default_rng([seed, k, 17])``, so the
-same seed gives the same noisy frame bit for bit, and noise settings can change without
-rendering again.
-
-The entry is an uncompressed NumPy archive whose frames are memory-mapped when it is read, with a
-CRC-32 of each array checked then (``_load``): inflating a compressed 200-frame 320x240 entry (123
-MB of depth and segmentation, 50 MB deflated) took 0.5 s of every run, 2.5 ms a frame; mapping
-and checking it takes about 0.05 s. The price is the disk: an entry is 2.4x larger.
-
-The path's speed does not depend on how many frames are run: the trajectory is laid out over
-``max(frames, path_frames)`` frames and a run takes the first ``frames``. So frames 10 and 50
-are the same two views whether a run has 60 frames or 200.
+Rendering is slow, so it is stored downsampled under a key of everything it depends on (scene files,
+path, resolution, the sources in ``CODE``, MuJoCo's version). Noise is drawn when a frame is read,
+from ``default_rng([seed, k, 17])``: the same seed gives the same frame, and noise settings change
+without rendering. Entries are uncompressed archives, memory-mapped and CRC-checked on read
+(``_load``): faster than inflating, at about twice the disk. The trajectory is laid out over
+``max(frames, path_frames)`` frames, so frame 50 is the same view in a run of 60 frames or 200.
 """
 
 from __future__ import annotations
@@ -102,8 +93,8 @@ class DenseSequenceSpec:
         check_trajectory_params(cam.resolved_trajectory(), cam.trajectory_params)
 
     def key(self) -> str:
-        """Cache key: the camera path, the frames and downsampling, the scene's files, the format,
-        the sources in ``CODE`` and MuJoCo's version (the noise is drawn at read time: not in it)."""
+        """Cache key: path, frames, downsampling, scene files, format, ``CODE``'s sources, MuJoCo's
+        version (not the noise)."""
         payload = {"spec": asdict(self.camera_path()), "frames": self.frames, "downsample": self.depth.downsample,
                    "scene": scene_digest(self.scene), "format": FORMAT_VERSION, "code": sources_digest(*CODE),
                    "mujoco": mujoco.__version__}
@@ -172,9 +163,8 @@ def _save(seq: DenseSequence, path: Path, key: str) -> None:
 
 
 def _mapped(path: Path, archive: zipfile.ZipFile, name: str) -> np.ndarray:
-    """The stored member ``name`` of the archive at ``path`` as a read-only memory map: its data
-    start after the member's local header (30 bytes, its name and extra field) and the ``.npy``
-    header. A truncated file fails here (the map would pass its end)."""
+    """Member ``name`` of the archive at ``path`` as a read-only memory map (past its 30-byte local
+    header, name, extra field and ``.npy`` header); a truncated file fails here."""
     info = archive.getinfo(f"{name}.npy")
     if info.compress_type != zipfile.ZIP_STORED:
         raise Unusable(f"its {name} are compressed (an entry of an older format)")
@@ -212,9 +202,8 @@ def _load(path: Path, key: str, spec: DenseSequenceSpec) -> DenseSequence:
 
 def load_dense_sequence(spec: DenseSequenceSpec, cache_dir: Path | None = None,
                         use_cache: bool = True) -> DenseSequence:
-    """The sequence of ``spec``: from the shared sequence cache (``sim.cache``) when present and
-    sound, else rendered and stored. A damaged entry (truncated, another key, wrong shapes) is
-    discarded with one line on stderr."""
+    """The sequence of ``spec`` from the cache when present and sound, else rendered and stored; a
+    damaged entry is discarded with one line on stderr."""
     return cached_sequence(CACHE_FOLDER, spec.key(), lambda: render_dense(spec, load_scene(spec.scene)), _save,
                            lambda path, key: _load(path, key, spec), cache_dir, use_cache, what="depth sequence")
 

@@ -1,6 +1,5 @@
-"""The dense track's settings sections: ``depth`` (the depth sensor), ``icp`` (point-to-plane ICP),
-``fusion`` (point-based fusion) and ``dense`` (what is tracked and how truth is judged). Each
-value is checked when its section is built, before anything renders."""
+"""The dense track's settings sections ``depth``, ``icp``, ``fusion`` and ``dense``, each checked
+when built, before anything renders."""
 
 from __future__ import annotations
 
@@ -16,22 +15,18 @@ MAX_DOWNSAMPLE = 16
 
 @dataclass(frozen=True)
 class DepthConfig:
-    """Settings of the depth sensor (section ``depth:`` of a run config); all enter the cache key.
+    """Settings of the depth sensor (section ``depth:``); all enter the cache key.
 
     downsample: keep pixel ``(s·i, s·j)``; the intrinsics become exactly
         ``K' = (W//s, H//s, f/s, cx/s, cy/s)``, so a kept pixel's ray is unchanged.
-    sigma_base, sigma_quad: axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m, 1/m).
+    sigma_base / sigma_quad: axial noise ``sigma(z) = sigma_base + sigma_quad · z²`` (m, 1/m).
     grazing_deg: a pixel whose view ray meets the surface more than this from its normal drops out.
     dropout: extra share of pixels dropped at random.
-    min_depth, max_depth: the working range (m); a measured depth outside it is missing.
-    normal_smooth_px: sigma (px) of the edge-aware Gaussian (``depth_smoothing``) that smooths
-        the depth the NORMALS are computed from (vertices keep the raw depth); 0 takes normals from
-        the raw depth. At 320x240 the default noise is about the spacing of neighbouring vertices,
-        so raw neighbour-difference normals are off by a median 43-64 deg at 1-4 m. On crates
-        frame 50 (noise as default; measured with the 2-D window the separable filter replaced, which
-        gives 1.5 deg at 3 px too) the median error is 2.9 deg at 2 px and 1.5 deg at 3 px, and
-        ICP from the identity registered two crates frames 11 cm / 7 deg apart only at 3 px
-        (0.15 mm / 0.013 deg; at 2 px it slid 13 cm off): the default is 3.
+    min_depth / max_depth: the working range (m); a depth outside it is missing.
+    normal_smooth_px: sigma (px) of the edge-aware Gaussian (``depth_smoothing``) applied to the
+        depth the NORMALS come from (vertices keep the raw depth; 0: no smoothing). Raw
+        neighbour-difference normals are tens of degrees off at 320x240; 3 px is the narrowest width
+        at which ICP registered crates frames 11 cm / 7 deg apart.
     """
 
     downsample: int = field(default=2, metadata=in_range(1, MAX_DOWNSAMPLE, unit="px (stride)"))
@@ -69,28 +64,24 @@ MIN_SMOOTH_PX = 0.1   # below it exp(-1/(2σ²)) < 1e-21: the neighbours' weight
 
 @dataclass(frozen=True)
 class IcpConfig:
-    """Settings of ``icp`` (the ``icp:`` section of a run config).
+    """Settings of ``icp`` (section ``icp:``); the thresholds' evidence is
+    ``benchmarks/dense_icp_thresholds.py`` and ``dense_direction_share.py``.
 
     max_iterations: iterations at most; no convergence by then is a failure.
-    converge_rot_deg / converge_trans: converged when one update rotates less than this (deg)
-        and moves less than this (m).
+    converge_rot_deg / converge_trans: converged when an update rotates less than this (deg) and
+        moves less than this (m).
     min_pairs: fewer pairs in any iteration is a failure (too little to constrain 6 dof).
-    min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure.
-    min_direction_share: the final pairs' share of the information of the visible source points
-        in the worst-kept motion (``direction_share``) below this is a failure: the pose slid to
-        where the surfaces that fix some motion find no partner (a wrong minimum of self-similar
-        geometry, e.g. bays' side walls lost after a sideways slide).
-    max_rms: final point-to-plane residual rms (m, each residual scaled by the gate's floor over
-        its gate: the module docstring's **Failure**) above this is a failure.
-    max_condition: κ(S) (the normal matrix in comparable units, ``stability_transform``) of the
-        last iteration above this is a failure: some motion is unconstrained (a single plane, a
-        corridor's axis).
-    max_step_m / max_step_deg: an estimate whose camera moved farther than this (m) or turned
-        more than this (deg) from the initial guess is a failure: beyond ICP's capture range a
-        converged pose is as likely a wrong minimum (one period of self-similar geometry off)
-        as the right one.
-
-    The thresholds' defaults and their evidence: see the module docstring.
+    min_inlier_share: final pairs / considered (``Pairs.considered``) below this is a failure; gross
+        failure only.
+    min_direction_share: the final pairs' share of the visible points' information in the worst-kept
+        motion (``direction_share``) below this is a failure: a slide that lost the surfaces fixing
+        some motion (bays' side walls).
+    max_rms: final gated point-to-plane residual rms (m) above this is a failure; gross mismatch
+        only.
+    max_condition: κ(S) (``stability_transform``) above this is a failure: some motion is
+        unconstrained.
+    max_step_m / max_step_deg: a camera moved farther (m) or turned more (deg) than this from the
+        guess is a failure: past the capture range a converged pose is as likely wrong.
     """
 
     max_iterations: int = field(default=100, metadata=in_range(1, 10_000, unit="iterations"))
@@ -114,29 +105,18 @@ class IcpConfig:
 
 @dataclass(frozen=True)
 class FusionConfig:
-    """Settings of point-based fusion (the ``fusion:`` section of a run config).
+    """Settings of point-based fusion (section ``fusion:``).
 
-    d_thr: pass 2's distance gate |p − q| (m); also the margin of the see-through outlier test.
-    angle_deg: pass 2's normal gate, the angle between map and frame normals (deg); 180 turns it
-        off. It needs smooth normals: ``normal_map`` of raw depth with σ(z) = 0.0012 + 0.0019 z² at
-        320x240 is off by 58° (median) at 2-3 m, so a 20° gate refuses ~90 % of the pairs and biases
-        what it keeps (a point merges with the samples whose noise tilts the normal its own way):
-        the map is then no better than one frame. Normals of the depth box-filtered 5x5 with a ±2 px
-        stencil (median 5° off) work at 20° (tests/test_point_fusion.py has both).
+    d_thr: pass 2's distance gate |p − q| (m); also the see-through outlier test's margin.
+    angle_deg: pass 2's normal gate (deg; 180: off). It needs smoothed normals: on raw ones a 20°
+        gate refuses most pairs and biases the rest.
     dormant_frames: an unstable point not merged for this many frames is removed.
     stable_weight: a point with at least this weight (merges + 1) is stable: never removed.
     remove_dormant / remove_outliers: the homework bonus's two removals (false: keep everything).
-    voxel: one map point per cell of this size (m) and normal class (``voxel_table``): a pixel no
-        map point merged with merges into the point holding its cell instead of being added, so the
-        map's density is bounded and its size plateaus once the scene is seen. 0: the homework's
-        rule (every such pixel is added; the map grows with every new viewpoint). 1 cm is the
-        pixel footprint z/f at 2 m at 320x240 with a 60° field of view (f = 208 px), the near
-        half of the crates and bays paths' depths; the cell is ``d_thr`` thick along the normal's
-        dominant axis (``voxel_table``). Coarser cells thin the model rendered into the view, ICP's
-        source, and with it its conditioning: at 2 cm crates seed 1 lost 3 of 40 frames
-        frame-to-model (κ 1 060-1 400 > ``icp.max_condition``). Crates, 200 frames
-        frame-to-model (map points, ATE, map error median/p95): 1 cm 108k, 1.4 mm, 0.43/3.5 mm;
-        the homework's rule 1.7 mm, 0.36/2.9 mm (docs/tracks/dense.md).
+    voxel: one map point per cell of this size (m) and normal class (``voxel_table``), so the map's
+        size plateaus; 0: the homework's rule (every unmerged pixel is added). 1 cm is the pixel
+        footprint at 2 m at 320x240; coarser cells thin ICP's source until frames fail
+        ``icp.max_condition``.
     """
 
     d_thr: float = field(default=0.05, metadata=in_range(0, 10, lo_open=True, unit="m"))
@@ -163,17 +143,14 @@ PREDICTION = ("view", "map")
 class DenseConfig:
     """Section ``dense:``: how frames are tracked and how truth is judged.
 
-    tracking: what ICP registers each frame to: model (the fused map, the homework's frame-to-model),
-        frame (the previous frame's points, frame-to-frame) or truth (the map fused at the true
-        poses, ICP from the previous true pose: one step's error without drift).
-    prediction: the map as ICP's source when tracking the model or the truth, either view (the map
-        rendered into the predicted view, one point a pixel, KinectFusion's predicted maps, see
-        ``tracks.dense.prediction``; an ICP iteration costs the pixel count) or map (every map
-        point, the homework's whole-map projection; an ICP iteration costs the map's size).
-    index: splat and fuse only the map's blocks whose bounding box meets the view frustum (the map's
-        index, ``tracks.dense.fusion``): the same numbers bit for bit, a per-frame cost that follows
-        what is in view; false visits every map point in every frame (the whole-map baseline that
-        ``benchmarks/dense_rate.py`` times).
+    tracking: model (the fused map), frame (the previous frame's points) or truth (the map fused at
+        true poses, ICP from the previous true pose: one step's error without drift).
+    prediction: the map as ICP's source: view (rendered into the predicted view, one point a pixel,
+        ``tracks.dense.prediction``) or map (every point, the homework's; costs the map's size an
+        iteration).
+    index: splat and fuse only the map's blocks in the view frustum: the same numbers bit for bit,
+        at a cost that follows the view; false visits every point (``benchmarks/dense_rate.py``'s
+        baseline).
     truth_tol: a pair is true when map point and pixel lie on one geom with true positions this
         close (m).
     path_frames: the camera path is laid out over this many frames; a run takes its first ones.

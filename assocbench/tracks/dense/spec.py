@@ -11,9 +11,8 @@ from .sequence import DEFAULT_FRAMES, DenseSequenceSpec, dense_source
 
 
 def dense_source_of(settings: Settings) -> SimulatedSource:
-    """The depth sequence of a run: its scene must place a camera path by ``lm*`` sites (the room,
-    checkerboard, corridor, bays, crates or a user MJCF with such sites), the run takes at least two
-    frames, and the path is no longer than ``limits.frames``."""
+    """The depth sequence of a run: its scene must place a camera path by ``lm*`` sites, the run
+    takes at least two frames, and the path is no longer than ``limits.frames``."""
     scene = settings.scene or "bays"
     sites, _, _ = mjcf_names(resolve_scene_path(scene))
     if not sites:

@@ -1,15 +1,10 @@
-"""The summary row of a dense run, and its status.
-
-The status follows the harness's one rule: a run is *not ok* only when the harness could not
-measure it (not one correspondence in any frame). ICP losing track (``icp_failures``: the pose
-held, the frame not fused) and ICP accepting a wrong pose (``wrong_steps``: a step more than
-``WRONG_STEP_MM`` off the true step, which only the truth reveals) are the method failing at its
-job: counted columns of the summary and the leaderboard, and the run is ok.
+"""The summary row of a dense run, and its status: not ok only when nothing could be measured. ICP
+losing track (``icp_failures``) and accepting a wrong pose (``wrong_steps``: more than
+``WRONG_STEP_MM`` off the true step) are the method's results, counted.
 
     ate_mm       = sqrt(mean_k |p̂_k − p_k|²)          (no alignment: frame 0's pose is given)
     step_error   = RMS over k of the relative pose error of the step k−1 → k
-    compression  = map points / (frames · w · h)        (the homework's naive concatenation of the
-                                                          downsampled input, w × h pixels a frame)
+    compression  = map points / (frames · w · h)        (against concatenating the downsampled frames)
 """
 
 from __future__ import annotations
@@ -50,9 +45,8 @@ METHOD_FAILED = "the method failed"
 
 
 def wrong_accepted(frames: pd.DataFrame) -> int:
-    """Steps k−1 → k whose ICP reported success with a step error above ``WRONG_STEP_MM``; a step
-    right after a failed frame is left out (the held pose makes its relative error large even when
-    ICP recovers the right one)."""
+    """Steps ICP accepted with an error above ``WRONG_STEP_MM``, except those right after a failed
+    frame."""
     failed = frames["icp_failed"].astype(bool)
     after_ok = ~failed.shift(1, fill_value=True)   # frame 0 has no step
     error = frames["step_error_mm"] if "step_error_mm" in frames else pd.Series(np.nan, index=frames.index)
@@ -60,18 +54,16 @@ def wrong_accepted(frames: pd.DataFrame) -> int:
 
 
 def icp_failures(frames: pd.DataFrame) -> int:
-    """Tracked frames (k > 0) whose ICP reported failure; a frame whose method call failed (an
-    ``error``: it raised, exited or hung) is held the same way but is not ICP's failure: it is
-    counted in ``failures`` and makes the run not ok (``dense_status``)."""
+    """Tracked frames whose ICP failed (a failed method call is held too but counts in
+    ``failures``)."""
     tracked = frames[frames["frame"] > 0]
     errored = tracked["error"].fillna("").ne("") if "error" in tracked else False
     return int((tracked["icp_failed"].astype(bool) & ~errored).sum())
 
 
 def dense_status(frames: pd.DataFrame) -> str:
-    """``ok``, or why the run's numbers cannot be trusted: the method failed (raised, exited, hung:
-    the ``error`` column), or not one correspondence in any tracked frame. Lost frames and wrong
-    accepted poses are results (``icp_failures``, ``wrong_steps``)."""
+    """``ok``, or why the numbers cannot be trusted: the method failed, or no correspondence in any
+    frame."""
     tracked = frames[frames["frame"] > 0]
     failed = int((tracked["error"] != "").sum()) if "error" in tracked else 0
     if failed:

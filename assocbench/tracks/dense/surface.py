@@ -1,25 +1,18 @@
 """Distance from points to the true surfaces of a MuJoCo scene: the dense track's map error.
 
-Each rendered geom (groups 0–2, the ones the depth renderer draws) is an analytic surface. A point
-``p`` is taken into the geom's frame, ``q = R_gᵀ (p − c_g)`` (``geom_xmat``, ``geom_xpos`` after
-``mj_forward``), and its unsigned distance to the geom's *surface* is (a point inside a solid gets
-its distance to the boundary, not 0):
+Each rendered geom (groups 0–2) is an analytic surface; with ``q = R_gᵀ (p − c_g)`` the unsigned
+distance to its *surface* is:
 
-* sphere (radius r): ``| |q| − r |``;
-* capsule (radius r, half-length h along z): ``| |q − (0, 0, clamp(q_z, −h, h))| − r |``;
-* cylinder (radius r, half-height h along z): with ``a = ρ − r`` (ρ = √(q_x² + q_y²)) and
-  ``b = |q_z| − h``: ``√(max(a,0)² + max(b,0)²)`` outside, ``min(−a, −b)`` inside;
-* box (half-sizes s): with ``a = |q| − s``: ``‖max(a, 0)‖`` outside, ``min(−a)`` inside;
-* plane: the rectangle ``|q_x| ≤ s_x``, ``|q_y| ≤ s_y`` in the plane ``q_z = 0``, as MuJoCo
-  renders it and as ``mj_ray`` hits it (a half-size of 0 makes that axis infinite, so size 0 0
-  is the infinite plane): ``√(max(|q_x| − s_x, 0)² + max(|q_y| − s_y, 0)² + q_z²)``. The finite
-  rectangle is chosen because that is what the camera sees: a wall plane of the shipped scenes
-  ends at its corners, and a map point beyond its edge is an error, not a point on its extension.
+* sphere: ``| |q| − r |``; capsule: ``| |q − (0, 0, clamp(q_z, −h, h))| − r |``;
+* cylinder: ``a = ρ − r``, ``b = |q_z| − h``: ``√(max(a,0)² + max(b,0)²)`` outside, ``min(−a, −b)``
+  inside;
+* box: ``a = |q| − s``: ``‖max(a, 0)‖`` outside, ``min(−a)`` inside;
+* plane: the finite rectangle MuJoCo renders (half-size 0: infinite),
+  ``√(max(|q_x| − s_x, 0)² + max(|q_y| − s_y, 0)² + q_z²)``: a point beyond a wall's edge is an
+  error.
 
-Other geom types (ellipsoid, mesh, height field, SDF) have no closed form here: one-line
-``UserError``. The scene's distance is the least over its geoms, computed per point in one
-compiled pass with a bounding-sphere test (a geom whose bounding sphere lies farther than the best
-distance so far is skipped), so memory stays O(n): a million points is one pass, no (n, geoms) array.
+Other geom types are a one-line ``UserError``. The least distance over geoms, per point, in one
+compiled pass with a bounding-sphere skip: memory O(n).
 """
 
 from __future__ import annotations
@@ -77,12 +70,9 @@ def _distance_to(g, kinds, sizes, centres, rots, px, py, pz):
 
 @njit(cache=True)
 def _distance_kernel(points, kinds, sizes, centres, rots, bounds, out):
-    """``out[i] = min_g distance(points[i], geom g)``, skipping a geom when ``|p − c_g| − bound_g``
-    (a lower bound on its distance) is already no better than the best so far (compared squared,
-    ``|p − c_g|² > (best + bound_g)²``: no square root per geom and point). The geom nearest to
-    the previous point is tried first: neighbouring points (a map is stored in runs of neighbours)
-    mostly share it, so the bound then skips most others at once (the minimum is the same
-    whichever geom comes first)."""
+    """``out[i] = min_g distance(points[i], g)``, skipping g when
+    ``|p − c_g|² > (best + bound_g)²``; the previous point's nearest geom goes first, so most skip
+    at once."""
     hint = 0
     for i in range(points.shape[0]):
         px, py, pz = points[i, 0], points[i, 1], points[i, 2]
@@ -114,8 +104,7 @@ def _bound(kind: int, s: np.ndarray) -> float:
 
 
 def _model_data(scene) -> tuple[mujoco.MjModel, mujoco.MjData]:
-    """(model, data) of a Scene-like object (``.model``, ``.data`` after ``mj_forward``) or of a bare
-    ``MjModel`` (posed at qpos0 by a fresh ``mj_forward``)."""
+    """(model, data) of a Scene-like object or a bare ``MjModel`` (posed at qpos0)."""
     if isinstance(scene, mujoco.MjModel):
         data = mujoco.MjData(scene)
         mujoco.mj_forward(scene, data)
@@ -127,8 +116,8 @@ def _model_data(scene) -> tuple[mujoco.MjModel, mujoco.MjData]:
 
 
 def surface_geoms(scene, geoms: Sequence[int] | None = None) -> tuple[np.ndarray, ...]:
-    """The kernel's geom tables (kinds, sizes, centres, rotations, bounds) of the rendered geoms
-    (or of ``geoms``, ids, rendered or not); a one-line UserError for a geom without a closed form."""
+    """The kernel's tables of the rendered geoms (or of ``geoms``); a UserError for a geom without a
+    closed form."""
     m, d = _model_data(scene)
     if geoms is None:
         ids = [g for g in range(m.ngeom) if RENDERED_GROUPS[min(int(m.geom_group[g]), 5)]]
@@ -154,9 +143,8 @@ def surface_geoms(scene, geoms: Sequence[int] | None = None) -> tuple[np.ndarray
 
 
 def surface_distance(points: np.ndarray, scene, geoms: Sequence[int] | None = None) -> np.ndarray:
-    """Distance (n,) from each point (n, 3) to the nearest surface of the scene's rendered geoms
-    (or of the geoms ``geoms`` only); NaN for a non-finite point, inf when there is no geom.
-    ``scene``: a ``Scene`` (anything with ``.model`` and ``.data`` after ``mj_forward``) or an ``MjModel``."""
+    """Distance (n,) from points (n, 3) to the nearest rendered geom's surface (or ``geoms``'); NaN
+    for a non-finite point, inf with no geom. ``scene``: a ``Scene`` or an ``MjModel``."""
     pts = np.asarray(points, dtype=np.float64)
     if pts.ndim != 2 or pts.shape[1] != 3:
         raise UserError(f"surface_distance: points must be an (n, 3) array, got shape {pts.shape}")

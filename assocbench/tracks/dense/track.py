@@ -1,9 +1,6 @@
-"""The dense track: depth frames, projective data association, point-to-plane ICP, point fusion.
-
-Its frames are depth images, not association problems, so it runs its own frame loop
-(``OwnFrames``: ``run.dense_records``), calling the method through the harness's ``MethodCalls``
-so time limits, worker isolation and resume hold for it too. This module stays light (the
-registry imports it to list the track): the pipeline is imported inside the hooks."""
+"""The dense track: depth frames, dense association, point-to-plane ICP, point fusion. It runs its
+own frame loop (``OwnFrames``) through the harness's ``MethodCalls``. Light to import: the pipeline
+loads inside the hooks."""
 
 from __future__ import annotations
 
@@ -22,8 +19,8 @@ SUITES = {"dense": False, "dense_ci": True}
 
 
 def gate_params(run: Any) -> dict:
-    """The method's parameters, with the run's depth noise (``depth.sigma_base``, ``sigma_quad``) for
-    an associator whose gate grows with it (``DenseAssociator.gate``) unless the user set them."""
+    """The method's parameters with the run's depth noise for a gate that grows with it, unless the
+    user set them."""
     from ...associators.registry import associator_class
 
     fields = getattr(associator_class(run.method), "__dataclass_fields__", {})

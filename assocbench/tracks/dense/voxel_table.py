@@ -1,37 +1,15 @@
-"""The point map's voxel index: which map point holds a voxel of space (one surfel per voxel).
-
-Fusion adds every pixel that no map point merged with. With the homework's projective merge alone
-the map only grows: a surface seen again from a new pose has pixels on which no map point lands
-(the points sit on the old pose's pixel grid), and each such pixel adds a point, so the density in
-view climbs frame after frame (93k -> 249k points visited by the splat over 200 crates frames).
-Bounding it takes a rule that does not depend on the pose: a new sample ``q`` with world normal
-``m`` lands in the cell
+"""The point map's voxel index: which map point holds a voxel of space (one surfel per voxel). A
+surface seen again from a new pose has pixels no map point lands on, so the projective merge alone
+grows the map without bound. A sample ``q`` with world normal ``m`` lands in the cell
 
     key(q, m) = (⌊q_x/s_x⌋, ⌊q_y/s_y⌋, ⌊q_z/s_z⌋, c(m)),   c(m) = 2 a + [m_a < 0],  a = argmax_a |m_a|
 
-(6 classes; ``s_a`` = the cell's thickness ``h`` along the normal's dominant axis ``a``, the voxel
-size ``s`` along the other two; the class keeps the two faces of a thin wall, or the floor and the
-wall in a corner cell, apart), and when a map point already holds that cell, or else one of its two
-neighbours along ``a`` (``held_cell``; the nearer first), the sample merges into it instead of being
-added. Thickness and neighbours matter: the depth noise moves samples of one surface along its
-normal (σ 5-15 mm at 1.5-2.7 m), and a plane lying on a cell face splits into a layer of points in
-front and one behind, each the mean of one side of the noise (0.8 σ off: 4.6 mm median on the
-synthetic room's back wall with 2 cm cubes); so the thickness is fusion's distance gate ``d_thr``
-(5 cm) and a sample whose own cell is free joins a neighbour's point lying within half the
-thickness of it along the axis (a reach of the noise's scale: parallel faces a few cm apart, a
-crate's slats, stay apart; merged, they slid frame-to-model tracking on a 500-frame crates path
-60 mm along them, 33 wrong steps, against 8 with the reach). The cell of a point is fixed when it is added (``PointMap._key``): the
-point's merged position drifts by less than the noise, and re-keying it would move it between
-cells. The map then holds at most one point per occupied cell: its size plateaus once the scene is
-seen (ElasticFusion and voxel-hashed surfel maps bound their density the same way).
-
-The table is open addressing with linear probing over int64 keys (cell coordinates packed 20 bits
-each, offset by 2^19, and the class in the low 3 bits: ±5 km at 1 cm), ``EMPTY`` and ``GONE``
-(a removed point's tombstone) marking free slots; ``rows`` holds the map row of each key, beside
-it in memory (``new_table``: two views of one array, a slot's key and row in one cache line). Fusion's
-removal moves rows, so it tells the table (``table_move``); a removed point is deleted at once
-(``table_delete``) so that a sample in its cell adds a fresh point. The table is rebuilt from the
-map's keys when its slots in use (tombstones included) would pass half its size.
+(``s_a``: fusion's ``d_thr`` along the normal's dominant axis, so depth noise does not split a plane
+into two layers, the voxel size along the others; the class keeps a thin wall's faces apart) and
+merges into the point holding it or a neighbour along ``a`` (``held_cell``). A point's cell is fixed
+when added. The table is open addressing with linear probing over int64 keys (20 bits per
+coordinate, offset 2^19, the class in the low 3 bits; ``EMPTY``, ``GONE``), each key's row beside
+it, rebuilt past half full.
 """
 
 from __future__ import annotations
@@ -46,9 +24,8 @@ _MIX = -7046029254386353131   # 0x9E3779B97F4A7C15 (Fibonacci hashing) as a sign
 
 
 def new_table(size: int) -> tuple[np.ndarray, np.ndarray]:
-    """An empty table of ``size`` slots (a power of two): ``(keys, rows)``, two strided views of one
-    (size, 2) array, so that a slot's key and row share a cache line: a probe that finds its key
-    reads its row without a second miss (fusion's cell pass probes a table of megabytes at random)."""
+    """An empty table of ``size`` slots (a power of two): ``(keys, rows)``, strided views of one
+    (size, 2) array, so a key and its row share a cache line."""
     slots = np.empty((size, 2), np.int64)
     slots[:, 0], slots[:, 1] = EMPTY, 0
     return slots[:, 0], slots[:, 1]
@@ -56,8 +33,8 @@ def new_table(size: int) -> tuple[np.ndarray, np.ndarray]:
 
 @njit(cache=True, inline="always")
 def cell_key(q0, q1, q2, m0, m1, m2, inv_size, inv_thick):
-    """The packed key of the cell holding the point ``q`` with normal ``m`` (module docstring), or
-    −1 when ``q`` lies beyond the ±2^19 cells a coordinate can hold."""
+    """The packed key of the cell of ``q`` with normal ``m``, or −1 beyond the ±2^19 cells a
+    coordinate holds."""
     a0, a1, a2 = abs(m0), abs(m1), abs(m2)
     if a0 >= a1 and a0 >= a2:
         c = 0 if m0 >= 0 else 1
@@ -101,19 +78,17 @@ def table_find(keys, rows, key):
 
 @njit(cache=True, inline="always")
 def held_cell(keys, rows, key, q0, q1, q2, inv_thick, pos, reach):
-    """The map row holding ``key`` (the cell of the sample ``q``), else the one holding the nearer
-    then the farther of its neighbours along the class's axis (the normal's dominant axis) if that
-    point lies within ``reach`` of ``q`` along the axis, else −1. The reach keeps parallel faces a
-    few cm apart (a crate's slats) from merging across cells: it is half the thickness, the
-    noise's scale, not the cell's."""
+    """The map row holding ``key``, else the one holding its nearer then farther neighbour along the
+    class's axis if that point lies within ``reach`` of ``q`` along it (half the thickness: parallel
+    faces a few cm apart stay apart), else −1."""
     i = table_find(keys, rows, key)
     return i if i >= 0 else held_neighbour(keys, rows, key, q0, q1, q2, inv_thick, pos, reach)
 
 
 @njit(cache=True, inline="always")
 def held_neighbour(keys, rows, key, q0, q1, q2, inv_thick, pos, reach):
-    """``held_cell``'s second half: the row holding the nearer, then the farther, neighbour of the
-    cell ``key`` along the class's axis whose point lies within ``reach`` of ``q`` along it, or −1."""
+    """``held_cell``'s neighbour search: the row of the nearer, then farther, neighbour within
+    ``reach``, or −1."""
     axis = (key & 7) >> 1
     coord = q0 if axis == 0 else (q1 if axis == 1 else q2)
     step = np.int64(1) << (43 - 20 * axis)          # one cell along that axis in the packed key
@@ -128,8 +103,8 @@ def held_neighbour(keys, rows, key, q0, q1, q2, inv_thick, pos, reach):
 
 @njit(cache=True)
 def table_insert(keys, rows, key, row):
-    """Record that map row ``row`` holds ``key`` (absent: the caller found it so); returns 1 when a
-    never-used slot was taken (the count of slots in use grows), else 0 (a tombstone reused)."""
+    """Record that row ``row`` holds ``key``; returns 1 when a never-used slot was taken, 0 for a
+    tombstone."""
     mask = len(keys) - 1
     s = _slot(key, mask)
     while keys[s] >= 0:
@@ -157,8 +132,8 @@ def table_move(keys, rows, key, src, dst):
 
 @njit(cache=True)
 def table_build(keys, rows, point_keys, n):
-    """Fill the (cleared) table with the keys of rows ``0..n−1`` (a key held twice, as in a map built
-    from arrays, keeps its first row); returns the slots in use."""
+    """Fill the cleared table with the keys of rows ``0..n−1`` (a key held twice keeps its first
+    row); returns the slots in use."""
     keys.fill(EMPTY)
     used = 0
     for i in range(n):

@@ -20,13 +20,8 @@ def tiny_frame() -> DepthFrame:
 
 
 def warm_dense() -> float | None:
-    """Run every dense kernel once on a tiny frame (the projective association, one ICP iteration,
-    ICP's direction share, fusion, the model's prediction (the splat), the scoring against truth,
-    the surface distance, the map picture's JSON, the depth sensor's passes and smoothing on the
-    types of a stored frame)
-    so that they are loaded (or compiled, with one line on stderr ending in ``done``) before
-    anything is timed.
-    Returns the seconds spent compiling, None when all came from the cache."""
+    """Run every dense kernel once on a tiny frame, so they are loaded or compiled (one line on
+    stderr) before anything is timed. Returns the seconds compiling, None when all were cached."""
     from ...associators.dense.projective import ProjectiveAssociator
     from .depth_sensor import DepthConfig, sensed_frame
     from .fusion import FusionConfig, PointMap, fuse

@@ -1,13 +1,8 @@
-"""Belief of the lines track (open loop): the pose estimate is truth plus an error drawn from
-Σ_pose; the map of wall lines is known exactly (the architect's plan: EKF localisation).
-
-Candidates are the mapped lines the estimate expects to see (``candidate_lines``: a face of the
-line faces the estimated pose and some point of it lies within range and field of view; the
-estimate knows nothing of occlusion). Their prediction is ``ẑ_j = h(x̂, m_j)``
-(``models.polar_line``) with the joint covariance ``P = H Σ_pose Hᵀ``, ``H`` the stacked
-``∂h/∂pose`` (2n, 3): every line's prediction shares the one pose error, so P has rank ≤ 3.
-Measurements are the frame's extracted lines (with the covariance the extractor reports) plus
-``clutter`` false lines uniform over α × r.
+"""Belief of the lines track (open loop): the pose estimate is the truth plus an error drawn from
+Σ_pose; the map of wall lines is exact (the architect's plan: EKF localisation). Candidates are the
+mapped lines the estimate expects to see (``candidate_lines``), predicted ``ẑ_j = h(x̂, m_j)``
+(``models.polar_line``) with ``P = H Σ_pose Hᵀ`` (one shared pose error: rank ≤ 3). Measurements are
+the extracted lines plus ``clutter`` uniform over α × r.
 """
 
 from __future__ import annotations
@@ -28,8 +23,8 @@ from ...models.polar_line import ANGULAR, jacobians, predict
 
 
 def facing(pose: np.ndarray, segments: np.ndarray, normals: np.ndarray) -> np.ndarray:
-    """(S,) whether each face's front side holds the pose: ``(p_xy − a)·n > 0`` with ``a`` a point
-    of the face and ``n`` its outward normal (a wall is seen from its front only)."""
+    """(S,) whether each face's front holds the pose, ``(p_xy − a)·n > 0`` (a wall is seen from its
+    front only)."""
     return np.einsum("sk,sk->s", np.asarray(pose[:2], dtype=np.float64) - segments[:, 0], normals) > 0
 
 
@@ -45,8 +40,8 @@ def _clip_positive(lo: np.ndarray, hi: np.ndarray, f0: np.ndarray, f1: np.ndarra
 
 
 def _in_range_interval(rel: np.ndarray, d: np.ndarray, reach: float) -> tuple[np.ndarray, np.ndarray]:
-    """Parameters ``t ∈ [0, 1]`` of the points ``rel + t d`` within ``reach`` of the origin: the
-    roots of ``|rel + t d|² = reach²`` clipped to the segment (empty: lo > hi)."""
+    """``t ∈ [0, 1]`` with ``rel + t d`` within ``reach`` of the origin: the roots of
+    ``|rel + t d|² = reach²`` clipped (empty: lo > hi)."""
     a = np.einsum("sk,sk->s", d, d)
     b = np.einsum("sk,sk->s", rel, d)
     c = np.einsum("sk,sk->s", rel, rel) - reach ** 2
@@ -60,9 +55,8 @@ def _in_range_interval(rel: np.ndarray, d: np.ndarray, reach: float) -> tuple[np
 
 
 def segments_in_view(pose: np.ndarray, segments: np.ndarray, max_range: float, fov: float) -> np.ndarray:
-    """(S,) whether some point of each segment lies within ``RANGE_MARGIN · max_range`` of the pose
-    and within ``fov/2`` of its heading (the segment clipped to the disc, then to the wedge: two
-    half-planes through the pose, their intersection for fov ≤ π, their union beyond)."""
+    """(S,) whether some point of each segment lies within ``RANGE_MARGIN · max_range`` and
+    ``fov/2`` of the heading (clipped to the disc, then the wedge)."""
     rel = segments[:, 0] - np.asarray(pose[:2], dtype=np.float64)
     d = segments[:, 1] - segments[:, 0]
     lo, hi = _in_range_interval(rel, d, RANGE_MARGIN * max_range)
@@ -82,8 +76,8 @@ def segments_in_view(pose: np.ndarray, segments: np.ndarray, max_range: float, f
 
 def candidate_lines(pose: np.ndarray, segments: np.ndarray, segment_line: np.ndarray, segment_normal: np.ndarray,
                     n_lines: int, max_range: float, fov: float) -> np.ndarray:
-    """(K,) bool: map lines with a segment that faces ``pose`` and has a point within
-    ``RANGE_MARGIN · max_range`` and the field of view ``fov`` (rad; 2π: all around)."""
+    """(K,) map lines with a segment facing ``pose`` with a point in range and field of view (2π:
+    all round)."""
     segments = np.asarray(segments, dtype=np.float64).reshape(-1, 2, 2)
     ok = facing(pose, segments, np.asarray(segment_normal, dtype=np.float64).reshape(-1, 2))
     ok &= segments_in_view(pose, segments, max_range, fov)
@@ -93,8 +87,8 @@ def candidate_lines(pose: np.ndarray, segments: np.ndarray, segment_line: np.nda
 
 
 def pose_prediction_covariance(H_pose: np.ndarray, Sigma_pose: np.ndarray) -> np.ndarray:
-    """``P = H Σ_pose Hᵀ`` (2n, 2n) with ``H`` the stacked ``H_pose`` (n, 2, 3): the joint
-    prediction covariance of lines on an exact map, cross terms kept (rank ≤ 3)."""
+    """``P = H Σ_pose Hᵀ`` (2n, 2n), ``H`` the stacked ``H_pose`` (n, 2, 3): rank ≤ 3, cross terms
+    kept."""
     H = H_pose.reshape(-1, 3)
     P = H @ Sigma_pose @ H.T
     return 0.5 * (P + P.T)
@@ -102,22 +96,19 @@ def pose_prediction_covariance(H_pose: np.ndarray, Sigma_pose: np.ndarray) -> np
 
 def clutter_lines(rng: np.random.Generator, count: int, R: np.ndarray, max_range: float,
                   fov: float) -> tuple[np.ndarray, np.ndarray]:
-    """``count`` false lines ``(α, r)`` uniform over ``[−fov/2, fov/2] × [0, max_range]`` (fov 2π:
-    every α in [−π, π)) with the noise ``R`` (2, 2): the posts' clutter draw with its columns
-    swapped (range-bearing rows are ``(r, φ)``, lines ``(α, r)``)."""
+    """``count`` false lines ``(α, r)`` uniform over ``[−fov/2, fov/2] × [0, max_range]`` with noise
+    ``R``: the posts' clutter draw, columns swapped."""
     z, cR = clutter_detections(rng, count, R, max_range, fov)
     return z[:, ::-1].copy(), cR
 
 
 def sample_line_pose(pose: np.ndarray, cfg: BeliefConfig, rng: np.random.Generator) -> np.ndarray:
-    """The pose estimate (3,): truth plus an error drawn from ``k² Σ_pose`` (the planar draw; the
-    map of lines is exact, so no map error is kept)."""
+    """The pose estimate: truth plus an error from ``k² Σ_pose`` (the map is exact)."""
     return sample_planar_estimate(pose, np.zeros((0, 2)), cfg, rng)[0]
 
 
 def make_line_problem(seq, frame: int, cfg: BeliefConfig, seed: int) -> tuple[Problem, FrameTruth]:
-    """The open-loop association problem of one lines frame and its truth (``seq``: a
-    ``LineSequence``; ``max_range`` and ``fov`` bound the candidates, ``map_fraction`` the map)."""
+    """The open-loop problem and truth of one lines frame (``seq``: a ``LineSequence``)."""
     rng = np.random.default_rng([seed, frame, 101])
     pose_hat = sample_line_pose(seq.poses[frame], cfg, rng)
     in_map = map_mask(len(seq.lines), cfg, seed)

@@ -1,16 +1,9 @@
-"""EKF localisation against a known map of wall lines (the line-features lecture, seed 003,
-slides "Back to EKF / localization" to "Updated pose and map").
-
-State: the pose ``x = (x, y, θ)`` only, covariance ``P`` (3, 3); the map lines ``(α_w, r_w)`` are
-exact and never change.
-
-* Motion: the planar odometry step of every planar filter (``planar_pose.motion_step``).
-* Candidates of a frame: the mapped lines with a face towards the estimated pose and a point in
-  range and field of view (``tracks.lines.belief.candidate_lines``); ``ẑ_j = h(x̂, m_j)`` and the
-  joint ``P = H P_pose Hᵀ`` (``models.polar_line``, ``tracks.lines.belief.pose_prediction_covariance``).
-* Update with the pairs ``(j, i)`` of the association, all at once:
-  ``ν = [wrap(α_i − α̂_j), r_i − r̂_j]`` stacked, ``R = blockdiag(R_i)``,
-  ``S = H P Hᵀ + R`` (the lecture's Σ_IN), Joseph form (``ekf_core.joseph_update``).
+"""EKF localisation against a known map of wall lines (the line-features lecture, seed 003). The
+state is the pose ``(x, y, θ)`` alone, covariance ``P`` (3, 3); the map lines are exact. Motion:
+``planar_pose.motion_step``. Candidates: ``belief.candidate_lines``, ``ẑ_j = h(x̂, m_j)``,
+``P = H P_pose Hᵀ``. Update with all pairs at once: ``ν = [wrap(α_i − α̂_j), r_i − r̂_j]`` stacked,
+``R = blockdiag(R_i)``, ``S = H P Hᵀ + R`` (the lecture's Σ_IN), Joseph form
+(``ekf_core.joseph_update``).
 """
 
 from __future__ import annotations
@@ -34,11 +27,9 @@ NOT_ISAM2 = "estimator.name isam2 serves the planar (posts) track only; the line
 
 
 class LineEKF(PlanarPoseViews, Estimator):
-    """EKF localisation of a planar robot on a known map of lines (module docstring).
-
-    ``lines`` (K, 2) is the whole map ``(α_w, r_w)``; ``segments`` (S, 2, 2) the world end points of
-    its faces, ``segment_line`` (S,) the line of each and ``segment_normal`` (S, 2) its outward
-    unit normal; ``ids`` the lines in the filter's map (``belief.map_fraction``)."""
+    """EKF localisation on a known map of lines: ``lines`` (K, 2) ``(α_w, r_w)``; ``segments`` (S,
+    2, 2) its faces' end points, ``segment_line`` (S,), ``segment_normal`` (S, 2); ``ids`` the
+    mapped lines."""
 
     def __init__(self, cfg: EstimatorConfig, pose: np.ndarray, P: np.ndarray, lines: np.ndarray,
                  segments: np.ndarray, segment_line: np.ndarray, segment_normal: np.ndarray, ids: np.ndarray,

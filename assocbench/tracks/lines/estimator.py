@@ -13,9 +13,8 @@ from .ekf import NOT_ISAM2, NOT_SLAM, LineEKF
 
 
 def make_line_estimator(seq, cfg: EstimatorConfig, belief: BeliefConfig, seed: int):
-    """The lines track's ``LineEKF`` at frame 0: localisation only (the map of walls is known
-    exactly), from the sampled pose with Σ_pose reported, on the mapped lines
-    (``belief.map_fraction``). ``slam`` or ``isam2`` is a ``UserError`` naming what to use."""
+    """The ``LineEKF`` at frame 0: localisation from the sampled pose with Σ_pose on the mapped
+    lines; ``slam`` or ``isam2`` is a ``UserError`` saying what to use."""
     if cfg.name != "ekf":
         raise UserError(NOT_ISAM2)
     if cfg.mode != "localisation":

@@ -1,39 +1,25 @@
 """Lines ``(α, r)`` from a lidar scan, with their covariance, by one of three methods (lecture 24).
 
-**Points.** Beams with a return (NaN beams are skipped), in beam order, as ``(ρ_i, β_i)`` and
-``p_i = ρ_i (cos β_i, sin β_i)`` in the robot frame.
-
-**Breakpoints** (segmentation). Consecutive points ``p_i, p_j`` (NaN beams between them skipped) are
-apart when ``|p_j − p_i| > d₀ + min(ρ_i, ρ_j) Δφ / sin λ`` (Borges & Aldon's adaptive breakpoint,
-linearised: ``Δφ`` the beam step, ``λ`` the shallowest wall-to-beam angle still read as one surface,
-``d₀`` the noise margin). A dropped beam on a wall leaves a gap of two steps, under the threshold
-unless the wall is seen within about 2λ of grazing; a run of NaN beams as wide as an occluder splits.
-Over a full circle beam B−1 neighbours beam 0: the points are read from a breakpoint on, so a wall
-across the seam stays one chain; a scan with no breakpoint at all is a closed loop, read from its
-farthest point (a corner of a convex room) and first cut at the point farthest from it.
+**Breakpoints**: the returns ``p_i = ρ_i (cos β_i, sin β_i)``, in beam order, split where
+``|p_j − p_i| > d₀ + min(ρ_i, ρ_j) Δφ / sin λ`` (Borges & Aldon's adaptive breakpoint: ``Δφ`` the
+beam step, ``λ`` the shallowest wall-to-beam angle, ``d₀`` the noise margin). Over a full circle the
+points are read from a breakpoint, so a wall across the seam stays one chain; no breakpoint at all
+is a closed loop, read from its farthest point.
 
 **Methods** (``LineExtractorConfig.method``):
 
-* ``polar``: one weighted polar fit per breakpoint chain. A chain that turns a corner fails the
-  residual test, so this baseline loses every wall that meets another without a jump.
-* ``split_merge``: iterative end-point fit inside each chain: split at the point farthest from the
-  chord while that distance exceeds ``split_distance``; end points farther than ``TRIM_SIGMAS`` σ
-  from their segment's fit are trimmed (the beam nearest a corner may belong to the other wall);
-  segments with fewer than ``min_points`` beams are dropped; then collinear segments merge, the
-  most compatible pair first: ``χ² = vᵀ(Σ_i + Σ_j)⁻¹v ≤ merge_chi2`` (``v = (Δα wrapped, Δr)``),
-  nearest ends within ``merge_gap`` (adjacent or across an occluder), and the merged refit within
-  ``split_distance`` of every point.
-* ``ransac``: repeated extraction: ``ransac_iterations`` 2-point hypotheses over the points left,
-  the one with most points within ``inlier_distance`` wins; its inliers are refitted (polar fit)
-  and re-selected once, then cut at breakpoints so that a line is one contiguous wall segment;
-  pieces with ``min_points`` become lines and leave the pool (the whole inlier set leaves it when no
-  piece does), until fewer than ``min_points`` points remain or ``max_lines`` lines are found.
+* ``polar``: one weighted polar fit per chain (the baseline: a chain turning a corner fails).
+* ``split_merge``: split at the point farthest from the chord while beyond ``split_distance``; trim
+  end points beyond ``TRIM_SIGMAS`` σ; drop segments under ``min_points``; merge collinear segments,
+  most compatible first, when ``χ² = vᵀ(Σ_i + Σ_j)⁻¹v ≤ merge_chi2`` (``v = (Δα, Δr)``), their ends
+  within ``merge_gap`` and the refit within ``split_distance``.
+* ``ransac``: ``ransac_iterations`` 2-point hypotheses, most inliers within ``inlier_distance``
+  wins, refitted, cut at breakpoints; pieces with ``min_points`` become lines, until too few points
+  or ``max_lines``.
 
-Every method ends with the weighted polar fit and its covariance (``polar_fit``) on its inliers,
-drops fits whose RMS orthogonal distance exceeds ``max_rms`` and segments shorter than
-``min_length`` (end points: the extreme inliers projected on the line). Thresholds left null are
-multiples of the range noise σ: ``breakpoint_distance`` 10σ, ``split_distance`` 6σ (the largest
-of a few hundred normal deviates plus the chord's own noise), ``inlier_distance`` 3σ, ``max_rms`` 2σ.
+All end with the weighted polar fit (``polar_fit``), dropping fits beyond ``max_rms`` and segments
+under ``min_length``. Null thresholds scale with σ: ``breakpoint_distance`` 10σ, ``split_distance``
+6σ, ``inlier_distance`` 3σ, ``max_rms`` 2σ.
 """
 
 from __future__ import annotations
@@ -75,8 +61,8 @@ def _thresholds(cfg: LineExtractorConfig, sigma: float, step: float) -> _Thresho
 
 @dataclass
 class LineDetections:
-    """One scan's lines: ``z`` (m, 2) robot-frame ``(α, r)``, α ∈ [−π, π), r ≥ 0; ``R`` (m, 2, 2)
-    their covariances; ``endpoints`` (m, 2, 2) segment ends; ``beams`` the inlier beam indices."""
+    """One scan's lines: ``z`` (m, 2) ``(α, r)``, α ∈ [−π, π), r ≥ 0; ``R`` (m, 2, 2); ``endpoints``
+    (m, 2, 2); ``beams`` the inlier beams."""
 
     z: np.ndarray
     R: np.ndarray
@@ -113,8 +99,7 @@ def _apart(pts: _Points, i: np.ndarray, j: np.ndarray, th: _Thresholds) -> np.nd
 
 
 def _breaks(pts: _Points, th: _Thresholds) -> np.ndarray:
-    """``brk[i]``: a breakpoint lies before point i (bool, n); over a full circle point 0's
-    predecessor is the last point, else ``brk[0]`` is True."""
+    """``brk[i]``: a breakpoint before point i (full circle: point 0's predecessor is the last)."""
     n = len(pts.rho)
     i = np.arange(n)
     brk = _apart(pts, i - 1, i, th)          # i − 1 = −1: the last point (full circle)
@@ -124,8 +109,8 @@ def _breaks(pts: _Points, th: _Thresholds) -> np.ndarray:
 
 
 def _chains(pts: _Points, th: _Thresholds) -> tuple[_Points, np.ndarray, bool]:
-    """The points re-read from a breakpoint on (full circle), the start of each chain, and whether
-    the scan is one closed loop (no breakpoint: read from its farthest point)."""
+    """The points re-read from a breakpoint on (full circle), each chain's start, and whether the
+    scan is one closed loop."""
     brk = _breaks(pts, th)
     if not brk.any():
         first = int(np.argmax(pts.rho))
@@ -137,10 +122,9 @@ def _chains(pts: _Points, th: _Thresholds) -> tuple[_Points, np.ndarray, bool]:
 
 @njit(cache=True)
 def _iepf(p: np.ndarray, bounds: np.ndarray, split: float, smallest: int) -> np.ndarray:
-    """Iterative end-point fit of the chains ``p[bounds[c]:bounds[c+1]]``: split at the point
-    farthest from the chord while that distance exceeds ``split``; pieces with fewer than
-    ``smallest`` points are not split further. Returns the pieces (k, 2) ``[a, b)`` in order.
-    (Compiled: a Python loop over pieces with numpy on each slice cost 0.2 ms a scan.)"""
+    """Iterative end-point fit of the chains ``p[bounds[c]:bounds[c+1]]``: split at the farthest
+    point while beyond ``split``; pieces under ``smallest`` points stay. Returns pieces (k, 2)
+    ``[a, b)``; compiled."""
     out = np.empty((len(p), 2), np.int64)
     stack = np.empty((len(p) + 2, 2), np.int64)
     k = 0
@@ -171,8 +155,8 @@ def _iepf(p: np.ndarray, bounds: np.ndarray, split: float, smallest: int) -> np.
 
 
 def _trim(pts: _Points, cs: np.ndarray, seg: np.ndarray, gate: float, min_points: int) -> np.ndarray:
-    """Segments (k, 2) ``[a, b)`` with end points farther than ``gate`` from the segment's fit cut
-    (all segments at once; fits from the cumulative sums ``cs``), those left short dropped."""
+    """Segments ``[a, b)`` with end points beyond ``gate`` from their fit cut (fits from cumulative
+    sums ``cs``), short ones dropped."""
     a, b = seg[:, 0].copy(), seg[:, 1].copy()
     for _ in range(TRIM_ROUNDS):
         keep = b - a >= min_points
@@ -216,8 +200,7 @@ def _fit_groups(pts: _Points, groups: list[np.ndarray], sigma: float) -> _Fits:
 
 def _finish(pts: _Points, groups: list[np.ndarray], th: _Thresholds, cfg: LineExtractorConfig,
             f: _Fits | None = None) -> LineDetections:
-    """Final fits of the groups (positions into ``pts``; ``f``: their fits when known): fit,
-    residual test, length test, in beam order."""
+    """Final fits of the groups: fit, residual test, length test, in beam order."""
     if f is None:
         groups = [g for g in groups if len(g) >= cfg.min_points]
         if not groups:
@@ -272,9 +255,8 @@ def _pair_tests(pts: _Points, groups: list[np.ndarray], f: _Fits, th: _Threshold
 
 def _merge(pts: _Points, groups: list[np.ndarray], th: _Thresholds,
            cfg: LineExtractorConfig) -> tuple[list[np.ndarray], _Fits]:
-    """Merge collinear groups (each with ``min_points``), most compatible pair first; a merge
-    stands when the refit lies within ``split_distance`` of every point and its RMS within
-    ``max_rms``. Returns the groups and their fits."""
+    """Merge collinear groups, most compatible first, when the refit lies within ``split_distance``
+    of every point and ``max_rms``. Returns groups and fits."""
     f = _fit_groups(pts, groups, th.sigma)
     refused: set[tuple[int, int]] = set()
     while len(groups) > 1:
@@ -297,8 +279,7 @@ def _merge(pts: _Points, groups: list[np.ndarray], th: _Thresholds,
 
 
 def _pieces(pts: _Points, idx: np.ndarray, th: _Thresholds) -> list[np.ndarray]:
-    """Positions ``idx`` (sorted) cut at breakpoints between consecutive ones (circularly over a
-    full circle, so a piece across the seam stays whole)."""
+    """Positions ``idx`` cut at breakpoints (circularly over a full circle)."""
     if len(idx) < 2:
         return [idx]
     brk = _apart(pts, np.roll(idx, 1), idx, th)
@@ -340,9 +321,8 @@ _METHODS = {"polar": _polar, "split_merge": _split_merge, "ransac": _ransac}
 
 def extract_lines(scan: Scan, sigma_range: float, cfg: LineExtractorConfig,
                   rng: np.random.Generator | None = None) -> LineDetections:
-    """Lines of ``scan`` by ``cfg.method`` (module docstring); ``sigma_range``: the range noise σ
-    (m, > 0) of the weights, covariances and default thresholds; ``rng``: RANSAC's samples
-    (None: ``default_rng(0)``, so a call is reproducible)."""
+    """Lines of ``scan`` by ``cfg.method``; ``sigma_range``: the range noise σ (m, > 0) of weights,
+    covariances and default thresholds; ``rng``: RANSAC's samples (None: ``default_rng(0)``)."""
     sigma = check_number(sigma_range, "sigma_range (the lidar's range noise)", lo=0, hi=10, lo_open=True)
     ranges, angles = np.asarray(scan.ranges, float), np.asarray(scan.angles, float)
     if ranges.shape != angles.shape or ranges.ndim != 1:
@@ -358,9 +338,8 @@ def extract_lines(scan: Scan, sigma_range: float, cfg: LineExtractorConfig,
 
 
 def label_lines(det: LineDetections, beam_labels: np.ndarray, min_share: float) -> np.ndarray:
-    """Truth of each line (m,): the map line that at least ``min_share`` (> 1/2) of its beams hit
-    (``beam_labels`` (B,): map line of each beam, −1 none or clutter), else −1. Such a line is
-    the majority, hence the median of the line's sorted beam labels."""
+    """Truth of each line (m,): the map line at least ``min_share`` (> 1/2) of its beams hit
+    (``beam_labels``: each beam's map line, −1 none), else −1: the median of its sorted beam labels."""
     share = check_number(min_share, "min_share", lo=0.5, hi=1, lo_open=True)
     if not len(det):
         return np.zeros(0, int)

@@ -10,16 +10,15 @@ from .plots import segment_status, snapshot_json
 
 
 class LinesSensor(PlanarSensor):
-    """The lines track: extracted wall lines ``(α, r)`` (their covariance is the extractor's) plus
-    clutter lines uniform over α × r, planar odometry, 3-dof pose error: the planar sensor with
-    lines for posts. Localisation only (the map is known), so no new-landmark gate applies."""
+    """The lines track's loop sensor: extracted lines (the extractor's covariance) plus uniform
+    clutter lines, planar odometry, 3-dof pose error. Localisation only: no new-landmark gate."""
 
     new_landmark_gate = 0.0   # unused: the lines track makes no landmarks
     clutter = staticmethod(clutter_lines)
 
     def snapshot(self, k: int, pose: np.ndarray, problem, association: np.ndarray, labels: np.ndarray) -> str:
-        """The last frame for the top view (``tracks.lines.plots``): the scan's points, the extracted
-        segments and what the method did with each, to be drawn at the estimated ``pose``."""
+        """The last frame for the top view: scan points, extracted segments and what the method did
+        with each, drawn at the estimated ``pose``."""
         m = len(self.seq.z[k])   # the extracted lines; the clutter lines after them have no segment
         status = segment_status(labels, problem.landmark_ids, association, m)
         return snapshot_json(pose, self.seq.final_points, self.seq.endpoints[k], status)

@@ -1,9 +1,6 @@
-"""How well a lines sequence's extraction found the map's walls: precision, recall, and the error
-of each extracted (α, r) against the true line it lies on, with the consistency of its Σ.
-
-Per frame, an extracted line is *on a wall* when its truth label names a map line (the majority
-of its beams hit that line's faces, ``lines.min_share``); a map line is *found* when at least one
-extracted line carries its label, and *extractable* when ``lines.min_points`` beams truly hit it.
+"""How well a lines sequence's extraction found the walls. An extracted line is *on a wall* when its
+label names a map line; a map line is *found* when an extracted line carries its label,
+*extractable* when ``lines.min_points`` beams truly hit it.
 
     precision = Σ_k on-wall lines / Σ_k extracted lines
     recall    = Σ_k found map lines / Σ_k extractable map lines
@@ -20,8 +17,8 @@ from ...models.range_bearing import wrap
 
 
 def line_errors(seq) -> tuple[np.ndarray, np.ndarray]:
-    """Errors ``e`` (n, 2) of every on-wall extracted line of ``seq`` (a ``LineSequence``) against
-    its true line seen from the true pose, and their NEES (n,) under each line's Σ."""
+    """Errors ``e`` (n, 2) of every on-wall line against its true line from the true pose, and their
+    NEES."""
     errors, nees = [], []
     for k in range(len(seq)):
         on = np.flatnonzero(seq.labels[k] >= 0)

@@ -1,11 +1,7 @@
-"""Top view of the lines track's closed loop: one panel per method.
-
-Each panel shows the map (the wall faces, grey), the true path (thick black) and the method's
-estimate (thin, blue), and the last frame as the robot saw it, drawn at the
-*estimated* pose: the scan's points (small dots) and the extracted segments coloured by what the
-method did with them: paired with the right wall (green), with a wrong one (red), left unpaired
-though they lie on a map wall (orange), left unpaired as clutter should be (purple). A misplaced
-estimate shows as scan and segments offset from the walls.
+"""Top view of the lines track's closed loop, one panel per method: the walls (grey), the true path
+(black), the estimate (blue), and the last frame drawn at the *estimated* pose: scan points and
+segments coloured by what the method did (right wall green, wrong red, missed orange, clutter
+purple). A misplaced estimate shows as scan offset from the walls.
 """
 
 from __future__ import annotations
@@ -26,19 +22,18 @@ ESTIMATE_COLOR = "#1f77b4"   # one colour in every panel: the status colours mus
 
 
 def segment_status(labels: np.ndarray, landmark_ids: np.ndarray, association: np.ndarray, m: int) -> list[str]:
-    """What a method did with each of the first ``m`` features (the extracted lines), in the four
-    words of this figure (``scoring.decisions`` in fewer kinds): ``right`` (paired with its true
-    map line, or unpaired while another piece of that line was: one wall split by a doorway gives
-    several), ``wrong`` (paired with another line), ``missed`` (unpaired, on a map line no feature
-    was rightly paired with) or ``clutter`` (unpaired, on none). ``association[j]`` is candidate j's feature."""
+    """What the method did with each of the first ``m`` features: ``right`` (paired with its true
+    line, or unpaired while another piece of that line was), ``wrong`` (another line), ``missed``
+    (unpaired on a line nothing rightly paired with) or ``clutter`` (unpaired, on none).
+    ``association[j]``: candidate j's feature."""
     labels = np.asarray(labels, np.int64)
     decided = feature_decisions(landmark_ids, labels, association, labels >= 0)[:m]
     return [FIGURE_WORDS.get(d, d) for d in decided]
 
 
 def snapshot_json(pose: np.ndarray, points: np.ndarray, endpoints: np.ndarray, status: list[str]) -> str:
-    """The last frame as the figure draws it: estimated pose, robot-frame scan points and segment
-    end points (rounded to the millimetre), and each segment's status."""
+    """The last frame as drawn: estimated pose, scan points and segment ends (mm), each segment's
+    status."""
     pts = np.asarray(points, float).reshape(-1, 2)
     pts = pts[np.all(np.isfinite(pts), axis=1)]
     return json.dumps({"pose": np.round(np.asarray(pose, float)[:3], 5).tolist(),
@@ -69,9 +64,8 @@ def _panel(ax, run: pd.DataFrame, segments: np.ndarray, snapshot: dict | None, c
 
 
 def line_map_figure(frames: pd.DataFrame, segments: np.ndarray, snapshots: Mapping[str, dict | None], title: str = ""):
-    """The top view (module docstring) of one run per method. frames: per-frame rows of one
-    scenario and seed (``method``, ``frame``, ``true_x/y``, ``est_x/y``); segments: the map's wall
-    faces (S, 2, 2); snapshots: per method its last frame (``snapshot_json`` parsed) or None."""
+    """The top view of one run per method: ``frames`` (one scenario and seed), ``segments`` (the
+    walls' faces), ``snapshots`` (each method's last frame, or None)."""
     from matplotlib.figure import Figure
     from matplotlib.lines import Line2D
 

@@ -1,34 +1,28 @@
 """Weighted least-squares line fit to polar points, in closed form, with its first-order covariance
-(lecture 24, "probabilistic line fitting").
+(lecture 24).
 
-**Model.** A point ``(ρ_i, β_i)`` lies on the line ``(α, r)`` when ``ρ_i cos(β_i − α) = r``; its
-orthogonal distance is ``d_i = ρ_i cos(β_i − α) − r``. The fit minimises
+**Model.** ``(ρ_i, β_i)`` lies on ``(α, r)`` when ``ρ_i cos(β_i − α) = r``; the fit minimises
+``S(α, r) = Σ w_i d_i²``, ``d_i = ρ_i cos(β_i − α) − r``, ``w_i = 1/σ_ρi²``.
 
-    S(α, r) = Σ w_i d_i²,   w_i = 1/σ_ρi².
-
-**Closed form.** With ``x = ρ cos β``, ``y = ρ sin β`` and the weighted centroid ``(x̄, ȳ)``,
+**Closed form.** With ``x = ρ cos β``, ``y = ρ sin β`` and the weighted centroid,
 ``r = x̄ cos α + ȳ sin α`` and ``S(α) = ½(Sxx + Syy) + ½ den cos 2α + ½ num sin 2α`` with
 
     num = 2 Sxy  = Σ w ρ² sin 2β − 2 X Y / W
     den = Sxx − Syy = Σ w ρ² cos 2β − (X² − Y²) / W      (W = Σw, X = Σ w ρ cos β, Y = Σ w ρ sin β)
 
-(the lecture's double sums, written with the five sums above). ``½ atan2(num, den)`` is the
-direction of the *largest* scatter, where ``S`` is largest; the minimum lies a quarter turn away:
-``α = ½ atan2(num, den) + π/2``, ``S_min = ½(Sxx + Syy) − ½ √(num² + den²)``. The line is then
-put in the convention ``r ≥ 0`` (``(α + π, −r)`` when ``r < 0``) and ``α`` wrapped to ``[−π, π)``.
-Any fit needs only the six sums ``Σw, Σwρcosβ, Σwρsinβ, Σwρ²cos2β, Σwρ²sin2β, Σwρ²``, so a
-segment's fit is O(1) from cumulative sums.
+``½ atan2(num, den)`` is the direction of the largest scatter; the minimum is a quarter turn away,
+``α = ½ atan2(num, den) + π/2``, ``S_min = ½(Sxx + Syy) − ½ √(num² + den²)``; then ``r ≥ 0`` and α
+wrapped. Six sums suffice, so a segment's fit is O(1) from cumulative sums.
 
-**Covariance** (first order; weights held fixed). At the minimum ``g(x, ρ, β) = ∇ₓS = 0`` with
-``x = (α, r)``; the implicit-function theorem gives ``∂x/∂ρ = −H⁻¹ ∂g/∂ρ`` with ``H = ∂g/∂x``,
-hence ``Σ = H⁻¹ (B_ρ diag(σ_ρ²) B_ρᵀ + B_β diag(σ_β²) B_βᵀ) H⁻¹``. With ``c_i = cos(β_i − α)``,
-``s_i = sin(β_i − α)`` and ``a_i = ρ_i s_i = ∂d_i/∂α`` (``∂d_i/∂r = −1``), halved:
+**Covariance** (first order, weights fixed). At the minimum ``g = ∇ₓS = 0``, so
+``∂x/∂ρ = −H⁻¹ ∂g/∂ρ`` and ``Σ = H⁻¹ (B_ρ diag(σ_ρ²) B_ρᵀ + B_β diag(σ_β²) B_βᵀ) H⁻¹``. With
+``c_i = cos(β_i − α)``, ``s_i = sin(β_i − α)``, ``a_i = ρ_i s_i``, halved:
 
     H/2       = [[Σ w (a² − d ρ c), −Σ w a], [−Σ w a, Σ w]]
     ∂g/∂ρ_i/2 = w_i (c_i a_i + d_i s_i, −c_i)
     ∂g/∂β_i/2 = w_i (d_i ρ_i c_i − a_i², a_i)
 
-(the ``d`` terms are the exact second derivatives; they vanish on noise-free data, where
+(the ``d`` terms vanish on noise-free data, where
 ``Σ → (Σ w G Gᵀ)⁻¹ (Σ w² σ_ρ² c² G Gᵀ) (Σ w G Gᵀ)⁻¹``, ``G_i = (a_i, −1)``).
 """
 
@@ -52,8 +46,8 @@ def point_terms(rho: np.ndarray, beta: np.ndarray, w: np.ndarray | float) -> np.
 
 
 def line_from_sums(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Closed-form minimiser ``(α, r)`` and minimum cost ``S_min`` of sums ``s`` (..., 6); ``r ≥ 0``,
-    ``α ∈ [−π, π)``: ``α = ½ atan2(num, den) + π/2`` (the minimum, not the maximum), ``r = (X cos α + Y sin α)/W``."""
+    """Closed-form ``(α, r)`` and ``S_min`` of sums ``s`` (..., 6): ``α = ½ atan2(num, den) + π/2``,
+    ``r = (X cos α + Y sin α)/W``, ``r ≥ 0``."""
     W, X, Y, C2, S2, Q = np.moveaxis(np.asarray(s, float), -1, 0)
     num = S2 - 2 * X * Y / W
     den = C2 - (X * X - Y * Y) / W
@@ -66,9 +60,8 @@ def line_from_sums(s: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
 
 @njit(cache=True)
 def _covariance_kernel(rho, beta, w, var_rho, var_beta, alpha, r, starts):
-    """Loop form of ``group_fits`` (compiled: per-group numpy calls cost tens of µs each in
-    split-and-merge); also each group's RMS and largest |d| and its range of ``a = ρ sin(β − α)``
-    (the along-line coordinate of its points)."""
+    """``group_fits`` as a compiled loop, also each group's RMS, largest |d| and range of
+    ``a = ρ sin(β − α)``."""
     n, k = len(rho), len(starts)
     cov, d = np.empty((k, 2, 2)), np.empty(n)
     stats = np.empty((k, 4))   # rms, max |d|, min a, max a
@@ -112,11 +105,10 @@ def _covariance_kernel(rho, beta, w, var_rho, var_beta, alpha, r, starts):
 def group_fits(rho: np.ndarray, beta: np.ndarray, w: np.ndarray | float, var_rho: np.ndarray | float,
                var_beta: np.ndarray | float, alpha: np.ndarray, r: np.ndarray,
                starts: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Covariances (k, 2, 2) of the fits ``(α, r)`` (k,) of k groups of points, stored one group
-    after another from the indices ``starts`` on (see the module docstring: ``Σ = H⁻¹ M H⁻¹``
-    with ``H⁻¹`` from a 2×2 Cholesky factor), the orthogonal distances ``d`` (n,) of the points
-    and per group (k, 4): RMS of d, largest |d|, least and largest ``ρ sin(β − α)`` (the
-    along-line coordinate). ``w``, ``var_rho``, ``var_beta``: per point (n,) or one for all."""
+    """Covariances (k, 2, 2) of k groups' fits ``(α, r)`` (groups stored one after another from
+    ``starts``; ``Σ = H⁻¹ M H⁻¹``), the distances ``d`` (n,) and per group (k, 4): RMS, largest |d|,
+    least and largest along-line coordinate. ``w``, ``var_rho``, ``var_beta``: per point or one for
+    all."""
     def per_point(x):   # a writeable contiguous copy: a read-only view would compile a second signature
         return np.array(np.broadcast_to(np.asarray(x, float), np.shape(rho)), dtype=float, order="C")
     return _covariance_kernel(per_point(rho), per_point(beta), per_point(w), per_point(var_rho), per_point(var_beta),
@@ -125,9 +117,8 @@ def group_fits(rho: np.ndarray, beta: np.ndarray, w: np.ndarray | float, var_rho
 
 def fit_polar_line(rho: np.ndarray, beta: np.ndarray, sigma_rho: np.ndarray | float,
                    sigma_beta: np.ndarray | float = 0.0) -> tuple[float, float, np.ndarray]:
-    """Weighted least-squares line ``(α, r)`` through the polar points ``(ρ_i, β_i)`` (weights
-    ``1/σ_ρi²``) and its covariance ``Σ_(α,r)`` (2, 2) from the range noise ``σ_ρ`` (scalar or
-    (n,)) and the bearing noise ``σ_β`` (scalar or (n,), rad; 0: none). Bad input: UserError."""
+    """Weighted least-squares line ``(α, r)`` through ``(ρ_i, β_i)`` (weights ``1/σ_ρi²``) and
+    ``Σ_(α,r)`` from ``σ_ρ`` and ``σ_β`` (rad; 0: none), scalars or (n,). Bad input: UserError."""
     rho, beta = np.asarray(rho, float).ravel(), np.asarray(beta, float).ravel()
     if rho.shape != beta.shape:
         raise UserError(f"fit_polar_line: rho and beta must have one length, got {rho.shape[0]} and {beta.shape[0]}")

@@ -1,11 +1,8 @@
-"""A lines sequence: the robot's poses along its path and, each frame, the lines extracted from
-its lidar scan ((α, r) with covariance, in the robot frame), their truth (the map line each lies
-on, or −1) and which map lines were truly extractable.
-
-Frame ``k`` draws its scan noise from ``np.random.default_rng([seed, k, 31])`` and RANSAC's
-samples from ``default_rng([seed, k, 32])``, so the same spec gives the same arrays bit for bit
-and frame ``k`` is the same whatever ran before it. Nothing is cached: a 500-frame sequence
-takes a few seconds.
+"""A lines sequence: the robot's poses and, each frame, the lines extracted from its scan (robot
+frame, with covariance), their truth and which map lines were extractable. Frame ``k`` draws its
+scan noise from ``default_rng([seed, k, 31])`` and RANSAC's samples from
+``default_rng([seed, k, 32])``: bit for bit reproducible, independent of other frames. Not cached
+(cheap to make).
 """
 
 from __future__ import annotations
@@ -39,7 +36,7 @@ class LineSequenceSpec(ScenePath):
 
     def check(self) -> None:
         """Refuse a bad scene (no walls, a degenerate wall or one the scan plane misses), trajectory
-        or trajectory parameter now, with one line, before anything runs."""
+        or parameter in one line, before anything runs."""
         scene = load_line_scene(self.scene)
         check_scan_plane(scene, self.lidar.height)
         planar_trajectory(scene, self.trajectory, min(self.frames, 2), self.seed, **self.trajectory_params)
@@ -92,8 +89,8 @@ def nominal_line_noise(R: list[np.ndarray], fallback: np.ndarray) -> np.ndarray:
 
 
 def warm_extraction() -> None:
-    """Compile (or load from numba's cache) the extraction kernels on a small synthetic wall, with
-    the note ``kernels.warm`` prints when they compile, so the first frame is not the one that waits."""
+    """Compile or load the extraction kernels on a small synthetic wall, so the first frame does not
+    wait."""
     from ...kernels import warm
 
     angles = np.linspace(-0.6, 0.6, 48)

@@ -13,16 +13,20 @@ METHODS = ("polar", "split_merge", "ransac")
 class LineExtractorConfig:
     """Line extractor settings (section ``lines``); null thresholds scale with the range noise σ.
 
-    method: polar | split_merge | ransac. min_points: fewest beams of a line (>= 3: two points
-    always fit exactly; 16 by default: a short line that took in one or two beams of a
-    neighbouring face (a door jamb, a pillar) is biased well beyond its Σ, and with 8 such lines
-    made the extraction NEES 3.4–3.6 in the office and hallway against 2; with 16 it is 2.1–2.5,
-    and 2.0 on lines whose beams all hit one face). min_length: shortest segment kept (m). breakpoint_distance (m, null 10σ)
-    and breakpoint_angle_deg (λ): the adaptive breakpoint. split_distance: split-and-merge's
-    chord distance (m, null 6σ). max_rms: largest RMS orthogonal residual of a kept fit (m, null
-    2σ). merge_chi2: χ² bound (2 dof) of a collinear merge (13.8: 99.9 %). merge_gap: largest gap
-    between merged segments (m). ransac_iterations: hypotheses per extracted line.
-    inlier_distance: RANSAC inlier band (m, null 3σ). max_lines: most lines per scan.
+    method: polar | split_merge | ransac.
+    min_points: fewest beams of a line (>= 3: two points always fit); the default leaves out short
+        lines biased by a neighbouring face's beams (a door jamb, a pillar), which made the
+        extraction's NEES too large.
+    min_length: shortest segment kept (m).
+    breakpoint_distance / breakpoint_angle_deg: the adaptive breakpoint's margin d₀ (m, null 10σ)
+        and angle λ (deg).
+    split_distance: split-and-merge's chord distance (m, null 6σ).
+    max_rms: largest RMS orthogonal residual of a kept fit (m, null 2σ).
+    merge_chi2: χ² bound (2 dof) of a collinear merge (13.8: 99.9 %).
+    merge_gap: largest gap between merged segments (m).
+    ransac_iterations: hypotheses per extracted line.
+    inlier_distance: RANSAC inlier band (m, null 3σ).
+    max_lines: most lines per scan.
     min_share: share of a line's beams on one map line for it to be labelled with it.
     """
 

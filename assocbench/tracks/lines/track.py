@@ -1,7 +1,5 @@
-"""The lines track: walls extracted from lidar scans as lines (α, r) with covariance.
-
-This module stays light (the registry imports it to list the track): the simulation, the
-extraction kernels and the estimator are imported inside the hooks that use them."""
+"""The lines track: walls extracted from lidar scans as lines (α, r) with covariance. Light to
+import: simulation, kernels and estimator load inside the hooks."""
 
 from __future__ import annotations
 
@@ -105,9 +103,8 @@ class LinesTrack(LidarTrack):
         warm_extraction()
 
     def env_slots(self, run: Any) -> EnvSlots:
-        """N: every line of the scene's map; M: the most lines a scan can yield (one per
-        ``lines.min_points`` beams, each beam in one line; RANSAC stops at ``lines.max_lines``)
-        plus ``belief.clutter``."""
+        """N: every map line; M: the most lines a scan can yield (one per ``lines.min_points``
+            beams; RANSAC stops at ``lines.max_lines``) plus ``belief.clutter``."""
         from ...sim.line_scene import load_line_scene
 
         spec = run.source.spec
@@ -127,8 +124,8 @@ class LinesTrack(LidarTrack):
         return {"walls": seq.segments}
 
     def feature_shapes(self, seq: Any, k: int, z: np.ndarray) -> dict[str, np.ndarray]:
-        """The extracted lines' segments; a clutter line ``(α, r)`` has none, so a piece of
-        ``CLUTTER_PIECE_M`` centred on its foot point ``r (cos α, sin α)``."""
+        """The extracted segments; a clutter line has none, so a ``CLUTTER_PIECE_M`` piece at its
+        foot point ``r (cos α, sin α)``."""
         ends = np.asarray(seq.endpoints[k], float).reshape(-1, 2, 2)
         clutter = np.asarray(z, float).reshape(-1, 2)[len(ends):]
         foot = clutter[:, 1:] * np.column_stack([np.cos(clutter[:, 0]), np.sin(clutter[:, 0])])

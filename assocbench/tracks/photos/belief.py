@@ -1,12 +1,10 @@
-"""The photos track's association problem of one image.
-
-The map holds the landmarks seen with a keypoint in the *other* images (``PhotoFrame.in_map``); the
-estimate is the bundle's camera and landmarks perturbed by an error drawn from ``k² Σ``, with Σ =
-blockdiag(σ_p² I₃, σ_θ² I₃, Σ_L) as on the camera track (``belief.config.sample_estimate``); the
-candidates are the map's landmarks the estimated camera sees in front of it and inside the image,
-predicted through the Bundler projection with radial distortion (``models.bundler``), with
-``P = J Σ Jᵀ``, cross terms kept. The measurements are every keypoint of the image, most of them
-clutter; the reference labels the keypoints at each landmark's view (``recording``).
+"""The photos track's association problem of one image: the map holds the landmarks seen with a
+keypoint in the *other* images (``PhotoFrame.in_map``); the estimate is the bundle's camera and
+landmarks plus an error drawn from ``k² Σ`` (Σ as on the camera track,
+``belief.config.sample_estimate``); candidates are the map landmarks the estimated camera sees,
+predicted through the Bundler projection (``models.bundler``) with ``P = J Σ Jᵀ``. Measurements are
+every keypoint of the image, most of them clutter; the reference labels the keypoints at each
+landmark's view (``recording``).
 """
 
 from __future__ import annotations

@@ -1,6 +1,6 @@
-"""Readers of the two file formats of a Bundler reconstruction: the bundle (``bundle.out``, Bundler
-v0.3) and Lowe's SIFT keypoint files (``.key`` or ``.key.gz``). A malformed file is a one-line
-``UserError`` naming the file, the line and what was expected.
+"""Readers of a Bundler reconstruction's two formats, the bundle (``bundle.out``, v0.3) and Lowe's
+SIFT keypoint files (``.key``, ``.key.gz``); a malformed file is a one-line ``UserError`` naming
+file, line and what was expected.
 
 Bundle v0.3::
 
@@ -15,7 +15,7 @@ Bundle v0.3::
                                       the position in pixels from the image centre, y up
 
 Lowe's key file: ``<keys> <length>``, then per keypoint ``row column scale orientation`` and
-``length`` descriptor bytes (0-255), whitespace-separated over any number of lines.
+``length`` descriptor bytes, whitespace-separated.
 """
 
 from __future__ import annotations
@@ -42,8 +42,8 @@ class BundleCamera:
 
 @dataclass(frozen=True)
 class Bundle:
-    """A Bundler reconstruction: ``cameras``, ``points`` (N, 3), ``colours`` (N, 3) and each point's
-    ``views``, an (k, 4) array of ``camera, key, x, y`` rows (x, y from the image centre, y up)."""
+    """A Bundler reconstruction: ``cameras``, ``points`` (N, 3), ``colours`` (N, 3) and ``views``,
+    (k, 4) rows ``camera, key, x, y`` (from the image centre, y up)."""
 
     cameras: tuple[BundleCamera, ...]
     points: np.ndarray
@@ -58,8 +58,8 @@ class Bundle:
 
 @dataclass(frozen=True)
 class Keys:
-    """Lowe's SIFT keypoints of one image: ``rows``, ``cols`` (pixels, centre of the top-left pixel
-    at 0, 0), ``scales``, ``orientations`` (radians) (k,) and ``descriptors`` (k, D) uint8."""
+    """One image's SIFT keypoints: ``rows``, ``cols`` (top-left pixel's centre at 0, 0), ``scales``,
+    ``orientations`` (rad) and ``descriptors`` (k, D) uint8."""
 
     rows: np.ndarray
     cols: np.ndarray

@@ -1,6 +1,6 @@
-"""What ``assocbench frame`` and ``assocbench render`` draw on the photos track: the photograph, twice
-its size, with its keypoints, the predicted landmarks and the pairings as lines from a prediction to
-its keypoint: the reference's (``frame``), or a method's coloured against the reference (``render``)."""
+"""What ``assocbench frame`` and ``render`` draw on the photos track: the photograph at twice its
+size with its keypoints, the predicted landmarks and the pairings: the reference's (``frame``) or a
+method's coloured against it (``render``)."""
 
 from __future__ import annotations
 
@@ -72,7 +72,7 @@ def reference_picture(source: PhotoSource, k: int, problem: Problem, truth: Fram
 
 def decision_picture(source: PhotoSource, rf: RunFrame, title: str) -> np.ndarray:
     """Image ``rf.k`` with the method's pairings, green where the reference agrees, red where not,
-    and in orange the reference's pairs it left out."""
+    orange the reference's it left out."""
     problem, truth, a = rf.problem, rf.truth, rf.association
     img = _canvas(source, rf.k, problem, title, RUN_LEGEND)
     z, zhat = at_scale(problem.z), at_scale(problem.zhat)

@@ -1,23 +1,18 @@
-"""A Bundler reconstruction made ready for association: its landmarks (the bundle's points, duplicates
-merged), each image's keypoints, and the reference that pairs them.
+"""A Bundler reconstruction made ready for association: its landmarks (points, duplicates merged),
+each image's keypoints, and the reference pairing them.
 
-**The reference.** A view of the bundle names a key index, but the key files shipped beside
-Balbianello are not the ones that index refers to, so each view is matched to a keypoint of its
-image by position: the pixel centre of a view ``(x, y)`` is ``(x + (W-1)/2, (H-1)/2 - y)`` (column,
-row), and its keypoint is the nearest one within ``match_radius`` pixels. Matching is one-to-one
-per image, nearest pairs first. A view with no keypoint that near is a landmark the bundle saw in
-the image with no keypoint to pair it with (the reference then pairs it with nothing).
+**Reference.** The key files shipped beside Balbianello are not those the bundle's key indices refer
+to, so each view is matched to a keypoint by position: view ``(x, y)`` is pixel
+``(x + (W-1)/2, (H-1)/2 - y)``, its keypoint the nearest within ``match_radius``, one-to-one per
+image, nearest pairs first; a view without one pairs with nothing.
 
-**Duplicates.** SIFT emits one keypoint per dominant orientation, so one spot of an image may
-carry several keypoints at the same position, and Bundler made one point per orientation. Points
-that share a view position (same image, within 0.01 px) and agree within ``match_radius`` in every
-image both see are merged into one landmark (their mean position); keypoints at one position
-(a *spot*) all carry the landmark's label, so pairing any of them is right.
+**Duplicates.** SIFT emits a keypoint per dominant orientation and Bundler a point per orientation,
+so points sharing a view position (within 0.01 px) and agreeing within ``match_radius`` in every
+image both see are one landmark; all keypoints at its spot carry its label.
 
-**Appearance.** A landmark's descriptor for frame ``i`` is the mean of the descriptors of every
-keypoint at its spots in the images other than ``i`` (the images that built it): compared with
-each keypoint of image ``i``, this mean finds the right spot about as often as the nearest of the
-set does (95 % and 97 % of views, nearest within 30 px on Balbianello), in one row per landmark.
+**Appearance.** A landmark's descriptor for frame ``i`` is the mean of its spots' descriptors in the
+other images: one row per landmark that finds the right spot about as often as the nearest of the
+set.
 """
 
 from __future__ import annotations
@@ -35,9 +30,8 @@ SAME_SPOT_PX = 0.01   # two positions closer than this are one spot (the files g
 
 @dataclass(frozen=True)
 class MatchReport:
-    """How the bundle's views matched the keypoints: ``views`` in all, ``within`` of them with a
-    keypoint within the radius, the ``median_px`` distance to the nearest keypoint, the ``points``
-    of the bundle and the ``landmarks`` they merged into, and the reference pairs per image."""
+    """How the views matched: ``views``, ``within`` the radius, ``median_px`` to the nearest
+    keypoint, bundle ``points`` and merged ``landmarks``, reference pairs per image."""
 
     views: int
     within: int
@@ -56,10 +50,9 @@ class MatchReport:
 
 @dataclass(frozen=True)
 class Photo:
-    """One image of the reconstruction: its ``camera``, its ``keys``, the label of each keypoint
-    (``labels`` (k,): a landmark index or -1), and for each landmark whether the bundle saw it here
-    (``seen`` (L,)), its reference keypoint (``reference`` (L,), -1 for none) and the sum and count of
-    the descriptors at its spot (``descriptor_sum`` (L, D), ``descriptor_count`` (L,))."""
+    """One image: its ``camera``, ``keys``, each keypoint's ``labels`` (landmark or -1), and per
+    landmark ``seen`` here, its ``reference`` keypoint (-1: none) and
+    ``descriptor_sum``/``descriptor_count`` at its spot."""
 
     image: Path
     camera: BundlerCamera
@@ -82,7 +75,7 @@ class Recording:
 
     def landmark_descriptors(self, i: int) -> tuple[np.ndarray, np.ndarray]:
         """Each landmark's mean descriptor over the images other than ``i`` (L, D) float32, and
-        whether it has one (L,): a landmark with none was not seen with a keypoint elsewhere."""
+        whether it has one."""
         others = [p for k, p in enumerate(self.photos) if k != i]
         total = sum(p.descriptor_sum for p in others)
         count = sum(p.descriptor_count for p in others)
@@ -93,8 +86,8 @@ class Recording:
 
 
 def merge_duplicates(bundle: Bundle, radius: float) -> np.ndarray:
-    """(N,) landmark index of each point of ``bundle``: points that share a view position and agree
-    within ``radius`` px in every image both see are one landmark (module docstring)."""
+    """(N,) landmark of each bundle point: points sharing a view position and agreeing within
+    ``radius`` px in every common image are one."""
     parent = np.arange(len(bundle.points))
 
     def root(a: int) -> int:
@@ -138,8 +131,8 @@ def landmark_views(bundle: Bundle, owner: np.ndarray, cameras: int) -> np.ndarra
 
 @dataclass(frozen=True)
 class Spots:
-    """An image's distinct keypoint positions: ``pixels`` (s, 2) (column, row), the spot of each
-    keypoint ``of_key`` (k,) and the first keypoint of each spot ``first_key`` (s,)."""
+    """An image's distinct keypoint positions: ``pixels`` (s, 2), each keypoint's spot ``of_key``,
+    each spot's ``first_key``."""
 
     pixels: np.ndarray
     of_key: np.ndarray
@@ -154,8 +147,8 @@ def spots_of(keys: Keys) -> Spots:
 
 
 def match_views(views_px: np.ndarray, spots: np.ndarray, radius: float) -> np.ndarray:
-    """For views (L, 2) (column, row; NaN: unseen) and spots (s, 2): the spot each view is paired
-    with (L,), -1 for none within ``radius``; one-to-one, nearest pairs first."""
+    """The spot (L,) each view (NaN: unseen) is paired with, -1 for none within ``radius``;
+    one-to-one, nearest first."""
     from scipy.spatial import cKDTree
 
     seen = np.flatnonzero(np.isfinite(views_px[:, 0]))
@@ -198,8 +191,7 @@ def build_recording(bundle: Bundle, keys: list[Keys], images: list[Path], camera
 
 def _photo(image: Path, camera: BundlerCamera, keys: Keys, spots: Spots, seen: np.ndarray,
            paired_spot: np.ndarray) -> Photo:
-    """One image's labels, reference (each landmark's spot's first keypoint) and descriptor sums
-    from its landmarks' paired spots."""
+    """One image's labels, reference (its spot's first keypoint) and descriptor sums."""
     count = len(seen)
     owner_of_spot = np.full(len(spots.pixels), -1, np.int64)
     has = paired_spot >= 0

@@ -1,8 +1,7 @@
 """The photos track's frame source: a Bundler reconstruction with its images and SIFT key files, one
-frame per image, read from the installed ``gtsam`` package (never copied into a run or a repository).
-
-Balbianello (``gtsam/Data/``): ``Balbianello.out`` and ``Balbianello/BalbianelloMedium-{1..5}.jpg``
-with ``.key.gz`` beside each image; camera ``c`` of the bundle is image ``c + 1``."""
+frame per image, read from the installed ``gtsam`` package (never copied). Balbianello:
+``gtsam/Data/Balbianello.out`` and ``Balbianello/BalbianelloMedium-{1..5}.jpg`` with a ``.key.gz``
+each; camera ``c`` is image ``c + 1``."""
 
 from __future__ import annotations
 
@@ -62,9 +61,8 @@ def balbianello() -> PhotoSet:
 
 @dataclass(frozen=True)
 class PhotoFrame:
-    """Frame ``index``: its ``photo`` (camera, keypoints, reference), the map's ``landmarks`` (L, 3),
-    which of them are in this frame's map (``in_map`` (L,): seen with a keypoint in another image)
-    and their descriptors from the other images (``descriptors`` (L, D))."""
+    """Frame ``index``: its ``photo``, the map's ``landmarks`` (L, 3), ``in_map`` (seen with a
+    keypoint elsewhere) and their ``descriptors`` from the other images."""
 
     index: int
     photo: Photo
@@ -74,8 +72,8 @@ class PhotoFrame:
 
 
 class PhotoSource:
-    """A reconstruction as a frame source: the files are read and matched when a frame is first read
-    (``recording``), once per process; pickling drops what was read."""
+    """A reconstruction as a frame source, read and matched once per process on first read; pickling
+    drops it."""
 
     track = TRACK
 

@@ -1,8 +1,6 @@
-"""The photos track: real photographs, their SIFT keypoints, and a Bundler map predicted into each one
-through a perturbed camera; scored against the reconstruction's own reference association.
-
-This module stays light (the registry imports it to list the track): the files are read, and
-OpenCV imported, inside the hooks that use them."""
+"""The photos track: real photographs, their SIFT keypoints, and a Bundler map predicted into each
+through a perturbed camera, scored against the reconstruction's own reference association. Light to
+import."""
 
 from __future__ import annotations
 

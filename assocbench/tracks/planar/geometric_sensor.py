@@ -1,12 +1,8 @@
 """The lidar's geometric mode: true range and bearing of every visible post plus noise (fast,
-idealised: no scan, no fit).
-
-A post ``l`` with centre ``m_l`` is visible from ``pose = (x, y, θ)`` when its range
-``r = |m_l − (x, y)|`` is within ``max_range``, its bearing ``φ = wrap(atan2(Δy, Δx) − θ)``
-within the field of view, and the ray from the sensor towards its centre meets that post
-first (one ``mj_multiRay`` call for all posts). Each visible post is detected with probability
-``1 − dropout`` as ``z = (r, φ) + ε``, ``ε ~ N(0, R)``, ``R = diag(σ_r², σ_φ²)``. Detections are
-sorted by bearing, so their order says nothing about which post they are.
+idealised: no scan, no fit). A post is visible when within ``max_range``, within the field of view
+and first on the ray to its centre (one ``mj_multiRay`` for all); each is detected with probability
+``1 − dropout`` as ``z = (r, φ) + ε``, ``ε ~ N(0, diag(σ_r², σ_φ²))``, sorted by bearing so the
+order says nothing of identity.
 """
 
 from __future__ import annotations
@@ -40,8 +36,8 @@ def geometric_visible(scene: PlanarScene, pose: np.ndarray, cfg: LidarConfig) ->
 
 def geometric_detections(scene: PlanarScene, pose: np.ndarray, cfg: LidarConfig,
                          rng: np.random.Generator) -> tuple[Detections, np.ndarray, np.ndarray]:
-    """Detections (sorted by bearing), their labels (post indices) and the visibility (L,).
-    The generator draws 2L normals then L uniforms whatever is visible."""
+    """Detections (by bearing), their labels and the visibility (L,); 2L normals then L uniforms are
+    drawn whatever is visible."""
     rb = true_range_bearing(scene, pose)
     visible = geometric_visible(scene, pose, cfg)
     sigma = np.array([cfg.sigma_range, np.deg2rad(cfg.sigma_bearing_deg)])

@@ -1,23 +1,21 @@
-"""Posts from a lidar scan: split the scan into clusters, fit a circle of the known radius to each,
-and return the range and bearing of its centre with a first-order covariance.
+"""Posts from a lidar scan: clusters, a circle of the known radius fitted to each, and the range and
+bearing of its centre with a first-order covariance.
 
-**Segmentation.** The returns, in beam order, break into clusters wherever two consecutive hit
-points lie more than ``gap`` apart (over a full circle the last cluster joins the first when they
-meet). Two points on one post are never farther apart than its diameter ``2ρ``, so ``gap = 2ρ``
-(the default) never splits a post, dropped beams included. A cluster with fewer than
-``min_points`` points, or wider than ``2ρ + 6σ_r`` end to end, cannot be a post.
+**Segmentation.** Returns in beam order break wherever consecutive hit points lie more than ``gap``
+apart (full circle: the last cluster joins the first). Two points of one post are never farther
+apart than ``2ρ``, so ``gap = 2ρ`` never splits a post. A cluster under ``min_points`` or wider than
+``2ρ + 6σ_r`` is no post.
 
-**Circle fit** (Gauss-Newton on the centre ``c``, robot frame, radius ``ρ`` known). Residuals
-``e_i = |p_i − c| − ρ`` with ``∂e_i/∂c = −n_iᵀ``, ``n_i = (p_i − c)/|p_i − c|``. Range noise
-moves ``p_i`` along its beam ``u_i``, so ``e_i`` has σ_i = σ_r |n_i·u_i| (clamped at
-``COS_FLOOR``: grazing beams are not trusted beyond first order). Each step solves
-``(Jᵀ W J) δ = −Jᵀ W e`` (``W = diag(1/σ_i²)``) by a 2×2 Cholesky factor, and
-``cov(c) = (Jᵀ W J)⁻¹ = L⁻ᵀ L⁻¹``. The start is the cluster's mean pushed back by ``ρ``
-along its direction. A fit is rejected when its residual RMS exceeds ``max_rms`` (clutter of
-another radius, walls, box corners) or its centre is not behind the points.
+**Circle fit** (Gauss-Newton on the centre ``c``, radius ``ρ`` known): ``e_i = |p_i − c| − ρ``,
+``∂e_i/∂c = −n_iᵀ``, ``n_i = (p_i − c)/|p_i − c|``; range noise moves ``p_i`` along its beam
+``u_i``, so σ_i = σ_r |n_i·u_i| (clamped at ``COS_FLOOR``). Each step solves
+``(Jᵀ W J) δ = −Jᵀ W e`` (``W = diag(1/σ_i²)``) by a 2×2 Cholesky factor;
+``cov(c) = (Jᵀ W J)⁻¹ = L⁻ᵀ L⁻¹``. The start is the cluster's mean pushed back by ``ρ``. A fit with
+residual RMS over ``max_rms`` (clutter, walls, box corners) or a centre not behind its points is
+rejected.
 
-**Measurement.** ``z = (r, φ) = (|c|, atan2(c_y, c_x))`` with ``R = G cov(c) Gᵀ``,
-``G = ∂(r, φ)/∂c = [[c_x/r, c_y/r], [−c_y/r², c_x/r²]]``.
+**Measurement.** ``z = (r, φ) = (|c|, atan2(c_y, c_x))``, ``R = G cov(c) Gᵀ``,
+``G = [[c_x/r, c_y/r], [−c_y/r², c_x/r²]]``.
 """
 
 from __future__ import annotations
@@ -36,8 +34,8 @@ CONVERGED = 1e-4     # m: a fit whose last step is longer has not converged (3-p
 
 @dataclass
 class Detections:
-    """One frame's detected posts: ``z`` (m, 2) = (range, bearing) of the centres in the robot
-    frame, ``R`` (m, 2, 2) their covariances, ``beams`` the beam indices each was fitted to."""
+    """One frame's posts: ``z`` (m, 2) range and bearing of the centres, ``R`` (m, 2, 2), ``beams``
+    each was fitted to."""
 
     z: np.ndarray
     R: np.ndarray
@@ -52,10 +50,9 @@ class Detections:
 
 
 def segment(points: np.ndarray, gap: float, full_circle: bool) -> tuple[np.ndarray, np.ndarray]:
-    """Clusters of consecutive hit points (n, 2) in beam order: a new cluster where
-    ``|p_i − p_{i−1}| > gap``. Over a full circle the scan is read from its first break on, so a
-    cluster across beam 0 stays whole. Returns the reading order (n,) and each read point's
-    cluster label (n,), labels non-decreasing (clusters are contiguous)."""
+    """Clusters of consecutive hit points in beam order, split where ``|p_i − p_{i−1}| > gap`` (full
+    circle: read from the first break, so a cluster across beam 0 stays whole). Returns the reading
+    order and each point's cluster label (non-decreasing)."""
     n = len(points)
     order = np.arange(n)
     if n < 2:
@@ -69,10 +66,9 @@ def segment(points: np.ndarray, gap: float, full_circle: bool) -> tuple[np.ndarr
 
 
 def fit_circles(p: np.ndarray, starts: np.ndarray, radius: float) -> tuple[np.ndarray, tuple, np.ndarray]:
-    """Gauss-Newton fit of circles of radius ``radius`` to the points ``p`` (n, 2), clusters
-    contiguous from the indices ``starts`` (k,) on, all clusters at once. Returns centres
-    (k, 2), the Cholesky factor ``(l11, l21, l22)`` (k,) each of ``Σ w n nᵀ`` (``= σ_r² JᵀWJ``)
-    and the residual RMS (k,) (``inf`` where the last step exceeds ``CONVERGED``)."""
+    """Gauss-Newton circles of ``radius`` through ``p``, clusters contiguous from ``starts``, all at
+    once. Returns centres (k, 2), the Cholesky factor ``(l11, l21, l22)`` of ``Σ w n nᵀ``
+    (``= σ_r² JᵀWJ``) and the residual RMS (``inf`` if not converged)."""
     count = np.diff(np.append(starts, len(p)))
     lab = np.repeat(np.arange(len(starts)), count)
     mean = np.add.reduceat(p, starts, axis=0) / count[:, None]
@@ -99,8 +95,8 @@ def fit_circles(p: np.ndarray, starts: np.ndarray, radius: float) -> tuple[np.nd
 
 
 def chol2(a11: np.ndarray, a21: np.ndarray, a22: np.ndarray) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Cholesky factor ``L = [[l11, 0], [l21, l22]]`` of symmetric 2×2 matrices, elementwise
-    (``l22`` is 0 where the matrix is singular: two points on one beam direction)."""
+    """Cholesky ``L = [[l11, 0], [l21, l22]]`` of symmetric 2×2 matrices, elementwise (``l22`` 0
+    where singular)."""
     l11 = np.sqrt(np.maximum(a11, 1e-300))
     l21 = a21 / l11
     l22 = np.sqrt(np.maximum(a22 - l21 ** 2, 1e-300))
@@ -160,9 +156,8 @@ def detect_posts(scan: Scan, radius: float, sigma_range: float, cfg: PostDetecto
 
 
 def label_detections(det: Detections, scan: Scan, post_geom_ids: np.ndarray, min_share: float = 0.8) -> np.ndarray:
-    """Truth of each detection (m,): the index of the post whose geom at least ``min_share``
-    (> 1/2) of its beams hit, else −1 (clutter, a wall, or a cluster mixing objects). Such a
-    post is the majority, hence the median of each detection's sorted post indices."""
+    """Truth of each detection: the post at least ``min_share`` (> 1/2) of its beams hit (the median
+    of its sorted post indices), else −1."""
     if not len(det):
         return np.zeros(0, int)
     post_of = np.full(max(int(scan.geom.max()), int(post_geom_ids.max())) + 2, -1)

@@ -1,9 +1,7 @@
-"""A planar sequence: the robot's poses along its path and, each frame, the detected posts
-(range-bearing with covariance), their truth and which posts were truly detectable.
-
-Frame ``k`` draws its noise from ``np.random.default_rng([seed, k, 21])``, so the same spec gives
-the same arrays bit for bit, and frame ``k`` is the same whatever ran before it. Nothing is
-cached: a 500-frame sequence takes about a second.
+"""A planar sequence: the robot's poses and, each frame, the detected posts (range-bearing with
+covariance), their truth and which posts were detectable. Frame ``k``'s noise comes from
+``default_rng([seed, k, 21])``: bit for bit reproducible, independent of other frames. Not cached
+(cheap).
 """
 
 from __future__ import annotations
@@ -37,8 +35,8 @@ class PlanarSequenceSpec(ScenePath):
     keep_scans: bool = False
 
     def check(self) -> None:
-        """Refuse a bad scene (no posts, posts of two radii), trajectory or trajectory parameter now,
-        with one line, before anything runs (a scene loads in milliseconds; the path is cheap)."""
+        """Refuse a bad scene (no posts, two radii), trajectory or parameter in one line before
+        anything runs."""
         planar_trajectory(load_planar_scene(self.scene), self.trajectory, min(self.frames, 2), self.seed,
                           **self.trajectory_params)
 
@@ -69,8 +67,7 @@ class PlanarSequence(PosesInPlane):
 
 
 def lidar_visible(scan_: Scan, post_geom_ids: np.ndarray, min_points: int) -> np.ndarray:
-    """(L,) bool: at least ``min_points`` beams truly hit the post within range (dropped
-    returns included: a post the sensor failed to see still counts as detectable)."""
+    """(L,) at least ``min_points`` beams truly hit the post in range (dropped returns included)."""
     hits = np.zeros(int(max(scan_.geom.max(), post_geom_ids.max())) + 2, int)
     np.add.at(hits, scan_.geom, 1)               # geom −1 counts in the last slot
     return hits[post_geom_ids] >= min_points

@@ -11,13 +11,13 @@ from ...validation import in_range, validate_fields
 class PostDetectorConfig:
     """Post detector settings (section ``posts``).
 
-    min_points: fewest hit points a post needs (4: a 3-point fit with a known radius has one
-        redundant point, and its first-order covariance, right on average over single scans,
-        made SLAM with the true association overconfident on the park: ensemble ANEES 4.1 against
-        3 over 4 seeds for both back ends; with 4 points 2.8). gap: largest distance between consecutive
-    hit points of one cluster (m; null: the posts' diameter). max_rms: largest residual RMS of
-    an accepted fit (m; 3 cm is 3σ of the default 1 cm range noise). min_share: share of a
-    detection's beams that must hit one post for the detection to be labelled with it.
+    min_points: fewest hit points a post needs (a 3-point fit of known radius has one redundant
+        point, and its covariance made SLAM with the true association overconfident on the park; 4
+        does not).
+    gap: largest distance between consecutive hit points of one cluster (m; null: the posts'
+        diameter).
+    max_rms: largest residual RMS of an accepted fit (m; 3 cm is 3σ of the default range noise).
+    min_share: share of a detection's beams that must hit one post for it to be labelled with it.
     """
 
     min_points: int = field(default=4, metadata=in_range(3, 10000, unit="points"))   # 2 points fit any circle: no residual

@@ -1,7 +1,5 @@
-"""The planar track: a robot among identical posts, a 2-D lidar, circle fits, range-bearing.
-
-This module stays light (the registry imports it to list the track): the simulation, the
-estimators and the pictures are imported inside the hooks that use them."""
+"""The planar track: a robot among identical posts, a 2-D lidar, circle fits, range-bearing. Light
+to import."""
 
 from __future__ import annotations
 
@@ -47,8 +45,8 @@ class PlanarTrack(LidarTrack):
                                     "belief": BELIEF, "estimator": ESTIMATOR})
 
     def source(self, settings: Settings) -> FrameSource:
-        """Lidar scans along the scene's path and the posts detected in them (``lidar``, ``posts``).
-        The iSAM2 back end's package is looked for here, before anything compiles or runs."""
+        """Lidar scans along the path and the posts detected in them; the iSAM2 back end's package
+        is looked for first."""
         from .sequence import PlanarSequenceSpec
 
         if settings.estimator.name == "isam2" and settings.loop and importlib.util.find_spec("gtsam") is None:
@@ -66,8 +64,7 @@ class PlanarTrack(LidarTrack):
         return make_planar_problem(source.sequence, k, run.belief, run.seed)
 
     def guards(self, loop: bool) -> tuple[GuardedMetric, ...]:
-        """Accuracy, and in the closed loop the filtered and (where the baseline has it) the
-        smoothed ATE: the iSAM2 back end is a smoother."""
+        """Accuracy, and closed loop the filtered and (where the baseline has it) smoothed ATE."""
         return super().guards(loop) + ((SMOOTHED_ATE_GUARD,) if loop else ())
 
     def suites(self) -> dict[str, SuiteFile]:
@@ -95,8 +92,8 @@ class PlanarTrack(LidarTrack):
         return PlanarSensor(source.sequence, run.belief, run.estimator, run.seed)
 
     def env_slots(self, run: Any) -> EnvSlots:
-        """N: every post of the scene; M: the most posts a scan can yield (geometric mode: one per
-        post; lidar: one per ``posts.min_points`` beams, each beam in one fit) plus ``belief.clutter``."""
+        """N: every post; M: the most posts a scan can yield (geometric: one per post; lidar: one
+            per ``posts.min_points`` beams) plus ``belief.clutter``."""
         from ...sim.planar_scene import load_planar_scene
 
         spec = run.source.spec

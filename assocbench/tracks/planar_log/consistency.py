@@ -1,13 +1,9 @@
-"""Is a log's odometry covariance right? Its NEES against the reference solution over windows of
-``w`` poses, and the covariance scale that makes one window length consistent.
-
-For a window starting at pose i, dead reckoning composes the log's increments from i to i + w
-(``sequence.composed_motion``: mean ``Δ``, covariance ``Σ_w`` propagated step by step as the EKF
-predicts) and the reference solution gives the pose of i + w in i's frame, ``Δ_ref``. With
-``e = Δ_ref − Δ`` (θ wrapped), ``NEES = eᵀ Σ_w⁻¹ e``: a covariance that describes the odometry's
-error gives a mean of 3 over the windows. A covariance scaled by s divides the NEES by s, so the
-scale that makes windows of w poses consistent is ``mean NEES(w) / 3``. (The reference poses carry
-an error of their own, small next to a window's drift.)
+"""Is a log's odometry covariance right? Dead reckoning over a window of ``w`` poses from pose i
+composes the increments (``sequence.composed_motion``: mean ``Δ``, covariance ``Σ_w`` as the EKF
+predicts) and the reference gives ``Δ_ref``; with ``e = Δ_ref − Δ`` (θ wrapped),
+``NEES = eᵀ Σ_w⁻¹ e`` has mean 3 for a right covariance. Scaling the covariance by s divides the
+NEES by s, so ``mean NEES(w) / 3`` makes windows of w poses consistent (the reference's own error is
+small next to a window's drift).
 """
 
 from __future__ import annotations
@@ -23,8 +19,8 @@ POSE_DOF = 3
 
 
 def window_nees(log: RangeBearingLog, poses: np.ndarray, window: int, stride: int | None = None) -> np.ndarray:
-    """NEES of the dead-reckoned ``window``-pose increments against the reference ``poses`` (N, 3),
-    windows starting every ``stride`` poses (default: half a window, at least 1)."""
+    """NEES of the dead-reckoned ``window``-pose increments against the reference ``poses``, windows
+    every ``stride`` poses (default half a window)."""
     stride = stride or max(1, window // 2)
     out = []
     for i in range(0, len(poses) - window, stride):

@@ -18,8 +18,8 @@ REFS, ENTRIES = "sighting_refs", "sighting_entries"   # per-frame columns: JSON 
 
 
 class DecisionLog:
-    """Mixed into a planar back end: ``entries`` (m,) holds, after a frame's update and
-    initialisation, the map id each feature of the frame was paired with or made into (−1: none)."""
+    """Mixed into a planar back end: ``entries`` (m,) the map id each feature of the frame was
+    paired with or made into (−1: none), after update and initialisation."""
 
     entries: np.ndarray
 
@@ -49,9 +49,9 @@ def logged(cls: type) -> type:
 
 
 class LogSensor(PlanarSensor):
-    """``PlanarSensor`` reading a recorded log: the odometry is the log's (composed between frames,
-    its covariance scaled by ``log.odometry_scale``: ``sequence.LogSequence``), the sightings
-    carry their own noise, and every pose error is taken against the reference solution."""
+    """``PlanarSensor`` on a recorded log: the log's odometry composed between frames (covariance
+    times ``log.odometry_scale``), sightings with their own noise, pose errors against the reference
+    solution."""
 
     def motion(self, k: int) -> Motion:
         motion = Motion(self.seq.increments[k], self.seq.motion_covariances[k])
@@ -66,9 +66,8 @@ class LogSensor(PlanarSensor):
 
 
 def run_scores(frames) -> dict:
-    """``pair_precision`` and ``pair_recall`` of the run's sightings (``scoring.pairwise``, entries of
-    different frames compared by map id) and ``reference_landmarks``: the reference landmarks its
-    frames sighted (what ``map_size`` is compared with). NaN where no frame recorded them."""
+    """``pair_precision`` and ``pair_recall`` of the run's sightings (``scoring.pairwise``, by map
+    id) and ``reference_landmarks`` its frames sighted; NaN where no frame recorded them."""
     rows = frames[[REFS, ENTRIES]].dropna() if REFS in frames and ENTRIES in frames else frames.iloc[:0]
     refs = [np.array(json.loads(r), np.int64) for r in rows[REFS]]
     entries = [np.array(json.loads(e), np.int64) for e in rows[ENTRIES]]

@@ -1,22 +1,17 @@
-"""The reference solution of a recorded range-bearing log: every pose and every reference landmark
-fitted with GTSAM to the log's odometry and its referenced sightings (the dataset's own
-association), computed once per log file and kept in the sequence cache.
+"""The reference solution of a recorded range-bearing log: every pose and reference landmark fitted
+with GTSAM to the log's odometry and referenced sightings (its own association), computed once per
+log file and cached. It is a reference, not ground truth: what the log's association implies.
 
-A log's ids are its **reference**, not ground truth, and so is this solution: it is what the
-log's own association implies, the path and map a track's runs are scored against.
+How: batch Levenberg–Marquardt from dead reckoning stops in a wrong minimum on Victoria Park, so an
+iSAM2 pass comes first (``BATCH`` poses at a time, each new pose and landmark initialised from
+the estimate), then Levenberg–Marquardt polishes the whole graph. Factors:
+``BetweenFactorPose2`` per increment (the file's covariance), ``BearingRangeFactor2D`` per
+referenced sighting (``R = G Σ Gᵀ``, bearing first), a prior fixing the first pose at the origin
+(``GAUGE_SIGMA``: the gauge); unreferenced sightings are left out.
 
-How. Batch Levenberg–Marquardt started from dead reckoning stops in a wrong minimum on Victoria
-Park (79 m RMS off), so an iSAM2 pass comes first: poses enter ``BATCH`` at a time, each new pose at
-the previous estimate composed with its increment, each landmark at its first sighting from
-there; then Levenberg–Marquardt polishes iSAM2's estimate on the whole graph. Factors:
-``BetweenFactorPose2`` per increment (the log's covariance, unscaled), ``BearingRangeFactor2D`` per
-referenced sighting (``R = G Σ Gᵀ`` in GTSAM's bearing-range order), and a prior that fixes the
-first pose at the log's origin (σ = ``GAUGE_SIGMA``: the gauge, not a measurement). Sightings
-without a reference id are left out.
-
-Fit. ``chi2 = Σ‖whitened residual‖²`` at the optimum; ``dof`` = measurement dimensions − (variable
-dimensions − 3 of the gauge); ``chi2 / dof`` near 1 says the log's covariances describe its
-residuals. ``outliers``: referenced sightings whose residual exceeds χ²₂(0.999).
+Fit: ``chi2 = Σ‖whitened residual‖²`` at the optimum; ``dof`` = measurement dims − (variable dims −
+3); ``chi2 / dof`` near 1 says the log's covariances describe its residuals. ``outliers``:
+referenced sightings past χ²₂(0.999).
 """
 
 from __future__ import annotations
@@ -34,7 +29,7 @@ from ...sim.cache import storable
 from ...sources.base import digest
 from ...sources.range_bearing_log import RangeBearingLog
 
-BATCH = 50               # poses per iSAM2 update (1 took 10x longer on Victoria Park to the same optimum)
+BATCH = 50               # poses per iSAM2 update (one pose an update reaches the same optimum, far slower)
 GAUGE_SIGMA = 1e-6       # m, rad: the first pose's prior
 OUTLIER_LEVEL = 0.999    # a sighting whose χ²₂ exceeds this quantile is counted in ``outliers``
 CODE = ("tracks/planar_log/reference.py", "sources/range_bearing_log.py")   # what the cached solution depends on
@@ -44,10 +39,9 @@ CACHE_FOLDER = "planar_log"
 @storable
 @dataclass(frozen=True)
 class ReferenceSolution:
-    """A log's reference path and map (module docstring). poses: (N, 3) every pose of the log.
-    ids: (L,) the reference ids, in order of first sighting. landmarks: (L, 2) (m). chi2, dof:
-    the fit (``chi2_dof``). outliers: referenced sightings past χ²₂(0.999). sightings: the
-    referenced sightings fitted. iterations: Levenberg–Marquardt's."""
+    """A log's reference path and map. poses: (N, 3). ids: (L,) reference ids by first sighting.
+    landmarks: (L, 2) (m). chi2, dof: the fit. outliers: referenced sightings past χ²₂(0.999).
+    sightings: those fitted. iterations: Levenberg–Marquardt's."""
 
     poses: np.ndarray
     ids: np.ndarray
@@ -83,8 +77,8 @@ def reference_key(log: RangeBearingLog) -> str:
 
 
 def reference_solution(log: RangeBearingLog, cache_dir: Path | None = None, use_cache: bool = True) -> ReferenceSolution:
-    """The log's reference solution, from the sequence cache (``<cache>/planar_log/<key>.npz``) or
-    computed (seconds: 7 s for Victoria Park's 6 969 poses on one core) and stored there."""
+    """The log's reference solution from the sequence cache (``<cache>/planar_log/<key>.npz``), else
+    computed and stored."""
     from ...sim.cache import cached_sequence, load_fields, save_fields
 
     key = reference_key(log)
@@ -100,7 +94,7 @@ _SOLVED: dict[tuple[str, Path | None], ReferenceSolution] = {}
 
 
 def announced(log: RangeBearingLog) -> ReferenceSolution:
-    """``solve(log)``, saying on stderr that it runs (seconds, once per log file) and how well it fits."""
+    """``solve(log)``, saying on stderr that it runs (once per log file) and how well it fits."""
     print(f"assocbench: computing the reference solution of {log.name} (once per log file) ...", file=sys.stderr,
           flush=True)
     solution = solve(log)

@@ -1,11 +1,8 @@
-"""A recorded log as the track's sequence: a frame per pose that has a sighting, the odometry
-between those poses, the sightings in range-bearing, and the reference solution's path and map.
-
-Poses without a sighting (52 % of Victoria Park's) pose no association problem, so they are no
-frame: the open loop skips them, and the closed loop predicts through them at once, with the
-increments from one frame's pose to the next composed into one motion (the exact composition;
-its covariance propagated to first order, as an EKF predicting pose by pose would have it).
-Frame k's pose, the path a run is scored against, is the reference solution's pose there.
+"""A recorded log as the track's sequence: a frame per pose with a sighting, the odometry between
+them, the sightings in range-bearing, and the reference solution's path and map. Poses without a
+sighting pose no association problem, so the closed loop predicts through them at once with their
+increments composed (exactly; the covariance to first order, as a pose-by-pose EKF would). Frame k's
+scored pose is the reference solution's.
 """
 
 from __future__ import annotations
@@ -28,12 +25,10 @@ FOV_MARGIN = np.deg2rad(10.0)
 
 @dataclass
 class LogSequence(PosesInPlane):
-    """Frames of a log (module docstring). pose_index: (F,) the log pose of each frame. poses: (F, 3)
-    the reference solution's. increments: (F, 3) from frame k−1's pose to frame k's, in the former's
-    frame (row 0: zeros). motion_covariances: (F, 3, 3) theirs, times ``log.odometry_scale``. z, R,
-    labels: per frame (m_k, 2), (m_k, 2, 2), (m_k,) each sighting's reference landmark (index into
-    ``landmarks``, −1 for none). visible: (F, L) the reference landmarks sighted in each frame.
-    landmarks: (L, 2) the reference map; landmark_ids: (L,) their ids in the log."""
+    """Frames of a log. pose_index: (F,) each frame's log pose. poses: (F, 3) the reference's.
+    increments: (F, 3) from frame k−1 to k in k−1's frame (row 0 zeros). motion_covariances: (F, 3,
+    3), times ``log.odometry_scale``. z, R, labels: per frame, labels the reference landmark (−1:
+    none). visible: (F, L). landmarks: (L, 2) the reference map; landmark_ids: (L,) their log ids."""
 
     name: str
     pose_index: np.ndarray
@@ -59,8 +54,8 @@ def frame_poses(log: RangeBearingLog, frames: int | None = None) -> np.ndarray:
 
 
 def sensor_bounds(log: RangeBearingLog, cfg: LogConfig) -> tuple[float, float]:
-    """``(max_range m, fov rad)``: the settings', else the log's farthest sighting and twice its
-    widest bearing plus ``FOV_MARGIN`` (at most 2π)."""
+    """``(max_range m, fov rad)``: the settings', else the farthest sighting and twice the widest
+    bearing plus ``FOV_MARGIN`` (at most 2π)."""
     z, _ = log.range_bearing()
     max_range = cfg.max_range if cfg.max_range is not None else float(z[:, 0].max(initial=0.0))
     widest = 2 * float(np.abs(z[:, 1]).max(initial=0.0)) + FOV_MARGIN
@@ -69,8 +64,8 @@ def sensor_bounds(log: RangeBearingLog, cfg: LogConfig) -> tuple[float, float]:
 
 
 def composed_motion(increments: np.ndarray, covariances: np.ndarray) -> tuple[np.ndarray, np.ndarray]:
-    """``Δ = Δ₁ ⊕ Δ₂ ⊕ …`` and its covariance, propagated step by step as the EKF predicts
-    (``planar_pose.motion_step`` from the origin with zero covariance)."""
+    """``Δ = Δ₁ ⊕ Δ₂ ⊕ …`` and its covariance propagated as the EKF predicts
+    (``planar_pose.motion_step``)."""
     pose, P = np.zeros(3), np.zeros((3, 3))
     for inc, Q in zip(increments, covariances):
         pose, P = motion_step(pose, P, Motion(inc, Q))

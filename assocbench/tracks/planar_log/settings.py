@@ -15,16 +15,14 @@ SHIPPED_ODOMETRY_SCALES = {"victoria_park": 11.0}
 class LogConfig:
     """Recorded log settings (section ``log``).
 
-    odometry_scale: every odometry covariance of the log is multiplied by this before the closed
-        loop's estimator is told it (a variance factor: σ grows by its square root); null: the
-        shipped dataset's measured value, 1 for your own log. Victoria Park's is 11: its file
-        covariance fits one step (mean NEES 0.6 against 3) but not 50 (33 against 3: the errors of
-        successive steps are correlated, and a white-noise model's covariance grows too slowly);
-        11 makes 50 poses, the gap after which a re-sighting counts as a revisit, consistent, and
-        the reference association's EKF-SLAM consistent (ANEES 2.9 against 3). The reference
-        solution always uses the file's own covariance.
-    max_range: the sensor's range (m): a frame's candidates are the landmarks predicted within it;
-        null: the log's farthest sighting.
+    odometry_scale: every odometry covariance is multiplied by this before the closed loop's
+        estimator is told it (a variance factor); null: the shipped dataset's value, 1 for your own
+        log. Victoria Park's file covariance fits one step but is too small over many (successive
+        steps' errors are correlated), so its value makes 50-pose windows (the revisit gap)
+        consistent (``benchmarks/planar_log_odometry.py``). The reference solution uses the file's
+        own covariance.
+    max_range: the sensor's range (m): candidates are the landmarks predicted within it; null: the
+        log's farthest sighting.
     fov_deg: the sensor's field of view (deg), centred on the heading; null: twice the log's widest
         bearing plus 10 (at most 360).
     """

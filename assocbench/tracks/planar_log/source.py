@@ -1,6 +1,5 @@
-"""A recorded range-bearing log as a frame source: the log parsed once per process when first
-needed, its reference solution read from the sequence cache (or computed and stored there), and
-nothing of either pickled to a worker process."""
+"""A recorded log as a frame source: parsed once per process when needed, its reference solution
+from the sequence cache (or computed and stored), neither pickled to a worker."""
 
 from __future__ import annotations
 

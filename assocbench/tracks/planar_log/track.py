@@ -1,9 +1,6 @@
-"""The recorded range-bearing track: a log of odometry and landmark sightings (Victoria Park as
-shipped in the gtsam wheel, or your own in the same format: ``sources.range_bearing_log``), scored
-against the log's own reference association and the reference solution GTSAM fits to it.
-
-This module stays light (the registry imports it to list the track): the log, the reference
-solution and the back ends are imported inside the hooks that use them."""
+"""The recorded range-bearing track: a log of odometry and sightings (Victoria Park from the gtsam
+wheel, or your own: ``sources.range_bearing_log``), scored against its reference association and
+GTSAM's reference solution. Light to import."""
 
 from __future__ import annotations
 
@@ -75,8 +72,8 @@ class PlanarLogTrack(FeatureTrack):
         return make_planar_problem(source.sequence, k, run.belief, run.seed)
 
     def columns(self, loop: bool) -> Columns:
-        """The shared columns, scored against the reference; the closed loop adds the pairwise
-        "same landmark" scores and the reference landmarks its frames sighted."""
+        """The shared columns against the reference; the closed loop adds the pairwise "same
+        landmark" scores and the reference landmarks sighted."""
         cols = super().columns(loop)
         if loop:
             cols = replace(cols, summary=cols.summary + OWN_COLUMNS)

@@ -95,15 +95,16 @@ def test_call_sizes_reads_every_stored_run_of_a_leaderboard(tmp_path, monkeypatc
     monkeypatch.syspath_prepend(str(BENCHMARKS))
     import call_sizes
 
-    jobs = tmp_path / "lb" / "jobs"
+    jobs = tmp_path / "lb" / "runs"
     jobs.mkdir(parents=True)
     for key, (n, m, seconds, failures) in {"a": (10, 50, [0.001, 0.003], 1), "b": (30, 20, [0.002, 0.005], 0)}.items():
-        pd.DataFrame({"method": "mnn", "n": [n, n - 1], "m": [m, m], "runtime_s": seconds}).to_csv(jobs / f"{key}.f.csv")
-        pd.DataFrame({"method": ["mnn"], "failures": [failures], "timed_out": [2]}).to_csv(jobs / f"{key}.s.csv")
+        # as the store writes them: the method only in the manifest's run name
+        pd.DataFrame({"n": [n, n - 1], "m": [m, m], "runtime_s": seconds}).to_csv(jobs / f"{key}.f.csv")
+        pd.DataFrame({"failures": [failures], "timed_out": [2]}).to_csv(jobs / f"{key}.s.csv")
         files = {"frames": {"name": f"{key}.f.csv"}, "summary": {"name": f"{key}.s.csv"}}
-        (jobs / f"{key}.manifest.json").write_text(json.dumps({"files": files}))
+        (jobs / f"{key}.manifest.json").write_text(json.dumps({"run": f"mnn on room/easy seed {key}", "files": files}))
     (jobs / "stale.f.csv").write_text("method,n,m,runtime_s\nmnn,999,999,9\n")   # named by no manifest
     assert call_sizes.main([str(tmp_path / "lb")]) == 0
-    assert "| mnn | 4 | 2.5 | 4.7 | 5.0 | 30 | 50 | 1 | 4 |" in capsys.readouterr().out
+    assert "| mnn | 4 | 2.500 | 4.700 | 5.000 | 30 | 50 | 1 | 4 |" in capsys.readouterr().out
     assert call_sizes.main([str(tmp_path)]) == 2
     assert "holds no stored run" in capsys.readouterr().err
