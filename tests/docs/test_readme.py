@@ -121,11 +121,16 @@ def test_the_link_check_sees_links():
     assert relative_links("[a](docs/x.md) `[b](no.md)` [c](https://e.org) [d](#here) ![e](p.png#x)") == ["docs/x.md", "p.png"]
 
 
+# the commands whose ``--out`` default is computed in code rather than given to the parser (their help says so)
+COMPUTED_OUT = {"run": "results/runs/<scene>-<method>", "leaderboard": "results/runs/<suite>"}
+
+
 def written_paths(args: list[str]) -> list[str]:
     """Where an ``assocbench`` command writes, as given or by default: a file (``-o``/``--output``)
     as is, a folder (``--out``) as a file inside it, so that ``git check-ignore`` sees either."""
     parsed, _ = build_parser().parse_known_args(args)
     output, out = getattr(parsed, "output", None), getattr(parsed, "out", None)
+    out = out or (COMPUTED_OUT.get(args[0]) if args else None)
     return [*([output] if output else []), *([f"{out}/any"] if out else [])]
 
 
@@ -145,4 +150,6 @@ def test_written_paths_read_files_folders_and_defaults():
     assert written_paths(["frame", "--scene", "park", "-o", "p.png"]) == ["p.png"]
     assert written_paths(["render", "--method", "jcbb"]) == ["run.mp4"]   # the parser's default
     assert written_paths(["export", "--suite", "ci", "--out", "data/ci"]) == ["data/ci/any"]
+    assert written_paths(["run", "--method", "jcbb"]) == ["results/runs/<scene>-<method>/any"]
+    assert written_paths(["leaderboard", "--out", "results"]) == ["results/any"]
     assert written_paths(["list"]) == []
