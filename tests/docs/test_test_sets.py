@@ -41,3 +41,8 @@ def test_ci_runs_the_slow_set_after_the_default_set_and_fails_on_it():
     slow = next(i for i, line in enumerate(lines) if "pytest -q -n auto -m slow" in line)
     assert default < slow and lines[slow].endswith("|| exit 1"), lines[slow]
 
+
+def test_the_readme_and_getting_started_say_how_to_run_the_slow_set_and_that_ci_runs_both():
+    for page in ("README.md", "docs/getting-started.md"):
+        text = " ".join((ROOT / page).read_text().split())
+        assert "`pytest -m slow`" in text and "CI runs both sets" in text, page
