@@ -30,7 +30,8 @@ def add_arguments(p: argparse.ArgumentParser) -> None:
     p.add_argument("--tolerance", type=float, help="allowed drop of each metric (default: the suite's, else 0.02)")
     p.add_argument("--update", action="store_true", help="rewrite the baseline from this run")
     p.add_argument("--jobs", type=int, default=1, help="local worker processes")
-    p.add_argument("--quiet", action="store_true", help="no progress bar")
+    p.add_argument("--quiet", action="store_true", help="no progress bar and no line per suite: only failures "
+                   "and the one-line summary")
 
 
 def default_suites() -> list[str]:
@@ -38,19 +39,22 @@ def default_suites() -> list[str]:
     return [name for track in iter_tracks() for name, entry in track.suites().items() if entry.ci]
 
 
-def runnable(paths: list[Path], named: bool) -> list[Path]:
-    """The suite files that can run here; one that cannot (a module it ``requires`` is missing) is
-    skipped with a line saying so, or refused when it was named (``--suite``)."""
-    out = []
+def runnable(paths: list[Path], named: bool, quiet: bool = False) -> tuple[list[Path], dict[str, str]]:
+    """The suite files that can run here, and why each other one cannot (a module it ``requires``
+    is missing): skipped with a line saying so (the summary names it under ``quiet``), or refused
+    when it was named (``--suite``)."""
+    out, skipped = [], {}
     for path in paths:
         why = suite_requirements(path)
         if why and named:
             raise UserError(f"suite {path.stem} cannot run here: {why}")
         if why:
-            print(f"{path.stem} skipped: {why}")
+            skipped[path.stem] = why
+            if not quiet:
+                print(f"{path.stem} skipped: {why}")
         else:
             out.append(path)
-    return out
+    return out, skipped
 
 
 def default_baseline(suite_name: str) -> Path:
@@ -63,12 +67,30 @@ def main(args: argparse.Namespace) -> int:
         suites = [args.suite]
     else:   # --baseline alone names the ci suite's baseline, as it always did
         suites = ["ci"] if args.baseline is not None else default_suites()
-    loaded = [load_suite(path) for path in runnable([resolve_suite(s) for s in suites], named=bool(args.suite))]
+    paths, skipped = runnable([resolve_suite(s) for s in suites], named=bool(args.suite), quiet=args.quiet)
+    loaded = [load_suite(path) for path in paths]
     # every suite and baseline checked before any suite runs: a missing last baseline must not
     # be found only after the first suites ran for minutes
     baselines = [baseline_of(suite, args) for suite in loaded]
     check_cache(*(suite.first_source() for suite in loaded))
-    return max(check_suite(suite, path, baseline, args) for suite, (path, baseline) in zip(loaded, baselines))
+    codes = [check_suite(suite, path, baseline, args) for suite, (path, baseline) in zip(loaded, baselines)]
+    if args.quiet:   # the line per suite (and per skipped suite) left out above, in one
+        print(summary(loaded, codes, skipped, [path for path, _ in baselines] if args.update else None))
+    return max(codes, default=0)
+
+
+def summary(suites: list[Suite], codes: list[int], skipped: dict[str, str], written: list[Path] | None) -> str:
+    """The one line ``check --quiet`` ends with, in place of a line per suite: what was compared
+    (or written, with ``--update``), which suites failed, which were skipped and why."""
+    skip = "".join(f"; {name} skipped: {why}" for name, why in skipped.items())
+    if written is not None:
+        return f"wrote {len(written)} baseline(s): {', '.join(map(str, written))}{skip}"
+    failed = [suite.name for suite, code in zip(suites, codes) if code]
+    if failed:
+        return f"check failed: {len(failed)} of {len(suites)} suite(s) ({', '.join(failed)}){skip}"
+    rows = sum(len(suite.rows()) for suite in suites)
+    names = ", ".join(suite.name for suite in suites)
+    return f"ok: {rows} scenario × method rows compared in {len(suites)} suite(s) ({names}), all within tolerance{skip}"
 
 
 def baseline_of(suite: Suite, args: argparse.Namespace) -> tuple[Path, pd.DataFrame | None]:
@@ -93,7 +115,8 @@ def check_suite(suite: Suite, baseline_path: Path, baseline: pd.DataFrame | None
     table = track.leaderboard_table(summaries) if has(track, OwnLeaderboard) else leaderboard_table(summaries)
     if args.update:
         write_ok_table(table, baseline_columns(guards), baseline_path)
-        print(f"wrote baseline {baseline_path} ({len(table)} rows)")
+        if not args.quiet:
+            print(f"wrote baseline {baseline_path} ({len(table)} rows)")
         return 0
     expected = suite.rows()
     findings = compare(table, baseline, guards, tolerances, expected)
@@ -101,8 +124,9 @@ def check_suite(suite: Suite, baseline_path: Path, baseline: pd.DataFrame | None
         print(f"check failed: {len(findings)} finding(s) against {baseline_path} ({tolerance_text(guards, tolerances)}):")
         print_table(findings, "table")
         return 1
-    print(f"ok: {len(expected)} scenario × method rows compared with {baseline_path}, all within tolerance "
-          f"({tolerance_text(guards, tolerances)})")
+    if not args.quiet:
+        print(f"ok: {len(expected)} scenario × method rows compared with {baseline_path}, all within tolerance "
+              f"({tolerance_text(guards, tolerances)})")
     return 0
 
 

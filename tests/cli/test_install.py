@@ -11,10 +11,12 @@ import venv
 from pathlib import Path
 
 import pandas as pd
+import pytest
 
 ROOT = Path(__file__).resolve().parents[2]
 
 
+@pytest.mark.slow   # packaging: builds a wheel and installs it (the longest test, minutes); CI runs it
 def test_fresh_venv_pip_install_then_assocbench_run(tmp_path):
     env_dir = tmp_path / "venv"
     venv.create(env_dir, with_pip=True)

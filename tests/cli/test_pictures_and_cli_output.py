@@ -341,7 +341,7 @@ class Sleeper(Associator):
 '''
 
 
-@pytest.mark.slow
+@pytest.mark.slow   # render isolates as run does: test_faults_plugins' dying and hanging methods, by default
 @pytest.mark.parametrize("method,why,limit", [("Segv", "WorkerDied", 30), ("Sleeper", "TimeLimit", 1)])
 def test_render_isolates_a_method_that_dies_or_hangs(tmp_path, method, why, limit):
     """render runs the method as run does: a segfault or a hang fails frames, the video is written.

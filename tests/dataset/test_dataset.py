@@ -130,7 +130,7 @@ def test_export_refuses_a_non_empty_folder_an_unknown_suite_and_the_dense_track(
     assert not (tmp_path / "a").exists() and not (tmp_path / "b").exists()
 
 
-@pytest.mark.slow
+@pytest.mark.slow   # a whole suite: the round trip and the same bytes are the tests above, on small tables
 def test_export_of_the_camera_ci_suite_is_reproducible_and_round_trips(tmp_path):
     """Written twice: the same bytes; read back: the very problems the harness scores."""
     from assocbench.harness.config import run_spec

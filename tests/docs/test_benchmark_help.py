@@ -15,6 +15,9 @@ import pytest
 
 BENCHMARKS = Path(__file__).resolve().parents[2] / "benchmarks"
 SCRIPTS = sorted(p for p in BENCHMARKS.glob("*.py") if "ArgumentParser(" in p.read_text())
+# running a benchmark script (a child that loads the kernels, some of them render and fit) is the slow
+# set's: the scripts measure the package, they are not it; their pure functions are tested by default
+script_run = pytest.mark.slow
 
 
 def first_paragraph(script: Path) -> str:
@@ -31,6 +34,7 @@ def test_description_is_a_whole_paragraph(script):
         assert first_paragraph(script).endswith((".", ")")), f"{script.name}: first paragraph ends mid-sentence"
 
 
+@script_run
 def test_dense_rate_help_shows_the_whole_first_paragraph():
     script = BENCHMARKS / "dense_rate.py"
     out = subprocess.run([sys.executable, str(script), "--help"], capture_output=True, text=True, timeout=120,
@@ -49,6 +53,7 @@ def test_dense_rate_pairs_0_prints_no_registration_table(capsys, monkeypatch):
     assert capsys.readouterr().out == ""
 
 
+@script_run
 @pytest.mark.parametrize("script", ["dense_rate.py", "dense_map_order.py", "dense_flat.py"])
 def test_dense_benchmarks_refuse_fewer_than_2_frames_in_one_line(script):
     """``--frames 1`` is a usage error (exit 2, one line), not a traceback after the kernels load."""
@@ -58,6 +63,7 @@ def test_dense_benchmarks_refuse_fewer_than_2_frames_in_one_line(script):
     assert "--frames must be at least 2" in out.stderr.strip().splitlines()[-1]
 
 
+@script_run
 def test_dense_flat_drives_a_short_path_out_and_back(tmp_path):
     """4 path frames out and 3 back through the dense frame loop, with and without the map's index:
     the two loops give the same poses, pairs and map sizes, and the table has a row per band."""
@@ -147,6 +153,7 @@ def test_dense_flat_growth_line_measures_only_bands_apart(frames, band, said, mo
     assert said in line and "nan" not in line and "x1.0" not in line
 
 
+@script_run
 def test_dense_rate_refuses_an_unknown_scene_in_one_line():
     """``dense_rate.py --scene nosuch`` printed the load line, then a traceback, exit 1."""
     out = subprocess.run([sys.executable, str(BENCHMARKS / "dense_rate.py"), "--scene", "nosuch", "--frames", "3"],
@@ -172,6 +179,7 @@ def test_dense_benchmarks_refuse_a_line_stretched_out_of_the_scene(monkeypatch):
     assert dense_rate.sequence_spec("crates", 2000).camera_path().trajectory_params == {"turns": 0.7}   # a circle stays
 
 
+@script_run
 def test_dense_flat_refuses_an_unknown_scene_in_one_line():
     out = subprocess.run([sys.executable, str(BENCHMARKS / "dense_flat.py"), "--scene", "nosuch", "--frames", "3"],
                          capture_output=True, text=True, timeout=120)
@@ -239,6 +247,7 @@ def test_dense_flat_does_not_fit_a_line_through_too_few_frames(monkeypatch):
     assert "residual sd" in line and "+ -" not in line
 
 
+@script_run
 def test_dense_fusion_ab_times_two_trees_and_says_whether_their_maps_agree(tmp_path):
     """The A/B of two fusion versions: one tree against itself builds one map (a hash each round,
     the same), and its table has every kernel's row. A folder that is no checkout is one line,

@@ -7,6 +7,8 @@ import functools
 import importlib.util
 import re
 import shlex
+import shutil
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -117,3 +119,37 @@ def test_relative_links_point_at_files_that_exist(page):
 
 def test_the_link_check_sees_links():
     assert relative_links("[a](docs/x.md) `[b](no.md)` [c](https://e.org) [d](#here) ![e](p.png#x)") == ["docs/x.md", "p.png"]
+
+
+# the commands whose ``--out`` default is computed in code rather than given to the parser (their help says so)
+COMPUTED_OUT = {"run": "results/runs/<scene>-<method>", "leaderboard": "results/runs/<suite>"}
+
+
+def written_paths(args: list[str]) -> list[str]:
+    """Where an ``assocbench`` command writes, as given or by default: a file (``-o``/``--output``)
+    as is, a folder (``--out``) as a file inside it, so that ``git check-ignore`` sees either."""
+    parsed, _ = build_parser().parse_known_args(args)
+    output, out = getattr(parsed, "output", None), getattr(parsed, "out", None)
+    out = out or (COMPUTED_OUT.get(args[0]) if args else None)
+    return [*([output] if output else []), *([f"{out}/any"] if out else [])]
+
+
+@pytest.mark.skipif(shutil.which("git") is None or not (ROOT / ".git").exists(), reason="not a git checkout")
+def test_every_output_the_readme_and_getting_started_write_is_git_ignored():
+    """Following the README or the getting-started page in a clone must leave ``git status`` clean:
+    ``park.png`` and ``data/ci/`` once were not ignored."""
+    commands = [c for page in ("README.md", "docs/getting-started.md") for c in shell_commands((ROOT / page).read_text())]
+    paths = sorted({p for c in commands if (args := assocbench_args(c)) for p in written_paths(args)})
+    assert {"park.png", "data/ci/any", "frame.png", "o.gif"} <= set(paths)   # the parser sees them
+    ignored = subprocess.run(["git", "check-ignore", "--stdin"], input="\n".join(paths), cwd=ROOT,
+                             capture_output=True, text=True).stdout.split()
+    assert sorted(set(paths) - set(ignored)) == []
+
+
+def test_written_paths_read_files_folders_and_defaults():
+    assert written_paths(["frame", "--scene", "park", "-o", "p.png"]) == ["p.png"]
+    assert written_paths(["render", "--method", "jcbb"]) == ["run.mp4"]   # the parser's default
+    assert written_paths(["export", "--suite", "ci", "--out", "data/ci"]) == ["data/ci/any"]
+    assert written_paths(["run", "--method", "jcbb"]) == ["results/runs/<scene>-<method>/any"]
+    assert written_paths(["leaderboard", "--out", "results"]) == ["results/any"]
+    assert written_paths(["list"]) == []

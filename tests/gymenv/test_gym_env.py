@@ -136,8 +136,9 @@ def refusal(env, action) -> str | None:
     return None
 
 
-@pytest.mark.parametrize("mode,scene", [("sync", "Room"), ("async", "Room"), ("sync", "Corridor"),
-                                        ("async", "Checkerboard")])
+# async: the same episodes as sync (test_gym_tracks' vector test, by default), so the slow set's
+@pytest.mark.parametrize("mode,scene", [("sync", "Room"), pytest.param("async", "Room", marks=pytest.mark.slow),
+                                        ("sync", "Corridor"), pytest.param("async", "Checkerboard", marks=pytest.mark.slow)])
 def test_make_vec_runs_full_episodes(mode, scene):
     """Several episodes per env (autoreset included): every info entry stacks although candidates
     and features differ per env, and acting with info["truth"] earns exactly the true pairs."""

@@ -168,7 +168,6 @@ def test_dying_methods_fail_their_frames_and_the_sweep_keeps_the_rest(tmp_path, 
         assert sum(line.startswith(f"assocbench: {label} failed") for line in err.splitlines()) == 2  # one per job
 
 
-@pytest.mark.slow
 def test_run_survives_a_method_that_exits_or_segfaults(tmp_path, plugins):
     """A single-process ``run`` used to exit 1 or 139 with no message: now each frame is a named
     failure, the summary is printed, and the exit status is not the plugin's."""
@@ -282,9 +281,9 @@ def _default_sigint() -> None:
     signal.signal(signal.SIGINT, signal.SIG_DFL)
 
 
-@pytest.mark.slow
 @pytest.mark.skipif(not Path("/proc/self/environ").exists(), reason="reads /proc")
-@pytest.mark.parametrize("how", ["ctrl-c", "sigterm", "sigkill"])
+@pytest.mark.parametrize("how", ["ctrl-c", pytest.param("sigterm", marks=pytest.mark.slow),   # Ctrl-C's path, by default
+                                 pytest.param("sigkill", marks=pytest.mark.slow)])
 def test_a_stopped_sweep_returns_at_once_keeps_finished_jobs_and_leaves_no_process(tmp_path, plugins, how):
     """leaderboard --jobs 2 with one finished job, two hanging ones deaf to interrupts and one
     queued: Ctrl-C (SIGINT to the process group) and SIGTERM return within seconds (not after

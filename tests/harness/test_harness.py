@@ -145,11 +145,16 @@ def test_check_passes_against_its_own_baseline_and_catches_a_degraded_plugin(tmp
                       name="bad.yaml", difficulty="{sigma_position: 0.03, sigma_rotation: 0.5}")
     baseline = tmp_path / "baseline.csv"
     assert main(["check", "--suite", str(good), "--baseline", str(baseline), "--update", "--quiet"]) == 0
+    assert capsys.readouterr().out == f"wrote 1 baseline(s): {baseline}\n"
+    assert main(["check", "--suite", str(good), "--baseline", str(baseline)]) == 0
+    assert capsys.readouterr().out.startswith(f"ok: 1 scenario × method rows compared with {baseline}, all within")
     assert main(["check", "--suite", str(good), "--baseline", str(baseline), "--quiet"]) == 0
-    capsys.readouterr()
+    # off a terminal (capsys) too, --quiet is the one summary line, not the line per suite
+    assert capsys.readouterr().out == "ok: 1 scenario × method rows compared in 1 suite(s) (good), all within tolerance\n"
     assert main(["check", "--suite", str(bad), "--baseline", str(baseline), "--quiet"]) == 1
     out = capsys.readouterr().out
     assert "regressed" in out and "recall" in out and "mine" in out
+    assert out.startswith("check failed: ") and out.endswith("\ncheck failed: 1 of 1 suite(s) (bad)\n"), out
 
 
 def test_dask_executor_on_a_local_cluster(tmp_path):

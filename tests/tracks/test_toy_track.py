@@ -117,6 +117,7 @@ def test_the_forkserver_warms_the_track_once_for_all_its_workers(toy, tmp_path):
     assert len(warmed) == 1 and warmed[0] != parent, (parent, warmed)   # once, by the server, for both workers
 
 
+@pytest.mark.slow   # a sweep's Ctrl-C and resume: test_faults_plugins (ctrl-c) and test_harness, by default
 def test_an_interrupted_leaderboard_resumes_to_the_same_table(toy, tmp_path):
     """Seed 1's runs are slow (TOY_DELAY_S): Ctrl-C after seed 0's four runs are stored stops the
     sweep; the rerun computes seed 1 only and writes what an uninterrupted sweep writes."""

@@ -67,6 +67,7 @@ def test_the_example_track_is_at_most_150_lines_and_names_no_internal_module():
     assert "ASSOCBENCH_TRACKS" not in source
 
 
+@pytest.mark.slow   # packaging: pip-installs the example (user tracks: test_toy_track; entry points: tests/plugins.py)
 def test_run_leaderboard_check_report_export_and_gym_serve_the_installed_track(followed):
     work, done = followed
     by = {c.split()[1] if c.startswith("assocbench") else c.split()[0]: p for c, p in done.items()}
@@ -83,6 +84,7 @@ def test_run_leaderboard_check_report_export_and_gym_serve_the_installed_track(f
     assert (work / "data" / "problems.parquet").is_file()
 
 
+@pytest.mark.slow   # needs the installed example (the fixture above)
 def test_a_bad_line_in_a_users_log_is_one_line_naming_the_file_and_line(followed):
     work, _ = followed
     log = work / "mine.log"

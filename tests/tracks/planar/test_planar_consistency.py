@@ -22,6 +22,10 @@ from assocbench.harness.loop import loop_records
 
 pytest.importorskip("gtsam")
 
+# the slow set's: the harness-level repeat (park, 6 seeds x 500 frames per back end) of the estimator-level
+# Monte Carlo tests that run by default (test_planar_ekf's ensemble, test_planar_isam2's)
+pytestmark = pytest.mark.slow
+
 SEEDS = range(6)
 SLAM = ["estimator.mode=slam", "estimator.target_paired=1000", "estimator.max_new_per_frame=20",
         "estimator.max_landmarks=500", "estimator.new_landmark_gate=4"]
@@ -38,7 +42,6 @@ def runs() -> dict[str, list[pd.DataFrame]]:
     return {backend: [_oracle(backend, seed) for seed in SEEDS] for backend in ("ekf", "isam2")}
 
 
-@pytest.mark.slow
 @pytest.mark.parametrize("backend", ["ekf", "isam2"])
 def test_true_association_is_consistent_by_the_monte_carlo_nees_test(runs, backend):
     nees = np.array([r["nees"].to_numpy()[1:] for r in runs[backend]])   # frame 0: the gauge, no covariance
@@ -50,7 +53,6 @@ def test_true_association_is_consistent_by_the_monte_carlo_nees_test(runs, backe
     assert 2.4 <= nees.mean() <= 4.0, f"{backend}: ensemble ANEES {nees.mean():.2f}"
 
 
-@pytest.mark.slow
 def test_isam2_smoothed_trajectory_is_no_worse_than_the_ekf(runs):
     for ekf, isam2 in zip(runs["ekf"], runs["isam2"]):
         ekf_ate = np.sqrt(np.mean(ekf["pos_err"] ** 2))
