@@ -89,8 +89,9 @@ TOPICS: dict[str, tuple[Run, ...]] = {
                               "--runs", "3", "--pairs", "4")),
         Run("dense_vs_open3d.py"),
     ),
-    "Whole leaderboards and a first run": (
+    "Whole leaderboards, a first run and the tests": (
         Run("first_run.py"),
+        Run("test_command.py"),
         Run("leaderboard_time.py", ("--suite", "leaderboard", "--jobs", "2")),
         Run("leaderboard_time.py", ("--suite", "loop", "--jobs", "2"), "loop"),
         Run("leaderboard_time.py", ("--suite", "planar", "--jobs", "2"), "planar"),
