@@ -177,9 +177,6 @@ def read_log(path: str | Path) -> RangeBearingLog:
             reader.line(parts)
     if not reader.pose_ids:
         raise LogError(f"{path} line {reader.number}, field kind: the log holds no ODOMETRY or LANDMARK line")
-    if not reader.sightings:   # odometry alone: no frame has a problem to associate
-        raise LogError(f"{path} line {reader.number}, field kind: the log holds no LANDMARK line, "
-                       "so there is nothing to associate")
     return _arrays(reader, path, hashlib.sha256(data).hexdigest()[:16])
 
 

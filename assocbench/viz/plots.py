@@ -89,11 +89,20 @@ def _name_ties(ax, sub: pd.DataFrame) -> None:
         down += TIE_LINE_PT * (words.count("\n") + 1) + 2
 
 
+def _share_bars(mean: pd.Series, std: pd.Series) -> np.ndarray:
+    """``± std`` as (below, above), cut at the ends of [0, 1]: past them a share's bar means nothing
+    (and, drawn unclipped, it ran out of its panel into the legend)."""
+    m, s = mean.to_numpy(float), std.to_numpy(float)
+    return np.vstack([np.minimum(s, m), np.minimum(s, 1.0 - m)])
+
+
 def _pr_panel(ax, sub: pd.DataFrame, styles: dict, title: str) -> None:
-    """One scenario: each method's mean precision and recall, ± std bars, axes zoomed to them."""
+    """One scenario: each method's mean precision and recall, ± std bars (within [0, 1]), axes
+    zoomed to them."""
     for method in sorted(sub["method"], key=lambda m: -styles[m]["ms"]):   # big marks behind
         r, st = sub[sub["method"] == method], styles[method]
-        ax.errorbar(r["recall"], r["precision"], xerr=r["recall_std"], yerr=r["precision_std"],
+        ax.errorbar(r["recall"], r["precision"], xerr=_share_bars(r["recall"], r["recall_std"]),
+                    yerr=_share_bars(r["precision"], r["precision_std"]),
                     fmt=st["marker"], ms=st["ms"], color=st["color"], mfc="none", mew=1.5,
                     elinewidth=0.8, alpha=0.9, clip_on=False, label=method)
     ax.set(title=title, xlabel="recall", ylabel="precision",

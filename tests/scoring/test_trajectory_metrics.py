@@ -246,7 +246,8 @@ def test_anees_is_the_mean_nees_and_its_unit_says_so_not_per_dof():
     nees = np.full(200, 3.0)
     lo, hi = anees_band(200, 3)
     assert anees(nees) == 3.0 and lo < 3.0 < hi
-    for key in ("anees", "anees_lo", "anees_hi"):
-        assert "/ dof" not in unit_of(key) and "dof" in unit_of(key)
+    assert "/ dof" not in unit_of("anees") and "dof" in unit_of("anees")
+    for key in ("anees_lo", "anees_hi"):   # the band's ends say they are its ends
+        assert "/ dof" not in unit_of(key) and "95 % band" in unit_of(key)
     meaning = next(c.meaning for c in CATALOGUE if c.key == "anees")
     assert "divided by the pose" not in meaning and "1 is a consistent" not in meaning

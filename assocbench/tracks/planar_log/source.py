@@ -7,7 +7,7 @@ from dataclasses import asdict
 from pathlib import Path
 
 from ...sources.base import digest, file_digest, short_name
-from ...sources.range_bearing_log import RangeBearingLog, read_log
+from ...sources.range_bearing_log import LogError, RangeBearingLog, read_log
 from .reference import CACHE_FOLDER, reference_solution
 from .sequence import LogSequence, frame_poses, make_log_sequence
 from .settings import LogConfig
@@ -39,8 +39,12 @@ class PlanarLogSource:
 
     @property
     def log(self) -> RangeBearingLog:
-        """The parsed log (a one-line ``LogError`` for a bad one)."""
-        return parsed_log(self.path, self.file_key)
+        """The parsed log (a one-line ``LogError`` for a bad one, or one without sightings)."""
+        log = parsed_log(self.path, self.file_key)
+        if not len(log.sighting_ref):   # odometry alone (a consistency study reads such logs; a run cannot)
+            raise LogError(f"{self.path}: the log holds no LANDMARK line, so a run has nothing to associate; "
+                           "add its sightings (the format: docs/tracks/planar_log.md)")
+        return log
 
     def __len__(self) -> int:
         if self._length is None:

@@ -8,7 +8,7 @@ import dense_world as dw
 import numpy as np
 from dense_synthetic import ROOM, perturb, pose_error, render, room_frame, source_set
 
-from assocbench.associators.dense import ProjectiveAssociator
+from assocbench.associators.dense.projective import ProjectiveAssociator
 from assocbench.models.camera import Intrinsics
 from assocbench.tracks.dense.fusion import PointMap, fuse
 from assocbench.tracks.dense.icp import icp
