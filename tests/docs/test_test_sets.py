@@ -46,3 +46,14 @@ def test_the_readme_and_getting_started_say_how_to_run_the_slow_set_and_that_ci_
     for page in ("README.md", "docs/getting-started.md"):
         text = " ".join((ROOT / page).read_text().split())
         assert "`pytest -m slow`" in text and "CI runs both sets" in text, page
+
+
+def test_no_two_test_files_share_a_name():
+    """The tests are folders without ``__init__.py`` (rootdir imports), so two ``test_x.py`` in two
+    folders are one module to pytest: the second fails to import ("import file mismatch"), which
+    only a run of the whole suite shows. tests/associators/test_registry.py once shadowed
+    tests/tracks/test_registry.py."""
+    names: dict[str, list[str]] = {}
+    for path in sorted((ROOT / "tests").rglob("test_*.py")):
+        names.setdefault(path.name, []).append(str(path.relative_to(ROOT)))
+    assert {name: paths for name, paths in names.items() if len(paths) > 1} == {}
