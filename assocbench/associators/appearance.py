@@ -1,7 +1,7 @@
 """Appearance: descriptors matched with Lowe's ratio test inside the Mahalanobis gate, greedy
-    one-to-one: the baseline showing what appearance adds to geometry where a track gives
-    descriptors (the photos track's SIFT). Geometry only gates; within the gate the descriptors
-    choose.
+one-to-one: the baseline showing what appearance adds to geometry where a track gives
+descriptors (the photos track's SIFT). Geometry only gates; within the gate the descriptors
+choose.
 """
 
 from __future__ import annotations

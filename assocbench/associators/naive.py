@@ -1,5 +1,5 @@
 """Naive: the GMU landmark-SLAM project's data association (seed 004), each feature on its own, in
-    sensor order."""
+sensor order."""
 
 from __future__ import annotations
 

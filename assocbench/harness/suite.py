@@ -1,9 +1,10 @@
 """Suites: scenes × difficulties × methods × seeds, read from YAML (``configs/leaderboard.yaml``).
-    Keys: ``base`` (a run config for every run), ``scenes``, ``difficulties`` (name -> overrides),
-    ``methods`` (names, or ``{name, method, params}``), ``seeds``, and optionally ``track``,
-    ``tolerance`` (``check``), ``description``, ``requires`` (modules beyond the core; ``check``
-    skips the suite without them) and ``backends`` (name -> overrides: each difficulty runs once per
-    back end as ``<difficulty>-<backend>``). docs/reference/suites.md describes every key.
+
+Keys: ``base`` (a run config for every run), ``scenes``, ``difficulties`` (name -> overrides),
+``methods`` (names, or ``{name, method, params}``), ``seeds``, and optionally ``track``,
+``tolerance`` (``check``), ``description``, ``requires`` (modules beyond the core; ``check`` skips
+the suite without them) and ``backends`` (name -> overrides: each difficulty runs once per back end
+as ``<difficulty>-<backend>``). docs/reference/suites.md describes every key.
 """
 
 from __future__ import annotations

@@ -1,7 +1,7 @@
 """Odometry: the true motion between consecutive poses plus noise. The increment from pose k−1 to k
-    in k−1's frame is ``Δp = R_{k−1}ᵀ (p_k − p_{k−1})``, ``ΔR = R_{k−1}ᵀ R_k``; measured,
-    ``Δp + k σ_t n_p`` and ``ΔR Exp(k σ_r n_θ)``, ``n ~ N(0, I₃)`` (``k``: miscalibration; the
-    filter is told ``σ``). Each frame's noise has its own seeded generator.
+in k−1's frame is ``Δp = R_{k−1}ᵀ (p_k − p_{k−1})``, ``ΔR = R_{k−1}ᵀ R_k``; measured,
+``Δp + k σ_t n_p`` and ``ΔR Exp(k σ_r n_θ)``, ``n ~ N(0, I₃)`` (``k``: miscalibration; the
+filter is told ``σ``). Each frame's noise has its own seeded generator.
 """
 
 from __future__ import annotations
