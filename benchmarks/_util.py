@@ -33,14 +33,6 @@ os.environ.setdefault("OPENBLAS_NUM_THREADS", "1")  # one core, as the targets a
 import numpy as np  # noqa: E402
 
 
-def geometric_methods() -> list[str]:
-    """The built-in feature associators a problem without descriptors can run: all but those that
-    need descriptors (appearance, which only the photos track feeds, with SIFT's)."""
-    from assocbench.associators.registry import BUILTINS, builtin_class
-
-    return [name for name in BUILTINS if not getattr(builtin_class(name), "needs_descriptors", False)]
-
-
 def time_call(fn: Callable[[], object], repeat: int = 1) -> float:
     """Best-of-``repeat`` wall time of one call, seconds."""
     best = np.inf

@@ -13,9 +13,10 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _util import geometric_methods, print_table, run_recorded, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 
 from assocbench import make_associator
+from assocbench.associators.registry import geometric_builtins
 from assocbench.models.synthetic import range_bearing_problem
 from assocbench.tracks.camera.synthetic import camera_problem
 
@@ -63,7 +64,7 @@ def main() -> None:
     ap = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
     ap.add_argument("--problems", type=int, default=20)
     ap.add_argument("--sizes", type=int, nargs="+", default=[10, 20, 40, 80, 160, 320])
-    ap.add_argument("--methods", nargs="+", default=geometric_methods())
+    ap.add_argument("--methods", nargs="+", default=geometric_builtins())
     ap.add_argument("--models", nargs="+", default=list(MODELS), choices=list(MODELS))
     ap.add_argument("--png", default=str(Path(__file__).with_suffix(".png")))
     args = ap.parse_args()

@@ -17,12 +17,13 @@ import argparse
 from pathlib import Path
 
 import numpy as np
-from _util import geometric_methods, print_table, run_recorded, summary_ms, time_call
+from _util import print_table, run_recorded, summary_ms, time_call
 
 from assocbench import Problem, make_associator
 from assocbench.association.compatibility import individually_compatible, jointly_compatible
 from assocbench.association.problem import pairs_of
 from assocbench.associators.jcbb import default_budget
+from assocbench.associators.registry import geometric_builtins
 from assocbench.models.synthetic import range_bearing_problem
 
 CASES = Path(__file__).resolve().parents[1] / "tests" / "data"
@@ -39,7 +40,7 @@ def known_hypotheses(problem: Problem, truth: np.ndarray, others: dict) -> dict[
 
 def measure(n: int, problems: int) -> list:
     jcbb = make_associator("jcbb")
-    others = {name: make_associator(name) for name in geometric_methods() if name != "jcbb"}
+    others = {name: make_associator(name) for name in geometric_builtins() if name != "jcbb"}
     times, proven, over_dive, margin, short, best_source = [], 0, [], [], 0, {}
     for seed in range(problems):
         problem, truth = range_bearing_problem(np.random.default_rng(seed), n=n)

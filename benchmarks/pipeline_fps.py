@@ -9,9 +9,9 @@ import argparse
 import time
 
 import numpy as np
-from _util import geometric_methods, print_table, run_recorded
+from _util import print_table, run_recorded
 
-from assocbench.associators.registry import make_associator
+from assocbench.associators.registry import geometric_builtins, make_associator
 from assocbench.belief.config import BeliefConfig
 from assocbench.harness.runner import warm_up
 from assocbench.sim.render import FrameRenderer
@@ -49,7 +49,7 @@ def association(scene_name: str, frames: int) -> list[list[object]]:
     seq = load_sequence(SequenceSpec(scene=scene_name, frames=frames))
     cfg = BeliefConfig()
     rows = []
-    for method in geometric_methods():
+    for method in geometric_builtins():
         assoc = make_associator(method)
         warm_up(assoc)
         start = time.perf_counter()

@@ -68,6 +68,12 @@ def plugins() -> dict[str, str]:
     return {ep.name: ep.value for ep in entry_points(group=ENTRY_POINT_GROUP)}
 
 
+def geometric_builtins() -> list[str]:
+    """The built-in feature associators that need nothing but geometry: all but those that need
+    descriptors (``needs_descriptors``: appearance, which only the photos track feeds)."""
+    return [name for name in BUILTINS if not getattr(builtin_class(name), "needs_descriptors", False)]
+
+
 def names() -> list[str]:
     """Every associator name usable with ``make_associator``, built-ins first, importing none."""
     return list(dict.fromkeys([*ALL_BUILTINS, *plugins()]))

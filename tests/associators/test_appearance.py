@@ -8,9 +8,9 @@ import pytest
 from problems import random_problem
 
 from assocbench import Problem, make_associator
-from assocbench.associators.registry import BUILTINS, builtin_class
+from assocbench.associators.registry import geometric_builtins
 
-GEOMETRIC = sorted(m for m in BUILTINS if not getattr(builtin_class(m), "needs_descriptors", False))
+GEOMETRIC = sorted(geometric_builtins())
 
 
 def row(*values: float) -> list[float]:

@@ -267,15 +267,12 @@ def test_dense_fusion_ab_times_two_trees_and_says_whether_their_maps_agree(tmp_p
         assert said in bad.stderr.strip().splitlines()[-1]
 
 
-def test_the_scripts_that_time_every_method_leave_out_those_that_need_descriptors(monkeypatch):
+def test_the_scripts_that_time_every_method_leave_out_those_that_need_descriptors():
     """associator_runtime.py, jcbb_anytime.py and pipeline_fps.py time every built-in on problems
     without descriptors: with appearance among them all three stopped with its ValueError."""
-    monkeypatch.syspath_prepend(str(BENCHMARKS))
-    from _util import geometric_methods
+    from assocbench.associators.registry import BUILTINS, geometric_builtins
 
-    from assocbench.associators.registry import BUILTINS
-
-    assert set(BUILTINS) - set(geometric_methods()) == {"appearance"}
+    assert set(BUILTINS) - set(geometric_builtins()) == {"appearance"}
     for script in ("associator_runtime.py", "jcbb_anytime.py", "pipeline_fps.py"):
-        assert "geometric_methods()" in (BENCHMARKS / script).read_text() and \
+        assert "geometric_builtins()" in (BENCHMARKS / script).read_text() and \
             "BUILTINS" not in (BENCHMARKS / script).read_text(), script

@@ -9,7 +9,7 @@ from line_synth_seq import line_seq, room_map
 
 from assocbench import make_associator
 from assocbench.association.problem import Problem
-from assocbench.associators.registry import BUILTINS, builtin_class
+from assocbench.associators.registry import geometric_builtins
 from assocbench.belief.config import BeliefConfig
 from assocbench.belief.planar import planar_pose_covariance
 from assocbench.models.polar_line import ANGULAR, jacobians, predict
@@ -18,7 +18,7 @@ from assocbench.tracks.lines.belief import RANGE_MARGIN, candidate_lines, make_l
 
 # learned included: its shipped lines model (associators/learned/lines.json); not the methods that need
 # descriptors (appearance): a line has none
-METHODS = sorted(m for m in BUILTINS if not getattr(builtin_class(m), "needs_descriptors", False))
+METHODS = sorted(geometric_builtins())
 # parameters for this scale: ENN's gate is a distance in measurement units (rad and m mixed here;
 # its default 25 suits pixels and would accept any pairing)
 PARAMS = {"enn": {"gate": 0.3}}
